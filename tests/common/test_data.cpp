@@ -1,0 +1,45 @@
+#include "common/test_data.h"
+
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <sys/wait.h>
+
+namespace facesynth::testkit {
+
+std::optional<std::filesystem::path> shared_data_dir() {
+    std::filesystem::path dir = FACESYNTH_DEFAULT_DATA_DIR;
+    if (const char* env = std::getenv("FACESYNTH_DATA"); env && *env) dir = env;
+    if (std::filesystem::is_directory(dir)) return dir;
+    return std::nullopt;
+}
+
+bool running_in_ci() {
+    const char* ci = std::getenv("CI");
+    return ci && std::string(ci) == "true";
+}
+
+std::filesystem::path cli_path() { return FACESYNTH_CLI; }
+
+std::filesystem::path fresh_temp_dir(const std::string& name) {
+    std::filesystem::path base = std::filesystem::temp_directory_path() / "facesynth-tests";
+    if (const char* env = std::getenv("FACESYNTH_TEST_TMP"); env && *env) base = env;
+    const auto dir = base / name;
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+int run_command(const std::string& command, std::string* output) {
+    const std::string full = command + " 2>&1";
+    FILE* pipe = ::popen(full.c_str(), "r");
+    if (!pipe) return -1;
+    std::array<char, 4096> buffer{};
+    std::string captured;
+    while (std::fgets(buffer.data(), static_cast<int>(buffer.size()), pipe)) captured += buffer.data();
+    const int status = ::pclose(pipe);
+    if (output) *output = captured;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace facesynth::testkit

@@ -1,0 +1,37 @@
+#pragma once
+// Where tests find the licensed data in ../shared/data (never committed) and the CLI binary.
+// FACESYNTH_DATA overrides the folder. With CI=true a missing folder fails the test instead of
+// skipping it.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace facesynth::testkit {
+
+// The shared data folder if it exists (with sfm/ or real/ inside), else nullopt.
+std::optional<std::filesystem::path> shared_data_dir();
+bool running_in_ci();
+// Path to the facesynth executable built with the tests.
+std::filesystem::path cli_path();
+// A fresh empty temporary folder for one test (removed at the start of the next run).
+std::filesystem::path fresh_temp_dir(const std::string& name);
+// Runs a shell command, returns its exit status and captures stdout+stderr into `output`.
+int run_command(const std::string& command, std::string* output = nullptr);
+
+}  // namespace facesynth::testkit
+
+// Resolves `relative` inside the shared data folder into `var`, or skips the test (fails in CI).
+#define FACESYNTH_REQUIRE_SHARED_DATA(var, relative)                                              \
+    std::filesystem::path var;                                                                    \
+    do {                                                                                          \
+        auto dir_ = ::facesynth::testkit::shared_data_dir();                                      \
+        if (dir_ && std::filesystem::exists(*dir_ / (relative))) {                                \
+            var = *dir_ / (relative);                                                             \
+        } else if (::facesynth::testkit::running_in_ci()) {                                       \
+            FAIL() << "shared data '" << (relative) << "' missing (set FACESYNTH_DATA)";          \
+        } else {                                                                                  \
+            GTEST_SKIP() << "shared data '" << (relative) << "' not found (set FACESYNTH_DATA)"; \
+        }                                                                                         \
+    } while (0)

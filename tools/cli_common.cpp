@@ -1,0 +1,60 @@
+#include "cli_common.h"
+
+#include "morph/atomic_file.h"
+
+#include <cstdio>
+#include <unistd.h>
+
+namespace facesynth::cli {
+
+Progress::Progress(std::string label, std::size_t total, bool quiet)
+    : label_(std::move(label)),
+      total_(total),
+      quiet_(quiet),
+      tty_(::isatty(STDERR_FILENO) != 0),
+      start_(std::chrono::steady_clock::now()),
+      last_draw_(start_) {}
+
+Progress::~Progress() {
+    if (!finished_ && tty_ && !quiet_ && done_ > 0) std::fputc('\n', stderr);
+}
+
+void Progress::advance(std::size_t n) {
+    done_ += n;
+    if (quiet_) return;
+    const auto now = std::chrono::steady_clock::now();
+    const auto interval = tty_ ? std::chrono::milliseconds(100) : std::chrono::milliseconds(5000);
+    if (now - last_draw_ >= interval || done_ == total_) {
+        last_draw_ = now;
+        draw(false);
+    }
+}
+
+void Progress::finish() {
+    if (finished_) return;
+    finished_ = true;
+    if (!quiet_) draw(true);
+}
+
+void Progress::draw(bool final_line) {
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double rate = elapsed > 0 ? static_cast<double>(done_) / elapsed : 0.0;
+    const double eta = rate > 0 && total_ > done_ ? static_cast<double>(total_ - done_) / rate : 0.0;
+    if (tty_) {
+        constexpr int kWidth = 30;
+        const int filled = total_ ? static_cast<int>(kWidth * static_cast<double>(done_) / static_cast<double>(total_)) : kWidth;
+        std::string bar(static_cast<std::size_t>(filled), '#');
+        bar.resize(kWidth, '.');
+        std::fprintf(stderr, "\r%s [%s] %zu/%zu %.1f/s ETA %.0fs ", label_.c_str(), bar.c_str(), done_, total_, rate, eta);
+        if (final_line) std::fputc('\n', stderr);
+    } else {
+        std::fprintf(stderr, "%s: %zu/%zu (%.1f/s, ETA %.0fs)\n", label_.c_str(), done_, total_, rate, eta);
+    }
+    std::fflush(stderr);
+}
+
+void write_json_file(const std::filesystem::path& path, const nlohmann::json& value) {
+    write_file_atomically(path, value.dump(2) + "\n");
+}
+
+}  // namespace facesynth::cli

@@ -1,0 +1,40 @@
+#pragma once
+// Shared CLI plumbing: progress reporting, JSON result files, model loading from --model.
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstddef>
+#include <filesystem>
+#include <string>
+
+namespace facesynth::cli {
+
+// A progress bar on a terminal (stderr is a tty), plain log lines every few seconds otherwise,
+// nothing with quiet.
+class Progress {
+public:
+    Progress(std::string label, std::size_t total, bool quiet);
+    ~Progress();
+    Progress(const Progress&) = delete;
+    Progress& operator=(const Progress&) = delete;
+
+    void advance(std::size_t n = 1);
+    void finish();
+
+private:
+    void draw(bool final_line);
+
+    std::string label_;
+    std::size_t total_;
+    std::size_t done_ = 0;
+    bool quiet_;
+    bool tty_;
+    bool finished_ = false;
+    std::chrono::steady_clock::time_point start_;
+    std::chrono::steady_clock::time_point last_draw_;
+};
+
+// Writes a flat JSON object atomically to `path` (pretty-printed, trailing newline).
+void write_json_file(const std::filesystem::path& path, const nlohmann::json& value);
+
+}  // namespace facesynth::cli

@@ -1,0 +1,34 @@
+// The facesynth command line: parses arguments, dispatches to the command groups, and turns every
+// failure into one line on stderr and an exit code (2: usage error, 1: failure).
+#include "commands.h"
+
+#include "morph/error.h"
+
+#include <cstdio>
+#include <exception>
+
+int main(int argc, char** argv) {
+    CLI::App app{"facesynth: synthetic 3DMM faces, landmark regression, fitting and frontalisation"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", FACESYNTH_VERSION);
+    // Command groups register themselves here, one call per tools/cmd_*.cpp.
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "facesynth: usage error: %s\nRun with --help for usage.\n", e.what());
+        return 2;
+    } catch (const facesynth::Error& e) {
+        std::fprintf(stderr, "facesynth: error: %s\n", e.what());
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "facesynth: internal error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}
