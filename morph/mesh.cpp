@@ -1,5 +1,7 @@
 #include "morph/mesh.h"
 
+#include <Eigen/Geometry>
+
 namespace facesynth {
 
 Eigen::Matrix3Xf vertex_normals(const Eigen::Matrix3Xf& vertices, const std::vector<Triangle>& triangles) {
