@@ -8,7 +8,7 @@ using namespace facesynth;
 
 TEST(Pca, RecoversKnownSubspaceAndVariances) {
     // Samples = mean + 3 orthonormal directions with standard deviations 5, 2, 1.
-    const int d = 60, n = 4000;
+    const int d = 60, n = 600;
     Eigen::MatrixXf directions = Eigen::MatrixXf::Zero(d, 3);
     directions(0, 0) = 1;
     directions(7, 1) = 1;
@@ -24,8 +24,8 @@ TEST(Pca, RecoversKnownSubspaceAndVariances) {
     const PcaModel pca = build_pca(samples);
     ASSERT_EQ(pca.num_components(), 3);
     for (int c = 0; c < 3; ++c) {
-        EXPECT_NEAR(pca.eigenvalues[c], sigma[c] * sigma[c], 0.06f * sigma[c] * sigma[c]);
-        EXPECT_NEAR(std::abs(pca.basis.col(c).dot(directions.col(c))), 1.0f, 1e-3f);
+        EXPECT_NEAR(pca.eigenvalues[c], sigma[c] * sigma[c], 0.2f * sigma[c] * sigma[c]);
+        EXPECT_NEAR(std::abs(pca.basis.col(c).dot(directions.col(c))), 1.0f, 1e-2f);
     }
     EXPECT_NEAR(pca.mean[5], 10.0f, 0.2f);
 }
