@@ -1,0 +1,25 @@
+#pragma once
+// Internal: an offscreen OpenGL 3.3 core context from one backend. Created once, reused for every
+// render on the thread that uses it; destroyed with the owner.
+#include <memory>
+#include <string>
+
+namespace facesynth::render::detail {
+
+class GlContext {
+public:
+    virtual ~GlContext() = default;
+    // Binds the context to the calling thread if it is not already.
+    virtual void make_current() = 0;
+    [[nodiscard]] virtual void* get_proc_address(const char* name) const = 0;
+    // "egl-device", "egl-surfaceless" or "osmesa".
+    [[nodiscard]] virtual std::string backend_name() const = 0;
+};
+
+// EGL: a GPU device from the EGL device platform when a driver offers one (and `allow_device`),
+// else Mesa's surfaceless platform. Throws facesynth::Error saying what failed.
+[[nodiscard]] std::unique_ptr<GlContext> create_egl_context(bool allow_device);
+// Mesa's classic off-screen path. Throws facesynth::Error saying what failed.
+[[nodiscard]] std::unique_ptr<GlContext> create_osmesa_context();
+
+}  // namespace facesynth::render::detail

@@ -1,0 +1,190 @@
+#include "render/landmarks.h"
+
+#include "morph/error.h"
+#include "morph/landmarks.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+
+namespace facesynth::render {
+namespace {
+
+// Camera ray through a pixel: origin and direction in camera space.
+void pixel_ray(const Camera& camera, const Eigen::Vector2d& pixel, Eigen::Vector3d& origin, Eigen::Vector3d& direction) {
+    const Intrinsics& k = camera.intrinsics;
+    const double x = (pixel.x() - k.cx) / k.fx, y = (pixel.y() - k.cy) / k.fy;
+    if (camera.projection == Projection::kPerspective) {
+        origin.setZero();
+        direction = Eigen::Vector3d(x, y, 1.0);
+    } else {
+        origin = Eigen::Vector3d(x, y, 0.0);
+        direction = Eigen::Vector3d(0.0, 0.0, 1.0);
+    }
+}
+
+// Mask coverage in [0, 1] at a sub-pixel position (bilinear; outside the image is background).
+double coverage(const cv::Mat& mask, const Eigen::Vector2d& p) {
+    const double fx = std::floor(p.x()), fy = std::floor(p.y());
+    const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+    const double ax = p.x() - fx, ay = p.y() - fy;
+    auto at = [&](int x, int y) -> double {
+        if (x < 0 || y < 0 || x >= mask.cols || y >= mask.rows) return 0.0;
+        return mask.at<std::uint8_t>(y, x) / 255.0;
+    };
+    return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x0 + 1, y0)) + ay * ((1 - ax) * at(x0, y0 + 1) + ax * at(x0 + 1, y0 + 1));
+}
+
+bool inside_image(const cv::Mat& image, const Eigen::Vector2d& p) {
+    return p.x() >= -0.5 && p.y() >= -0.5 && p.x() < image.cols - 0.5 && p.y() < image.rows - 0.5;
+}
+
+// The point where the face outline crosses the ray start + s · direction (s ≥ 0) first, at
+// coverage 0.5; nullopt when the ray leaves the image first. Starts outside the face: searches back.
+std::optional<Eigen::Vector2d> outline_along(const cv::Mat& mask, Eigen::Vector2d start, const Eigen::Vector2d& direction) {
+    constexpr double kStep = 0.5;
+    const double limit = 2.0 * (mask.cols + mask.rows);
+    Eigen::Vector2d step = kStep * direction;
+    if (coverage(mask, start) < 0.5) {
+        // Behind the outline already (e.g. a culled rim): walk inward to the face first.
+        double s = 0;
+        while (coverage(mask, start) < 0.5) {
+            start -= step;
+            s += kStep;
+            if (s > limit) return std::nullopt;
+        }
+    }
+    Eigen::Vector2d inside = start;
+    for (double s = 0; s < limit; s += kStep) {
+        const Eigen::Vector2d next = inside + step;
+        if (!inside_image(mask, next)) return std::nullopt;
+        if (coverage(mask, next) < 0.5) {
+            Eigen::Vector2d outside = next;
+            for (int i = 0; i < 12; ++i) {
+                const Eigen::Vector2d mid = 0.5 * (inside + outside);
+                (coverage(mask, mid) >= 0.5 ? inside : outside) = mid;
+            }
+            return 0.5 * (inside + outside);
+        }
+        inside = next;
+    }
+    return std::nullopt;
+}
+
+// The face pixel nearest to an outline point, walking back toward the face.
+std::optional<cv::Point> face_pixel_near(const Frame& frame, const Eigen::Vector2d& outline, const Eigen::Vector2d& inward) {
+    for (double s = 0; s <= 3.0; s += 0.25) {
+        const Eigen::Vector2d p = outline + s * inward;
+        const int x = static_cast<int>(std::lround(p.x())), y = static_cast<int>(std::lround(p.y()));
+        if (x < 0 || y < 0 || x >= frame.triangle_ids.cols || y >= frame.triangle_ids.rows) continue;
+        if (frame.triangle_ids.at<int>(y, x) >= 0) return cv::Point(x, y);
+    }
+    return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<Eigen::Vector3d> ray_barycentrics(const Mesh& mesh, const Camera& camera, int triangle,
+                                                const Eigen::Vector2d& pixel) {
+    const Triangle& t = mesh.triangles.at(static_cast<std::size_t>(triangle));
+    const Eigen::Vector3d a = to_camera(camera.pose, Eigen::Vector3d(mesh.vertices.col(t[0]).cast<double>()));
+    const Eigen::Vector3d b = to_camera(camera.pose, Eigen::Vector3d(mesh.vertices.col(t[1]).cast<double>()));
+    const Eigen::Vector3d c = to_camera(camera.pose, Eigen::Vector3d(mesh.vertices.col(t[2]).cast<double>()));
+    Eigen::Vector3d origin, direction;
+    pixel_ray(camera, pixel, origin, direction);
+    // Möller–Trumbore without the range checks.
+    const Eigen::Vector3d e1 = b - a, e2 = c - a;
+    const Eigen::Vector3d p = direction.cross(e2);
+    const double det = e1.dot(p);
+    if (std::abs(det) < 1e-12 * e1.norm() * e2.norm() * direction.norm()) return std::nullopt;
+    const Eigen::Vector3d s = origin - a;
+    const double u = s.dot(p) / det;
+    const double v = direction.dot(s.cross(e1)) / det;
+    return Eigen::Vector3d(1.0 - u - v, u, v);
+}
+
+std::optional<Eigen::Vector3d> surface_point_at(const Mesh& mesh, const Camera& camera, const Frame& frame, int x, int y) {
+    if (frame.triangle_ids.empty()) throw Error("render: surface_point_at needs the triangle-id buffer");
+    if (x < 0 || y < 0 || x >= frame.triangle_ids.cols || y >= frame.triangle_ids.rows) return std::nullopt;
+    const int triangle = frame.triangle_ids.at<int>(y, x);
+    if (triangle < 0 || triangle >= mesh.num_triangles()) return std::nullopt;
+    const auto weights = ray_barycentrics(mesh, camera, triangle, Eigen::Vector2d(x, y));
+    if (!weights) return std::nullopt;
+    const Triangle& t = mesh.triangles[static_cast<std::size_t>(triangle)];
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 3; ++i) point += (*weights)[i] * mesh.vertices.col(t[static_cast<std::size_t>(i)]).cast<double>();
+    return point;
+}
+
+bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z, const LandmarkOptions& options) {
+    if (frame.depth.empty()) throw Error("render: landmark visibility needs the depth buffer (settings.geometry)");
+    if (!inside_image(frame.depth, pixel)) return false;
+    const int cx = static_cast<int>(std::lround(pixel.x())), cy = static_cast<int>(std::lround(pixel.y()));
+    // On the background right at the outline: nothing covers it.
+    if (frame.depth.at<float>(cy, cx) <= 0.0f) return true;
+    const int n = options.neighbourhood_px;
+    for (int y = std::max(0, cy - n); y <= std::min(frame.depth.rows - 1, cy + n); ++y)
+        for (int x = std::max(0, cx - n); x <= std::min(frame.depth.cols - 1, cx + n); ++x) {
+            const float d = frame.depth.at<float>(y, x);
+            if (d > 0.0f && d >= camera_z - options.depth_tolerance_mm) return true;
+        }
+    return false;
+}
+
+ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, const Mesh& mesh, const Camera& camera,
+                                     const Frame& frame, const LandmarkOptions& options) {
+    if (frame.mask.empty() || frame.depth.empty())
+        throw Error("render: landmarks need a frame rendered with geometry (depth and mask)");
+    const int count = static_cast<int>(landmarks.size());
+    ProjectedLandmarks out;
+    out.pixels.resize(2, count);
+    out.model_points.resize(3, count);
+    out.camera_points.resize(3, count);
+    out.visible.assign(static_cast<std::size_t>(count), 0);
+    for (int i = 0; i < count; ++i) {
+        const SurfacePoint& point = landmarks[static_cast<std::size_t>(i)];
+        for (int v : point.vertices)
+            if (v < 0 || v >= mesh.num_vertices())
+                throw Error("render: landmark " + std::to_string(i) + " refers to vertex " + std::to_string(v) +
+                            " of a " + std::to_string(mesh.num_vertices()) + "-vertex mesh");
+        const Eigen::Vector3d x = point.position(mesh.vertices).cast<double>();
+        out.model_points.col(i) = x;
+        out.camera_points.col(i) = to_camera(camera.pose, x);
+        out.pixels.col(i) = project_point(camera, x);
+        out.visible[static_cast<std::size_t>(i)] = is_visible(frame, out.pixels.col(i), out.camera_points(2, i), options);
+    }
+    out.contour_pixels = out.pixels;
+    out.contour_model_points = out.model_points;
+    out.contour_visible = out.visible;
+    if (count != kNumIbugLandmarks) return out;
+
+    // The face's horizontal direction in the image at each jaw point: the projected model x axis.
+    for (int i = 0; i < kNumJawLandmarks; ++i) {
+        if (i == kChinLandmark) continue;
+        const Eigen::Vector3d x = out.model_points.col(i);
+        const Eigen::Vector2d toward_left = (project_point(camera, x + Eigen::Vector3d::UnitX()) - out.pixels.col(i)).normalized();
+        // Points 0-7 are on the subject's right (model -x), 9-16 on the left.
+        const Eigen::Vector2d outward = i < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
+        const auto outline = outline_along(frame.mask, out.pixels.col(i), outward);
+        const std::size_t s = static_cast<std::size_t>(i);
+        if (!outline) {
+            out.contour_visible[s] = 0;  // the outline leaves the image: keep the fixed point, hidden
+            continue;
+        }
+        out.contour_pixels.col(i) = *outline;
+        out.contour_visible[s] = 1;
+        if (const auto face_pixel = face_pixel_near(frame, *outline, -outward)) {
+            const int triangle = frame.triangle_ids.at<int>(face_pixel->y, face_pixel->x);
+            if (const auto weights = ray_barycentrics(mesh, camera, triangle, *outline)) {
+                const Triangle& t = mesh.triangles[static_cast<std::size_t>(triangle)];
+                Eigen::Vector3d p = Eigen::Vector3d::Zero();
+                for (int k = 0; k < 3; ++k) p += (*weights)[k] * mesh.vertices.col(t[static_cast<std::size_t>(k)]).cast<double>();
+                out.contour_model_points.col(i) = p;
+            }
+        }
+    }
+    return out;
+}
+
+}  // namespace facesynth::render

@@ -1,0 +1,55 @@
+#pragma once
+// Landmarks of a rendered image: exact 2D positions with the render's camera, 3D positions, and
+// visibility from the rendered depth buffer; the 17 jaw points also in `contour` mode (moved to the
+// visible face outline, as 300-W annotators click them). DESIGN.md §3.
+#include "morph/mesh.h"
+#include "morph/model.h"
+#include "render/renderer.h"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+namespace facesynth::render {
+
+struct LandmarkOptions {
+    // A landmark is hidden when the rendered surface around its pixel lies more than this in front.
+    double depth_tolerance_mm = 2.0;
+    int neighbourhood_px = 1;  // half-size of the depth window searched around the landmark's pixel
+};
+
+struct ProjectedLandmarks {
+    // `fixed` mode: the model's landmark points.
+    Eigen::Matrix2Xd pixels;          // 0-based pixel coordinates (2 x L)
+    Eigen::Matrix3Xd model_points;    // model space, mm
+    Eigen::Matrix3Xd camera_points;   // OpenCV camera space, mm
+    std::vector<std::uint8_t> visible;
+    // `contour` mode: identical except the jaw points 0-7 and 9-16 (68-point sets only), which lie on
+    // the face outline at the height of their fixed point; their 3D points are on the outline's surface.
+    Eigen::Matrix2Xd contour_pixels;
+    Eigen::Matrix3Xd contour_model_points;
+    std::vector<std::uint8_t> contour_visible;
+};
+
+// Needs frame.depth (settings.geometry) and frame.mask from a render of `mesh` with `camera`.
+[[nodiscard]] ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, const Mesh& mesh,
+                                                   const Camera& camera, const Frame& frame,
+                                                   const LandmarkOptions& options = {});
+
+// Whether a camera-space depth `camera_z` at `pixel` is unoccluded in the frame's depth buffer.
+[[nodiscard]] bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z,
+                              const LandmarkOptions& options = {});
+
+// Barycentric weights of the camera ray through `pixel` on triangle `triangle` (may lie outside
+// [0, 1] when the ray misses it); nullopt when the ray is parallel to the triangle's plane.
+[[nodiscard]] std::optional<Eigen::Vector3d> ray_barycentrics(const Mesh& mesh, const Camera& camera, int triangle,
+                                                              const Eigen::Vector2d& pixel);
+
+// The model-space surface point seen at pixel (x, y)'s centre (frame.triangle_ids), or nullopt on background.
+[[nodiscard]] std::optional<Eigen::Vector3d> surface_point_at(const Mesh& mesh, const Camera& camera,
+                                                              const Frame& frame, int x, int y);
+
+}  // namespace facesynth::render

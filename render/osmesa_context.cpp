@@ -1,0 +1,46 @@
+#include "render/gl_context.h"
+
+#include "morph/error.h"
+
+#include <GL/osmesa.h>
+
+#include <array>
+
+namespace facesynth::render::detail {
+namespace {
+
+class OsmesaContext final : public GlContext {
+public:
+    OsmesaContext() {
+        const int attributes[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0, OSMESA_STENCIL_BITS, 0,
+                                  OSMESA_ACCUM_BITS, 0, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
+                                  OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
+        context_ = OSMesaCreateContextAttribs(attributes, nullptr);
+        if (context_ == nullptr) throw Error("OSMesa: creating an OpenGL 3.3 core context failed");
+        make_current();
+    }
+    ~OsmesaContext() override { OSMesaDestroyContext(context_); }
+    OsmesaContext(const OsmesaContext&) = delete;
+    OsmesaContext& operator=(const OsmesaContext&) = delete;
+
+    void make_current() override {
+        if (OSMesaGetCurrentContext() == context_) return;
+        // Rendering goes to framebuffer objects; the default framebuffer is a 1x1 placeholder.
+        if (!OSMesaMakeCurrent(context_, placeholder_.data(), GL_UNSIGNED_BYTE, 1, 1))
+            throw Error("OSMesa: OSMesaMakeCurrent failed");
+    }
+    void* get_proc_address(const char* name) const override {
+        return reinterpret_cast<void*>(OSMesaGetProcAddress(name));
+    }
+    std::string backend_name() const override { return "osmesa"; }
+
+private:
+    OSMesaContext context_ = nullptr;
+    std::array<unsigned char, 4> placeholder_{};
+};
+
+}  // namespace
+
+std::unique_ptr<GlContext> create_osmesa_context() { return std::make_unique<OsmesaContext>(); }
+
+}  // namespace facesynth::render::detail

@@ -1,0 +1,549 @@
+#include "render/renderer.h"
+
+#include "morph/error.h"
+#include "render/gl_context.h"
+#include "render/gl_functions.h"
+#include "render/shaders.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+namespace facesynth::render {
+
+Backend parse_backend(std::string_view name) {
+    if (name == "auto") return Backend::kAuto;
+    if (name == "egl") return Backend::kEgl;
+    if (name == "osmesa") return Backend::kOsmesa;
+    throw Error("unknown render backend '" + std::string(name) + "' (expected auto, egl or osmesa)");
+}
+
+std::string to_string(Backend backend) {
+    switch (backend) {
+        case Backend::kAuto: return "auto";
+        case Backend::kEgl: return "egl";
+        case Backend::kOsmesa: return "osmesa";
+    }
+    return "auto";
+}
+
+namespace {
+
+Eigen::Matrix3d model_to_camera_rotation(const CameraPose& pose) { return model_to_camera_flip() * pose.rotation; }
+
+}  // namespace
+
+Eigen::Vector2d project_point(const Camera& camera, const Eigen::Vector3d& model_point) {
+    const Eigen::Vector3d c = to_camera(camera.pose, model_point);
+    const Intrinsics& k = camera.intrinsics;
+    if (camera.projection == Projection::kOrthographic) return {k.fx * c.x() + k.cx, k.fy * c.y() + k.cy};
+    return project(k, c);
+}
+
+Eigen::Matrix2Xd project_points(const Camera& camera, const Eigen::Matrix3Xf& model_points) {
+    Eigen::Matrix2Xd out(2, model_points.cols());
+    for (Eigen::Index i = 0; i < model_points.cols(); ++i)
+        out.col(i) = project_point(camera, model_points.col(i).cast<double>());
+    return out;
+}
+
+namespace {
+
+using detail::GlFunctions;
+
+// Names of vertex attribute locations (shaders.h).
+enum Attribute : GLuint { kPosition = 0, kNormal = 1, kAlbedo = 2, kUv = 3, kLabel = 4 };
+
+constexpr float kDefaultAlbedo = 0.7f;
+
+// The clip matrix for a pinhole (or orthographic) camera given in OpenCV pixels. Window x = u + 0.5
+// (pixel u's centre), window y = v + 0.5 with GL row 0 holding image row 0, so read-back needs no
+// flip. z_ndc runs from -1 at `near` to +1 at `far` (camera-space z, mm).
+Eigen::Matrix4d clip_from_camera(const Camera& camera, double near, double far) {
+    const Intrinsics& k = camera.intrinsics;
+    const double w = k.width, h = k.height;
+    Eigen::Matrix4d p = Eigen::Matrix4d::Zero();
+    if (camera.projection == Projection::kPerspective) {
+        p(0, 0) = 2.0 * k.fx / w;
+        p(0, 2) = 2.0 * (k.cx + 0.5) / w - 1.0;
+        p(1, 1) = 2.0 * k.fy / h;
+        p(1, 2) = 2.0 * (k.cy + 0.5) / h - 1.0;
+        p(2, 2) = (far + near) / (far - near);
+        p(2, 3) = -2.0 * far * near / (far - near);
+        p(3, 2) = 1.0;
+    } else {
+        p(0, 0) = 2.0 * k.fx / w;
+        p(0, 3) = 2.0 * (k.cx + 0.5) / w - 1.0;
+        p(1, 1) = 2.0 * k.fy / h;
+        p(1, 3) = 2.0 * (k.cy + 0.5) / h - 1.0;
+        p(2, 2) = 2.0 / (far - near);
+        p(2, 3) = -(far + near) / (far - near);
+        p(3, 3) = 1.0;
+    }
+    return p;
+}
+
+GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& source) {
+    const GLuint shader = gl.CreateShader(type);
+    const char* text = source.c_str();
+    gl.ShaderSource(shader, 1, &text, nullptr);
+    gl.CompileShader(shader);
+    GLint ok = 0;
+    gl.GetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        std::array<char, 4096> log{};
+        gl.GetShaderInfoLog(shader, static_cast<GLsizei>(log.size()), nullptr, log.data());
+        gl.DeleteShader(shader);
+        throw Error(std::string("render: shader compilation failed: ") + log.data());
+    }
+    return shader;
+}
+
+GLuint link_program(const GlFunctions& gl, bool with_barycentrics) {
+    const std::string header = std::string("#version 330 core\n") + (with_barycentrics ? "#define WITH_BARYCENTRICS\n" : "");
+    std::vector<GLuint> shaders{compile_shader(gl, GL_VERTEX_SHADER, header + detail::kVertexShader),
+                                compile_shader(gl, GL_FRAGMENT_SHADER, header + detail::kFragmentShader)};
+    if (with_barycentrics) shaders.push_back(compile_shader(gl, GL_GEOMETRY_SHADER, header + detail::kGeometryShader));
+    const GLuint program = gl.CreateProgram();
+    for (GLuint s : shaders) gl.AttachShader(program, s);
+    gl.LinkProgram(program);
+    for (GLuint s : shaders) gl.DeleteShader(s);
+    GLint ok = 0;
+    gl.GetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        std::array<char, 4096> log{};
+        gl.GetProgramInfoLog(program, static_cast<GLsizei>(log.size()), nullptr, log.data());
+        gl.DeleteProgram(program);
+        throw Error(std::string("render: shader program link failed: ") + log.data());
+    }
+    return program;
+}
+
+struct Program {
+    GLuint id = 0;
+    GLint model_to_clip = -1, model_to_camera = -1, sh = -1, ambient = -1, light_count = -1, light_direction = -1,
+          light_colour = -1, specular = -1, shininess = -1, inverse_gamma = -1, perspective = -1, use_texture = -1,
+          albedo_texture = -1;
+
+    void locate(const GlFunctions& gl) {
+        auto at = [&](const char* name) { return gl.GetUniformLocation(id, name); };
+        model_to_clip = at("model_to_clip");
+        model_to_camera = at("model_to_camera");
+        sh = at("sh");
+        ambient = at("ambient");
+        light_count = at("light_count");
+        light_direction = at("light_direction");
+        light_colour = at("light_colour");
+        specular = at("specular");
+        shininess = at("shininess");
+        inverse_gamma = at("inverse_gamma");
+        perspective = at("perspective");
+        use_texture = at("use_texture");
+        albedo_texture = at("albedo_texture");
+    }
+};
+
+// The irradiance-convolved SH coefficients divided by π (Ramamoorthi & Hanrahan): Â_l / π.
+constexpr std::array<float, 9> kShBandScale{1.0f, 2.0f / 3.0f, 2.0f / 3.0f, 2.0f / 3.0f, 0.25f, 0.25f, 0.25f, 0.25f, 0.25f};
+
+}  // namespace
+
+struct Renderer::Impl {
+    std::unique_ptr<detail::GlContext> context;
+    GlFunctions gl;
+    std::string renderer_string;
+    Program plain, with_barycentrics;
+    GLuint vao = 0;
+    std::array<GLuint, 5> vertex_buffers{};  // by Attribute
+    GLuint index_buffer = 0;
+    GLuint texture = 0;
+    // Single-sample targets: colour, geometry (z + normal), ids (triangle + 1, label), barycentrics, depth.
+    GLuint fbo = 0;
+    std::array<GLuint, 5> targets{};
+    // Multisampled colour pass.
+    GLuint msaa_fbo = 0;
+    std::array<GLuint, 2> msaa_targets{};
+    int width = 0, height = 0, samples = 0, max_samples = 0;
+    Eigen::Matrix3Xf normals;
+    std::vector<float> stacked_triangles_unused;
+    cv::Mat rgba, geometry, ids;
+
+    explicit Impl(const RendererOptions& options) {
+        std::string failures;
+        if (options.backend != Backend::kOsmesa) {
+            try {
+                context = detail::create_egl_context(options.allow_gpu_device);
+            } catch (const Error& e) {
+                if (options.backend == Backend::kEgl) throw;
+                failures = e.what();
+            }
+        }
+        if (!context) {
+            try {
+                context = detail::create_osmesa_context();
+            } catch (const Error& e) {
+                if (options.backend == Backend::kOsmesa) throw;
+                throw Error("render: no OpenGL backend available (" + failures + "; " + e.what() + ")");
+            }
+        }
+        context->make_current();
+        const detail::GlContext* ctx = context.get();
+        gl.load([ctx](const char* name) { return ctx->get_proc_address(name); }, context->backend_name());
+        renderer_string = std::string(reinterpret_cast<const char*>(gl.GetString(GL_RENDERER))) + " | " +
+                          reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
+        gl.GetIntegerv(GL_MAX_SAMPLES, &max_samples);
+        plain.id = link_program(gl, false);
+        plain.locate(gl);
+        with_barycentrics.id = link_program(gl, true);
+        with_barycentrics.locate(gl);
+        gl.GenVertexArrays(1, &vao);
+        gl.GenBuffers(static_cast<GLsizei>(vertex_buffers.size()), vertex_buffers.data());
+        gl.GenBuffers(1, &index_buffer);
+        gl.GenTextures(1, &texture);
+        gl.GenFramebuffers(1, &fbo);
+        gl.GenFramebuffers(1, &msaa_fbo);
+        gl.BindVertexArray(vao);
+        gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, index_buffer);
+        gl.Enable(GL_DEPTH_TEST);
+        gl.DepthFunc(GL_LESS);
+        // Image rows run down the GL rows (clip_from_camera), which mirrors the winding: the
+        // counter-clockwise front faces arrive clockwise.
+        gl.FrontFace(GL_CW);
+        gl.CullFace(GL_BACK);
+        gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
+        gl.PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+        check("initialisation");
+    }
+
+    ~Impl() {
+        if (!context) return;
+        try {
+            context->make_current();
+        } catch (const Error&) {
+            return;  // the context goes with it
+        }
+        release_targets();
+        gl.DeleteFramebuffers(1, &fbo);
+        gl.DeleteFramebuffers(1, &msaa_fbo);
+        gl.DeleteTextures(1, &texture);
+        gl.DeleteBuffers(1, &index_buffer);
+        gl.DeleteBuffers(static_cast<GLsizei>(vertex_buffers.size()), vertex_buffers.data());
+        gl.DeleteVertexArrays(1, &vao);
+        gl.DeleteProgram(plain.id);
+        gl.DeleteProgram(with_barycentrics.id);
+    }
+
+    void check(const char* stage) const {
+        const GLenum error = gl.GetError();
+        if (error != GL_NO_ERROR) {
+            char code[16];
+            std::snprintf(code, sizeof code, "0x%04x", error);
+            throw Error(std::string("render: OpenGL error ") + code + " during " + stage);
+        }
+    }
+
+    void release_targets() {
+        for (GLuint& t : targets)
+            if (t) gl.DeleteRenderbuffers(1, &t), t = 0;
+        for (GLuint& t : msaa_targets)
+            if (t) gl.DeleteRenderbuffers(1, &t), t = 0;
+    }
+
+    GLuint storage(GLenum format, int sample_count) {
+        GLuint rb = 0;
+        gl.GenRenderbuffers(1, &rb);
+        gl.BindRenderbuffer(GL_RENDERBUFFER, rb);
+        if (sample_count > 1)
+            gl.RenderbufferStorageMultisample(GL_RENDERBUFFER, sample_count, format, width, height);
+        else
+            gl.RenderbufferStorage(GL_RENDERBUFFER, format, width, height);
+        return rb;
+    }
+
+    void ensure_targets(int w, int h, int sample_count) {
+        sample_count = std::min(sample_count <= 1 ? 0 : sample_count, max_samples);
+        if (w == width && h == height && sample_count == samples && targets[0]) return;
+        release_targets();
+        width = w;
+        height = h;
+        samples = sample_count;
+        const std::array<GLenum, 4> colour_formats{GL_RGBA8, GL_RGBA32F, GL_RG32UI, GL_RGBA32F};
+        gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+        for (std::size_t i = 0; i < colour_formats.size(); ++i) {
+            targets[i] = storage(colour_formats[i], 0);
+            gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0 + static_cast<GLenum>(i), GL_RENDERBUFFER, targets[i]);
+        }
+        targets[4] = storage(GL_DEPTH_COMPONENT32F, 0);
+        gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, targets[4]);
+        if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            throw Error("render: framebuffer incomplete at " + std::to_string(w) + "x" + std::to_string(h));
+        if (samples > 1) {
+            gl.BindFramebuffer(GL_FRAMEBUFFER, msaa_fbo);
+            msaa_targets[0] = storage(GL_RGBA8, samples);
+            gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, msaa_targets[0]);
+            msaa_targets[1] = storage(GL_DEPTH_COMPONENT24, samples);
+            gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, msaa_targets[1]);
+            if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+                throw Error("render: multisample framebuffer incomplete (" + std::to_string(samples) + " samples)");
+        }
+        check("creating render targets");
+    }
+
+    void upload(Attribute attribute, const void* data, std::size_t bytes, GLint components, GLenum type) {
+        gl.BindBuffer(GL_ARRAY_BUFFER, vertex_buffers[attribute]);
+        gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(bytes), data, GL_STREAM_DRAW);
+        if (type == GL_UNSIGNED_BYTE)
+            gl.VertexAttribIPointer(attribute, components, type, 0, nullptr);
+        else
+            gl.VertexAttribPointer(attribute, components, type, GL_FALSE, 0, nullptr);
+        gl.EnableVertexAttribArray(attribute);
+    }
+
+    void upload_mesh(const Mesh& mesh, const MeshExtras& extras) {
+        const int v = mesh.num_vertices();
+        upload(kPosition, mesh.vertices.data(), sizeof(float) * 3 * static_cast<std::size_t>(v), 3, GL_FLOAT);
+        normals = vertex_normals(mesh.vertices, mesh.triangles);
+        upload(kNormal, normals.data(), sizeof(float) * 3 * static_cast<std::size_t>(v), 3, GL_FLOAT);
+        if (mesh.colours.cols() == v) {
+            upload(kAlbedo, mesh.colours.data(), sizeof(float) * 3 * static_cast<std::size_t>(v), 3, GL_FLOAT);
+        } else {
+            gl.DisableVertexAttribArray(kAlbedo);
+            gl.VertexAttrib3f(kAlbedo, kDefaultAlbedo, kDefaultAlbedo, kDefaultAlbedo);
+        }
+        if (mesh.uv.cols() == v) {
+            upload(kUv, mesh.uv.data(), sizeof(float) * 2 * static_cast<std::size_t>(v), 2, GL_FLOAT);
+        } else {
+            gl.DisableVertexAttribArray(kUv);
+            gl.VertexAttrib2f(kUv, 0.0f, 0.0f);
+        }
+        if (!extras.vertex_labels.empty()) {
+            upload(kLabel, extras.vertex_labels.data(), extras.vertex_labels.size(), 1, GL_UNSIGNED_BYTE);
+        } else {
+            gl.DisableVertexAttribArray(kLabel);
+            gl.VertexAttribI1ui(kLabel, static_cast<GLuint>(Region::kSkin));
+        }
+        static_assert(sizeof(Triangle) == 3 * sizeof(GLuint));
+        gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sizeof(Triangle) * mesh.triangles.size()),
+                      mesh.triangles.data(), GL_STREAM_DRAW);
+        if (extras.texture != nullptr) {
+            const cv::Mat& t = *extras.texture;
+            const cv::Mat continuous = t.isContinuous() ? t : t.clone();
+            gl.ActiveTexture(GL_TEXTURE0);
+            gl.BindTexture(GL_TEXTURE_2D, texture);
+            gl.TexImage2D(GL_TEXTURE_2D, 0, GL_SRGB8, t.cols, t.rows, 0, GL_RGB, GL_UNSIGNED_BYTE, continuous.data);
+            gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+            gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+            gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+            gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        }
+    }
+
+    void set_uniforms(const Program& program, const Mesh& mesh, const Camera& camera, const Lighting& lighting,
+                      bool textured) {
+        const Eigen::Matrix3d rotation = model_to_camera_rotation(camera.pose);
+        Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
+        model_to_camera.topLeftCorner<3, 3>() = rotation;
+        model_to_camera.topRightCorner<3, 1>() = camera.pose.translation;
+        // Near and far planes from the mesh's bounding sphere, with a margin.
+        const Eigen::Vector3f low = mesh.vertices.rowwise().minCoeff(), high = mesh.vertices.rowwise().maxCoeff();
+        const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
+        const double radius = 0.5 * (high - low).cast<double>().norm();
+        const double centre_z = (rotation * centre + camera.pose.translation).z();
+        const double margin = 1.0 + 0.01 * radius;
+        double far = centre_z + radius + margin, near = centre_z - radius - margin;
+        if (camera.projection == Projection::kPerspective) near = std::max(near, std::max(1e-3, far * 1e-4));
+        if (far <= near) far = near + 1.0;
+        const Eigen::Matrix4f model_to_clip = (clip_from_camera(camera, near, far) * model_to_camera).cast<float>();
+        const Eigen::Matrix4f model_to_camera_f = model_to_camera.cast<float>();
+        gl.UseProgram(program.id);
+        gl.UniformMatrix4fv(program.model_to_clip, 1, GL_FALSE, model_to_clip.data());
+        gl.UniformMatrix4fv(program.model_to_camera, 1, GL_FALSE, model_to_camera_f.data());
+        std::array<float, 27> sh{};
+        for (std::size_t k = 0; k < 9; ++k)
+            for (std::size_t c = 0; c < 3; ++c) sh[3 * k + c] = lighting.sh[k][c] * kShBandScale[k];
+        gl.Uniform3fv(program.sh, 9, sh.data());
+        gl.Uniform3fv(program.ambient, 1, lighting.ambient.data());
+        if (lighting.lights.size() > 4) throw Error("render: at most 4 directional lights are supported");
+        std::array<float, 12> directions{}, colours{};
+        const Eigen::Matrix3d flip = model_to_camera_flip();
+        for (std::size_t i = 0; i < lighting.lights.size(); ++i) {
+            const auto& light = lighting.lights[i];
+            Eigen::Vector3d d(light.direction[0], light.direction[1], light.direction[2]);
+            if (d.norm() == 0) throw Error("render: directional light " + std::to_string(i) + " has a zero direction");
+            d = flip * d.normalized();
+            for (std::size_t c = 0; c < 3; ++c) {
+                directions[3 * i + c] = static_cast<float>(d[static_cast<Eigen::Index>(c)]);
+                colours[3 * i + c] = light.colour[c];
+            }
+        }
+        gl.Uniform1i(program.light_count, static_cast<GLint>(lighting.lights.size()));
+        gl.Uniform3fv(program.light_direction, 4, directions.data());
+        gl.Uniform3fv(program.light_colour, 4, colours.data());
+        gl.Uniform1f(program.specular, lighting.specular);
+        gl.Uniform1f(program.shininess, lighting.shininess);
+        if (!(lighting.gamma > 0)) throw Error("render: gamma must be positive");
+        gl.Uniform1f(program.inverse_gamma, 1.0f / lighting.gamma);
+        gl.Uniform1i(program.perspective, camera.projection == Projection::kPerspective ? 1 : 0);
+        gl.Uniform1i(program.use_texture, textured ? 1 : 0);
+        gl.Uniform1i(program.albedo_texture, 0);
+    }
+
+    void draw(const Mesh& mesh) {
+        gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(3 * mesh.triangles.size()), GL_UNSIGNED_INT, nullptr);
+    }
+
+    void render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
+                const MeshExtras& extras) {
+        validate(mesh, camera, extras);
+        context->make_current();
+        const int w = camera.intrinsics.width, h = camera.intrinsics.height;
+        ensure_targets(w, h, settings.msaa_samples);
+        gl.BindVertexArray(vao);
+        upload_mesh(mesh, extras);
+        const Program& program = settings.barycentrics ? with_barycentrics : plain;
+        set_uniforms(program, mesh, camera, settings.lighting, extras.texture != nullptr);
+        if (settings.cull_back_faces)
+            gl.Enable(GL_CULL_FACE);
+        else
+            gl.Disable(GL_CULL_FACE);
+        gl.Viewport(0, 0, w, h);
+        const bool multisampled = samples > 1;
+        const bool geometry_pass = !multisampled || settings.geometry || settings.barycentrics;
+        const float zeros[4] = {0, 0, 0, 0};
+        const GLuint zero_ids[4] = {0, 0, 0, 0};
+        const float far_depth = 1.0f;
+        if (geometry_pass) {
+            gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+            const GLenum buffers[4] = {multisampled ? GLenum(GL_NONE) : GLenum(GL_COLOR_ATTACHMENT0),
+                                       settings.geometry ? GLenum(GL_COLOR_ATTACHMENT1) : GLenum(GL_NONE),
+                                       settings.geometry ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE),
+                                       settings.barycentrics ? GLenum(GL_COLOR_ATTACHMENT3) : GLenum(GL_NONE)};
+            gl.DrawBuffers(4, buffers);
+            if (!multisampled) gl.ClearBufferfv(GL_COLOR, 0, zeros);
+            if (settings.geometry) {
+                gl.ClearBufferfv(GL_COLOR, 1, zeros);
+                gl.ClearBufferuiv(GL_COLOR, 2, zero_ids);
+            }
+            if (settings.barycentrics) gl.ClearBufferfv(GL_COLOR, 3, zeros);
+            gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
+            draw(mesh);
+        }
+        if (multisampled) {
+            gl.BindFramebuffer(GL_FRAMEBUFFER, msaa_fbo);
+            const GLenum buffer = GL_COLOR_ATTACHMENT0;
+            gl.DrawBuffers(1, &buffer);
+            gl.ClearBufferfv(GL_COLOR, 0, zeros);
+            gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
+            draw(mesh);
+            gl.BindFramebuffer(GL_READ_FRAMEBUFFER, msaa_fbo);
+            gl.BindFramebuffer(GL_DRAW_FRAMEBUFFER, fbo);
+            gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
+            gl.DrawBuffers(1, &buffer);
+            gl.BlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+        }
+        gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+        read_back(settings, frame);
+        check("rendering");
+    }
+
+    void read_back(const RenderSettings& settings, Frame& frame) {
+        const int w = width, h = height;
+        rgba.create(h, w, CV_8UC4);
+        gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
+        gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
+        frame.rgb.create(h, w, CV_8UC3);
+        frame.mask.create(h, w, CV_8UC1);
+        {
+            cv::Mat outputs[] = {frame.rgb, frame.mask};
+            const int pairs[] = {0, 0, 1, 1, 2, 2, 3, 3};
+            cv::mixChannels(&rgba, 1, outputs, 2, pairs, 4);
+        }
+        if (settings.geometry) {
+            geometry.create(h, w, CV_32FC4);
+            gl.ReadBuffer(GL_COLOR_ATTACHMENT1);
+            gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, geometry.data);
+            frame.depth.create(h, w, CV_32FC1);
+            frame.normals.create(h, w, CV_32FC3);
+            cv::Mat outputs[] = {frame.depth, frame.normals};
+            const int pairs[] = {0, 0, 1, 1, 2, 2, 3, 3};
+            cv::mixChannels(&geometry, 1, outputs, 2, pairs, 4);
+            ids.create(h, w, CV_32SC2);
+            gl.ReadBuffer(GL_COLOR_ATTACHMENT2);
+            gl.ReadPixels(0, 0, w, h, GL_RG_INTEGER, GL_UNSIGNED_INT, ids.data);
+            frame.triangle_ids.create(h, w, CV_32SC1);
+            frame.labels.create(h, w, CV_8UC1);
+            for (int y = 0; y < h; ++y) {
+                const cv::Vec2i* in = ids.ptr<cv::Vec2i>(y);
+                int* triangle = frame.triangle_ids.ptr<int>(y);
+                std::uint8_t* label = frame.labels.ptr<std::uint8_t>(y);
+                for (int x = 0; x < w; ++x) {
+                    triangle[x] = in[x][0] - 1;
+                    label[x] = static_cast<std::uint8_t>(in[x][1]);
+                }
+            }
+        } else {
+            frame.depth.release();
+            frame.normals.release();
+            frame.triangle_ids.release();
+            frame.labels.release();
+        }
+        if (settings.barycentrics) {
+            geometry.create(h, w, CV_32FC4);
+            gl.ReadBuffer(GL_COLOR_ATTACHMENT3);
+            gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, geometry.data);
+            frame.barycentrics.create(h, w, CV_32FC3);
+            const int pairs[] = {0, 0, 1, 1, 2, 2};
+            cv::mixChannels(&geometry, 1, &frame.barycentrics, 1, pairs, 3);
+        } else {
+            frame.barycentrics.release();
+        }
+    }
+
+    static void validate(const Mesh& mesh, const Camera& camera, const MeshExtras& extras) {
+        const Intrinsics& k = camera.intrinsics;
+        if (k.width <= 0 || k.height <= 0 || k.width > 16384 || k.height > 16384)
+            throw Error("render: image size " + std::to_string(k.width) + "x" + std::to_string(k.height) + " is out of range");
+        if (!(k.fx > 0) || !(k.fy > 0)) throw Error("render: camera focal lengths must be positive");
+        if (mesh.num_vertices() == 0 || mesh.triangles.empty()) throw Error("render: the mesh is empty");
+        if (mesh.colours.cols() != 0 && mesh.colours.cols() != mesh.num_vertices())
+            throw Error("render: mesh has " + std::to_string(mesh.colours.cols()) + " colours for " +
+                        std::to_string(mesh.num_vertices()) + " vertices");
+        if (!extras.vertex_labels.empty() && extras.vertex_labels.size() != static_cast<std::size_t>(mesh.num_vertices()))
+            throw Error("render: " + std::to_string(extras.vertex_labels.size()) + " vertex labels for " +
+                        std::to_string(mesh.num_vertices()) + " vertices");
+        if (extras.texture != nullptr) {
+            if (extras.texture->type() != CV_8UC3 || extras.texture->empty())
+                throw Error("render: the texture must be a non-empty 8-bit RGB image");
+            if (mesh.uv.cols() != mesh.num_vertices()) throw Error("render: a texture needs per-vertex uv coordinates");
+        }
+        const int v = mesh.num_vertices();
+        for (const Triangle& t : mesh.triangles)
+            for (int i : t)
+                if (i < 0 || i >= v) throw Error("render: triangle vertex index " + std::to_string(i) + " out of range");
+    }
+};
+
+Renderer::Renderer(const RendererOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+Renderer::~Renderer() = default;
+Renderer::Renderer(Renderer&&) noexcept = default;
+Renderer& Renderer::operator=(Renderer&&) noexcept = default;
+
+void Renderer::render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
+                      const MeshExtras& extras) {
+    impl_->render(mesh, camera, settings, frame, extras);
+}
+
+Frame Renderer::render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, const MeshExtras& extras) {
+    Frame frame;
+    impl_->render(mesh, camera, settings, frame, extras);
+    return frame;
+}
+
+std::string Renderer::backend() const { return impl_->context->backend_name(); }
+std::string Renderer::renderer_string() const { return impl_->renderer_string; }
+
+}  // namespace facesynth::render

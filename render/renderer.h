@@ -1,0 +1,102 @@
+#pragma once
+// Offscreen OpenGL renderer (Mesa EGL surfaceless / EGL device / OSMesa; no display, no GPU needed).
+//
+// One Renderer owns one OpenGL 3.3 core context, created once and reused for every image; use it
+// from one thread at a time (one Renderer per worker thread). Geometry follows DESIGN.md §2 exactly:
+// x_cam = flip · R · X + t, OpenCV pixels, the centre of the top-left pixel is (0, 0), so
+// project_points(camera, X) lands on the rendered surface point X to a small fraction of a pixel.
+#include "morph/camera.h"
+#include "morph/mesh.h"
+#include "render/lighting.h"
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+
+namespace facesynth::render {
+
+enum class Backend { kAuto, kEgl, kOsmesa };
+// "auto", "egl" or "osmesa"; throws facesynth::Error otherwise.
+[[nodiscard]] Backend parse_backend(std::string_view name);
+[[nodiscard]] std::string to_string(Backend backend);
+
+enum class Projection { kPerspective, kOrthographic };
+
+// Perspective: pixel = K · x_cam / z. Orthographic (scaled orthographic / affine fits, frontal
+// views): pixel = (fx · x_cam.x + cx, fy · x_cam.y + cy), fx and fy in pixels per millimetre.
+struct Camera {
+    Intrinsics intrinsics;  // image size comes from here
+    CameraPose pose;
+    Projection projection = Projection::kPerspective;
+};
+
+// Pixel coordinates of model points with exactly the renderer's camera (2 x N).
+[[nodiscard]] Eigen::Matrix2Xd project_points(const Camera& camera, const Eigen::Matrix3Xf& model_points);
+[[nodiscard]] Eigen::Vector2d project_point(const Camera& camera, const Eigen::Vector3d& model_point);
+
+// Semantic region ids for the per-vertex label input and the label image (0 = background).
+enum class Region : std::uint8_t {
+    kBackground = 0, kSkin = 1, kBrows = 2, kEyes = 3, kLips = 4, kNose = 5, kMouthInterior = 6,
+    kHair = 7, kEars = 8, kNeck = 9,
+};
+
+// What the mesh carries beyond morph::Mesh. Spans must outlive the render call.
+struct MeshExtras {
+    std::span<const std::uint8_t> vertex_labels;  // Region per vertex; empty: every vertex is skin
+    const cv::Mat* texture = nullptr;              // 8-bit RGB (sRGB) albedo sampled with mesh.uv
+};
+
+struct RenderSettings {
+    int msaa_samples = 4;          // colour/mask anti-aliasing; 0 or 1 = none
+    bool geometry = true;          // depth, normals, triangle ids and labels
+    bool barycentrics = false;     // per-pixel barycentrics (a slower geometry-shader pass)
+    bool cull_back_faces = true;
+    Lighting lighting;
+};
+
+// One render's outputs. Buffers are reused between renders of the same size (no reallocation).
+struct Frame {
+    cv::Mat rgb;           // CV_8UC3, R G B order, sRGB-encoded, face over black (premultiplied by mask)
+    cv::Mat mask;          // CV_8UC1, face coverage 0..255 (anti-aliased with MSAA)
+    cv::Mat depth;         // CV_32FC1, camera-space z in mm at the pixel centre; 0 = background
+    cv::Mat normals;       // CV_32FC3, unit normals in OpenCV camera axes (x right, y down, z forward)
+    cv::Mat triangle_ids;  // CV_32SC1, triangle index covering the pixel centre; -1 = background
+    cv::Mat labels;        // CV_8UC1, Region of the surface at the pixel centre
+    cv::Mat barycentrics;  // CV_32FC3, weights of the triangle's corners (with settings.barycentrics)
+};
+
+struct RendererOptions {
+    Backend backend = Backend::kAuto;  // auto: EGL, then OSMesa
+    bool allow_gpu_device = true;      // EGL device platform first when a GPU driver offers one
+};
+
+class Renderer {
+public:
+    explicit Renderer(const RendererOptions& options = {});
+    ~Renderer();
+    Renderer(Renderer&&) noexcept;
+    Renderer& operator=(Renderer&&) noexcept;
+    Renderer(const Renderer&) = delete;
+    Renderer& operator=(const Renderer&) = delete;
+
+    // Renders into `frame`; throws facesynth::Error on invalid input or GL failure.
+    void render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
+                const MeshExtras& extras = {});
+    [[nodiscard]] Frame render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings = {},
+                               const MeshExtras& extras = {});
+
+    // "egl-device", "egl-surfaceless" or "osmesa".
+    [[nodiscard]] std::string backend() const;
+    // GL_RENDERER and GL_VERSION, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) | 4.5 (Core Profile) Mesa 22.3.6".
+    [[nodiscard]] std::string renderer_string() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace facesynth::render

@@ -1,0 +1,59 @@
+#include "render_fixtures.h"
+
+#include "morph/error.h"
+
+#include <gtest/gtest.h>
+
+namespace facesynth {
+namespace {
+
+using testkit::make_camera;
+using testkit::shared_renderer;
+using testkit::toy;
+
+TEST(Renderer, ReportsBackendAndRenderer) {
+    auto& r = shared_renderer();
+    EXPECT_FALSE(r.renderer_string().empty());
+    EXPECT_EQ(r.backend().rfind("egl", 0), 0u) << r.backend();
+}
+
+TEST(Renderer, FrontalToyFaceIsCentredAndLit) {
+    const Mesh mesh = toy().instance({});
+    const render::Camera camera = make_camera(0, 0, 0, 256, 256);
+    const render::Frame frame = shared_renderer().render(mesh, camera);
+    testkit::save_for_inspection(frame.rgb, "toy_frontal.png");
+    render::RenderSettings lit;
+    lit.lighting.lights.push_back({{0.5f, 0.5f, 1.0f}, {0.6f, 0.6f, 0.6f}});
+    lit.lighting.specular = 0.3f;
+    testkit::save_for_inspection(shared_renderer().render(mesh, make_camera(30, -10, 10, 320, 240), lit).rgb,
+                                 "toy_yaw30_pitch-10_roll10.png");
+    ASSERT_EQ(frame.rgb.type(), CV_8UC3);
+    ASSERT_EQ(frame.rgb.size(), cv::Size(256, 256));
+    // The head's silhouette: an ellipse of semi-axes 75 x 100 mm seen at ~600 mm.
+    const cv::Moments m = cv::moments(frame.mask, false);
+    ASSERT_GT(m.m00, 0);
+    EXPECT_NEAR(m.m10 / m.m00, 127.5, 1.0);
+    EXPECT_NEAR(m.m01 / m.m00, 127.5, 1.5);
+    // Depth: the nose tip (model z ~ 112 mm) is the closest point, ~488 mm away.
+    double min_depth = 1e9;
+    for (int y = 0; y < 256; ++y)
+        for (int x = 0; x < 256; ++x) {
+            const float d = frame.depth.at<float>(y, x);
+            if (d > 0) min_depth = std::min(min_depth, static_cast<double>(d));
+        }
+    EXPECT_NEAR(min_depth, 600.0 - 112.0, 2.0);
+    const cv::Vec3b centre = frame.rgb.at<cv::Vec3b>(128, 128);
+    EXPECT_GT(centre[0], centre[2]);
+}
+
+TEST(Renderer, RejectsInvalidInput) {
+    Mesh mesh = toy().instance({});
+    render::Camera camera = make_camera(0, 0, 0, 0, 64);
+    EXPECT_THROW((void)shared_renderer().render(mesh, camera), Error);
+    camera = make_camera(0, 0, 0, 64, 64);
+    mesh.triangles[0][1] = mesh.num_vertices();
+    EXPECT_THROW((void)shared_renderer().render(mesh, camera), Error);
+}
+
+}  // namespace
+}  // namespace facesynth
