@@ -1,0 +1,134 @@
+#include "train/dataset.h"
+#include "train/dlib_baseline.h"
+#include "train/face_box.h"
+#include "train/metrics.h"
+#include "train/training_data.h"
+
+#include "cartoon_faces.h"
+#include "common/test_data.h"
+#include "morph/error.h"
+#include "morph/landmarks.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+namespace facesynth::train {
+namespace {
+
+TEST(Metrics, SummaryByHand) {
+    const double inf = std::numeric_limits<double>::infinity();
+    const std::vector<double> nmes = {0.02, 0.04, inf, 0.1};
+    const NmeSummary s = summarise_nme(nmes);
+    EXPECT_EQ(s.count, 4);
+    EXPECT_NEAR(s.mean, (0.02 + 0.04 + 0.1) / 3, 1e-12);
+    EXPECT_NEAR(s.median, 0.07, 1e-12);
+    EXPECT_NEAR(s.failure_rate_008, 0.5, 1e-12);
+    EXPECT_NEAR(s.auc_008, (0.06 + 0.04) / (0.08 * 4), 1e-12);
+    EXPECT_NEAR(ced_at(nmes, 0.05), 0.5, 1e-12);
+    const std::vector<CedCurve> curves = {{"ours", nmes}};
+    const std::string svg = ced_svg(curves);
+    EXPECT_NE(svg.find("<svg"), std::string::npos);
+    EXPECT_NE(svg.find("ours"), std::string::npos);
+}
+
+TEST(Dataset, FindsSideBySideAndSynthLayouts) {
+    const auto dir = testkit::fresh_temp_dir("train_dataset_layouts");
+    const auto face = testkit::make_cartoon_face(9, 0);
+    std::filesystem::create_directories(dir / "synth" / "images");
+    std::filesystem::create_directories(dir / "synth" / "landmarks");
+    std::filesystem::create_directories(dir / "flat");
+    cv::imwrite((dir / "synth" / "images" / "000001.png").string(), face.gray);
+    write_pts(dir / "synth" / "landmarks" / "000001.pts", face.landmarks);
+    cv::imwrite((dir / "synth" / "images" / "000002.png").string(), face.gray);  // no .pts: ignored
+    cv::imwrite((dir / "flat" / "a.jpg").string(), face.gray);
+    write_pts(dir / "flat" / "a.pts", face.landmarks);
+    std::ofstream(dir / "flat" / "b.png") << "not an image";
+    write_pts(dir / "flat" / "b.pts", face.landmarks);
+
+    const auto found = list_labelled_images(split_folder_list((dir / "synth").string() + "," + (dir / "flat").string()));
+    ASSERT_EQ(found.size(), 3u);
+    EXPECT_EQ(found[0].key, "synth/000001");
+    EXPECT_EQ(found[1].key, "flat/a");
+    EXPECT_EQ(found[2].key, "flat/b");
+
+    // The unreadable image is skipped with a warning naming it; the others become training faces.
+    const PreparedFaces prepared = prepare_training_faces(found, PrepareOptions{});
+    EXPECT_EQ(prepared.faces.size(), 2u);
+    ASSERT_EQ(prepared.warnings.size(), 1u);
+    EXPECT_NE(prepared.warnings[0].find("b.png"), std::string::npos) << prepared.warnings[0];
+    EXPECT_EQ(prepared.boxes.detector_matched + prepared.boxes.detector_missed, 2);
+
+    EXPECT_THROW((void)list_labelled_images({dir / "does_not_exist"}), Error);
+    std::filesystem::create_directories(dir / "empty");
+    EXPECT_THROW((void)list_labelled_images({dir / "empty"}), Error);
+}
+
+TEST(FaceBox, CanonicalFrameRoundTripsAndCropsAtTheRightPlace) {
+    cv::Mat image(600, 800, CV_8UC1, cv::Scalar(0));
+    cv::circle(image, cv::Point(500, 300), 5, cv::Scalar(255), cv::FILLED);
+    FaceFrame frame;
+    frame.box.centre = {500, 300};
+    frame.box.width = 400;  // large face: crop is pyramid-reduced
+    Eigen::Matrix2Xd p(2, 1);
+    p << 500, 300;
+    const Eigen::Matrix2Xd c = frame.to_canonical(p);
+    EXPECT_NEAR(c(0, 0), (kCanonicalCropSide - 1) / 2.0, 1e-9);
+    EXPECT_TRUE(frame.to_image(c).isApprox(p));
+    const cv::Mat crop = canonical_crop(image, frame);
+    ASSERT_EQ(crop.rows, kCanonicalCropSide);
+    cv::Point max_at;
+    cv::minMaxLoc(crop, nullptr, nullptr, nullptr, &max_at);
+    EXPECT_NEAR(max_at.x, 127.5, 1.0);
+    EXPECT_NEAR(max_at.y, 127.5, 1.0);
+}
+
+TEST(FaceBox, NoFaceInABlankOrNoiseImage) {
+    const FaceDetector detector;
+    cv::Mat blank(240, 320, CV_8UC1, cv::Scalar(128));
+    EXPECT_TRUE(detector.detect(blank).empty());
+}
+
+TEST(FaceBox, DetectsTheAnnotatedFaceOnARealPhoto) {
+    FACESYNTH_REQUIRE_SHARED_DATA(dir, "real/lfpw_superviseddescent");
+    const FaceDetector detector;
+    const cv::Mat gray = to_gray8(cv::imread((dir / "image_0001.png").string(), cv::IMREAD_UNCHANGED));
+    const Eigen::Matrix2Xd truth = read_pts(dir / "image_0001.pts");
+    const auto match = match_detection(detector.detect(gray), truth);
+    ASSERT_TRUE(match.has_value());
+    EXPECT_LT((match->centre - truth.rowwise().mean()).norm(), 0.3 * match->width);
+}
+
+TEST(DlibBaseline, PretrainedPredictorOnARealPhoto) {
+    FACESYNTH_REQUIRE_SHARED_DATA(dir, "real/lfpw_superviseddescent");
+    if (!std::filesystem::exists(default_dlib_predictor_path())) GTEST_SKIP() << "libdlib-data not installed";
+    const DlibShapePredictor predictor(default_dlib_predictor_path());
+    EXPECT_EQ(predictor.num_parts(), 68);
+    const FaceDetector detector;
+    const cv::Mat gray = to_gray8(cv::imread((dir / "image_0001.png").string(), cv::IMREAD_UNCHANGED));
+    const Eigen::Matrix2Xd truth = read_pts(dir / "image_0001.pts");
+    const auto box = match_detection(detector.detect(gray), truth);
+    ASSERT_TRUE(box.has_value());
+    const Eigen::Matrix2Xd predicted = predictor.predict(gray, *box);
+    const double nme = (predicted - truth).colwise().norm().mean() / inter_ocular_distance(truth);
+    EXPECT_LT(nme, 0.1);
+}
+
+TEST(DlibBaseline, MissingOrForeignFileNamesIt) {
+    const auto dir = testkit::fresh_temp_dir("dlib_foreign");
+    std::ofstream(dir / "junk.dat") << "junk";
+    try {
+        DlibShapePredictor p(dir / "junk.dat");
+        FAIL();
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("junk.dat"), std::string::npos);
+    }
+    EXPECT_THROW(DlibShapePredictor(dir / "none.dat"), Error);
+}
+
+}  // namespace
+}  // namespace facesynth::train

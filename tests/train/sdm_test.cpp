@@ -1,0 +1,186 @@
+#include "train/model_file.h"
+#include "train/sdm.h"
+
+#include "cartoon_faces.h"
+#include "common/test_data.h"
+#include "morph/error.h"
+#include "morph/random.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <vector>
+
+namespace facesynth::train {
+namespace {
+
+// Cartoon faces cut out around a box derived from their landmarks with a little jitter (the
+// detector-miss path of real training), as canonical training faces.
+std::vector<TrainingFace> cartoon_training_faces(std::uint64_t seed, int count) {
+    std::vector<TrainingFace> faces;
+    for (int i = 0; i < count; ++i) {
+        const auto cartoon = testkit::make_cartoon_face(seed, static_cast<std::uint64_t>(i));
+        Rng rng(seed, static_cast<std::uint64_t>(i), 5);
+        const Eigen::Vector2d low = cartoon.landmarks.rowwise().minCoeff(), high = cartoon.landmarks.rowwise().maxCoeff();
+        FaceBox box;
+        box.width = (high - low).maxCoeff() * (1.0 + 0.03 * rng.normal());
+        box.centre = (low + high) / 2 + 0.03 * box.width * Eigen::Vector2d(rng.normal(), rng.normal());
+        const FaceFrame frame{box};
+        faces.push_back({canonical_crop(cartoon.gray, frame), frame.to_canonical(cartoon.landmarks), true});
+    }
+    return faces;
+}
+
+struct HeldOutErrors {
+    double initial = 0;
+    std::vector<double> after_stage;
+};
+
+HeldOutErrors held_out_errors(const SdmModel& model, const std::vector<TrainingFace>& test) {
+    HeldOutErrors e;
+    e.after_stage.assign(model.stages.size(), 0.0);
+    for (const auto& face : test) {
+        e.initial += landmark_nme(model.mean_shape, face.truth) / static_cast<double>(test.size());
+        std::vector<Eigen::Matrix2Xd> stages;
+        (void)sdm_refine(model, face.crop, model.mean_shape, &stages);
+        for (std::size_t k = 0; k < stages.size(); ++k)
+            e.after_stage[k] += landmark_nme(stages[k], face.truth) / static_cast<double>(test.size());
+    }
+    return e;
+}
+
+TEST(Sdm, DualFormReducesErrorStageByStageAndGeneralises) {
+    const auto train = cartoon_training_faces(1, 60);
+    const auto test = cartoon_training_faces(2, 20);
+    SdmTrainOptions options;
+    options.augment = 4;
+    options.threads = 2;
+    std::vector<SdmStageReport> reports;
+    options.on_stage = [&](const SdmStageReport& r) { reports.push_back(r); };
+    const SdmModel model = train_sdm(train, BoxStatistics{}, options);  // 240 rows < 9792 features
+    ASSERT_EQ(reports.size(), 4u);
+    for (const auto& r : reports) EXPECT_LT(r.nme_after, r.nme_before) << "stage " << r.stage;
+    const HeldOutErrors e = held_out_errors(model, test);
+    EXPECT_LT(e.after_stage[0], e.initial);
+    EXPECT_LT(e.after_stage[1], e.after_stage[0]);
+    EXPECT_LT(e.after_stage.back(), 0.6 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+}
+
+TEST(Sdm, PrimalFormReducesErrorAndIsThreadIndependent) {
+    const auto train = cartoon_training_faces(3, 40);
+    const auto test = cartoon_training_faces(4, 15);
+    SdmTrainOptions options;
+    options.augment = 30;   // 1200 rows > 68·16 = 1088 features: the streamed primal solve
+    options.hog_cells = 1;
+    options.stages = 3;
+    options.threads = 1;
+    std::vector<SdmStageReport> reports;
+    options.on_stage = [&](const SdmStageReport& r) { reports.push_back(r); };
+    const SdmModel one = train_sdm(train, BoxStatistics{}, options);
+    for (const auto& r : reports) EXPECT_LT(r.nme_after, r.nme_before) << "stage " << r.stage;
+    const HeldOutErrors e = held_out_errors(one, test);
+    EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+
+    options.threads = 2;
+    options.on_stage = nullptr;
+    const SdmModel two = train_sdm(train, BoxStatistics{}, options);
+    for (std::size_t k = 0; k < one.stages.size(); ++k) {
+        EXPECT_TRUE(one.stages[k].weights == two.stages[k].weights) << "stage " << k;
+        EXPECT_TRUE(one.stages[k].bias == two.stages[k].bias) << "stage " << k;
+    }
+}
+
+TEST(Sdm, RejectsTooFewFaces) {
+    const auto train = cartoon_training_faces(1, 1);
+    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, SdmTrainOptions{}), Error);
+}
+
+SdmModel small_model() {
+    const auto train = cartoon_training_faces(5, 12);
+    SdmTrainOptions options;
+    options.augment = 2;
+    options.stages = 2;
+    options.hog_cells = 2;
+    SdmModel model = train_sdm(train, BoxStatistics{}, options);
+    model.training_checksum = 0x1234'5678'9abc'def0ULL;
+    return model;
+}
+
+TEST(SdmModelFile, RoundTripsExactly) {
+    const SdmModel model = small_model();
+    const auto dir = testkit::fresh_temp_dir("sdm_model_round_trip");
+    const auto path = dir / "model.sdm";
+    write_sdm_model(path, model);
+    const SdmModel back = read_sdm_model(path);
+    EXPECT_EQ(back.num_landmarks, model.num_landmarks);
+    EXPECT_EQ(back.hog_cells, model.hog_cells);
+    EXPECT_EQ(back.training_checksum, model.training_checksum);
+    EXPECT_EQ(back.training_faces, model.training_faces);
+    EXPECT_EQ(back.augment, model.augment);
+    EXPECT_TRUE(back.mean_shape == model.mean_shape);
+    EXPECT_EQ(back.boxes.init_scale_std, model.boxes.init_scale_std);
+    ASSERT_EQ(back.stages.size(), model.stages.size());
+    for (std::size_t k = 0; k < model.stages.size(); ++k) {
+        EXPECT_EQ(back.stages[k].settings.patch_relative, model.stages[k].settings.patch_relative);
+        EXPECT_EQ(back.stages[k].settings.cell_size, model.stages[k].settings.cell_size);
+        EXPECT_TRUE(back.stages[k].weights == model.stages[k].weights);
+        EXPECT_TRUE(back.stages[k].bias == model.stages[k].bias);
+    }
+}
+
+std::string read_all(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), {}};
+}
+
+void write_all(const std::filesystem::path& path, const std::string& bytes) {
+    std::ofstream(path, std::ios::binary) << bytes;
+}
+
+void expect_error_naming(const std::filesystem::path& path, const std::string& fragment) {
+    try {
+        (void)read_sdm_model(path);
+        FAIL() << "no error for " << path;
+    } catch (const Error& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find(path.string()), std::string::npos) << message;
+        EXPECT_NE(message.find(fragment), std::string::npos) << message;
+    }
+}
+
+TEST(SdmModelFile, WrongTruncatedAndCorruptFilesGiveErrorsNamingTheFile) {
+    const auto dir = testkit::fresh_temp_dir("sdm_model_corrupt");
+    const auto good = dir / "good.sdm";
+    write_sdm_model(good, small_model());
+    const std::string bytes = read_all(good);
+
+    const auto missing = dir / "missing.sdm";
+    expect_error_naming(missing, "not found");
+
+    const auto foreign = dir / "foreign.sdm";
+    write_all(foreign, "this is not a model file at all, just text");
+    expect_error_naming(foreign, "bad magic");
+
+    const auto truncated = dir / "truncated.sdm";
+    write_all(truncated, bytes.substr(0, bytes.size() / 2));
+    expect_error_naming(truncated, "truncated");
+
+    const auto header_only = dir / "header_only.sdm";
+    write_all(header_only, bytes.substr(0, 20));
+    expect_error_naming(header_only, "truncated");
+
+    const auto corrupt = dir / "corrupt.sdm";
+    std::string flipped = bytes;
+    flipped[flipped.size() - 100] ^= 0x5a;
+    write_all(corrupt, flipped);
+    expect_error_naming(corrupt, "checksum");
+
+    const auto future = dir / "future.sdm";
+    std::string newer = bytes;
+    newer[8] = 99;
+    write_all(future, newer);
+    expect_error_naming(future, "version");
+}
+
+}  // namespace
+}  // namespace facesynth::train

@@ -1,0 +1,61 @@
+#include "train/dataset.h"
+
+#include "morph/error.h"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <sstream>
+
+namespace facesynth::train {
+namespace {
+
+bool is_image_file(const std::filesystem::path& path) {
+    static constexpr std::array<const char*, 8> kExtensions = {".png", ".jpg", ".jpeg", ".ppm",
+                                                               ".pgm", ".bmp", ".tif", ".tiff"};
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    return std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end();
+}
+
+void collect(const std::filesystem::path& image_dir, const std::filesystem::path& pts_dir, const std::string& prefix,
+             std::vector<LabelledImage>& out) {
+    std::vector<std::filesystem::path> images;
+    for (const auto& entry : std::filesystem::directory_iterator(image_dir))
+        if (entry.is_regular_file() && is_image_file(entry.path())) images.push_back(entry.path());
+    std::sort(images.begin(), images.end());
+    for (const auto& image : images) {
+        auto pts = pts_dir / image.filename();
+        pts.replace_extension(".pts");
+        if (std::filesystem::exists(pts)) out.push_back({prefix + "/" + image.stem().string(), image, pts});
+    }
+}
+
+}  // namespace
+
+std::vector<LabelledImage> list_labelled_images(const std::vector<std::filesystem::path>& folders) {
+    std::vector<LabelledImage> all;
+    for (const auto& folder : folders) {
+        if (!std::filesystem::is_directory(folder)) throw file_error(folder.string(), "not a folder");
+        const std::string prefix = (folder.filename().empty() ? folder.parent_path() : folder).filename().string();
+        std::vector<LabelledImage> found;
+        if (std::filesystem::is_directory(folder / "images") && std::filesystem::is_directory(folder / "landmarks"))
+            collect(folder / "images", folder / "landmarks", prefix, found);
+        collect(folder, folder, prefix, found);
+        if (found.empty())
+            throw file_error(folder.string(), "no images with same-stem .pts files (side by side, or images/ + landmarks/)");
+        all.insert(all.end(), found.begin(), found.end());
+    }
+    return all;
+}
+
+std::vector<std::filesystem::path> split_folder_list(const std::string& comma_separated) {
+    std::vector<std::filesystem::path> folders;
+    std::stringstream stream(comma_separated);
+    std::string part;
+    while (std::getline(stream, part, ','))
+        if (!part.empty()) folders.emplace_back(part);
+    return folders;
+}
+
+}  // namespace facesynth::train

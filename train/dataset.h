@@ -1,0 +1,26 @@
+#pragma once
+// Folders of images with same-stem iBUG .pts files: either side by side (X.png + X.pts) or in the
+// layout `facesynth synth` writes (DIR/images/<key>.png + DIR/landmarks/<key>.pts).
+#include <Eigen/Core>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace facesynth::train {
+
+struct LabelledImage {
+    std::string key;                 // "<folder name>/<file stem>"
+    std::filesystem::path image;
+    std::filesystem::path pts;
+};
+
+// Every image (.png .jpg .jpeg .ppm .pgm .bmp .tif .tiff) with a same-stem .pts, sorted by path within
+// each folder, folders in the order given. Throws facesynth::Error for a folder that does not exist
+// or holds no labelled image.
+[[nodiscard]] std::vector<LabelledImage> list_labelled_images(const std::vector<std::filesystem::path>& folders);
+
+// "a,b,c" -> {a, b, c} (empty parts dropped).
+[[nodiscard]] std::vector<std::filesystem::path> split_folder_list(const std::string& comma_separated);
+
+}  // namespace facesynth::train

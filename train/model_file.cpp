@@ -1,0 +1,145 @@
+#include "train/model_file.h"
+
+#include "morph/atomic_file.h"
+#include "morph/byte_io.h"
+#include "morph/error.h"
+#include "train/hog.h"
+
+#include <cmath>
+#include <cstring>
+#include <string_view>
+
+namespace facesynth::train {
+namespace {
+
+constexpr char kMagic[8] = {'F', 'S', 'Y', 'N', 'S', 'D', 'M', '\0'};
+
+std::uint64_t fnv1a(std::string_view bytes) {
+    std::uint64_t hash = 0xcbf29ce484222325ULL;
+    for (unsigned char c : bytes) {
+        hash ^= c;
+        hash *= 0x100000001b3ULL;
+    }
+    return hash;
+}
+
+void write_doubles(ByteWriter& w, const double* values, std::size_t count) { w.write_bytes(values, count * sizeof(double)); }
+
+void read_doubles(ByteReader& r, double* values, std::size_t count, const char* what) {
+    r.read_bytes(values, count * sizeof(double), what);
+    for (std::size_t i = 0; i < count; ++i)
+        if (!std::isfinite(values[i])) throw r.error(std::string(what) + " contains NaN or infinite values");
+}
+
+}  // namespace
+
+void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
+    const int outputs = 2 * model.num_landmarks;
+    const int dims = model.feature_dims();
+    ByteWriter payload;
+    write_doubles(payload, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()));
+    const BoxStatistics& b = model.boxes;
+    payload.write(static_cast<std::int32_t>(b.detector_matched));
+    payload.write(static_cast<std::int32_t>(b.detector_missed));
+    const double stats[] = {b.width_ratio_mean, b.width_ratio_std, b.offset_mean.x(), b.offset_mean.y(),
+                            b.offset_std.x(), b.offset_std.y(), b.init_translation_std, b.init_scale_std,
+                            b.init_rotation_std_deg};
+    write_doubles(payload, stats, std::size(stats));
+    for (const auto& stage : model.stages) {
+        if (stage.weights.rows() != outputs || stage.weights.cols() != dims || stage.bias.size() != outputs)
+            throw file_error(path.string(), "cannot write a model whose stage matrices do not match its header");
+        payload.write(stage.settings.patch_relative);
+        payload.write(static_cast<std::int32_t>(stage.settings.cell_size));
+        payload.write_floats(stage.weights);
+        payload.write_floats(stage.bias);
+    }
+
+    ByteWriter file;
+    file.write_bytes(kMagic, sizeof(kMagic));
+    file.write(kSdmModelVersion);
+    file.write(static_cast<std::uint32_t>(model.num_landmarks));
+    file.write(static_cast<std::uint32_t>(model.stages.size()));
+    file.write(static_cast<std::uint32_t>(model.hog_cells));
+    file.write(static_cast<std::uint32_t>(kHogOrientations));
+    file.write(static_cast<std::uint32_t>(kHogDimsPerCell));
+    file.write(static_cast<std::uint32_t>(kCanonicalCropSide));
+    file.write(kCanonicalBoxWidth);
+    file.write(model.training_checksum);
+    file.write(model.training_faces);
+    file.write(model.augment);
+    file.write(static_cast<std::uint64_t>(payload.bytes().size()));
+    file.write(fnv1a(payload.bytes()));
+    file.bytes() += payload.bytes();
+    write_file_atomically(path, file.bytes());
+}
+
+SdmModel read_sdm_model(const std::filesystem::path& path) {
+    if (!std::filesystem::exists(path)) throw file_error(path.string(), "model file not found");
+    const std::string bytes = read_file(path);
+    ByteReader r(bytes, path.string());
+    if (bytes.size() < sizeof(kMagic) || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0)
+        throw file_error(path.string(), "not a facesynth SDM model (bad magic)");
+    r.skip(sizeof(kMagic), "magic");
+    const auto version = r.read<std::uint32_t>("version");
+    if (version != kSdmModelVersion)
+        throw file_error(path.string(), "unsupported SDM model version " + std::to_string(version) + " (this build reads " +
+                                            std::to_string(kSdmModelVersion) + ")");
+    SdmModel model;
+    model.num_landmarks = static_cast<int>(r.read<std::uint32_t>("landmark count"));
+    const auto stages = r.read<std::uint32_t>("stage count");
+    model.hog_cells = static_cast<int>(r.read<std::uint32_t>("HOG cells"));
+    const auto orientations = r.read<std::uint32_t>("HOG orientations");
+    const auto dims_per_cell = r.read<std::uint32_t>("HOG dims per cell");
+    const auto crop_side = r.read<std::uint32_t>("crop side");
+    const auto box_width = r.read<double>("box width");
+    if (model.num_landmarks != 68 || stages < 1 || stages > 16 || model.hog_cells < 1 || model.hog_cells > 16)
+        throw file_error(path.string(), "implausible header (landmarks " + std::to_string(model.num_landmarks) +
+                                            ", stages " + std::to_string(stages) + ", HOG cells " +
+                                            std::to_string(model.hog_cells) + "): corrupt file");
+    if (orientations != kHogOrientations || dims_per_cell != kHogDimsPerCell ||
+        crop_side != static_cast<std::uint32_t>(kCanonicalCropSide) || box_width != kCanonicalBoxWidth)
+        throw file_error(path.string(), "HOG layout or face frame differs from this build's; retrain the model");
+    model.training_checksum = r.read<std::uint64_t>("training checksum");
+    model.training_faces = r.read<std::uint32_t>("training faces");
+    model.augment = r.read<std::uint32_t>("augment");
+    const auto payload_size = r.read<std::uint64_t>("payload size");
+    const auto payload_checksum = r.read<std::uint64_t>("payload checksum");
+    if (payload_size != r.remaining())
+        throw file_error(path.string(), "payload is " + std::to_string(r.remaining()) + " bytes, header says " +
+                                            std::to_string(payload_size) + " (truncated or corrupt)");
+    if (fnv1a(std::string_view(bytes).substr(r.offset())) != payload_checksum)
+        throw file_error(path.string(), "payload checksum mismatch (corrupt file)");
+
+    const int outputs = 2 * model.num_landmarks;
+    const int dims = model.feature_dims();
+    model.mean_shape.resize(2, model.num_landmarks);
+    read_doubles(r, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()), "mean shape");
+    BoxStatistics& b = model.boxes;
+    b.detector_matched = r.read<std::int32_t>("box statistics");
+    b.detector_missed = r.read<std::int32_t>("box statistics");
+    double stats[9];
+    read_doubles(r, stats, 9, "box statistics");
+    b.width_ratio_mean = stats[0];
+    b.width_ratio_std = stats[1];
+    b.offset_mean = {stats[2], stats[3]};
+    b.offset_std = {stats[4], stats[5]};
+    b.init_translation_std = stats[6];
+    b.init_scale_std = stats[7];
+    b.init_rotation_std_deg = stats[8];
+    for (std::uint32_t k = 0; k < stages; ++k) {
+        SdmStage stage;
+        stage.settings.patch_relative = r.read<double>("stage patch size");
+        stage.settings.cell_size = r.read<std::int32_t>("stage cell size");
+        if (!(stage.settings.patch_relative > 0) || stage.settings.cell_size < 1 || stage.settings.cell_size > 64)
+            throw r.error("stage " + std::to_string(k + 1) + " has invalid patch settings");
+        stage.weights.resize(outputs, dims);
+        r.read_floats(stage.weights, "stage weights");
+        stage.bias.resize(outputs);
+        r.read_floats(stage.bias, "stage bias");
+        model.stages.push_back(std::move(stage));
+    }
+    if (!r.at_end()) throw r.error("unexpected bytes after the last stage");
+    return model;
+}
+
+}  // namespace facesynth::train

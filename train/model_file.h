@@ -1,0 +1,20 @@
+#pragma once
+// The SDM model file (docs/train.md): 8-byte magic "FSYNSDM\0", uint32 format version, a header
+// (landmark count, stage count, HOG layout, canonical frame, training data checksum, payload size and
+// FNV-1a checksum) and the payload (mean shape, box statistics, per-stage settings, weights, bias).
+// Little-endian.
+#include "train/sdm.h"
+
+#include <filesystem>
+
+namespace facesynth::train {
+
+inline constexpr std::uint32_t kSdmModelVersion = 1;
+
+// Atomic write; throws facesynth::Error naming the file.
+void write_sdm_model(const std::filesystem::path& path, const SdmModel& model);
+// Throws facesynth::Error naming the file for a missing, foreign, wrong-version, truncated or corrupt
+// file, or one whose HOG layout this build does not produce.
+[[nodiscard]] SdmModel read_sdm_model(const std::filesystem::path& path);
+
+}  // namespace facesynth::train

@@ -1,0 +1,109 @@
+#pragma once
+// Supervised Descent Method (Xiong & De la Torre 2013) as a cascade of linear regressors on HOG
+// features, following the superviseddescent recipe (REFERENCE.md §3): at stage k, features φ_k(x) are
+// HOG descriptors of square patches around the current landmarks x (patch side = a fixed fraction
+// of the current inter-eye-centre distance d(x)), and the update is
+//     x ← x + d(x) · (W_k φ_k(x) + b_k),
+// with W_k, b_k from ridge regression on perturbed training initialisations. All shapes here are in
+// canonical crop coordinates (train/face_box.h).
+#include "train/face_box.h"
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <vector>
+
+namespace facesynth::train {
+
+struct SdmStageSettings {
+    double patch_relative = 1.0;  // patch side / inter-eye-centre distance
+    int cell_size = 8;            // pixels per HOG cell after resampling the patch
+};
+
+// 1.0, 0.7, 0.4, 0.25 (extended by 0.2, 0.15, ... for more stages) with cells 8, 7, 6, 5, 5, ...
+[[nodiscard]] std::vector<SdmStageSettings> default_stage_settings(int stages);
+
+struct SdmStage {
+    SdmStageSettings settings;
+    Eigen::MatrixXf weights;  // 2L x D
+    Eigen::VectorXf bias;     // 2L, as (x0, y0, x1, y1, ...)
+};
+
+// How detector boxes relate to the faces, measured on the training data.
+struct BoxStatistics {
+    int detector_matched = 0;  // training faces with a matching Haar detection
+    int detector_missed = 0;   // faces that got a synthesised box instead
+    // Detector box relative to the landmarks' bounding box (width ratio; centre offset / landmark width).
+    double width_ratio_mean = 1.0, width_ratio_std = 0.04;
+    Eigen::Vector2d offset_mean = Eigen::Vector2d::Zero(), offset_std = Eigen::Vector2d::Constant(0.04);
+    // Spread of the true shape around the mean shape in the box frame (similarity parameters), used
+    // to perturb training initialisations: translation in box widths, scale factor, rotation in degrees.
+    double init_translation_std = 0.04, init_scale_std = 0.04, init_rotation_std_deg = 3.0;
+};
+
+struct SdmModel {
+    int num_landmarks = 68;
+    int hog_cells = 3;                 // HOG cells per patch side
+    Eigen::Matrix2Xd mean_shape;       // canonical crop coordinates
+    std::vector<SdmStage> stages;
+    BoxStatistics boxes;
+    std::uint64_t training_checksum = 0;  // of the training keys and landmarks
+    std::uint32_t training_faces = 0;
+    std::uint32_t augment = 0;
+
+    [[nodiscard]] int feature_dims() const;
+};
+
+// Features of one shape for one stage: num_landmarks · hog_dims(hog_cells) floats.
+void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
+                  std::span<float> out);
+
+// Runs all stages from `shape` on a canonical crop; `after_each_stage` (optional) receives the shape
+// after every stage.
+[[nodiscard]] Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
+                                          std::vector<Eigen::Matrix2Xd>* after_each_stage = nullptr);
+
+// Landmarks (0-based image pixels) of the face in `box` of an 8-bit grey image.
+[[nodiscard]] Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box);
+
+// One training face, already cut out around its box.
+struct TrainingFace {
+    cv::Mat crop;               // kCanonicalCropSide² 8-bit grey
+    Eigen::Matrix2Xd truth;     // canonical crop coordinates
+    bool box_from_detector = false;
+};
+
+struct SdmStageReport {
+    int stage = 0;           // 1-based
+    double nme_before = 0;   // mean training NME (inter-ocular) before and after this stage
+    double nme_after = 0;
+    double lambda = 0;
+    double seconds = 0;
+};
+
+struct SdmTrainOptions {
+    int stages = 4;
+    int augment = 10;        // perturbed initialisations per face
+    int threads = 1;
+    std::uint64_t seed = 1;
+    int hog_cells = 3;
+    double lambda_factor = 1.5;  // λ = factor · ‖A_cᵀA_c‖_F / N (A_c: centred features)
+    std::vector<SdmStageSettings> stage_settings;  // empty: default_stage_settings(stages)
+    std::function<void(const SdmStageReport&)> on_stage;
+    std::function<void(std::size_t rows_done, std::size_t rows_total)> on_progress;  // feature extraction
+};
+
+// Trains the cascade. `boxes` carries the detector statistics measured while preparing the faces;
+// the perturbation spreads are measured here from the faces whose box came from the detector.
+// Deterministic for a given seed whatever the thread count. Throws facesynth::Error for fewer than
+// 2 faces or landmark counts other than 68.
+[[nodiscard]] SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes,
+                                 const SdmTrainOptions& options);
+
+// Point-to-point error / inter-ocular distance (outer eye corners) of 68-point shapes.
+[[nodiscard]] double landmark_nme(const Eigen::Matrix2Xd& predicted, const Eigen::Matrix2Xd& truth);
+
+}  // namespace facesynth::train

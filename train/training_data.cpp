@@ -1,0 +1,147 @@
+#include "train/training_data.h"
+
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "morph/random.h"
+#include "train/parallel.h"
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <optional>
+
+namespace facesynth::train {
+namespace {
+
+constexpr std::uint64_t kFallbackBoxStream = 0x424f5800;  // "BOX"
+
+struct Loaded {
+    bool ok = false;
+    cv::Mat gray;   // kept only until the face is cropped (misses wait for the box statistics)
+    cv::Mat crop;   // canonical crop around the detector box
+    Eigen::Matrix2Xd truth;
+    std::optional<FaceBox> detected;
+    std::string warning;
+};
+
+struct LandmarkBounds {
+    Eigen::Vector2d centre;
+    double width;
+};
+
+LandmarkBounds bounds_of(const Eigen::Matrix2Xd& points) {
+    const Eigen::Vector2d low = points.rowwise().minCoeff(), high = points.rowwise().maxCoeff();
+    return {(low + high) / 2, std::max(high.x() - low.x(), high.y() - low.y())};
+}
+
+void fnv1a(std::uint64_t& hash, const void* data, std::size_t size) {
+    const auto* bytes = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < size; ++i) {
+        hash ^= bytes[i];
+        hash *= 0x100000001b3ULL;
+    }
+}
+
+double mean_of(const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x;
+    return v.empty() ? 0 : s / static_cast<double>(v.size());
+}
+
+double std_of(const std::vector<double>& v) {
+    if (v.size() < 2) return 0;
+    const double m = mean_of(v);
+    double s = 0;
+    for (double x : v) s += (x - m) * (x - m);
+    return std::sqrt(s / static_cast<double>(v.size() - 1));
+}
+
+}  // namespace
+
+PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, const PrepareOptions& options) {
+    std::vector<Loaded> loaded(images.size());
+    const std::size_t workers = worker_count(options.threads, images.size());
+    std::vector<FaceDetector> detectors;
+    for (std::size_t w = 0; w < workers; ++w) detectors.emplace_back();
+    std::mutex progress_mutex;
+    std::size_t done = 0;
+    parallel_for(0, images.size(), options.threads, [&](std::size_t i, std::size_t worker) {
+        Loaded& item = loaded[i];
+        try {
+            item.truth = read_pts(images[i].pts);
+            if (item.truth.cols() != kNumIbugLandmarks)
+                throw file_error(images[i].pts.string(), "has " + std::to_string(item.truth.cols()) + " points, expected 68");
+            const cv::Mat image = cv::imread(images[i].image.string(), cv::IMREAD_UNCHANGED);
+            if (image.empty()) throw file_error(images[i].image.string(), "cannot read image");
+            item.gray = to_gray8(image);
+            item.detected = match_detection(detectors[worker].detect(item.gray), item.truth);
+            if (item.detected) {
+                item.crop = canonical_crop(item.gray, FaceFrame{*item.detected});
+                item.gray.release();
+            }
+            item.ok = true;
+        } catch (const Error& e) {
+            item.ok = false;
+            item.gray.release();
+            item.warning = std::string(e.what()) + " (skipped)";
+        }
+        if (options.on_progress) {
+            const std::lock_guard lock(progress_mutex);
+            options.on_progress(++done, images.size());
+        }
+    });
+
+    PreparedFaces result;
+    std::vector<double> ratios, offset_x, offset_y;
+    for (const auto& item : loaded) {
+        if (!item.ok || !item.detected) continue;
+        const LandmarkBounds b = bounds_of(item.truth);
+        ratios.push_back(item.detected->width / b.width);
+        offset_x.push_back((item.detected->centre.x() - b.centre.x()) / b.width);
+        offset_y.push_back((item.detected->centre.y() - b.centre.y()) / b.width);
+    }
+    BoxStatistics& stats = result.boxes;
+    if (ratios.size() >= 5) {
+        stats.width_ratio_mean = mean_of(ratios);
+        stats.width_ratio_std = std_of(ratios);
+        stats.offset_mean = {mean_of(offset_x), mean_of(offset_y)};
+        stats.offset_std = {std_of(offset_x), std_of(offset_y)};
+    }
+
+    std::uint64_t checksum = 0xcbf29ce484222325ULL;
+    for (std::size_t i = 0; i < loaded.size(); ++i) {
+        Loaded& item = loaded[i];
+        if (!item.ok) {
+            result.warnings.push_back(item.warning);
+            continue;
+        }
+        FaceBox box;
+        if (item.detected) {
+            box = *item.detected;
+            ++stats.detector_matched;
+        } else {
+            Rng rng(options.seed, i, kFallbackBoxStream);
+            const LandmarkBounds b = bounds_of(item.truth);
+            box.width = b.width * (stats.width_ratio_mean + stats.width_ratio_std * rng.normal());
+            box.centre = b.centre + b.width * (stats.offset_mean + stats.offset_std.cwiseProduct(
+                                                                       Eigen::Vector2d(rng.normal(), rng.normal())));
+            ++stats.detector_missed;
+        }
+        const FaceFrame frame{box};
+        TrainingFace face;
+        face.crop = item.detected ? item.crop : canonical_crop(item.gray, frame);
+        face.truth = frame.to_canonical(item.truth);
+        face.box_from_detector = item.detected.has_value();
+        item.gray.release();
+        item.crop.release();
+        fnv1a(checksum, images[i].key.data(), images[i].key.size());
+        fnv1a(checksum, item.truth.data(), sizeof(double) * static_cast<std::size_t>(item.truth.size()));
+        result.faces.push_back(std::move(face));
+    }
+    result.checksum = checksum;
+    return result;
+}
+
+}  // namespace facesynth::train

@@ -1,0 +1,32 @@
+#pragma once
+// Turns labelled images into canonical training faces: runs the Haar detector on every image,
+// matches the detection to the ground truth, measures how detector boxes sit relative to the
+// landmarks, and gives faces the detector missed a box synthesised from their landmarks with that
+// measured offset and spread (recorded as such).
+#include "train/dataset.h"
+#include "train/sdm.h"
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace facesynth::train {
+
+struct PreparedFaces {
+    std::vector<TrainingFace> faces;
+    BoxStatistics boxes;
+    std::vector<std::string> warnings;  // one per skipped image, naming the file
+    std::uint64_t checksum = 0;         // FNV-1a over keys and landmark values of the faces kept
+};
+
+struct PrepareOptions {
+    int threads = 1;
+    std::uint64_t seed = 1;
+    std::function<void(std::size_t done, std::size_t total)> on_progress;
+};
+
+[[nodiscard]] PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images,
+                                                   const PrepareOptions& options);
+
+}  // namespace facesynth::train
