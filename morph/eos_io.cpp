@@ -273,6 +273,7 @@ LandmarkCompletion parse_landmark_completion(const std::string& toml_text, const
         const toml::value root = toml::parse(stream, source_name);
         LandmarkCompletion completion;
         completion.model_vertices = toml::find<int>(root, "model_vertices");
+        completion.model_triangles = toml::find<int>(root, "model_triangles");
         completion.mapping = mapping_from_toml(root, source_name);
         for (const auto& [id, vertex] : completion.mapping)
             if (vertex >= completion.model_vertices)
@@ -288,6 +289,11 @@ const LandmarkCompletion& sfm_landmark_completion() {
     static const LandmarkCompletion completion =
         parse_landmark_completion(kSfmLandmarkCompletionToml, "data/sfm_landmarks_completion.toml");
     return completion;
+}
+
+bool completion_applies(const LandmarkCompletion& completion, const MorphableModel& model) {
+    return model.num_vertices() == completion.model_vertices &&
+           static_cast<int>(model.triangles.size()) == completion.model_triangles;
 }
 
 std::vector<SurfacePoint> ibug68_from_mapping(const LandmarkMapping& mapping, const std::string& context) {

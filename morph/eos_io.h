@@ -36,9 +36,11 @@ struct EosModelFile {
 
 // Extra landmark vertices for a model whose mapping is incomplete (the Surrey model leaves out the
 // jaw points 1-8, 10-17 and the inner mouth corners 61, 65). The TOML file holds
-// `model_vertices` (the vertex count it applies to) and `[landmark_mappings]` like eos's file.
+// `model_vertices` and `model_triangles` (the mesh it applies to) and `[landmark_mappings]` like
+// eos's file.
 struct LandmarkCompletion {
     int model_vertices = 0;
+    int model_triangles = 0;
     LandmarkMapping mapping;
 };
 [[nodiscard]] LandmarkCompletion parse_landmark_completion(const std::string& toml_text,
@@ -46,6 +48,8 @@ struct LandmarkCompletion {
 // The project's completion for the Surrey 3448-vertex model (data/sfm_landmarks_completion.toml,
 // compiled in).
 [[nodiscard]] const LandmarkCompletion& sfm_landmark_completion();
+// Whether `completion` was made for `model`'s mesh.
+[[nodiscard]] bool completion_applies(const LandmarkCompletion& completion, const MorphableModel& model);
 
 // All 68 landmarks in iBUG order from `mapping`; throws naming the missing iBUG ids.
 [[nodiscard]] std::vector<SurfacePoint> ibug68_from_mapping(const LandmarkMapping& mapping,
