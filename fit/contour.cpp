@@ -1,0 +1,159 @@
+#include "fit/contour.h"
+
+#include "morph/error.h"
+#include "morph/landmarks.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <limits>
+#include <unordered_map>
+
+namespace facesynth::fit {
+
+std::vector<Edge> edge_topology(const std::vector<Triangle>& triangles, int num_vertices) {
+    std::unordered_map<long long, int> index;  // (a, b) -> position in `edges`
+    index.reserve(triangles.size() * 2);
+    std::vector<Edge> edges;
+    edges.reserve(triangles.size() * 3 / 2 + 16);
+    for (std::size_t t = 0; t < triangles.size(); ++t) {
+        for (int k = 0; k < 3; ++k) {
+            int a = triangles[t][static_cast<std::size_t>(k)], b = triangles[t][static_cast<std::size_t>((k + 1) % 3)];
+            if (a == b) continue;
+            if (a > b) std::swap(a, b);
+            const long long key = static_cast<long long>(a) * num_vertices + b;
+            const auto [it, inserted] = index.try_emplace(key, static_cast<int>(edges.size()));
+            if (inserted) {
+                edges.push_back({a, b, static_cast<int>(t), -1});
+            } else if (edges[static_cast<std::size_t>(it->second)].right < 0) {
+                edges[static_cast<std::size_t>(it->second)].right = static_cast<int>(t);
+            }  // a third triangle on one edge (non-manifold) is ignored
+        }
+    }
+    return edges;
+}
+
+ContourFinder::ContourFinder(const MorphableModel& model) : model_(model) {
+    const int v = model.num_vertices();
+    edges_ = edge_topology(model.triangles, v);
+    const auto mean = as_points(model.shape.mean);
+    triangle_normals_.resize(3, static_cast<Eigen::Index>(model.triangles.size()));
+    for (std::size_t t = 0; t < model.triangles.size(); ++t) {
+        const auto& tri = model.triangles[t];
+        const Eigen::Vector3f e1 = mean.col(tri[1]) - mean.col(tri[0]), e2 = mean.col(tri[2]) - mean.col(tri[0]);
+        triangle_normals_.col(static_cast<Eigen::Index>(t)) = e1.cross(e2);
+    }
+
+    // The region where jaw outline points can lie: the height and depth range spanned by the contour
+    // chains and the fixed jaw landmarks on the mean shape, widened by 5% of the model's size.
+    std::vector<Eigen::Vector3f> anchors;
+    for (const auto* chain : {&model.contour.right, &model.contour.left})
+        for (int id : *chain) anchors.push_back(mean.col(id));
+    for (int j = 0; j < kNumJawLandmarks && j < static_cast<int>(model.landmarks.size()); ++j)
+        anchors.push_back(model.landmarks[static_cast<std::size_t>(j)].position(mean));
+    const Eigen::Vector3f extent = mean.rowwise().maxCoeff() - mean.rowwise().minCoeff();
+    const float margin = 0.05f * extent.maxCoeff();
+    float y_low = std::numeric_limits<float>::max(), y_high = -y_low, z_low = y_low;
+    for (const auto& p : anchors) {
+        y_low = std::min(y_low, p.y());
+        y_high = std::max(y_high, p.y());
+        z_low = std::min(z_low, p.z());
+    }
+    side_.resize(static_cast<std::size_t>(v));
+    in_face_region_.resize(static_cast<std::size_t>(v));
+    const float midline = 0.01f * extent.x();
+    for (int i = 0; i < v; ++i) {
+        const Eigen::Vector3f p = mean.col(i);
+        side_[static_cast<std::size_t>(i)] = p.x() < -midline ? -1 : (p.x() > midline ? 1 : 0);
+        in_face_region_[static_cast<std::size_t>(i)] =
+            !anchors.empty() && p.y() >= y_low - margin && p.y() <= y_high + margin && p.z() >= z_low - margin;
+    }
+}
+
+std::vector<int> ContourFinder::occluding_vertices(const Eigen::Matrix3d& rotation) const {
+    // A triangle faces the camera when its rotated normal points to model-camera +z (the flip turns
+    // it into camera -z, toward the viewer).
+    const Eigen::RowVector3f view = rotation.row(2).cast<float>();
+    const Eigen::RowVectorXf facing = view * triangle_normals_;
+    std::vector<char> mark(static_cast<std::size_t>(model_.num_vertices()), 0);
+    for (const auto& e : edges_) {
+        const bool left_front = facing(e.left) > 0;
+        const bool occluding = e.right < 0 ? left_front : left_front != (facing(e.right) > 0);
+        if (occluding) mark[static_cast<std::size_t>(e.a)] = mark[static_cast<std::size_t>(e.b)] = 1;
+    }
+    std::vector<int> out;
+    for (std::size_t i = 0; i < mark.size(); ++i)
+        if (mark[i]) out.push_back(static_cast<int>(i));
+    return out;
+}
+
+std::vector<int> ContourFinder::candidates(const Eigen::Matrix3d& rotation) const {
+    std::vector<int> out;
+    for (int id : occluding_vertices(rotation))
+        if (in_face_region_[static_cast<std::size_t>(id)]) out.push_back(id);
+    for (const auto* chain : {&model_.contour.right, &model_.contour.left}) out.insert(out.end(), chain->begin(), chain->end());
+    return out;
+}
+
+template <class PositionOf>
+std::vector<int> ContourFinder::choose(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+                                       const std::vector<int>& jaw_indices, PositionOf&& position_of) const {
+    std::vector<int> result(kNumJawLandmarks, -1);
+    const std::vector<int> cand = candidates(camera.rotation);
+    const Eigen::Matrix<double, 2, 3> m = camera.scale * (model_to_camera_flip() * camera.rotation).topRows<2>();
+    Eigen::Matrix2Xd projected(2, static_cast<Eigen::Index>(cand.size()));
+    for (std::size_t c = 0; c < cand.size(); ++c)
+        projected.col(static_cast<Eigen::Index>(c)) = m * position_of(cand[c]) + camera.translation;
+    for (int j : jaw_indices) {
+        if (j < 0 || j >= kNumJawLandmarks || j == kChinLandmark) continue;
+        const int wanted_side = j < kChinLandmark ? -1 : 1;
+        double best = std::numeric_limits<double>::max();
+        for (std::size_t c = 0; c < cand.size(); ++c) {
+            const int s = side_[static_cast<std::size_t>(cand[c])];
+            if (s != wanted_side) continue;
+            const double d = (projected.col(static_cast<Eigen::Index>(c)) - landmarks.col(j)).squaredNorm();
+            if (d < best) {
+                best = d;
+                result[static_cast<std::size_t>(j)] = cand[c];
+            }
+        }
+    }
+    return result;
+}
+
+std::vector<int> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+                                                    const Eigen::Matrix3Xf& vertices,
+                                                    const std::vector<int>& jaw_indices) const {
+    return choose(landmarks, camera, jaw_indices,
+                  [&](int id) -> Eigen::Vector3d { return vertices.col(id).cast<double>(); });
+}
+
+std::vector<int> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+                                                    const std::vector<float>& alpha, const std::vector<float>& psi,
+                                                    const std::vector<int>& jaw_indices) const {
+    const auto& shape = model_.shape;
+    const int k = std::min<int>(static_cast<int>(alpha.size()), shape.num_components());
+    Eigen::VectorXf scaled_alpha(k);
+    for (int c = 0; c < k; ++c) scaled_alpha[c] = alpha[static_cast<std::size_t>(c)] * std::sqrt(shape.eigenvalues[c]);
+    const PcaModel* expression_pca = model_.expression ? std::get_if<PcaModel>(&*model_.expression) : nullptr;
+    const auto* blendshapes = model_.expression ? std::get_if<std::vector<Blendshape>>(&*model_.expression) : nullptr;
+    Eigen::VectorXf scaled_psi;
+    if (expression_pca) {
+        const int e = std::min<int>(static_cast<int>(psi.size()), expression_pca->num_components());
+        scaled_psi.resize(e);
+        for (int c = 0; c < e; ++c) scaled_psi[c] = psi[static_cast<std::size_t>(c)] * std::sqrt(expression_pca->eigenvalues[c]);
+    }
+    return choose(landmarks, camera, jaw_indices, [&](int id) -> Eigen::Vector3d {
+        Eigen::Vector3f p = shape.mean.segment<3>(3 * id) + shape.basis.block(3 * id, 0, 3, k) * scaled_alpha;
+        if (expression_pca) {
+            p += expression_pca->mean.segment<3>(3 * id) +
+                 expression_pca->basis.block(3 * id, 0, 3, scaled_psi.size()) * scaled_psi;
+        } else if (blendshapes) {
+            for (std::size_t b = 0; b < blendshapes->size() && b < psi.size(); ++b)
+                p += psi[b] * (*blendshapes)[b].offsets.segment<3>(3 * id);
+        }
+        return p.cast<double>();
+    });
+}
+
+}  // namespace facesynth::fit

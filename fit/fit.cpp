@@ -1,0 +1,303 @@
+#include "fit/fit.h"
+
+#include "morph/error.h"
+#include "morph/landmarks.h"
+
+#include <Eigen/Cholesky>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace facesynth::fit {
+namespace {
+
+bool defined(const SurfacePoint& p) { return p.weights[0] + p.weights[1] + p.weights[2] != 0.0f; }
+
+// The linear model restricted to the used landmarks: X_i = mean_i + V_i α + (e0_i + E_i ψ), with V and
+// E already scaled to σ units (for blendshapes E holds the raw offsets and e0 = 0).
+struct LandmarkRows {
+    Eigen::Matrix3Xd mean;    // 3 x L (includes an expression PCA's mean offset)
+    Eigen::MatrixXd identity; // 3L x K
+    Eigen::MatrixXd expression;  // 3L x E
+};
+
+class LinearModel {
+public:
+    LinearModel(const MorphableModel& model, int k) : model_(model), k_(k) {
+        if (model.expression) {
+            if (const auto* pca = std::get_if<PcaModel>(&*model.expression)) {
+                expression_pca_ = pca;
+                e_ = pca->num_components();
+            } else {
+                blendshapes_ = &std::get<std::vector<Blendshape>>(*model.expression);
+                e_ = static_cast<int>(blendshapes_->size());
+            }
+        }
+    }
+    int k() const { return k_; }
+    int e() const { return e_; }
+    bool has_blendshapes() const { return blendshapes_ != nullptr; }
+
+    void resize(Eigen::Index points) {
+        rows_.mean.resize(3, points);
+        rows_.identity.resize(3 * points, k_);
+        rows_.expression.resize(3 * points, e_);
+    }
+    void set_point(Eigen::Index i, const SurfacePoint& p) {
+        rows_.mean.col(i).setZero();
+        rows_.identity.middleRows(3 * i, 3).setZero();
+        rows_.expression.middleRows(3 * i, 3).setZero();
+        for (int c = 0; c < 3; ++c) {
+            const double w = p.weights[static_cast<std::size_t>(c)];
+            if (w == 0) continue;
+            const int v = p.vertices[static_cast<std::size_t>(c)];
+            rows_.mean.col(i) += w * model_.shape.mean.segment<3>(3 * v).cast<double>();
+            rows_.identity.middleRows(3 * i, 3) +=
+                w * (model_.shape.basis.block(3 * v, 0, 3, k_) * model_.shape.eigenvalues.head(k_).cwiseSqrt().asDiagonal())
+                        .cast<double>();
+            if (expression_pca_) {
+                rows_.mean.col(i) += w * expression_pca_->mean.segment<3>(3 * v).cast<double>();
+                rows_.expression.middleRows(3 * i, 3) +=
+                    w * (expression_pca_->basis.block(3 * v, 0, 3, e_) * expression_pca_->eigenvalues.cwiseSqrt().asDiagonal())
+                            .cast<double>();
+            } else if (blendshapes_) {
+                for (int b = 0; b < e_; ++b)
+                    rows_.expression.block<3, 1>(3 * i, b) += w * (*blendshapes_)[static_cast<std::size_t>(b)].offsets.segment<3>(3 * v).cast<double>();
+            }
+        }
+    }
+    const LandmarkRows& rows() const { return rows_; }
+
+    Eigen::Matrix3Xd positions(const Eigen::VectorXd& alpha, const Eigen::VectorXd& psi) const {
+        Eigen::VectorXd stacked = rows_.identity * alpha;
+        if (e_ > 0) stacked += rows_.expression * psi;
+        return rows_.mean + Eigen::Map<const Eigen::Matrix3Xd>(stacked.data(), 3, rows_.mean.cols());
+    }
+
+private:
+    const MorphableModel& model_;
+    int k_;
+    int e_ = 0;
+    const PcaModel* expression_pca_ = nullptr;
+    const std::vector<Blendshape>* blendshapes_ = nullptr;
+    LandmarkRows rows_;
+};
+
+// Regularised weighted linear least squares for the coefficients c of one basis:
+//   min_c Σ_i w_i ‖A (m_i + B_i c) + a − x_i‖² / σ² + λ ‖c‖²   (Eq. 2 in docs/fit.md),
+// optionally with c >= 0 (projected Gauss-Seidel on the normal equations, exact for this convex QP).
+Eigen::VectorXd solve_coefficients(const Eigen::Matrix<double, 2, 3>& a3, const Eigen::Vector2d& a,
+                                   const Eigen::Matrix3Xd& fixed_part, const Eigen::MatrixXd& basis_rows,
+                                   const Eigen::Matrix2Xd& observed, const Eigen::VectorXd& weights, double sigma,
+                                   double lambda, bool non_negative, const Eigen::VectorXd& start) {
+    const Eigen::Index n = observed.cols(), k = basis_rows.cols();
+    Eigen::MatrixXd j(2 * n, k);
+    Eigen::VectorXd b(2 * n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const double sw = std::sqrt(weights(i)) / sigma;
+        j.middleRows<2>(2 * i).noalias() = sw * (a3 * basis_rows.middleRows<3>(3 * i));
+        b.segment<2>(2 * i) = sw * (observed.col(i) - a - a3 * fixed_part.col(i));
+    }
+    Eigen::MatrixXd h = Eigen::MatrixXd::Identity(k, k) * lambda;
+    h.selfadjointView<Eigen::Lower>().rankUpdate(j.transpose());
+    const Eigen::VectorXd g = j.transpose() * b;
+    if (!non_negative) return h.selfadjointView<Eigen::Lower>().ldlt().solve(g);
+    h.triangularView<Eigen::StrictlyUpper>() = h.transpose();
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(k);
+    if (start.size() == k) c = start.cwiseMax(0.0);
+    for (int sweep = 0; sweep < 200; ++sweep) {
+        double change = 0;
+        for (Eigen::Index q = 0; q < k; ++q) {
+            if (!(h(q, q) > 0)) continue;
+            const double updated = std::max(0.0, c(q) - (h.col(q).dot(c) - g(q)) / h(q, q));
+            change = std::max(change, std::abs(updated - c(q)));
+            c(q) = updated;
+        }
+        if (change < 1e-9) break;
+    }
+    return c;
+}
+
+
+// Checks the input and lists the iBUG points that take part (and, in contour mode, the jaw points
+// whose correspondences are re-chosen).
+std::vector<int> select_points(const MorphableModel& model, const Eigen::Matrix2Xd& landmarks, const FitOptions& options,
+                               bool contour_mode, std::vector<int>* jaw_used) {
+    if (landmarks.cols() != kNumIbugLandmarks)
+        throw Error("fit: expected " + std::to_string(kNumIbugLandmarks) + " iBUG landmarks, got " + std::to_string(landmarks.cols()));
+    if (static_cast<int>(model.landmarks.size()) != kNumIbugLandmarks)
+        throw Error("fit: model '" + model.name + "' defines " + std::to_string(model.landmarks.size()) +
+                    " landmarks, expected " + std::to_string(kNumIbugLandmarks));
+    if (options.weights.size() != 0 && options.weights.size() != kNumIbugLandmarks)
+        throw Error("fit: " + std::to_string(options.weights.size()) + " landmark weights, expected 68");
+    if (options.iterations < 1) throw Error("fit: iterations must be at least 1");
+    if (!(options.lambda >= 0) || !(options.expression_lambda >= 0)) throw Error("fit: regularisation must be >= 0");
+
+    std::vector<int> candidates = options.subset;
+    if (candidates.empty())
+        for (int i = 0; i < kNumIbugLandmarks; ++i) candidates.push_back(i);
+    std::vector<int> used;
+    for (int i : candidates) {
+        if (i < 0 || i >= kNumIbugLandmarks) throw Error("fit: landmark index " + std::to_string(i) + " out of range 0..67");
+        const double w = options.weights.size() ? options.weights(i) : 1.0;
+        if (!std::isfinite(w) || w < 0) throw Error("fit: landmark " + std::to_string(i + 1) + " has an invalid weight");
+        if (w == 0) continue;
+        const bool contour_point = contour_mode && i < kNumJawLandmarks && i != kChinLandmark;
+        if (!defined(model.landmarks[static_cast<std::size_t>(i)]) && !contour_point) continue;
+        if (!landmarks.col(i).allFinite())
+            throw Error("fit: landmark " + std::to_string(i + 1) + " has non-finite coordinates");
+        used.push_back(i);
+        if (contour_point && jaw_used) jaw_used->push_back(i);
+    }
+    if (used.size() < 4) throw Error("fit: needs at least 4 usable landmarks, got " + std::to_string(used.size()));
+    return used;
+}
+
+}  // namespace
+
+std::vector<float> fit_identity_for_camera(const MorphableModel& model, const AffineCamera& camera,
+                                           const Eigen::Matrix2Xd& landmarks, const FitOptions& options,
+                                           std::span<const float> psi) {
+    const std::vector<int> used = select_points(model, landmarks, options, false, nullptr);
+    const auto n = static_cast<Eigen::Index>(used.size());
+    const int k_all = model.num_shape_components();
+    const int k = options.shape_components > 0 ? std::min(options.shape_components, k_all) : k_all;
+    LinearModel lin(model, k);
+    lin.resize(n);
+    Eigen::Matrix2Xd observed(2, n);
+    Eigen::VectorXd weights(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const int id = used[static_cast<std::size_t>(i)];
+        observed.col(i) = landmarks.col(id);
+        weights(i) = options.weights.size() ? options.weights(id) : 1.0;
+        lin.set_point(i, model.landmarks[static_cast<std::size_t>(id)]);
+    }
+    Eigen::Matrix3Xd fixed = lin.rows().mean;
+    if (lin.e() > 0 && !psi.empty()) {
+        Eigen::VectorXd p = Eigen::VectorXd::Zero(lin.e());
+        for (std::size_t i = 0; i < psi.size() && i < static_cast<std::size_t>(lin.e()); ++i) p(static_cast<Eigen::Index>(i)) = psi[i];
+        const Eigen::VectorXd ex = lin.rows().expression * p;
+        fixed += Eigen::Map<const Eigen::Matrix3Xd>(ex.data(), 3, n);
+    }
+    const double sigma = options.landmark_sigma_px > 0 ? options.landmark_sigma_px : decompose(camera).scale;
+    const Eigen::VectorXd alpha = solve_coefficients(camera.matrix.topLeftCorner<2, 3>(), camera.matrix.block<2, 1>(0, 3), fixed,
+                                                     lin.rows().identity, observed, weights, sigma, options.lambda, false, {});
+    std::vector<float> out(static_cast<std::size_t>(k_all), 0.0f);
+    for (int c = 0; c < k; ++c) out[static_cast<std::size_t>(c)] = static_cast<float>(alpha(c));
+    return out;
+}
+
+Fitter::Fitter(const MorphableModel& model) : model_(model), contour_(model) {}
+
+FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& options) const {
+    const bool contour_mode = options.jaw == JawMode::kContour && !model_.contour.right.empty() && !model_.contour.left.empty();
+    FitResult result;
+    result.correspondences = model_.landmarks;
+    std::vector<int> jaw_used;
+    result.used = select_points(model_, landmarks, options, contour_mode, &jaw_used);
+    const auto n = static_cast<Eigen::Index>(result.used.size());
+
+    const int k_all = model_.num_shape_components();
+    const int k = options.shape_components > 0 ? std::min(options.shape_components, k_all) : k_all;
+    LinearModel lin(model_, k);
+    const int e = options.fit_expression ? lin.e() : 0;
+    lin.resize(n);
+    Eigen::Matrix2Xd observed(2, n);
+    Eigen::VectorXd given_weights(n), weights(n);  // weights: 0 while a point has no model correspondence
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const int id = result.used[static_cast<std::size_t>(i)];
+        observed.col(i) = landmarks.col(id);
+        given_weights(i) = options.weights.size() ? options.weights(id) : 1.0;
+        const SurfacePoint& p = result.correspondences[static_cast<std::size_t>(id)];
+        weights(i) = defined(p) ? given_weights(i) : 0.0;
+        lin.set_point(i, p);
+    }
+
+    Eigen::VectorXd alpha = Eigen::VectorXd::Zero(k), psi = Eigen::VectorXd::Zero(lin.e());
+    auto to_floats = [](const Eigen::VectorXd& v, std::size_t size) {
+        std::vector<float> out(size, 0.0f);
+        for (Eigen::Index i = 0; i < v.size(); ++i) out[static_cast<std::size_t>(i)] = static_cast<float>(v(i));
+        return out;
+    };
+    auto estimate_camera = [&]() {
+        const Eigen::Matrix3Xd x3 = lin.positions(alpha, psi);
+        result.camera = estimate_affine_camera(observed, x3, weights);
+        result.pose = decompose(result.camera);
+        // Re-centre the translation for the orthonormalised camera (weighted mean residual).
+        const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (model_to_camera_flip() * result.pose.rotation).topRows<2>();
+        result.pose.translation = ((observed - a3 * x3) * weights).rowwise().sum() / weights.sum();
+        return x3;
+    };
+    auto rms = [&]() {
+        const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (model_to_camera_flip() * result.pose.rotation).topRows<2>();
+        const Eigen::Matrix2Xd r = (a3 * lin.positions(alpha, psi)).colwise() + result.pose.translation - observed;
+        return std::sqrt((r.colwise().squaredNorm().transpose().cwiseProduct(weights)).sum() / weights.sum());
+    };
+
+    double previous = std::numeric_limits<double>::max();
+    for (int it = 0; it < options.iterations; ++it) {
+        estimate_camera();
+        if (!jaw_used.empty()) {
+            const auto jaw = contour_.jaw_correspondences(landmarks, result.pose, to_floats(alpha, k_all),
+                                                          to_floats(psi, static_cast<std::size_t>(lin.e())), jaw_used);
+            for (Eigen::Index i = 0; i < n; ++i) {
+                const int id = result.used[static_cast<std::size_t>(i)];
+                if (id >= kNumJawLandmarks || jaw[static_cast<std::size_t>(id)] < 0) continue;
+                result.correspondences[static_cast<std::size_t>(id)] = SurfacePoint::at_vertex(jaw[static_cast<std::size_t>(id)]);
+                lin.set_point(i, result.correspondences[static_cast<std::size_t>(id)]);
+                weights(i) = given_weights(i);
+            }
+            estimate_camera();
+        }
+        const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (model_to_camera_flip() * result.pose.rotation).topRows<2>();
+        const double sigma = options.landmark_sigma_px > 0 ? options.landmark_sigma_px : result.pose.scale;
+        const auto& rows = lin.rows();
+        {
+            Eigen::Matrix3Xd fixed = rows.mean;
+            if (lin.e() > 0) {
+                const Eigen::VectorXd ex = rows.expression * psi;
+                fixed += Eigen::Map<const Eigen::Matrix3Xd>(ex.data(), 3, n);
+            }
+            alpha = solve_coefficients(a3, result.pose.translation, fixed, rows.identity, observed, weights, sigma,
+                                       options.lambda, false, {});
+        }
+        if (e > 0) {
+            const Eigen::VectorXd id_part = rows.identity * alpha;
+            const Eigen::Matrix3Xd fixed = rows.mean + Eigen::Map<const Eigen::Matrix3Xd>(id_part.data(), 3, n);
+            psi = solve_coefficients(a3, result.pose.translation, fixed, rows.expression, observed, weights, sigma,
+                                     options.expression_lambda, lin.has_blendshapes(), psi);
+        }
+        result.iterations = it + 1;
+        const double now = rms();
+        if (std::abs(previous - now) < options.convergence_px) break;
+        previous = now;
+    }
+    estimate_camera();
+    result.reprojection_rms_px = rms();
+    result.camera = result.pose.to_affine();
+    result.alpha = to_floats(alpha, static_cast<std::size_t>(k_all));
+    result.psi = to_floats(psi, static_cast<std::size_t>(lin.e()));
+
+    // Projections of all 68 correspondences (NaN where the model has none).
+    LinearModel all(model_, k);
+    all.resize(kNumIbugLandmarks);
+    for (int i = 0; i < kNumIbugLandmarks; ++i) all.set_point(i, result.correspondences[static_cast<std::size_t>(i)]);
+    const Eigen::Matrix3Xd points = all.positions(alpha, psi);
+    result.projected.resize(2, kNumIbugLandmarks);
+    for (int i = 0; i < kNumIbugLandmarks; ++i)
+        result.projected.col(i) = defined(result.correspondences[static_cast<std::size_t>(i)])
+                                      ? result.camera.project(points.col(i))
+                                      : Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+    return result;
+}
+
+FitResult fit_landmarks(const MorphableModel& model, const Eigen::Matrix2Xd& landmarks, const FitOptions& options) {
+    return Fitter(model).fit(landmarks, options);
+}
+
+Eigen::Matrix3Xf fitted_shape(const MorphableModel& model, const FitResult& result) {
+    return model.shape_instance(result.alpha, result.psi);
+}
+
+}  // namespace facesynth::fit

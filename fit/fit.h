@@ -1,0 +1,80 @@
+#pragma once
+// Landmark-based 3DMM fitting: affine camera (Gold Standard), regularised linear identity fit,
+// expression fit and jaw contour correspondences, alternated (docs/fit.md gives the equations).
+#include "fit/affine_camera.h"
+#include "fit/contour.h"
+#include "morph/model.h"
+
+#include <Eigen/Core>
+
+#include <span>
+#include <vector>
+
+namespace facesynth::fit {
+
+enum class JawMode {
+    kFixed,    // the 17 jaw landmarks are the model's fixed landmark vertices
+    kContour,  // they follow the silhouette: correspondences re-chosen every iteration
+};
+
+struct FitOptions {
+    int iterations = 5;              // camera → contour → identity → expression rounds (at most)
+    double convergence_px = 1e-3;    // stop when the reprojection RMS changes less than this
+    // Identity prior weight λ in  Σ w_i ‖r_i‖² / σ_i² + λ ‖α‖²  (α in σ units). σ_i is
+    // landmark_sigma_px when > 0, otherwise 1 mm at the current camera scale (image-size invariant).
+    double lambda = 4.0;
+    double expression_lambda = 4.0;  // the same for the expression coefficients / blendshape weights
+    double landmark_sigma_px = 0;
+    int shape_components = 0;        // fit only the first k identity components (0: all)
+    bool fit_expression = true;
+    JawMode jaw = JawMode::kFixed;
+    std::vector<int> subset;         // 0-based iBUG indices to use (empty: all 68); see landmark_subset()
+    Eigen::VectorXd weights;         // per iBUG point (68) weight >= 0, 0 = missing; empty: all 1
+};
+
+struct FitResult {
+    AffineCamera camera;
+    ScaledOrthographic pose;
+    std::vector<float> alpha;        // identity, σ units, model's component count (unfitted ones 0)
+    std::vector<float> psi;          // expression (σ units or blendshape weights), may be empty
+    std::vector<SurfacePoint> correspondences;  // model point used for each of the 68 landmarks
+    std::vector<int> used;           // 0-based iBUG indices that took part
+    Eigen::Matrix2Xd projected;      // 2 x 68 projections of the correspondences (pixels)
+    double reprojection_rms_px = 0;  // over the used points
+    int iterations = 0;
+};
+
+// Holds what depends on the model only (edge topology, mean-shape normals), so repeated fits with
+// the same model are cheap. The model must outlive the Fitter.
+class Fitter {
+public:
+    explicit Fitter(const MorphableModel& model);
+
+    // `landmarks`: 2 x 68 iBUG points, 0-based pixels (unused points may be NaN when their weight is
+    // 0 or they are outside the subset). Throws facesynth::Error on a wrong count, NaN in a used point,
+    // fewer than 4 usable points or a degenerate configuration.
+    [[nodiscard]] FitResult fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& options = {}) const;
+
+    [[nodiscard]] const MorphableModel& model() const { return model_; }
+    [[nodiscard]] const ContourFinder& contour() const { return contour_; }
+
+private:
+    const MorphableModel& model_;
+    ContourFinder contour_;
+};
+
+// One-off convenience: Fitter(model).fit(landmarks, options).
+[[nodiscard]] FitResult fit_landmarks(const MorphableModel& model, const Eigen::Matrix2Xd& landmarks,
+                                      const FitOptions& options = {});
+
+// The linear identity step alone (Eq. 2 in docs/fit.md) for a fixed affine camera and expression:
+// returns α (σ units, the model's component count). Uses options.subset/weights/lambda/
+// landmark_sigma_px/shape_components; the model's fixed landmark correspondences.
+[[nodiscard]] std::vector<float> fit_identity_for_camera(const MorphableModel& model, const AffineCamera& camera,
+                                                         const Eigen::Matrix2Xd& landmarks, const FitOptions& options = {},
+                                                         std::span<const float> psi = {});
+
+// Shape (3 x V) of a fit with its identity and expression.
+[[nodiscard]] Eigen::Matrix3Xf fitted_shape(const MorphableModel& model, const FitResult& result);
+
+}  // namespace facesynth::fit

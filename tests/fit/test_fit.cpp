@@ -1,0 +1,170 @@
+#include "fit/fit.h"
+
+#include "common/toy_model.h"
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "morph/random.h"
+#include "morph/sampling.h"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+namespace facesynth::fit {
+namespace {
+
+// The toy model with its 68 landmarks moved to well-spread front-facing vertices (every 7th one),
+// so that a linear identity fit is well determined by the landmarks alone.
+MorphableModel spread_landmark_model(int components) {
+    MorphableModel m = testkit::make_toy_model({.shape_components = components});
+    const auto mean = as_points(m.shape.mean);
+    std::vector<int> front;
+    for (int v = 0; v < m.num_vertices(); ++v)
+        if (mean(2, v) > 30) front.push_back(v);
+    for (int l = 0; l < 68; ++l) m.landmarks[static_cast<std::size_t>(l)] = SurfacePoint::at_vertex(front[static_cast<std::size_t>(l * 7 % front.size())]);
+    return m;
+}
+
+Eigen::Matrix2Xd project_landmarks(const MorphableModel& m, const ScaledOrthographic& camera, std::span<const float> alpha,
+                                   std::span<const float> psi = {}) {
+    const Eigen::Matrix3Xf shape = m.shape_instance(alpha, psi);
+    const AffineCamera a = camera.to_affine();
+    Eigen::Matrix2Xd out(2, 68);
+    for (int l = 0; l < 68; ++l) out.col(l) = a.project(m.landmarks[static_cast<std::size_t>(l)].position(shape).cast<double>());
+    return out;
+}
+
+TEST(LinearFit, RecoversIdentityForAKnownCameraWithVanishingRegularisation) {
+    const MorphableModel m = spread_landmark_model(10);
+    for (int trial = 0; trial < 5; ++trial) {
+        Rng rng(20, static_cast<std::uint64_t>(trial));
+        const std::vector<float> alpha = sample_coefficients(rng, 10, 3.0);
+        const EulerAngles angles{rng.uniform(-50, 50), rng.uniform(-20, 20), rng.uniform(-20, 20)};
+        const ScaledOrthographic camera{rng.uniform(1, 4), rotation_from_euler(angles), {256, 240}, angles};
+        FitOptions o;
+        o.lambda = 1e-12;
+        const std::vector<float> got = fit_identity_for_camera(m, camera.to_affine(), project_landmarks(m, camera, alpha), o);
+        for (int c = 0; c < 10; ++c) EXPECT_NEAR(got[static_cast<std::size_t>(c)], alpha[static_cast<std::size_t>(c)], 1e-4) << "component " << c;
+    }
+}
+
+TEST(LinearFit, AlternationFromScratchConvergesOnExactLandmarks) {
+    const MorphableModel m = spread_landmark_model(10);
+    for (int trial = 0; trial < 3; ++trial) {
+        Rng rng(21, static_cast<std::uint64_t>(trial));
+        const std::vector<float> alpha = sample_coefficients(rng, 10, 3.0);
+        const EulerAngles angles{rng.uniform(-30, 30), rng.uniform(-15, 15), rng.uniform(-10, 10)};
+        const ScaledOrthographic camera{3.0, rotation_from_euler(angles), {256, 240}, angles};
+        FitOptions o;
+        o.lambda = 1e-10;
+        o.fit_expression = false;
+        o.iterations = 200;
+        o.convergence_px = 1e-12;
+        const FitResult r = fit_landmarks(m, project_landmarks(m, camera, alpha), o);
+        // Block-coordinate descent creeps along the camera/shape valley (the toy components contain
+        // linear shears an affine camera can partly absorb), so it gets close, not exact.
+        const Eigen::Matrix3Xf truth = m.shape_instance(alpha);
+        const double fitted_rmse = std::sqrt((fitted_shape(m, r) - truth).colwise().squaredNorm().mean());
+        const double mean_rmse = std::sqrt((as_points(m.shape.mean) - truth).colwise().squaredNorm().mean());
+        EXPECT_LT(fitted_rmse, 0.5 * mean_rmse) << "trial " << trial;
+        EXPECT_NEAR(r.pose.angles.yaw, angles.yaw, 0.5);
+        EXPECT_NEAR(r.pose.angles.pitch, angles.pitch, 0.5);
+        EXPECT_NEAR(r.pose.angles.roll, angles.roll, 0.5);
+        EXPECT_LT(r.reprojection_rms_px, 0.1);
+    }
+}
+
+TEST(LinearFit, FirstKComponentsOnlyAndRegularisationShrinks) {
+    const MorphableModel m = spread_landmark_model(10);
+    Rng rng(2, 0);
+    const std::vector<float> alpha = sample_coefficients(rng, 10, 3.0);
+    const ScaledOrthographic camera{3.0, rotation_from_euler({10, 0, 0}), {256, 240}, {}};
+    const Eigen::Matrix2Xd lm = project_landmarks(m, camera, alpha);
+    FitOptions o;
+    o.fit_expression = false;
+    o.shape_components = 4;
+    const FitResult r = fit_landmarks(m, lm, o);
+    ASSERT_EQ(r.alpha.size(), 10u);
+    for (int c = 4; c < 10; ++c) EXPECT_EQ(r.alpha[static_cast<std::size_t>(c)], 0.0f);
+    FitOptions weak = o, strong = o;
+    weak.shape_components = strong.shape_components = 0;
+    weak.lambda = 0.01;
+    strong.lambda = 1e4;
+    const auto norm = [](const std::vector<float>& a) { return Eigen::Map<const Eigen::VectorXf>(a.data(), static_cast<Eigen::Index>(a.size())).norm(); };
+    EXPECT_LT(norm(fit_landmarks(m, lm, strong).alpha), 0.5f * norm(fit_landmarks(m, lm, weak).alpha));
+}
+
+TEST(ExpressionFit, RecoversNonNegativeBlendshapeWeightsAlternatingWithIdentity) {
+    const MorphableModel base = testkit::make_toy_model({.shape_components = 6});
+    Rng rng(4, 0);
+    const std::vector<float> alpha = sample_coefficients(rng, 6, 2.0);
+    const std::vector<float> psi{0.6f, 0.8f};
+    const ScaledOrthographic camera{2.0, rotation_from_euler({15, 5, 0}), {200, 220}, {}};
+    FitOptions o;
+    o.lambda = 1e-8;
+    o.expression_lambda = 1e-8;
+    o.iterations = 100;
+    o.convergence_px = 1e-10;
+    const FitResult r = fit_landmarks(base, project_landmarks(base, camera, alpha, psi), o);
+    ASSERT_EQ(r.psi.size(), 2u);
+    EXPECT_NEAR(r.psi[0], 0.6, 0.02);
+    EXPECT_NEAR(r.psi[1], 0.8, 0.02);
+    EXPECT_LT(r.reprojection_rms_px, 0.05);
+
+    // A negative "truth" is out of reach: the weight clamps at zero instead of going negative.
+    const std::vector<float> negative{-0.8f, 0.0f};
+    const FitResult n = fit_landmarks(base, project_landmarks(base, camera, {}, negative), o);
+    EXPECT_GE(n.psi[0], 0.0f);
+    EXPECT_GE(n.psi[1], 0.0f);
+}
+
+TEST(Fit, SubsetsAndMaskedPointsUseOnlyWhatIsGiven) {
+    const MorphableModel m = testkit::make_toy_model({});
+    const ScaledOrthographic camera{2.0, rotation_from_euler({-20, 10, 5}), {200, 220}, {}};
+    Eigen::Matrix2Xd lm = project_landmarks(m, camera, {});
+    for (auto subset : {LandmarkSubset::k7, LandmarkSubset::k13, LandmarkSubset::k49, LandmarkSubset::k68}) {
+        FitOptions o;
+        const auto ids = landmark_subset(subset);
+        o.subset.assign(ids.begin(), ids.end());
+        Eigen::Matrix2Xd masked = Eigen::Matrix2Xd::Constant(2, 68, std::numeric_limits<double>::quiet_NaN());
+        for (int i : o.subset) masked.col(i) = lm.col(i);
+        const FitResult r = fit_landmarks(m, masked, o);
+        EXPECT_EQ(r.used.size(), ids.size());
+        EXPECT_NEAR(r.pose.angles.yaw, -20, 1.0);
+        EXPECT_NEAR(r.pose.angles.roll, 5, 1.0);
+    }
+    FitOptions o;
+    o.weights = Eigen::VectorXd::Ones(68);
+    lm.col(30) = Eigen::Vector2d(1e4, -1e4);  // a wild point, masked out
+    o.weights(30) = 0;
+    const FitResult r = fit_landmarks(m, lm, o);
+    EXPECT_EQ(r.used.size(), 67u);
+    EXPECT_LT(r.reprojection_rms_px, 0.5);
+}
+
+TEST(Fit, BadInputsThrowClearErrors) {
+    const MorphableModel m = testkit::make_toy_model({});
+    const ScaledOrthographic camera{2.0, Eigen::Matrix3d::Identity(), {200, 220}, {}};
+    const Eigen::Matrix2Xd lm = project_landmarks(m, camera, {});
+    auto message = [&](const Eigen::Matrix2Xd& points, const FitOptions& o) -> std::string {
+        try {
+            (void)fit_landmarks(m, points, o);
+        } catch (const Error& e) {
+            return e.what();
+        }
+        return "no error";
+    };
+    EXPECT_NE(message(lm.leftCols(67), {}).find("expected 68"), std::string::npos);
+    Eigen::Matrix2Xd nan = lm;
+    nan(0, 40) = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_NE(message(nan, {}).find("landmark 41"), std::string::npos);
+    FitOptions three;
+    three.subset = {30, 36, 45};
+    EXPECT_NE(message(lm, three).find("at least 4"), std::string::npos);
+    Eigen::Matrix2Xd collinear = lm;
+    for (int i = 0; i < 68; ++i) collinear.col(i) << i, 2.0 * i;
+    EXPECT_NE(message(collinear, {}).find("collinear"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace facesynth::fit
