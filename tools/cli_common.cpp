@@ -53,6 +53,13 @@ void Progress::draw(bool final_line) {
     std::fflush(stderr);
 }
 
+CLI::App& bench_group(CLI::App& app) {
+    for (CLI::App* sub : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) return *sub;
+    CLI::App* bench = app.add_subcommand("bench", "Benchmarks (timings, not tests)");
+    bench->require_subcommand(1);
+    return *bench;
+}
+
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value) {
     write_file_atomically(path, value.dump(2) + "\n");
 }

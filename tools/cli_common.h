@@ -1,5 +1,6 @@
 #pragma once
 // Shared CLI plumbing: progress reporting, JSON result files, model loading from --model.
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -33,6 +34,10 @@ private:
     std::chrono::steady_clock::time_point start_;
     std::chrono::steady_clock::time_point last_draw_;
 };
+
+// The "bench" command group, created on first use, so that every tools/cmd_*.cpp can add its
+// benchmark to it whatever the registration order.
+CLI::App& bench_group(CLI::App& app);
 
 // Writes a flat JSON object atomically to `path` (pretty-printed, trailing newline).
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value);
