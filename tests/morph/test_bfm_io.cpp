@@ -1,0 +1,231 @@
+// Basel Face Model 2017 reader: no real file exists here, so each test writes a small model in the
+// statismo layout with the HDF5 library and reads it back.
+#include "morph/bfm_io.h"
+#include "morph/error.h"
+#include "morph/model_io.h"
+
+#include "common/test_data.h"
+#include "common/toy_model.h"
+
+#include <gtest/gtest.h>
+#include <hdf5.h>
+
+#include <Eigen/QR>
+
+#include <fstream>
+
+using namespace facesynth;
+
+namespace {
+
+struct DatasetSpec {
+    std::vector<hsize_t> dims;
+    std::vector<float> values;  // row-major
+    bool chunked_without_data = false;  // declare dims but store nothing (a lying header)
+};
+
+class H5Writer {
+public:
+    explicit H5Writer(const std::filesystem::path& path)
+        : file_(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT)), links_(H5Pcreate(H5P_LINK_CREATE)) {
+        H5Pset_create_intermediate_group(links_, 1);
+    }
+    ~H5Writer() {
+        H5Pclose(links_);
+        H5Fclose(file_);
+    }
+    H5Writer(const H5Writer&) = delete;
+    H5Writer& operator=(const H5Writer&) = delete;
+
+    void floats(const std::string& name, const DatasetSpec& spec) {
+        const hid_t space = H5Screate_simple(static_cast<int>(spec.dims.size()), spec.dims.data(), nullptr);
+        hid_t create = H5P_DEFAULT;
+        if (spec.chunked_without_data) {
+            create = H5Pcreate(H5P_DATASET_CREATE);
+            std::vector<hsize_t> chunk(spec.dims.size(), 1);
+            H5Pset_chunk(create, static_cast<int>(chunk.size()), chunk.data());
+        }
+        const hid_t set = H5Dcreate2(file_, name.c_str(), H5T_IEEE_F32LE, space, links_, create, H5P_DEFAULT);
+        if (!spec.chunked_without_data) H5Dwrite(set, H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, spec.values.data());
+        if (create != H5P_DEFAULT) H5Pclose(create);
+        H5Dclose(set);
+        H5Sclose(space);
+    }
+
+    void cells(const std::string& name, const std::vector<Triangle>& triangles) {
+        const hsize_t dims[2] = {3, triangles.size()};
+        std::vector<std::uint32_t> values(3 * triangles.size());
+        for (std::size_t t = 0; t < triangles.size(); ++t)
+            for (std::size_t k = 0; k < 3; ++k) values[k * triangles.size() + t] = static_cast<std::uint32_t>(triangles[t][k]);
+        const hid_t space = H5Screate_simple(2, dims, nullptr);
+        const hid_t set = H5Dcreate2(file_, name.c_str(), H5T_STD_U32LE, space, links_, H5P_DEFAULT, H5P_DEFAULT);
+        H5Dwrite(set, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data());
+        H5Dclose(set);
+        H5Sclose(space);
+    }
+
+private:
+    hid_t file_;
+    hid_t links_;
+};
+
+DatasetSpec vector_spec(const Eigen::VectorXf& v) {
+    return {{static_cast<hsize_t>(v.size())}, std::vector<float>(v.data(), v.data() + v.size())};
+}
+
+DatasetSpec matrix_spec(const Eigen::MatrixXf& m) {
+    const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> row_major = m;
+    return {{static_cast<hsize_t>(m.rows()), static_cast<hsize_t>(m.cols())},
+            std::vector<float>(row_major.data(), row_major.data() + row_major.size())};
+}
+
+struct Overrides {
+    std::string skip;                       // dataset left out
+    std::map<std::string, DatasetSpec> replace;  // dataset replaced
+};
+
+// The toy model in statismo layout: /shape, /color, /expression with model/ and representer/.
+void write_statismo(const std::filesystem::path& path, const MorphableModel& m, const Overrides& o = {}) {
+    H5Writer out(path);
+    const auto put = [&](const std::string& name, const DatasetSpec& spec) {
+        if (name == o.skip) return;
+        const auto it = o.replace.find(name);
+        out.floats(name, it != o.replace.end() ? it->second : spec);
+    };
+    const Eigen::MatrixXf points = as_points(m.shape.mean);
+    const auto group = [&](const std::string& g, const PcaModel& pca) {
+        put(g + "/model/mean", vector_spec(pca.mean));
+        put(g + "/model/pcaBasis", matrix_spec(pca.basis));
+        put(g + "/model/pcaVariance", vector_spec(pca.eigenvalues));
+        put(g + "/model/noiseVariance", vector_spec(Eigen::VectorXf::Constant(1, 0.01f)));
+        put(g + "/representer/points", matrix_spec(points));
+        if (g + "/representer/cells" != o.skip) out.cells(g + "/representer/cells", m.triangles);
+    };
+    group("/shape", m.shape);
+    if (m.albedo) group("/color", *m.albedo);
+    if (m.expression) group("/expression", std::get<PcaModel>(*m.expression));
+}
+
+MorphableModel toy_bfm() {
+    testkit::ToyModelOptions o;
+    o.shape_components = 6;
+    o.latitude_steps = 10;
+    o.longitude_steps = 12;
+    MorphableModel m = testkit::make_toy_model(o);
+    // An expression PCA: orthonormal directions from a QR of smooth random offsets.
+    PcaModel expression;
+    expression.mean = Eigen::VectorXf::Constant(m.shape.mean.size(), 0.5f);
+    const Eigen::MatrixXf raw = Eigen::MatrixXf::Random(m.shape.mean.size(), 3);
+    expression.basis = Eigen::HouseholderQR<Eigen::MatrixXf>(raw).householderQ() * Eigen::MatrixXf::Identity(raw.rows(), 3);
+    expression.eigenvalues = Eigen::Vector3f(9.0f, 4.0f, 1.0f);
+    m.expression = expression;
+    return m;
+}
+
+void expect_error_naming(const std::function<void()>& call, const std::filesystem::path& path, const std::string& what) {
+    try {
+        call();
+        ADD_FAILURE() << "no error: " << what;
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(path.filename().string()), std::string::npos) << what << ": " << e.what();
+    }
+}
+
+}  // namespace
+
+TEST(BfmIo, ReadsTheStatismoLayoutBack) {
+    const auto dir = testkit::fresh_temp_dir("bfm_round_trip");
+    const MorphableModel m = toy_bfm();
+    write_statismo(dir / "model2017.h5", m);
+    const MorphableModel back = read_bfm2017(dir / "model2017.h5");
+    EXPECT_EQ(back.num_vertices(), m.num_vertices());
+    EXPECT_EQ(back.shape.mean, m.shape.mean);
+    EXPECT_EQ(back.shape.basis, m.shape.basis);
+    EXPECT_EQ(back.shape.eigenvalues, m.shape.eigenvalues);
+    EXPECT_EQ(back.triangles, m.triangles);
+    ASSERT_TRUE(back.albedo.has_value());
+    EXPECT_EQ(back.albedo->mean, m.albedo->mean);
+    EXPECT_EQ(back.albedo->basis, m.albedo->basis);
+    ASSERT_TRUE(back.expression.has_value());
+    const auto& expression = std::get<PcaModel>(*back.expression);
+    EXPECT_EQ(expression.basis, std::get<PcaModel>(*m.expression).basis);
+    EXPECT_EQ(expression.eigenvalues, std::get<PcaModel>(*m.expression).eigenvalues);
+    // load_model picks the reader by extension, and by the HDF5 signature.
+    EXPECT_EQ(load_model((dir / "model2017.h5").string()).checksum(), back.checksum());
+    std::filesystem::copy_file(dir / "model2017.h5", dir / "renamed.data");
+    EXPECT_EQ(load_model((dir / "renamed.data").string()).num_vertices(), m.num_vertices());
+}
+
+TEST(BfmIo, ShapeOnlyModel) {
+    const auto dir = testkit::fresh_temp_dir("bfm_shape_only");
+    MorphableModel m = toy_bfm();
+    m.albedo.reset();
+    m.expression.reset();
+    write_statismo(dir / "shape.h5", m);
+    const MorphableModel back = read_bfm2017(dir / "shape.h5");
+    EXPECT_FALSE(back.albedo.has_value());
+    EXPECT_FALSE(back.expression.has_value());
+}
+
+TEST(BfmIo, MicrometreModelIsConvertedToMillimetres) {
+    const auto dir = testkit::fresh_temp_dir("bfm_units");
+    MorphableModel m = toy_bfm();
+    MorphableModel micrometres = m;
+    scale_model_lengths(micrometres, 1000.0);
+    write_statismo(dir / "um.h5", micrometres);
+    const MorphableModel back = read_bfm2017(dir / "um.h5");
+    EXPECT_TRUE(back.shape.mean.isApprox(m.shape.mean, 1e-5f));
+    EXPECT_TRUE(back.shape.eigenvalues.isApprox(m.shape.eigenvalues, 1e-4f));
+    EXPECT_TRUE(std::get<PcaModel>(*back.expression).mean.isApprox(std::get<PcaModel>(*m.expression).mean, 1e-5f));
+    EXPECT_TRUE(back.albedo->mean.isApprox(m.albedo->mean));  // colours have no units
+
+    EXPECT_DOUBLE_EQ(unit_scale_to_mm(m.shape.mean, "x"), 1.0);
+    EXPECT_DOUBLE_EQ(unit_scale_to_mm(Eigen::VectorXf(m.shape.mean * 1e-3f), "x"), 1000.0);
+    EXPECT_THROW((void)unit_scale_to_mm(Eigen::VectorXf(m.shape.mean * 1e-6f), "x"), Error);
+}
+
+TEST(BfmIo, BadFilesFailWithTheFileName) {
+    const auto dir = testkit::fresh_temp_dir("bfm_bad");
+    const MorphableModel m = toy_bfm();
+    const auto path = dir / "bad.h5";
+    const auto expect_bad = [&](const std::string& what) {
+        expect_error_naming([&] { (void)read_bfm2017(path); }, path, what);
+    };
+    { std::ofstream(path, std::ios::trunc); }
+    expect_bad("empty");
+    { std::ofstream(path) << "not hdf5 at all"; }
+    expect_bad("text file");
+
+    write_statismo(dir / "good.h5", m);
+    std::string good;
+    {
+        std::ifstream in(dir / "good.h5", std::ios::binary);
+        good.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    for (std::size_t cut : {std::size_t{8}, std::size_t{600}, good.size() / 2, good.size() - 100}) {
+        std::filesystem::remove(path);
+        std::ofstream(path, std::ios::binary).write(good.data(), static_cast<std::streamsize>(cut));
+        expect_bad("truncated to " + std::to_string(cut));
+    }
+
+    const auto bad_variant = [&](const Overrides& o, const std::string& what) {
+        std::filesystem::remove(path);
+        write_statismo(path, m, o);
+        expect_bad(what);
+    };
+    bad_variant({"/shape/model/mean", {}}, "missing mean");
+    bad_variant({"/shape/representer/cells", {}}, "missing cells");
+    Eigen::VectorXf nan_mean = m.shape.mean;
+    nan_mean[4] = std::numeric_limits<float>::quiet_NaN();
+    bad_variant({"", {{"/shape/model/mean", vector_spec(nan_mean)}}}, "NaN in the mean");
+    bad_variant({"", {{"/shape/model/pcaBasis", matrix_spec(m.shape.basis.topRows(9))}}}, "basis rows mismatched");
+    bad_variant({"", {{"/shape/model/pcaVariance", vector_spec(-m.shape.eigenvalues)}}}, "negative variances");
+    bad_variant({"", {{"/shape/model/pcaBasis",
+                       DatasetSpec{{static_cast<hsize_t>(m.shape.mean.size()), hsize_t{1} << 40}, {}, true}}}},
+                "huge component count");
+    bad_variant({"", {{"/shape/representer/points", DatasetSpec{{3, hsize_t{1} << 33}, {}, true}}}}, "huge point count");
+    bad_variant({"", {{"/shape/model/mean", DatasetSpec{{static_cast<hsize_t>(m.shape.mean.size())}, {}, true}}}},
+                "mean declared but not stored");
+    Eigen::VectorXf tiny = m.shape.mean * 1e-7f;
+    bad_variant({"", {{"/shape/model/mean", vector_spec(tiny)}}}, "no recognisable units");
+}

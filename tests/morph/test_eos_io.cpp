@@ -1,0 +1,335 @@
+// eos file readers: the Surrey model as shipped, synthetic files of every model version, and the
+// bad-file matrix (each must throw facesynth::Error naming the file, never crash).
+#include "morph/byte_io.h"
+#include "morph/eos_io.h"
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "morph/model_io.h"
+
+#include "common/test_data.h"
+#include "common/toy_model.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+using namespace facesynth;
+
+namespace {
+
+void write_bytes(const std::filesystem::path& path, const std::string& bytes) {
+    std::ofstream out(path, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+// Expects facesynth::Error whose message names `path`.
+void expect_file_error(const std::function<void()>& call, const std::filesystem::path& path) {
+    try {
+        call();
+        ADD_FAILURE() << "no error for " << path;
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(path.filename().string()), std::string::npos) << e.what();
+    }
+}
+
+// cereal-style writers for synthetic eos files (the layout in docs/models.md).
+void put_matrix(ByteWriter& out, const Eigen::MatrixXf& m) {
+    out.write(static_cast<std::int32_t>(m.rows()));
+    out.write(static_cast<std::int32_t>(m.cols()));
+    out.write_floats(m);
+}
+
+void put_pca(ByteWriter& out, const PcaModel& pca, const std::vector<Triangle>& triangles) {
+    put_matrix(out, pca.mean);
+    put_matrix(out, pca.basis);
+    put_matrix(out, pca.eigenvalues);
+    out.write(static_cast<std::uint64_t>(triangles.size()));
+    out.write_bytes(triangles.data(), triangles.size() * sizeof(Triangle));
+}
+
+void put_blendshapes(ByteWriter& out, const std::vector<Blendshape>& shapes) {
+    out.write(static_cast<std::uint64_t>(shapes.size()));
+    for (const auto& b : shapes) {
+        out.write_string(b.name);
+        put_matrix(out, b.offsets);
+    }
+}
+
+std::string eos_file(const MorphableModel& m, std::uint32_t version, bool with_landmarks = true) {
+    ByteWriter out;
+    out.write(version);
+    put_pca(out, m.shape, m.triangles);
+    if (m.albedo) put_pca(out, *m.albedo, {});
+    else put_pca(out, PcaModel{Eigen::VectorXf(0), Eigen::MatrixXf(0, 0), Eigen::VectorXf(0)}, {});
+    if (version >= 2) {
+        out.write(static_cast<std::uint8_t>(m.expression ? 0 : 1));  // cereal's optional: 1 = empty
+        if (m.expression) {
+            if (const auto* pca = std::get_if<PcaModel>(&*m.expression)) {
+                out.write(std::int32_t{0});
+                put_pca(out, *pca, m.triangles);
+            } else {
+                out.write(std::int32_t{1});
+                put_blendshapes(out, std::get<std::vector<Blendshape>>(*m.expression));
+            }
+        }
+    }
+    if (version >= 3) {
+        out.write(static_cast<std::uint8_t>(with_landmarks ? 0 : 1));
+        if (with_landmarks) {
+            out.write(static_cast<std::uint64_t>(m.landmarks.size() + 1));
+            for (std::size_t i = 0; i < m.landmarks.size(); ++i) {
+                out.write_string(std::to_string(i + 1));
+                out.write(static_cast<std::int32_t>(m.landmarks[i].vertices[0]));
+            }
+            out.write_string("center.nose.tip");  // a non-iBUG name: ignored
+            out.write(std::int32_t{0});
+        }
+    }
+    out.write(static_cast<std::uint64_t>(m.uv.cols()));
+    for (Eigen::Index i = 0; i < m.uv.cols(); ++i) {
+        out.write(static_cast<double>(m.uv(0, i)));
+        out.write(static_cast<double>(m.uv(1, i)));
+    }
+    if (version >= 4) {
+        out.write(static_cast<std::uint64_t>(m.triangles.size()));
+        out.write_bytes(m.triangles.data(), m.triangles.size() * sizeof(Triangle));
+    }
+    return out.bytes();
+}
+
+testkit::ToyModelOptions small_toy() {
+    testkit::ToyModelOptions o;
+    o.shape_components = 4;
+    o.latitude_steps = 12;
+    o.longitude_steps = 16;
+    return o;
+}
+
+}  // namespace
+
+// --- The Surrey model as shipped --------------------------------------------------------------------
+
+TEST(EosIo, SurreyModelCountsAndKnownValues) {
+    FACESYNTH_REQUIRE_SHARED_DATA(path, "sfm/sfm_shape_3448.bin");
+    const EosModelFile file = read_eos_model(path);
+    const MorphableModel& m = file.model;
+    EXPECT_EQ(file.version, 1);
+    EXPECT_EQ(m.num_vertices(), 3448);
+    EXPECT_EQ(m.num_shape_components(), 63);
+    EXPECT_EQ(m.triangles.size(), 6736u);
+    EXPECT_EQ(m.uv.cols(), 3448);
+    EXPECT_FALSE(m.albedo.has_value());
+    EXPECT_FALSE(m.expression.has_value());
+    EXPECT_NEAR(m.shape.eigenvalues[0], 56502.4f, 0.1f);
+    EXPECT_NEAR(m.shape.eigenvalues[1], 29755.4f, 0.1f);
+    EXPECT_NEAR(m.shape.eigenvalues[2], 9637.5f, 0.1f);
+    EXPECT_NEAR(m.shape.eigenvalues[62], 45.58f, 0.01f);
+    EXPECT_GE(m.uv.minCoeff(), 0.0f);
+    EXPECT_LE(m.uv.maxCoeff(), 1.0f);
+    const Eigen::MatrixXf gram = m.shape.basis.transpose() * m.shape.basis;
+    EXPECT_LT((gram - Eigen::MatrixXf::Identity(63, 63)).cwiseAbs().maxCoeff(), 1e-3f);
+    // The nose tip (iBUG 31 -> vertex 114) is within 0.5 mm of the most protruding point of the
+    // mean (the maximum itself is vertex 3420, 1.4 mm above it).
+    const Eigen::Matrix3Xf mean = m.shape_instance({});
+    EXPECT_NEAR(mean(2, 114), mean.row(2).maxCoeff(), 0.5f);
+    EXPECT_NEAR(mean(0, 114), 0.0f, 1.0f);  // on the midline
+}
+
+TEST(EosIo, SurreyBlendshapes) {
+    FACESYNTH_REQUIRE_SHARED_DATA(path, "sfm/expression_blendshapes_3448.bin");
+    const auto shapes = read_eos_blendshapes(path, 3 * 3448);
+    ASSERT_EQ(shapes.size(), 6u);
+    const char* names[] = {"anger", "disgust", "fear", "happiness", "sadness", "surprise"};
+    for (std::size_t i = 0; i < 6; ++i) {
+        EXPECT_EQ(shapes[i].name, names[i]);
+        EXPECT_GT(shapes[i].offsets.cwiseAbs().maxCoeff(), 1.0f) << names[i];  // mm-sized deformations
+    }
+    EXPECT_THROW((void)read_eos_blendshapes(path, 3 * 100), Error);
+}
+
+TEST(EosIo, SurreySideFiles) {
+    FACESYNTH_REQUIRE_SHARED_DATA(dir, "sfm");
+    const LandmarkMapping mapping = read_landmark_mapping(dir / "ibug_to_sfm.txt");
+    EXPECT_EQ(mapping.size(), 50u);
+    EXPECT_EQ(mapping.at(31), 114);
+    EXPECT_EQ(mapping.at(9), 33);
+    EXPECT_FALSE(mapping.contains(1));
+    EXPECT_FALSE(mapping.contains(61));
+    const ContourChains chains = read_model_contours(dir / "sfm_model_contours.json");
+    ASSERT_EQ(chains.right.size(), 17u);
+    ASSERT_EQ(chains.left.size(), 17u);
+    EXPECT_EQ(chains.right.front(), 380);
+    EXPECT_EQ(chains.left.back(), 465);
+    const std::vector<int> symmetry = read_symmetry(dir / "sfm_reference_symmetry.txt", 3448);
+    ASSERT_EQ(symmetry.size(), 3448u);
+    EXPECT_EQ(symmetry[0], 444);  // line 1 says 445, 1-based
+    EXPECT_EQ(symmetry[844], 435);
+    EXPECT_EQ(symmetry[845], -1);
+}
+
+TEST(EosIo, SurreyFolderLoadsEverythingWith68Landmarks) {
+    FACESYNTH_REQUIRE_SHARED_DATA(dir, "sfm");
+    const MorphableModel m = load_model(dir.string());
+    ASSERT_EQ(m.landmarks.size(), 68u);
+    EXPECT_EQ(m.landmarks[30].vertices[0], 114);  // iBUG 31, nose tip
+    EXPECT_EQ(m.num_expression_components(), 6);
+    EXPECT_EQ(m.contour.right.size(), 17u);
+    EXPECT_EQ(m.symmetry.size(), 3448u);
+    const Eigen::Matrix3Xf lm = m.landmark_positions(m.shape_instance({}));
+    // Completed jaw points mirror each other and descend from eye level to the chin.
+    const auto mirror = ibug_mirror_pairs();
+    for (int i = 0; i < 17; ++i) {
+        const int j = mirror[static_cast<std::size_t>(i)];
+        EXPECT_NEAR(lm(0, i), -lm(0, j), 3.0f) << "jaw point " << i + 1;
+        EXPECT_NEAR(lm(1, i), lm(1, j), 3.0f) << "jaw point " << i + 1;
+    }
+    for (int i = 0; i < 8; ++i) EXPECT_GT(lm(1, i), lm(1, i + 1)) << "jaw point " << i + 1 << " not above the next";
+    // Point 1 sits a little above the eye line (as on near-frontal 300-W faces), below the brow.
+    EXPECT_GT(lm(1, 0), lm(1, kRightEyeOuterCorner));
+    EXPECT_LT(lm(1, 0), lm(1, 17));
+    // Inner mouth corners lie between the outer corners and the inner lip points, at lip height.
+    EXPECT_GT(lm(0, 60), lm(0, 48));
+    EXPECT_LT(lm(0, 60), lm(0, 61));
+    EXPECT_LT(lm(0, 64), lm(0, 54));
+    EXPECT_GT(lm(0, 64), lm(0, 63));
+    EXPECT_NEAR(lm(1, 60), lm(1, 48), 3.0f);
+}
+
+TEST(EosIo, CompletionDataMatchesTheSurreyMesh) {
+    const LandmarkCompletion& c = sfm_landmark_completion();
+    EXPECT_EQ(c.model_vertices, 3448);
+    EXPECT_EQ(c.model_triangles, 6736);
+    EXPECT_EQ(c.mapping.size(), 18u);
+    for (int id : {1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16, 17, 61, 65}) EXPECT_TRUE(c.mapping.contains(id)) << id;
+}
+
+// --- Synthetic files of every version ------------------------------------------------------------
+
+TEST(EosIo, ReadsVersionsOneToFour) {
+    const auto dir = testkit::fresh_temp_dir("eos_versions");
+    MorphableModel toy = testkit::make_toy_model(small_toy());
+    for (std::uint32_t version = 1; version <= 4; ++version) {
+        const auto path = dir / ("v" + std::to_string(version) + ".bin");
+        write_bytes(path, eos_file(toy, version));
+        const EosModelFile file = read_eos_model(path);
+        EXPECT_EQ(file.version, static_cast<int>(version));
+        EXPECT_EQ(file.model.shape.mean, toy.shape.mean);
+        EXPECT_EQ(file.model.shape.basis, toy.shape.basis);
+        EXPECT_EQ(file.model.triangles, toy.triangles);
+        EXPECT_TRUE(file.model.uv.isApprox(toy.uv));
+        ASSERT_TRUE(file.model.albedo.has_value());
+        EXPECT_EQ(file.model.albedo->mean, toy.albedo->mean);
+        EXPECT_EQ(file.model.expression.has_value(), version >= 2);
+        if (version >= 2) {
+            EXPECT_EQ(file.model.num_expression_components(), toy.num_expression_components());
+        }
+        EXPECT_EQ(file.landmarks.size(), version >= 3 ? 68u : 0u);
+        // A lone model file with a complete iBUG map gets its 68 landmarks.
+        EXPECT_EQ(load_model(path.string()).landmarks.size(), version >= 3 ? 68u : 0u);
+    }
+    // The PCA expression alternative of the variant.
+    toy.expression = toy.shape;
+    const auto path = dir / "pca_expression.bin";
+    write_bytes(path, eos_file(toy, 2));
+    const EosModelFile file = read_eos_model(path);
+    ASSERT_TRUE(std::holds_alternative<PcaModel>(*file.model.expression));
+    EXPECT_EQ(std::get<PcaModel>(*file.model.expression).basis, toy.shape.basis);
+}
+
+// --- Bad files -----------------------------------------------------------------------------------
+
+TEST(EosIo, BadModelFilesFailWithTheFileName) {
+    const auto dir = testkit::fresh_temp_dir("eos_bad");
+    const MorphableModel toy = testkit::make_toy_model(small_toy());
+    const std::string good = eos_file(toy, 3);
+    const auto path = dir / "bad_model.bin";
+    const auto expect_bad = [&](const std::string& bytes, const char* what) {
+        SCOPED_TRACE(what);
+        write_bytes(path, bytes);
+        expect_file_error([&] { (void)read_eos_model(path); }, path);
+    };
+    expect_bad("", "empty");
+    for (std::size_t cut : {std::size_t{2}, std::size_t{6}, std::size_t{13}, good.size() / 3, good.size() / 2, good.size() - 1})
+        expect_bad(good.substr(0, cut), "truncated");
+    for (std::uint32_t version : {0u, 5u, 0x01000000u}) {
+        std::string bytes = good;
+        std::memcpy(bytes.data(), &version, 4);
+        expect_bad(bytes, "wrong version");
+    }
+    {
+        std::string bytes = good;
+        const float nan = std::numeric_limits<float>::quiet_NaN();
+        std::memcpy(bytes.data() + 4 + 8 + 4 * 5, &nan, 4);  // a value of the shape mean
+        expect_bad(bytes, "NaN");
+    }
+    for (std::int32_t rows : {std::int32_t{-3}, std::numeric_limits<std::int32_t>::max()}) {
+        std::string bytes = good;
+        std::memcpy(bytes.data() + 4, &rows, 4);
+        expect_bad(bytes, "huge or negative dimension");
+    }
+    {
+        std::string bytes = good;
+        const std::int32_t huge = 1 << 30;
+        std::memcpy(bytes.data() + 4 + 4, &huge, 4);  // mean cols
+        expect_bad(bytes, "huge column count");
+    }
+    expect_bad(good + "xx", "trailing bytes");
+    {
+        // A triangle list count far beyond the file.
+        ByteWriter out;
+        out.write(std::uint32_t{1});
+        put_matrix(out, toy.shape.mean);
+        put_matrix(out, toy.shape.basis);
+        put_matrix(out, toy.shape.eigenvalues);
+        out.write(std::uint64_t{1} << 60);
+        expect_bad(out.bytes(), "huge triangle count");
+    }
+    expect_file_error([&] { (void)read_eos_model(dir / "missing.bin"); }, dir / "missing.bin");
+}
+
+TEST(EosIo, BadBlendshapeFiles) {
+    const auto dir = testkit::fresh_temp_dir("eos_bad_blendshapes");
+    ByteWriter good;
+    put_blendshapes(good, {{"smile", Eigen::VectorXf::Ones(30)}, {"frown", Eigen::VectorXf::Ones(30)}});
+    const auto path = dir / "bad_blendshapes.bin";
+    write_bytes(path, good.bytes());
+    EXPECT_EQ(read_eos_blendshapes(path, 30).size(), 2u);
+    for (const std::string& bytes : {std::string(), good.bytes().substr(0, 7), good.bytes().substr(0, 20),
+                                     good.bytes().substr(0, good.bytes().size() - 4), good.bytes() + "z"}) {
+        write_bytes(path, bytes);
+        expect_file_error([&] { (void)read_eos_blendshapes(path); }, path);
+    }
+    std::string huge = good.bytes();
+    const std::uint64_t count = std::uint64_t{1} << 62;
+    std::memcpy(huge.data(), &count, 8);
+    write_bytes(path, huge);
+    expect_file_error([&] { (void)read_eos_blendshapes(path); }, path);
+    std::string nan = good.bytes();
+    const float value = std::numeric_limits<float>::quiet_NaN();
+    std::memcpy(nan.data() + 8 + 8 + 5 + 8 + 4, &value, 4);
+    write_bytes(path, nan);
+    expect_file_error([&] { (void)read_eos_blendshapes(path); }, path);
+}
+
+TEST(EosIo, BadSideFiles) {
+    const auto dir = testkit::fresh_temp_dir("eos_bad_side");
+    const auto mapping = dir / "ibug_to_bad.txt";
+    for (const std::string& text : {std::string(), std::string("[landmark_mappings]\n31 = \n"),
+                                    std::string("[other]\n1 = 2\n"), std::string("[landmark_mappings]\nnose = 3\n"),
+                                    std::string("[landmark_mappings]\n99 = 3\n"), std::string("[landmark_mappings]\n9 = \"x\"\n")}) {
+        write_bytes(mapping, text);
+        expect_file_error([&] { (void)read_landmark_mapping(mapping); }, mapping);
+    }
+    const auto contours = dir / "bad_contours.json";
+    for (const std::string& text : {std::string(), std::string("{"), std::string("{\"model_contour\": {}}"),
+                                    std::string("{\"model_contour\": {\"right_contour\": [1, -2], \"left_contour\": []}}")}) {
+        write_bytes(contours, text);
+        expect_file_error([&] { (void)read_model_contours(contours); }, contours);
+    }
+    const auto symmetry = dir / "bad_symmetry.txt";
+    for (const std::string& text : {std::string(), std::string("2\nx\n"), std::string("0\n"), std::string("1\n2\n3\n4\n")}) {
+        write_bytes(symmetry, text);
+        expect_file_error([&] { (void)read_symmetry(symmetry, 3); }, symmetry);
+    }
+    EXPECT_THROW((void)parse_landmark_completion("model_vertices = 10\nmodel_triangles = 1\n[landmark_mappings]\n1 = 10\n", "c.toml"), Error);
+}
