@@ -129,7 +129,7 @@ struct Layout {
         y_sto = y_sn - a.upper_lip * scale;
         y_gn = y_n - a.face_height;
         y_tr = y_n + a.forehead;
-        y_top = y_tr + 38.0;
+        y_top = y_tr + 48.0;
         y_go = y_sto - 12.0;
         y_prn = y_sn + 0.3 * a.nose_protrusion;
         x_ex = 0.5 * a.biocular;
@@ -173,9 +173,10 @@ class FaceBuilder {
 public:
     FaceBuilder(const Anatomy& anatomy, const Expression& expression)
         : a_(anatomy), e_(expression), l_(anatomy),
-          half_width_({{l_.y_top, 0.78}, {l_.y_tr, 0.92}, {l_.y_eye + 28, 1.0}, {l_.y_eye + 8, 0.985}}),
-          depth_({{l_.y_top, 60},
-                  {l_.y_tr, 85},
+          depth_({{l_.y_top, 20},
+                  {l_.y_tr + 32, 62},
+                  {l_.y_tr + 16, 78},
+                  {l_.y_tr, 86},
                   {l_.y_tr - 0.45 * (l_.y_tr - l_.y_n), 93},
                   {l_.y_n + 11, 95},
                   {l_.y_n, 91},
@@ -185,21 +186,29 @@ public:
                   {l_.y_sto - 0.42 * (l_.y_sto - l_.y_gn), 84},
                   {l_.y_gn + 11, 86.5 + 2.0 * (a_.chin - 1.0)},
                   {l_.y_gn, 79}}),
-          exponent_({{l_.y_top, 2.2},
-                     {l_.y_tr, 2.5},
-                     {l_.y_eye + 15, 2.8},
-                     {l_.y_eye - 10, 2.8},
-                     {l_.y_sto, 2.4},
+          exponent_({{l_.y_top, 2.0},
+                     {l_.y_tr, 2.2},
+                     {l_.y_eye + 15, 2.4},
+                     {l_.y_eye - 10, 2.4},
+                     {l_.y_sto, 2.2},
                      {l_.y_go, 2.1},
                      {l_.y_gn + 10, 1.9},
                      {l_.y_gn, 1.8}}) {
         const double hw = 0.5 * a_.head_width, fw = 0.5 * a_.face_width, jw = 0.5 * a_.jaw_width;
-        lower_width_ = Profile({{l_.y_eye + 8, 0.985 * hw},
-                                {l_.y_eye - 10, fw},
-                                {l_.y_sto + 6, 0.5 * (fw + jw) + 4.0},
-                                {l_.y_go, jw},
-                                {l_.y_gn + 14, 0.55 * jw},
-                                {l_.y_gn, 0.3 * jw}});
+        width_ = Profile({{l_.y_top, 0.22 * hw},
+                          {l_.y_tr + 32, 0.72 * hw},
+                          {l_.y_tr + 16, 0.87 * hw},
+                          {l_.y_tr, 0.94 * hw},
+                          {l_.y_eye + 28, hw},
+                          {l_.y_eye + 12, 0.985 * hw},
+                          {l_.y_eye - 14, fw},
+                          {l_.y_sto + 4, 0.5 * (fw + jw) + 4.0},
+                          {l_.y_go, jw},
+                          {l_.y_gn + 14, 0.7 * jw},
+                          {l_.y_gn, 0.45 * jw}});
+        forward_ = Profile({{l_.y_sto, 0.0}, {l_.y_go, 4.0}, {l_.y_gn + 14, 38.0}, {l_.y_gn, 48.0}});
+        nose_half_width_ = Profile({{l_.y_sn - 2, 7.0}, {l_.y_sn, 8.5}, {l_.y_prn, 11.0 * a_.nose_tip}, {l_.y_prn + 12, 10.0},
+                                    {l_.y_eye, 9.5}, {l_.y_n, 9.5}, {l_.y_n + 8, 11.0}});
         l_.z_nasion = depth(l_.y_n) + 1.0;
         l_.z_cornea = l_.z_nasion - 12.0 * a_.eye_depth;
         l_.z_prn = depth(l_.y_sn) + 0.95 * a_.nose_protrusion + 2.0;
@@ -226,14 +235,12 @@ public:
 
 private:
     struct Section {
-        double y, half_width, depth, back_depth, exponent;
+        double y, half_width, depth, back_depth, exponent, centre;
         bool under_chin;
     };
 
     [[nodiscard]] double depth(double y) const { return depth_(y) * a_.head_depth; }
-    [[nodiscard]] double width(double y) const {
-        return y >= l_.y_eye + 8 ? 0.5 * a_.head_width * half_width_(y) : lower_width_(y);
-    }
+    [[nodiscard]] double width(double y) const { return width_(y); }
 
     [[nodiscard]] std::array<double, kRows> regular_rows() const {
         const std::array<std::pair<int, double>, 10> anchors = {{{0, l_.y_top},
@@ -245,7 +252,7 @@ private:
                                                                  {kRowStomion, l_.y_sto},
                                                                  {kRowBelowLip, l_.y_sto - 20},
                                                                  {kRowGnathion, l_.y_gn},
-                                                                 {kRows - 1, l_.y_gn - 4}}};
+                                                                 {kRows - 1, l_.y_gn - 6}}};
         std::array<double, kRows> y{};
         for (std::size_t i = 0; i + 1 < anchors.size(); ++i) {
             const auto [r0, y0] = anchors[i];
@@ -256,13 +263,13 @@ private:
     }
 
     [[nodiscard]] Section section_at(int row, double y) const {
-        Section s{y, width(y), depth(y), 0.0, exponent_(y), row > kRowGnathion};
+        Section s{y, width(y), depth(y), 0.0, exponent_(y), forward_(y), row > kRowGnathion};
         if (s.under_chin) {
             const double f = double(row - kRowGnathion) / (kRows - 1 - kRowGnathion);
             s.half_width = width(l_.y_gn) * (1.0 - 0.25 * f);
-            s.depth = depth(l_.y_gn) * (1.0 - 0.4 * f);
+            s.depth = lerp(depth(l_.y_gn), s.centre + 10.0, f);
         }
-        s.back_depth = 0.35 * s.half_width;
+        s.back_depth = 0.35 * s.half_width + 0.8 * s.centre;
         return s;
     }
 
@@ -278,7 +285,7 @@ private:
             const double e = 2.0 / s.exponent;
             const double x = s.half_width * std::pow(std::sin(theta), e);
             const double c = std::cos(theta);
-            const double z = c >= 0 ? s.depth * std::pow(c, e) : -s.back_depth * std::pow(-c, e);
+            const double z = c >= 0 ? s.centre + (s.depth - s.centre) * std::pow(c, e) : s.centre - s.back_depth * std::pow(-c, e);
             curve[static_cast<std::size_t>(i)] = {x, z};
             if (i > 0) {
                 const auto [px, pz] = curve[static_cast<std::size_t>(i - 1)];
@@ -299,7 +306,7 @@ private:
 
 public:
     // Arc-length fraction of column position s in [0, 1] (0 midline, 1 mask edge).
-    static double column_fraction(double s) { return 0.5 * s + 0.5 * s * s * s; }
+    static double column_fraction(double s) { return 0.42 * s + 0.58 * s * s * s; }
 
 private:
     // Signed position along the eye: -1 at the inner corner, +1 at the outer corner.
@@ -353,15 +360,15 @@ private:
         const double y = warped_y(r, x, row_y);
         double z = z0;
         // The front re-evaluates the section at the warped height.
-        if (!section.under_chin && z0 > 0 && std::abs(y - section.y) > 1e-9) {
-            const double a = width(y), b = depth(y), n = exponent_(y);
+        if (!section.under_chin && z0 > section.centre && std::abs(y - section.y) > 1e-9) {
+            const double a = width(y), b = depth(y), n = exponent_(y), centre = forward_(y);
             const double q = std::min(1.0, std::abs(x) / a);
-            z = b * std::pow(std::max(0.0, 1.0 - std::pow(q, n)), 1.0 / n);
+            z = centre + (b - centre) * std::pow(std::max(0.0, 1.0 - std::pow(q, n)), 1.0 / n);
         }
         const double front = smoothstep(-5.0, 25.0, z0) * (section.under_chin ? 0.0 : 1.0);
         z += front * feature_depth(r, x, y, z);
         Eigen::Vector3d p(x, y, z);
-        p += front * expression_offset(r, c, p);
+        p += expression_offset(r, c, p);
         return p;
     }
 
@@ -370,7 +377,7 @@ private:
         const double ax = std::abs(x);
         double dz = 0;
         // Forehead, brow ridge, glabella, temples.
-        dz += 3.5 * a_.brow_ridge * gauss2(ax - l_.x_ec - 1, y - (l_.y_eye + 13.5), 17.0, 5.0);
+        dz += 3.5 * a_.brow_ridge * gauss2(ax - l_.x_ec - 1, y - (l_.y_eye + 15.0), 17.0, 5.5);
         dz += 2.5 * a_.brow_ridge * gauss2(x, y - (l_.y_n + 9), 9.0, 6.0);
         dz -= 3.0 * gauss2(ax - (l_.x_ex + 16), y - (l_.y_eye + 26), 10.0, 14.0);
         // Eye sockets.
@@ -429,13 +436,11 @@ private:
             if (y < y_base) midline = std::max(0.0, (depth(y_base) + 1.0 - depth(y)) * gauss(y - y_base, 1.5));
         }
         // Half-width of the nose body, from a narrow bridge to the lobule.
-        const Profile half({{y_base - 2, 7.0}, {y_base, 8.0}, {y_tip, 10.0 * a_.nose_tip}, {y_tip + 12, 8.5}, {l_.y_eye, 7.5},
-                            {y_root, 7.0}, {y_root + 8, 9.0}});
-        const double w = half(y) * (0.85 + 0.15 * a_.nose_width / 33.0);
+        const double w = nose_half_width_(y) * (0.85 + 0.15 * a_.nose_width / 33.0);
         const double r2 = std::min(1.0, (x * x) / (w * w));
-        double h = std::max(0.0, midline) * (1.0 - r2) * (1.0 - r2);
+        double h = std::max(0.0, midline) * std::pow(1.0 - r2, 1.6);
         // Tip lobule, alae, nostrils.
-        h += 2.0 * a_.nose_tip * gauss2(x, y - y_tip, 5.5, 4.5);
+        h += 2.5 * a_.nose_tip * gauss2(x, y - y_tip, 6.5, 5.0);
         const double ala_x = l_.x_al - 4.5, ala_y = y_base + 4.5;
         h += 8.0 * gauss2(ax - ala_x, y - ala_y, 4.2, 4.5);
         h -= 1.2 * gauss2(std::hypot(ax - ala_x, (y - ala_y) * 0.9) - 6.0, 0.0, 1.2, 1.0);  // alar crease
@@ -507,8 +512,10 @@ private:
     Anatomy a_;
     Expression e_;
     Layout l_;
-    Profile half_width_, depth_, exponent_;
-    Profile lower_width_{{{0.0, 0.0}, {1.0, 0.0}}};
+    Profile depth_, exponent_;
+    Profile width_{{{0.0, 0.0}, {1.0, 0.0}}};
+    Profile forward_{{{0.0, 0.0}, {1.0, 0.0}}};  // how far forward the section's widest point sits (the mandible)
+    Profile nose_half_width_{{{0.0, 0.0}, {1.0, 0.0}}};
 };
 
 // Farkas norms (DESIGN.md §7) for one sex, with a shared size factor and individual spreads.
@@ -581,12 +588,12 @@ double brow_u(const Layout& l, double ax) { return (ax - (l.x_en - 3.0)) / ((l.x
 double brow_centre(const Layout& l, double ax) {
     const double u = std::clamp(brow_u(l, ax), 0.0, 1.0);
     const double q = (u - 0.65) / 0.65;
-    return l.y_eye + 11.0 + 3.5 * std::max(0.0, 1.0 - q * q);
+    return l.y_eye + 13.5 + 3.0 * std::max(0.0, 1.0 - q * q);
 }
 double brow_thickness(const Layout& l, double ax) {
     const double u = brow_u(l, ax);
     if (u < 0.0 || u > 1.0) return 0.0;
-    return lerp(7.5, 3.0, u) * std::min(1.0, u / 0.06 + 0.3) * std::min(1.0, (1.0 - u) / 0.08 + 0.2);
+    return lerp(9.0, 4.0, u) * std::min(1.0, u / 0.06 + 0.3) * std::min(1.0, (1.0 - u) / 0.08 + 0.2);
 }
 
 // A point on row `row` at model x, between the two row vertices that bracket it.
@@ -677,10 +684,11 @@ std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::v
     // Jaw: the frontal outline from just below the eye corner down to the chin.
     const int first = row_at_height(v, l.y_eye - 4.0);
     std::vector<int> outline = right_silhouette(v, first, kRowGnathion);
-    outline.push_back(vertex_id(kRowGnathion, kMidColumn));
+    constexpr int kRowMenton = kRows - 2;  // the lowest point of the chin seen from the front
+    outline.push_back(vertex_id(kRowMenton, kMidColumn));
     const auto jaw = along_chain(v, outline, 9);
     for (int i = 0; i < 8; ++i) set_pair(i + 1, jaw[static_cast<std::size_t>(i)]);
-    lm[kChinLandmark] = SurfacePoint::at_vertex(vertex_id(kRowGnathion, kMidColumn));
+    lm[kChinLandmark] = SurfacePoint::at_vertex(vertex_id(kRowMenton, kMidColumn));
     // Brows (18 outer .. 22 inner), on the brow's upper half.
     const std::array<double, 5> brow_x = {l.x_ex + 6.0, l.x_ex - 5.0, l.x_ec, l.x_en + 5.0, l.x_en - 1.0};
     for (int i = 0; i < 5; ++i) set_pair(18 + i, front(-brow_x[static_cast<std::size_t>(i)], brow_centre(l, brow_x[static_cast<std::size_t>(i)]) + 1.2));
@@ -740,7 +748,7 @@ ColourRegions colour_regions(const Eigen::Matrix3Xf& v, const Layout& l) {
                 g.sclera[i] = 1.0f;
                 const double dx = ax - l.x_ec, dy = y - l.eye_centre_y(0.0) - 0.3;
                 const double rho = std::hypot(dx, dy);
-                g.iris[i] = static_cast<float>(smoothstep(6.4, 5.2, rho));
+                g.iris[i] = static_cast<float>(smoothstep(6.8, 5.6, rho));
                 g.pupil[i] = static_cast<float>(smoothstep(2.6, 1.8, rho));
             }
             if (front && std::abs(t) < 1.15) {
@@ -804,7 +812,7 @@ Eigen::Matrix3Xf random_colouring(Rng& rng, const ColourRegions& g) {
     const double flush = std::max(0.0, 0.12 + 0.06 * rng.normal());
     const double shadow = std::max(0.0, 0.15 + 0.07 * rng.normal());
     const double beard = std::max(0.0, rng.uniform() < 0.5 ? 0.12 * rng.uniform() : 0.0);
-    const double brow_density = std::clamp(0.75 + 0.15 * rng.normal(), 0.3, 1.0);
+    const double brow_density = std::clamp(0.9 + 0.1 * rng.normal(), 0.5, 1.0);
     Eigen::Matrix3Xf colours(3, kNumVertices);
     for (int id = 0; id < kNumVertices; ++id) {
         const auto i = static_cast<std::size_t>(id);
