@@ -2,6 +2,7 @@
 
 #include "morph/error.h"
 #include "morph/landmarks.h"
+#include "morph/mesh.h"
 #include "morph/pca.h"
 #include "morph/random.h"
 
@@ -204,8 +205,14 @@ public:
                           {l_.y_eye - 14, fw},
                           {l_.y_sto + 4, 0.5 * (fw + jw) + 4.0},
                           {l_.y_go, jw},
-                          {l_.y_gn + 14, 0.7 * jw},
-                          {l_.y_gn, 0.45 * jw}});
+                          {l_.y_go - 10, 0.93 * jw},
+                          {l_.y_gn + 14, 0.78 * jw},
+                          {l_.y_gn + 4, 0.6 * jw},
+                          {l_.y_gn, 0.5 * jw}});
+        // Behind the face: the skull above, the neck below (where the mask stops short of it).
+        back_depth_ = Profile({{l_.y_top, 22.0}, {l_.y_tr + 32, 70.0}, {l_.y_tr + 16, 88.0}, {l_.y_tr, 97.0}, {l_.y_eye, 97.0},
+                               {l_.y_sn, 75.0}, {l_.y_go, 30.0}});
+        max_angle_ = Profile({{l_.y_go, 105.0}, {l_.y_sn, 150.0}});
         forward_ = Profile({{l_.y_sto, 0.0}, {l_.y_go, 4.0}, {l_.y_gn + 14, 38.0}, {l_.y_gn, 48.0}});
         nose_half_width_ = Profile({{l_.y_sn - 2, 7.0}, {l_.y_sn, 8.5}, {l_.y_prn, 11.0 * a_.nose_tip}, {l_.y_prn + 12, 10.0},
                                     {l_.y_eye, 9.5}, {l_.y_n, 9.5}, {l_.y_n + 8, 11.0}});
@@ -237,6 +244,7 @@ private:
     struct Section {
         double y, half_width, depth, back_depth, exponent, centre;
         bool under_chin;
+        double max_angle = 0;
     };
 
     [[nodiscard]] double depth(double y) const { return depth_(y) * a_.head_depth; }
@@ -263,13 +271,14 @@ private:
     }
 
     [[nodiscard]] Section section_at(int row, double y) const {
-        Section s{y, width(y), depth(y), 0.0, exponent_(y), forward_(y), row > kRowGnathion};
+        Section s{y, width(y), depth(y), 0.0, exponent_(y), forward_(y), row > kRowGnathion, 0.0};
         if (s.under_chin) {
             const double f = double(row - kRowGnathion) / (kRows - 1 - kRowGnathion);
             s.half_width = width(l_.y_gn) * (1.0 - 0.25 * f);
             s.depth = lerp(depth(l_.y_gn), s.centre + 10.0, f);
         }
-        s.back_depth = 0.35 * s.half_width + 0.8 * s.centre;
+        s.back_depth = std::max(back_depth_(y), 0.35 * s.half_width + 0.8 * s.centre);
+        s.max_angle = max_angle_(y) * std::numbers::pi / 180.0;
         return s;
     }
 
@@ -277,11 +286,10 @@ private:
     // midline to the mask's edge behind the ear: dense over the face, sparse toward the ear.
     [[nodiscard]] std::array<std::pair<double, double>, kColumns - kMidColumn> column_points(const Section& s) const {
         constexpr int kSamples = 160;
-        constexpr double kMaxAngle = 105.0 * std::numbers::pi / 180.0;
         std::array<std::pair<double, double>, kSamples + 1> curve{};
         std::array<double, kSamples + 1> arc{};
         for (int i = 0; i <= kSamples; ++i) {
-            const double theta = kMaxAngle * i / kSamples;
+            const double theta = s.max_angle * i / kSamples;
             const double e = 2.0 / s.exponent;
             const double x = s.half_width * std::pow(std::sin(theta), e);
             const double c = std::cos(theta);
@@ -477,7 +485,7 @@ private:
         const double x = p.x(), y = p.y(), ax = std::abs(x), sx = x < 0 ? -1.0 : 1.0;
         if (e_.smile != 0) {
             const double corner = gauss2(ax - l_.x_ch, y - l_.y_sto, 11.0, 10.0);
-            d += e_.smile * corner * Eigen::Vector3d(sx * 4.0, 4.5, -3.0);
+            d += e_.smile * corner * Eigen::Vector3d(sx * 5.0, 6.0, -3.5);
             const double cheek = gauss2(ax - (l_.x_ch + 12), y - (l_.y_sto + 20), 14.0, 12.0);
             d += e_.smile * cheek * Eigen::Vector3d(sx * 1.5, 3.0, 2.5);
             const double lips = smoothstep(l_.x_ch + 6, l_.x_ch - 4, ax) * gauss(y - l_.y_sto, 10.0);
@@ -485,7 +493,7 @@ private:
         }
         if (e_.pucker != 0) {
             const double g = gauss2(x, y - l_.y_sto, 0.85 * l_.x_ch, 9.0);
-            d += e_.pucker * g * Eigen::Vector3d(-0.35 * x, 0.0, 8.0);
+            d += e_.pucker * g * Eigen::Vector3d(-0.45 * x, 0.0, 10.0);
         }
         if (e_.brow_raise != 0) {
             const double above = smoothstep(l_.y_eye + 5.0, l_.y_eye + 14.0, y) * (1.0 - 0.6 * smoothstep(l_.y_eye + 25, l_.y_tr, y));
@@ -514,7 +522,9 @@ private:
     Layout l_;
     Profile depth_, exponent_;
     Profile width_{{{0.0, 0.0}, {1.0, 0.0}}};
-    Profile forward_{{{0.0, 0.0}, {1.0, 0.0}}};  // how far forward the section's widest point sits (the mandible)
+    Profile forward_{{{0.0, 0.0}, {1.0, 0.0}}};
+    Profile back_depth_{{{0.0, 0.0}, {1.0, 0.0}}};
+    Profile max_angle_{{{0.0, 0.0}, {1.0, 0.0}}};  // degrees round from the midline where the mask ends  // how far forward the section's widest point sits (the mandible)
     Profile nose_half_width_{{{0.0, 0.0}, {1.0, 0.0}}};
 };
 
@@ -728,12 +738,13 @@ std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::v
 // mean face, so the regions are in correspondence across the colour population).
 struct ColourRegions {
     std::vector<float> sclera, iris, pupil, lashes, lid_margin, lips, mouth, nostrils, brows, hair, eye_shadow, cheeks, beard;
+    std::vector<float> cavity;  // how deep in a crease (nostrils, mouth line, alar groove, canthi): baked-in occlusion
 };
 
 ColourRegions colour_regions(const Eigen::Matrix3Xf& v, const Layout& l) {
     ColourRegions g;
     for (auto* w : {&g.sclera, &g.iris, &g.pupil, &g.lashes, &g.lid_margin, &g.lips, &g.mouth, &g.nostrils, &g.brows, &g.hair,
-                    &g.eye_shadow, &g.cheeks, &g.beard})
+                    &g.eye_shadow, &g.cheeks, &g.beard, &g.cavity})
         w->assign(kNumVertices, 0.0f);
     for (int r = 0; r < kRows; ++r)
         for (int c = 0; c < kColumns; ++c) {
@@ -763,7 +774,8 @@ ColourRegions colour_regions(const Eigen::Matrix3Xf& v, const Layout& l) {
                 const double up = l.upper_vermilion(x), down = l.lower_vermilion(x);
                 const double in_lip = smoothstep(up + 0.6, up - 0.6, y) * smoothstep(down - 0.8, down + 0.8, y);
                 g.lips[i] = static_cast<float>(in_lip * inside_mouth);
-                if (r == kRowStomion) g.mouth[i] = static_cast<float>(smoothstep(l.x_ch - 1.0, l.x_ch - 4.0, ax));
+                const double mouth_row = r == kRowStomion ? 1.0 : (std::abs(r - kRowStomion) == 1 ? 0.55 : 0.0);
+                g.mouth[i] = static_cast<float>(mouth_row * smoothstep(l.x_ch - 1.0, l.x_ch - 4.0, ax));
             }
             g.nostrils[i] = static_cast<float>(front ? gauss2(ax - 0.42 * l.x_al, y - (l.y_sn + 2.2), 2.4, 1.4) : 0.0);
             const double thickness = brow_thickness(l, ax);
@@ -772,11 +784,30 @@ ColourRegions colour_regions(const Eigen::Matrix3Xf& v, const Layout& l) {
                 g.brows[i] = static_cast<float>(smoothstep(0.5 * thickness + 0.8, 0.5 * thickness - 0.8, d));
             }
             // Scalp hair above the hairline, down to the temples at the sides.
-            const double hairline = l.y_tr - 4.0 * (1.0 - std::exp(-ax / 20.0)) - 30.0 * smoothstep(l.x_ex + 10.0, l.x_ex + 40.0, ax);
+            double hairline = l.y_tr - 4.0 * (1.0 - std::exp(-ax / 20.0)) - 30.0 * smoothstep(l.x_ex + 10.0, l.x_ex + 40.0, ax);
+            hairline = std::min(hairline, lerp(hairline, lerp(l.y_eye + 14.0, l.y_sn, smoothstep(0.0, -60.0, v(2, id))),
+                                                smoothstep(30.0, 5.0, v(2, id))));
             g.hair[i] = static_cast<float>(smoothstep(hairline - 2.0, hairline + 3.0, y));
             g.cheeks[i] = static_cast<float>(front ? gauss2(ax - (l.x_ec + 6.0), y - (l.y_eye - 24.0), 12.0, 10.0) : 0.0);
             const double jaw_region = smoothstep(l.y_sn - 3.0, l.y_sn - 10.0, y) * smoothstep(l.x_ch + 35.0, l.x_ch + 15.0, ax);
             g.beard[i] = static_cast<float>(jaw_region * (1.0 - g.lips[i]) * (front ? 1.0 : 0.0));
+        }
+    // Concavity: the grid Laplacian along the outward normal, in mm, smoothed once.
+    const Eigen::Matrix3Xf normals = vertex_normals(v, grid_triangles());
+    std::vector<float> depth(kNumVertices, 0.0f);
+    for (int r = 1; r + 1 < kRows; ++r)
+        for (int c = 1; c + 1 < kColumns; ++c) {
+            const int id = vertex_id(r, c);
+            const Eigen::Vector3f average = 0.25f * (v.col(vertex_id(r - 1, c)) + v.col(vertex_id(r + 1, c)) +
+                                                     v.col(vertex_id(r, c - 1)) + v.col(vertex_id(r, c + 1)));
+            depth[static_cast<std::size_t>(id)] = std::max(0.0f, (average - v.col(id)).dot(normals.col(id)));
+        }
+    for (int r = 1; r + 1 < kRows; ++r)
+        for (int c = 1; c + 1 < kColumns; ++c) {
+            const auto at = [&](int rr, int cc) { return depth[static_cast<std::size_t>(vertex_id(rr, cc))]; };
+            const float smooth = 0.5f * at(r, c) + 0.125f * (at(r - 1, c) + at(r + 1, c) + at(r, c - 1) + at(r, c + 1));
+            const auto i = static_cast<std::size_t>(vertex_id(r, c));
+            g.cavity[i] = std::clamp(0.5f * smooth, 0.0f, 0.45f) * (1.0f - g.sclera[i]);
         }
     return g;
 }
@@ -805,8 +836,11 @@ Eigen::Matrix3Xf random_colouring(Rng& rng, const ColourRegions& g) {
     const std::array<Eigen::Vector3d, 5> irises = {Eigen::Vector3d(0.28, 0.16, 0.08), Eigen::Vector3d(0.18, 0.11, 0.06),
                                                    Eigen::Vector3d(0.40, 0.33, 0.18), Eigen::Vector3d(0.30, 0.40, 0.28),
                                                    Eigen::Vector3d(0.35, 0.48, 0.60)};
-    const int iris_kind = tone > 0.55 ? rng.uniform_int(0, 1) : rng.uniform_int(0, 4);
-    const Eigen::Vector3d iris = srgb_to_linear(irises[static_cast<std::size_t>(iris_kind)] * (1.0 + 0.1 * rng.normal()));
+    // Iris from dark brown through hazel to blue-grey (light eyes only with lighter skin).
+    const double lightness = std::clamp((1.0 - tone) * rng.uniform() * 1.3, 0.0, 1.0);
+    const double hue = rng.uniform();
+    const Eigen::Vector3d light_iris = hue < 0.5 ? lerp_vec(irises[2], irises[3], 2 * hue) : lerp_vec(irises[3], irises[4], 2 * hue - 1);
+    const Eigen::Vector3d iris = srgb_to_linear(lerp_vec(irises[1], light_iris, lightness) * (1.0 + 0.08 * rng.normal()));
     const Eigen::Vector3d sclera = srgb_to_linear(Eigen::Vector3d(0.90, 0.87, 0.84) * (1.0 + 0.03 * rng.normal()));
     const Eigen::Vector3d mouth = srgb_to_linear(Eigen::Vector3d(0.30, 0.10, 0.10));
     const double flush = std::max(0.0, 0.12 + 0.06 * rng.normal());
@@ -820,6 +854,7 @@ Eigen::Matrix3Xf random_colouring(Rng& rng, const ColourRegions& g) {
         c = c.cwiseProduct(Eigen::Vector3d(1.0 + flush * g.cheeks[i], 1.0 - 0.3 * flush * g.cheeks[i], 1.0 - 0.3 * flush * g.cheeks[i]));
         c *= 1.0 - shadow * g.eye_shadow[i];
         c *= 1.0 - beard * g.beard[i];
+        c *= 1.0 - g.cavity[i];
         c = lerp_vec(c, lip, g.lips[i]);
         c = lerp_vec(c, hair, brow_density * g.brows[i]);
         c = lerp_vec(c, hair, g.hair[i]);
