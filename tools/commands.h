@@ -6,5 +6,10 @@
 namespace facesynth::cli {
 
 // (one declaration per tools/cmd_*.cpp)
+void register_synth_commands(CLI::App& app);  // cmd_synth.cpp
+void register_train_commands(CLI::App& app);  // cmd_train.cpp: train, detect, eval landmarks
+void register_fit_commands(CLI::App& app);    // cmd_fit.cpp: fit, fit-lambda
+void register_model_commands(CLI::App& app);  // cmd_model.cpp: model info, export, convert, build
+void register_render_commands(CLI::App& app);  // cmd_render.cpp: render, bench render
 
 }  // namespace facesynth::cli

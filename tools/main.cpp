@@ -12,6 +12,11 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     app.set_version_flag("--version", FACESYNTH_VERSION);
     // Command groups register themselves here, one call per tools/cmd_*.cpp.
+    facesynth::cli::register_synth_commands(app);
+    facesynth::cli::register_train_commands(app);
+    facesynth::cli::register_fit_commands(app);
+    facesynth::cli::register_model_commands(app);
+    facesynth::cli::register_render_commands(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

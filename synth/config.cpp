@@ -1,0 +1,330 @@
+#include "synth/config.h"
+
+#include "morph/error.h"
+
+#include <toml.hpp>
+
+#include <charconv>
+#include <cmath>
+#include <functional>
+#include <sstream>
+
+namespace facesynth::synth {
+namespace {
+
+void add_angle(std::vector<ConfigField>& f, const std::string& name, AngleDistribution& a) {
+    const std::string p = "pose." + name + ".";
+    f.push_back({p + "distribution", &a.distribution, "\"uniform\" over [min, max] or \"normal\" (mean, stddev) kept inside [min, max]"});
+    f.push_back({p + "min", &a.min, name + " lower bound, degrees"});
+    f.push_back({p + "max", &a.max, name + " upper bound, degrees"});
+    f.push_back({p + "mean", &a.mean, name + " mean for the normal distribution, degrees"});
+    f.push_back({p + "stddev", &a.stddev, name + " standard deviation for the normal distribution, degrees"});
+}
+
+const ConfigField& find_field(const std::vector<ConfigField>& fields, std::string_view key, const std::string& context) {
+    for (const auto& field : fields)
+        if (field.key == key) return field;
+    throw Error(context + "unknown config key '" + std::string(key) + "'");
+}
+
+std::string type_name(const ConfigField& field) {
+    return std::visit(
+        [](auto* p) -> std::string {
+            using T = std::remove_pointer_t<decltype(p)>;
+            if constexpr (std::is_same_v<T, double>) return "a number";
+            else if constexpr (std::is_same_v<T, bool>) return "true or false";
+            else if constexpr (std::is_same_v<T, std::string>) return "a string";
+            else return "an integer";
+        },
+        field.target);
+}
+
+template <typename Int>
+bool parse_integer(std::string_view text, Int& out) {
+    const auto* end = text.data() + text.size();
+    const auto result = std::from_chars(text.data(), end, out);
+    return result.ec == std::errc() && result.ptr == end;
+}
+
+// Sets a field from its text form (for --set); returns false when the text does not fit its type.
+bool set_from_text(const ConfigField& field, std::string_view text) {
+    return std::visit(
+        [&](auto* p) -> bool {
+            using T = std::remove_pointer_t<decltype(p)>;
+            if constexpr (std::is_same_v<T, double>) {
+                std::string copy(text);
+                char* end = nullptr;
+                const double v = std::strtod(copy.c_str(), &end);
+                if (copy.empty() || end != copy.c_str() + copy.size() || !std::isfinite(v)) return false;
+                *p = v;
+                return true;
+            } else if constexpr (std::is_same_v<T, bool>) {
+                if (text == "true" || text == "1") *p = true;
+                else if (text == "false" || text == "0") *p = false;
+                else return false;
+                return true;
+            } else if constexpr (std::is_same_v<T, std::string>) {
+                *p = std::string(text);
+                return true;
+            } else {
+                return parse_integer(text, *p);
+            }
+        },
+        field.target);
+}
+
+// Sets a field from a TOML value; returns false on a type mismatch.
+bool set_from_toml(const ConfigField& field, const toml::value& value) {
+    return std::visit(
+        [&](auto* p) -> bool {
+            using T = std::remove_pointer_t<decltype(p)>;
+            if constexpr (std::is_same_v<T, double>) {
+                if (value.is_floating()) *p = value.as_floating();
+                else if (value.is_integer()) *p = static_cast<double>(value.as_integer());
+                else return false;
+            } else if constexpr (std::is_same_v<T, bool>) {
+                if (!value.is_boolean()) return false;
+                *p = value.as_boolean();
+            } else if constexpr (std::is_same_v<T, std::string>) {
+                if (!value.is_string()) return false;
+                *p = value.as_string().str;
+            } else {
+                if (!value.is_integer()) return false;
+                if constexpr (std::is_same_v<T, std::uint64_t>) {
+                    if (value.as_integer() < 0) return false;
+                }
+                *p = static_cast<T>(value.as_integer());
+            }
+            return true;
+        },
+        field.target);
+}
+
+void apply_toml_table(const std::vector<ConfigField>& fields, const toml::table& table, const std::string& prefix,
+                      const std::string& context) {
+    for (const auto& [name, value] : table) {
+        const std::string key = prefix.empty() ? name : prefix + "." + name;
+        if (value.is_table()) {
+            apply_toml_table(fields, value.as_table(), key, context);
+            continue;
+        }
+        const auto& field = find_field(fields, key, context);
+        if (!set_from_toml(field, value)) throw Error(context + "config key '" + key + "' must be " + type_name(field));
+    }
+}
+
+void apply_json_object(const std::vector<ConfigField>& fields, const nlohmann::json& object, const std::string& prefix) {
+    for (const auto& [name, value] : object.items()) {
+        const std::string key = prefix.empty() ? name : prefix + "." + name;
+        if (value.is_object()) {
+            apply_json_object(fields, value, key);
+            continue;
+        }
+        const auto& field = find_field(fields, key, "dataset.json: ");
+        std::visit([&](auto* p) { *p = value.get<std::remove_pointer_t<decltype(p)>>(); }, field.target);
+    }
+}
+
+void require(bool ok, const std::string& key, const std::string& problem) {
+    if (!ok) throw Error("config key '" + key + "': " + problem);
+}
+
+void validate_share(double v, const std::string& key) { require(v >= 0 && v <= 1, key, "must be in [0, 1]"); }
+
+void validate_angle(const AngleDistribution& a, const std::string& name) {
+    const std::string p = "pose." + name + ".";
+    require(a.distribution == "uniform" || a.distribution == "normal", p + "distribution", "must be \"uniform\" or \"normal\"");
+    require(a.min <= a.max, p + "min", "must not exceed " + p + "max");
+    require(a.min >= -180 && a.max <= 180, p + "max", "angles must lie in [-180, 180]");
+    if (a.distribution == "normal") {
+        require(a.stddev > 0, p + "stddev", "must be positive for a normal distribution");
+        require(a.mean >= a.min && a.mean <= a.max, p + "mean", "must lie in [min, max]");
+    }
+}
+
+}  // namespace
+
+std::vector<ConfigField> config_fields(SynthConfig& c) {
+    std::vector<ConfigField> f;
+    f.push_back({"model", &c.model, "model spec as for --model: builtin, a model file or a model folder"});
+    f.push_back({"seed", &c.seed, "dataset seed; sample i depends only on (seed, i)"});
+    f.push_back({"count", &c.count, "number of samples in the dataset"});
+    f.push_back({"identity.truncation", &c.identity.truncation, "identity coefficients ~ N(0,1) truncated at ±k σ"});
+    f.push_back({"identity.scale", &c.identity.scale, "multiplier on the identity coefficients (0 = mean face)"});
+    f.push_back({"expression.neutral_share", &c.expression.neutral_share, "share of neutral faces"});
+    f.push_back({"expression.max_active", &c.expression.max_active, "blendshape models: 1..max_active blendshapes per expressive face"});
+    f.push_back({"expression.min_weight", &c.expression.min_weight, "blendshape weight lower bound"});
+    f.push_back({"expression.max_weight", &c.expression.max_weight, "blendshape weight upper bound"});
+    f.push_back({"expression.truncation", &c.expression.truncation, "PCA expression models: coefficients truncated at ±k σ"});
+    f.push_back({"albedo.truncation", &c.albedo.truncation, "colour coefficients truncated at ±k σ"});
+    f.push_back({"albedo.scale", &c.albedo.scale, "multiplier on the colour coefficients (0 = mean colour)"});
+    add_angle(f, "yaw", c.pose.yaw);
+    add_angle(f, "pitch", c.pose.pitch);
+    add_angle(f, "roll", c.pose.roll);
+    f.push_back({"pose.translation_jitter", &c.pose.translation_jitter, "face centre offset from the image centre, share of the image side (uniform ±)"});
+    f.push_back({"camera.width", &c.camera.width, "image width, px"});
+    f.push_back({"camera.height", &c.camera.height, "image height, px"});
+    f.push_back({"camera.fov_min", &c.camera.fov_min, "vertical field of view lower bound, degrees"});
+    f.push_back({"camera.fov_max", &c.camera.fov_max, "vertical field of view upper bound, degrees"});
+    f.push_back({"camera.principal_point_jitter", &c.camera.principal_point_jitter, "principal point offset from the image centre, share of the side (uniform ±)"});
+    f.push_back({"camera.face_scale_min", &c.camera.face_scale_min, "face size (68-landmark box diagonal) / image diagonal, lower bound"});
+    f.push_back({"camera.face_scale_max", &c.camera.face_scale_max, "face size / image diagonal, upper bound"});
+    f.push_back({"lighting.environment_min", &c.lighting.environment_min, "SH environment radiance lower bound"});
+    f.push_back({"lighting.environment_max", &c.lighting.environment_max, "SH environment radiance upper bound"});
+    f.push_back({"lighting.sh_strength", &c.lighting.sh_strength, "stddev of SH bands 1-2 relative to the DC term"});
+    f.push_back({"lighting.ambient_max", &c.lighting.ambient_max, "extra grey ambient uniform in [0, ambient_max]"});
+    f.push_back({"lighting.directional_max", &c.lighting.directional_max, "0..n directional lights per sample (at most 4)"});
+    f.push_back({"lighting.intensity_min", &c.lighting.intensity_min, "directional light intensity lower bound"});
+    f.push_back({"lighting.intensity_max", &c.lighting.intensity_max, "directional light intensity upper bound"});
+    f.push_back({"lighting.colour_temperature_min", &c.lighting.colour_temperature_min, "light colour temperature lower bound, K"});
+    f.push_back({"lighting.colour_temperature_max", &c.lighting.colour_temperature_max, "light colour temperature upper bound, K"});
+    f.push_back({"lighting.specular_max", &c.lighting.specular_max, "Blinn-Phong specular weight upper bound"});
+    f.push_back({"background.type", &c.background.type, "\"solid\", \"procedural\" or \"images\""});
+    f.push_back({"background.folder", &c.background.folder, "folder of background images (type = \"images\")"});
+    f.push_back({"degrade.blur_probability", &c.degrade.blur_probability, "share of images blurred"});
+    f.push_back({"degrade.blur_sigma_max", &c.degrade.blur_sigma_max, "Gaussian blur sigma upper bound, px"});
+    f.push_back({"degrade.noise_probability", &c.degrade.noise_probability, "share of images with Gaussian noise"});
+    f.push_back({"degrade.noise_sigma_max", &c.degrade.noise_sigma_max, "noise stddev upper bound, 8-bit levels"});
+    f.push_back({"degrade.jpeg_probability", &c.degrade.jpeg_probability, "share of images passed through JPEG"});
+    f.push_back({"degrade.jpeg_quality_min", &c.degrade.jpeg_quality_min, "JPEG degradation quality lower bound"});
+    f.push_back({"degrade.jpeg_quality_max", &c.degrade.jpeg_quality_max, "JPEG degradation quality upper bound"});
+    f.push_back({"degrade.gamma_probability", &c.degrade.gamma_probability, "share of images with a gamma change"});
+    f.push_back({"degrade.gamma_min", &c.degrade.gamma_min, "gamma lower bound"});
+    f.push_back({"degrade.gamma_max", &c.degrade.gamma_max, "gamma upper bound"});
+    f.push_back({"degrade.colour_jitter_probability", &c.degrade.colour_jitter_probability, "share of images with per-channel gain jitter"});
+    f.push_back({"degrade.colour_jitter", &c.degrade.colour_jitter, "per-channel gain in [1 - x, 1 + x]"});
+    f.push_back({"degrade.downscale_probability", &c.degrade.downscale_probability, "share of images downscaled and scaled back up"});
+    f.push_back({"degrade.downscale_min", &c.degrade.downscale_min, "smallest downscale factor"});
+    f.push_back({"occluders.probability", &c.occluders.probability, "share of samples with occluders"});
+    f.push_back({"occluders.max_count", &c.occluders.max_count, "1..n occluding shapes"});
+    f.push_back({"occluders.max_size", &c.occluders.max_size, "largest occluder extent, share of the face size"});
+    f.push_back({"landmarks.mode", &c.landmarks.mode, "jaw points written to .pts: \"contour\" (300-W style) or \"fixed\""});
+    f.push_back({"output.formats", &c.output.formats, "comma-separated: folder, wds, coco"});
+    f.push_back({"output.image_format", &c.output.image_format, "\"png\" or \"jpg\""});
+    f.push_back({"output.png_compression", &c.output.png_compression, "PNG zlib level 0-9 (low = fast, larger files)"});
+    f.push_back({"output.jpeg_quality", &c.output.jpeg_quality, "JPEG quality for image_format = \"jpg\""});
+    f.push_back({"output.depth", &c.output.depth, "write depth/ (EXR, camera-space mm)"});
+    f.push_back({"output.mask", &c.output.mask, "write mask/ (PNG, 255 = face)"});
+    f.push_back({"output.normals", &c.output.normals, "write normals/ (PNG)"});
+    f.push_back({"output.wds_shard_size", &c.output.wds_shard_size, "samples per WebDataset tar"});
+    f.push_back({"output.wds_prefix", &c.output.wds_prefix, "WebDataset tar name prefix ({prefix}-000000.tar)"});
+    return f;
+}
+
+void apply_toml_file(SynthConfig& config, const std::filesystem::path& path) {
+    toml::value root;
+    try {
+        root = toml::parse(path.string());
+    } catch (const std::exception& e) {
+        throw file_error(path.string(), std::string("cannot parse TOML: ") + e.what());
+    }
+    if (!root.is_table()) throw file_error(path.string(), "not a TOML table");
+    apply_toml_table(config_fields(config), root.as_table(), "", path.string() + ": ");
+}
+
+void apply_override(SynthConfig& config, std::string_view assignment) {
+    const auto eq = assignment.find('=');
+    if (eq == std::string_view::npos || eq == 0)
+        throw Error("--set '" + std::string(assignment) + "': expected key.sub=value");
+    const auto key = assignment.substr(0, eq);
+    const auto text = assignment.substr(eq + 1);
+    const auto fields = config_fields(config);
+    const auto& field = find_field(fields, key, "--set: ");
+    if (!set_from_text(field, text))
+        throw Error("--set: config key '" + std::string(key) + "' must be " + type_name(field) + ", got '" + std::string(text) + "'");
+}
+
+void validate(const SynthConfig& c) {
+    require(c.count >= 0, "count", "must not be negative");
+    require(c.count <= 99'999'999, "count", "at most 99999999 samples (8-digit keys)");
+    require(c.identity.truncation >= 0, "identity.truncation", "must not be negative");
+    validate_share(c.expression.neutral_share, "expression.neutral_share");
+    require(c.expression.max_active >= 1, "expression.max_active", "must be at least 1");
+    require(c.expression.min_weight <= c.expression.max_weight, "expression.min_weight", "must not exceed expression.max_weight");
+    require(c.expression.truncation >= 0, "expression.truncation", "must not be negative");
+    require(c.albedo.truncation >= 0, "albedo.truncation", "must not be negative");
+    validate_angle(c.pose.yaw, "yaw");
+    validate_angle(c.pose.pitch, "pitch");
+    validate_angle(c.pose.roll, "roll");
+    require(c.pose.translation_jitter >= 0 && c.pose.translation_jitter < 0.5, "pose.translation_jitter", "must be in [0, 0.5)");
+    require(c.camera.width >= 16 && c.camera.width <= 8192, "camera.width", "must be in [16, 8192]");
+    require(c.camera.height >= 16 && c.camera.height <= 8192, "camera.height", "must be in [16, 8192]");
+    require(c.camera.fov_min > 0 && c.camera.fov_min <= c.camera.fov_max, "camera.fov_min", "must be positive and not exceed camera.fov_max");
+    require(c.camera.fov_max < 150, "camera.fov_max", "must be below 150 degrees");
+    require(c.camera.principal_point_jitter >= 0 && c.camera.principal_point_jitter < 0.5, "camera.principal_point_jitter", "must be in [0, 0.5)");
+    require(c.camera.face_scale_min > 0 && c.camera.face_scale_min <= c.camera.face_scale_max, "camera.face_scale_min", "must be positive and not exceed camera.face_scale_max");
+    require(c.camera.face_scale_max <= 2, "camera.face_scale_max", "must be at most 2");
+    require(c.lighting.environment_min >= 0 && c.lighting.environment_min <= c.lighting.environment_max, "lighting.environment_min",
+            "must be in [0, lighting.environment_max]");
+    require(c.lighting.ambient_max >= 0, "lighting.ambient_max", "must not be negative");
+    require(c.lighting.sh_strength >= 0, "lighting.sh_strength", "must not be negative");
+    require(c.lighting.directional_max >= 0 && c.lighting.directional_max <= 4, "lighting.directional_max", "must be in [0, 4]");
+    require(c.lighting.intensity_min >= 0 && c.lighting.intensity_min <= c.lighting.intensity_max, "lighting.intensity_min", "must be in [0, lighting.intensity_max]");
+    require(c.lighting.colour_temperature_min >= 1000 && c.lighting.colour_temperature_min <= c.lighting.colour_temperature_max,
+            "lighting.colour_temperature_min", "must be at least 1000 K and not exceed lighting.colour_temperature_max");
+    require(c.lighting.colour_temperature_max <= 40000, "lighting.colour_temperature_max", "must be at most 40000 K");
+    require(c.lighting.specular_max >= 0, "lighting.specular_max", "must not be negative");
+    require(c.background.type == "solid" || c.background.type == "procedural" || c.background.type == "images",
+            "background.type", "must be \"solid\", \"procedural\" or \"images\"");
+    require(c.background.type != "images" || !c.background.folder.empty(), "background.folder", "must name a folder when background.type = \"images\"");
+    const auto& d = c.degrade;
+    for (const auto& [value, key] : {std::pair{d.blur_probability, "degrade.blur_probability"}, {d.noise_probability, "degrade.noise_probability"},
+                                     {d.jpeg_probability, "degrade.jpeg_probability"}, {d.gamma_probability, "degrade.gamma_probability"},
+                                     {d.colour_jitter_probability, "degrade.colour_jitter_probability"},
+                                     {d.downscale_probability, "degrade.downscale_probability"}, {c.occluders.probability, "occluders.probability"}})
+        validate_share(value, key);
+    require(d.blur_sigma_max >= 0.3, "degrade.blur_sigma_max", "must be at least 0.3");
+    require(d.noise_sigma_max >= 1, "degrade.noise_sigma_max", "must be at least 1");
+    require(d.jpeg_quality_min >= 1 && d.jpeg_quality_min <= d.jpeg_quality_max && d.jpeg_quality_max <= 100, "degrade.jpeg_quality_min",
+            "need 1 <= jpeg_quality_min <= jpeg_quality_max <= 100");
+    require(d.gamma_min > 0 && d.gamma_min <= d.gamma_max, "degrade.gamma_min", "must be positive and not exceed degrade.gamma_max");
+    require(d.colour_jitter >= 0 && d.colour_jitter < 1, "degrade.colour_jitter", "must be in [0, 1)");
+    require(d.downscale_min > 0 && d.downscale_min <= 1, "degrade.downscale_min", "must be in (0, 1]");
+    require(c.occluders.max_count >= 1, "occluders.max_count", "must be at least 1");
+    require(c.occluders.max_size > 0 && c.occluders.max_size <= 1, "occluders.max_size", "must be in (0, 1]");
+    require(c.landmarks.mode == "contour" || c.landmarks.mode == "fixed", "landmarks.mode", "must be \"contour\" or \"fixed\"");
+    (void)parse_formats(c.output.formats);
+    require(c.output.image_format == "png" || c.output.image_format == "jpg", "output.image_format", "must be \"png\" or \"jpg\"");
+    require(c.output.png_compression >= 0 && c.output.png_compression <= 9, "output.png_compression", "must be in [0, 9]");
+    require(c.output.jpeg_quality >= 1 && c.output.jpeg_quality <= 100, "output.jpeg_quality", "must be in [1, 100]");
+    require(c.output.wds_shard_size >= 1, "output.wds_shard_size", "must be at least 1");
+    require(!c.output.wds_prefix.empty() && c.output.wds_prefix.find_first_of("/.") == std::string::npos, "output.wds_prefix",
+            "must be a non-empty name without '/' or '.'");
+}
+
+nlohmann::json to_json(const SynthConfig& config) {
+    SynthConfig copy = config;
+    nlohmann::json out = nlohmann::json::object();
+    for (const auto& field : config_fields(copy)) {
+        nlohmann::json* node = &out;
+        std::string_view rest = field.key;
+        for (auto dot = rest.find('.'); dot != std::string_view::npos; dot = rest.find('.')) {
+            node = &(*node)[std::string(rest.substr(0, dot))];
+            rest.remove_prefix(dot + 1);
+        }
+        std::visit([&](auto* p) { (*node)[std::string(rest)] = *p; }, field.target);
+    }
+    return out;
+}
+
+SynthConfig config_from_json(const nlohmann::json& json) {
+    SynthConfig config;
+    apply_json_object(config_fields(config), json, "");
+    return config;
+}
+
+OutputFormats parse_formats(const std::string& formats) {
+    OutputFormats out;
+    std::stringstream stream(formats);
+    std::string name;
+    while (std::getline(stream, name, ',')) {
+        if (name == "folder") out.folder = true;
+        else if (name == "wds") out.wds = true;
+        else if (name == "coco") out.coco = true;
+        else throw Error("config key 'output.formats': unknown format '" + name + "' (expected folder, wds, coco)");
+    }
+    if (!out.folder && !out.wds && !out.coco) throw Error("config key 'output.formats': name at least one format");
+    return out;
+}
+
+}  // namespace facesynth::synth

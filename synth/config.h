@@ -1,0 +1,167 @@
+#pragma once
+// The dataset generator's configuration: a tree of plain structs with documented defaults, read from
+// TOML, overridden by `--set key.sub=value`, written back as JSON into dataset.json.
+// Every key is listed once, in config_fields(), which drives parsing, overrides, JSON and the docs.
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+namespace facesynth::synth {
+
+// An angle (degrees) drawn uniformly in [min, max], or normally N(mean, stddev) and then clamped to
+// [min, max] by rejection.
+struct AngleDistribution {
+    std::string distribution = "uniform";  // "uniform" or "normal"
+    double min = 0;
+    double max = 0;
+    double mean = 0;
+    double stddev = 0;
+};
+
+struct IdentityConfig {
+    double truncation = 3.0;  // identity coefficients ~ N(0, 1) truncated at ±truncation σ
+    double scale = 1.0;       // then multiplied by this (0 = the mean face)
+};
+
+struct ExpressionConfig {
+    double neutral_share = 0.3;  // share of samples with no expression
+    int max_active = 2;          // blendshape models: up to this many blendshapes per sample
+    double min_weight = 0.2;     // blendshape weights uniform in [min_weight, max_weight]
+    double max_weight = 1.0;
+    double truncation = 2.0;     // PCA expression models: coefficients truncated at ±truncation σ
+};
+
+struct AlbedoConfig {
+    double truncation = 2.5;  // colour coefficients truncated at ±truncation σ
+    double scale = 1.0;
+};
+
+struct PoseConfig {
+    AngleDistribution yaw{"uniform", -90, 90, 0, 30};
+    AngleDistribution pitch{"uniform", -30, 30, 0, 10};
+    AngleDistribution roll{"uniform", -20, 20, 0, 7};
+    double translation_jitter = 0.05;  // face centre offset from the image centre, share of the image side
+};
+
+struct CameraConfig {
+    int width = 256;
+    int height = 256;
+    double fov_min = 10;                // vertical field of view range, degrees (perspective strength)
+    double fov_max = 40;
+    double principal_point_jitter = 0.02;  // cx, cy offset, share of the image side (uniform ±)
+    double face_scale_min = 0.45;       // face size (landmark bounding-box diagonal) / image diagonal
+    double face_scale_max = 0.65;
+};
+
+struct LightingConfig {
+    double environment_min = 0.35;         // radiance of the SH environment (DC term), uniform in [min, max]
+    double environment_max = 0.75;
+    double sh_strength = 0.35;             // stddev of SH bands 1-2 relative to the DC term
+    double ambient_max = 0.1;              // extra grey ambient uniform in [0, ambient_max]
+    int directional_max = 2;               // 0..directional_max directional lights per sample
+    double intensity_min = 0.2;            // per directional light
+    double intensity_max = 0.8;
+    double colour_temperature_min = 3200;  // K, directional lights and the SH tint
+    double colour_temperature_max = 7500;
+    double specular_max = 0.25;            // Blinn-Phong specular weight uniform in [0, specular_max]
+};
+
+struct BackgroundConfig {
+    std::string type = "procedural";  // "solid", "procedural" or "images"
+    std::string folder;               // image folder for type = "images"
+};
+
+// Image degradations, each applied with its probability (all 0 = off by default).
+struct DegradationConfig {
+    double blur_probability = 0;
+    double blur_sigma_max = 1.5;      // Gaussian blur sigma uniform in [0.3, max], px
+    double noise_probability = 0;
+    double noise_sigma_max = 8;       // Gaussian noise stddev uniform in [1, max], 8-bit levels
+    double jpeg_probability = 0;
+    int jpeg_quality_min = 30;
+    int jpeg_quality_max = 90;
+    double gamma_probability = 0;
+    double gamma_min = 0.7;
+    double gamma_max = 1.4;
+    double colour_jitter_probability = 0;
+    double colour_jitter = 0.1;       // per-channel gain uniform in [1 - x, 1 + x]
+    double downscale_probability = 0;
+    double downscale_min = 0.3;       // downscale to this share of the size at least, then back up
+};
+
+struct OccluderConfig {
+    double probability = 0;  // share of samples with occluders
+    int max_count = 2;       // 1..max_count random shapes
+    double max_size = 0.35;  // largest shape extent, share of the face size
+};
+
+struct LandmarkConfig {
+    std::string mode = "contour";  // jaw points in the .pts files: "contour" or "fixed"
+};
+
+struct OutputConfig {
+    std::string formats = "folder";  // comma-separated: folder, wds, coco
+    std::string image_format = "png";  // "png" or "jpg"
+    int png_compression = 1;           // zlib level 0-9 (low = fast)
+    int jpeg_quality = 95;
+    bool depth = false;    // depth/ (EXR, camera-space mm)
+    bool mask = false;     // mask/ (PNG, 255 = face)
+    bool normals = false;  // normals/ (PNG, camera-space normal (n + 1) / 2)
+    int wds_shard_size = 1000;  // samples per WebDataset tar
+    std::string wds_prefix = "shard";
+};
+
+struct SynthConfig {
+    std::string model = "builtin";
+    std::uint64_t seed = 1;
+    std::int64_t count = 1000;
+    IdentityConfig identity;
+    ExpressionConfig expression;
+    AlbedoConfig albedo;
+    PoseConfig pose;
+    CameraConfig camera;
+    LightingConfig lighting;
+    BackgroundConfig background;
+    DegradationConfig degrade;
+    OccluderConfig occluders;
+    LandmarkConfig landmarks;
+    OutputConfig output;
+};
+
+// One configuration key: its dotted name, where it lives, and what it means.
+struct ConfigField {
+    std::string key;
+    std::variant<double*, int*, std::int64_t*, std::uint64_t*, bool*, std::string*> target;
+    std::string help;
+};
+
+// Every key of `config`, in documentation order. The pointers refer into `config`.
+[[nodiscard]] std::vector<ConfigField> config_fields(SynthConfig& config);
+
+// Applies a TOML file's keys to `config`; unknown keys and wrong types throw facesynth::Error naming
+// the file and the key.
+void apply_toml_file(SynthConfig& config, const std::filesystem::path& path);
+// Applies one `key.sub=value` override; throws facesynth::Error naming the key.
+void apply_override(SynthConfig& config, std::string_view assignment);
+// Throws facesynth::Error naming the first key whose value is out of range.
+void validate(const SynthConfig& config);
+
+// The full resolved configuration as nested JSON objects (keys as in TOML).
+[[nodiscard]] nlohmann::json to_json(const SynthConfig& config);
+// Reads a configuration back from to_json's output (unknown keys are errors).
+[[nodiscard]] SynthConfig config_from_json(const nlohmann::json& json);
+
+// Output formats named in output.formats.
+struct OutputFormats {
+    bool folder = false;
+    bool wds = false;
+    bool coco = false;
+};
+[[nodiscard]] OutputFormats parse_formats(const std::string& formats);
+
+}  // namespace facesynth::synth

@@ -1,0 +1,665 @@
+#include "synth/dataset.h"
+
+#include "morph/atomic_file.h"
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "synth/exr.h"
+#include "synth/tar.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <optional>
+#include <sstream>
+#include <map>
+#include <mutex>
+#include <set>
+#include <thread>
+
+namespace facesynth::synth {
+namespace fs = std::filesystem;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr const char* kStagingFolder = ".staging";
+
+std::string image_extension(const SynthConfig& config) { return config.output.image_format == "jpg" ? ".jpg" : ".png"; }
+
+// The folder holding per-sample files: the dataset itself, or a staging folder when only tars are wanted.
+fs::path sample_root(const fs::path& out, const SynthConfig& config) {
+    const auto formats = parse_formats(config.output.formats);
+    return formats.folder || formats.coco ? out : out / kStagingFolder;
+}
+
+// A sample's files relative to the sample root, in write order (meta last: it marks completion).
+struct SampleFile {
+    std::string folder;
+    std::string suffix;  // file name after the key
+    std::string wds_extension;  // member name after the key in tars
+};
+
+std::vector<SampleFile> sample_files(const SynthConfig& config) {
+    const std::string image = image_extension(config);
+    std::vector<SampleFile> files{{"images", image, image}, {"landmarks", ".pts", ".pts"}};
+    if (config.output.depth) files.push_back({"depth", ".exr", ".depth.exr"});
+    if (config.output.mask) files.push_back({"mask", ".png", ".mask.png"});
+    if (config.output.normals) files.push_back({"normals", ".png", ".normals.png"});
+    files.push_back({"meta", ".json", ".json"});
+    return files;
+}
+
+std::optional<std::int64_t> index_of_key(std::string_view name) {
+    if (name.size() < 9 || name[0] != 's') return std::nullopt;
+    std::int64_t index = 0;
+    const auto result = std::from_chars(name.data() + 1, name.data() + 9, index);
+    if (result.ec != std::errc() || result.ptr != name.data() + 9) return std::nullopt;
+    return index;
+}
+
+std::string encode_image(const cv::Mat& rgb, const SynthConfig& config, const std::string& context) {
+    cv::Mat bgr;
+    cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+    std::vector<uchar> bytes;
+    const bool ok = config.output.image_format == "jpg"
+                        ? cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, config.output.jpeg_quality})
+                        : cv::imencode(".png", bgr, bytes, {cv::IMWRITE_PNG_COMPRESSION, config.output.png_compression});
+    if (!ok) throw Error(context + ": image encoding failed");
+    return {bytes.begin(), bytes.end()};
+}
+
+std::string encode_png(const cv::Mat& image, int compression, const std::string& context) {
+    std::vector<uchar> bytes;
+    if (!cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, compression})) throw Error(context + ": PNG encoding failed");
+    return {bytes.begin(), bytes.end()};
+}
+
+std::string encode_normals(const cv::Mat& normals, int compression, const std::string& context) {
+    cv::Mat rgb8;
+    normals.convertTo(rgb8, CV_8UC3, 127.5, 127.5);
+    rgb8.setTo(cv::Scalar(0, 0, 0), normals.reshape(1, static_cast<int>(normals.total())).col(2).reshape(1, normals.rows) == 0);
+    cv::Mat bgr;
+    cv::cvtColor(rgb8, bgr, cv::COLOR_RGB2BGR);
+    return encode_png(bgr, compression, context);
+}
+
+nlohmann::json points_json(const Eigen::Matrix2Xd& p) {
+    nlohmann::json out = nlohmann::json::array();
+    for (Eigen::Index i = 0; i < p.cols(); ++i) out.push_back({p(0, i), p(1, i)});
+    return out;
+}
+
+nlohmann::json points_json(const Eigen::Matrix3Xd& p) {
+    nlohmann::json out = nlohmann::json::array();
+    for (Eigen::Index i = 0; i < p.cols(); ++i) out.push_back({p(0, i), p(1, i), p(2, i)});
+    return out;
+}
+
+nlohmann::json vector_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+// [x, y, width, height] of the points, clipped to the image.
+std::array<double, 4> bounding_box(const Eigen::Matrix2Xd& p, int width, int height) {
+    const double x0 = std::clamp(p.row(0).minCoeff(), 0.0, width - 1.0), x1 = std::clamp(p.row(0).maxCoeff(), 0.0, width - 1.0);
+    const double y0 = std::clamp(p.row(1).minCoeff(), 0.0, height - 1.0), y1 = std::clamp(p.row(1).maxCoeff(), 0.0, height - 1.0);
+    return {x0, y0, x1 - x0, y1 - y0};
+}
+
+std::string identity_mismatch(const nlohmann::json& a, const nlohmann::json& b) {
+    const auto flat_a = a.flatten(), flat_b = b.flatten();
+    for (const auto& [key, value] : flat_a.items())
+        if (!flat_b.contains(key) || flat_b[key] != value) return key;
+    for (const auto& [key, value] : flat_b.items())
+        if (!flat_a.contains(key)) return key;
+    return {};
+}
+
+// What must agree for two runs to write into the same folder: the config without count and model
+// spec, and the model's checksum.
+nlohmann::json dataset_identity(const nlohmann::json& config_json, const std::string& model_checksum) {
+    nlohmann::json identity = config_json;
+    identity.erase("count");
+    identity.erase("model");
+    identity["model_checksum"] = model_checksum;
+    return identity;
+}
+
+nlohmann::json dataset_json(const SynthConfig& config, const MorphableModel& model, const std::string& checksum) {
+    return {{"format", "facesynth-synth"},
+            {"format_version", 1},
+            {"tool_version", FACESYNTH_SYNTH_VERSION},
+            {"count", config.count},
+            {"seed", config.seed},
+            {"model_name", model.name},
+            {"model_checksum", checksum},
+            {"model_vertices", model.num_vertices()},
+            {"key_format", "s%08d"},
+            {"config", to_json(config)}};
+}
+
+void remove_dataset_outputs(const fs::path& out) {
+    for (const char* folder : {"images", "landmarks", "meta", "depth", "mask", "normals", kStagingFolder}) fs::remove_all(out / folder);
+    for (const auto& entry : fs::directory_iterator(out)) {
+        const std::string name = entry.path().filename().string();
+        if (name.ends_with(".tar") || name.starts_with("manifest") || name.starts_with("coco") || name.starts_with("dataset.json"))
+            fs::remove(entry.path());
+    }
+}
+
+// Checks (or creates) dataset.json. A folder made with a different config is refused unless
+// overwrite, which removes the old dataset first.
+void prepare_folder(const fs::path& out, const SynthConfig& config, const MorphableModel& model, const std::string& checksum,
+                    bool overwrite) {
+    std::error_code error;
+    fs::create_directories(out, error);
+    if (error) throw file_error(out.string(), "cannot create output folder: " + error.message());
+    const fs::path info_path = out / "dataset.json";
+    const nlohmann::json mine = dataset_json(config, model, checksum);
+    if (fs::exists(info_path)) {
+        nlohmann::json theirs;
+        try {
+            theirs = nlohmann::json::parse(read_file(info_path));
+        } catch (const nlohmann::json::exception& e) {
+            if (!overwrite) throw file_error(info_path.string(), std::string("unreadable dataset.json (use --overwrite to replace): ") + e.what());
+        }
+        if (!theirs.is_null()) {
+            const auto difference = identity_mismatch(dataset_identity(theirs.value("config", nlohmann::json::object()), theirs.value("model_checksum", "")),
+                                                      dataset_identity(mine["config"], checksum));
+            if (!difference.empty() && !overwrite)
+                throw file_error(out.string(), "holds a dataset made with a different config ('" + difference +
+                                                   "' differs); use --overwrite to replace it or choose another folder");
+            if (!difference.empty() || overwrite) remove_dataset_outputs(out);
+        }
+    } else if (overwrite) {
+        remove_dataset_outputs(out);
+    }
+    write_file_atomically(info_path, mine.dump(2) + "\n");
+}
+
+bool process_alive(const std::string& pid_text) {
+    int pid = 0;
+    const auto result = std::from_chars(pid_text.data(), pid_text.data() + pid_text.size(), pid);
+    if (result.ec != std::errc() || pid <= 0) return false;
+    return ::kill(pid, 0) == 0 || errno == EPERM;
+}
+
+// Removes temporary files left by killed runs: those of this shard's samples, tars and manifest,
+// and any other whose writing process no longer exists on this machine.
+void remove_stale_temporaries(const fs::path& out, const fs::path& root, const SynthConfig& config, const Shard& shard) {
+    const std::int64_t unit = shard_unit(config);
+    const auto is_stale = [&](const std::string& name) {
+        const auto tmp = name.find(".tmp.");
+        if (tmp == std::string::npos) return false;
+        const std::string base = name.substr(0, tmp);
+        if (const auto index = index_of_key(base); index && base.size() >= 9 && base[9] == '.') return in_shard(*index, shard, unit);
+        if (base == manifest_name(shard) || base == coco_name(shard)) return true;
+        const std::string pid = name.substr(tmp + 5, name.find('.', tmp + 5) - (tmp + 5));
+        return !process_alive(pid);
+    };
+    std::vector<fs::path> folders{out};
+    for (const auto& file : sample_files(config)) folders.push_back(root / file.folder);
+    for (const auto& folder : folders) {
+        if (!fs::is_directory(folder)) continue;
+        for (const auto& entry : fs::directory_iterator(folder)) {
+            const std::string name = entry.path().filename().string();
+            if (!is_stale(name)) continue;
+            if (name.starts_with(config.output.wds_prefix + "-") && folder == out) {
+                // A tar temp: stale if its tar belongs to this shard.
+                const auto dash = config.output.wds_prefix.size() + 1;
+                std::int64_t tar = 0;
+                std::from_chars(name.data() + dash, name.data() + name.size(), tar);
+                if (!in_shard(tar * unit, shard, unit)) continue;
+            }
+            std::error_code ignored;
+            fs::remove(entry.path(), ignored);
+        }
+    }
+}
+
+nlohmann::json manifest_entry(std::int64_t index, const SynthConfig& config) {
+    const auto formats = parse_formats(config.output.formats);
+    const std::string key = sample_key(index);
+    nlohmann::json line = {{"index", index}, {"key", key}};
+    if (formats.folder || formats.coco)
+        for (const auto& file : sample_files(config)) line[file.folder == "images" ? "image" : file.folder] = file.folder + "/" + key + file.suffix;
+    if (formats.wds) line["tar"] = wds_tar_name(config, index / config.output.wds_shard_size);
+    return line;
+}
+
+std::string manifest_text(const std::vector<std::int64_t>& indices, const SynthConfig& config) {
+    std::string text;
+    for (const auto index : indices) text += manifest_entry(index, config).dump() + "\n";
+    return text;
+}
+
+}  // namespace
+
+Shard parse_shard(std::string_view text, int auto_total) {
+    Shard shard;
+    if (text == "auto") {
+        const auto env_int = [](const char* name) -> std::optional<int> {
+            const char* value = std::getenv(name);
+            if (!value || !*value) return std::nullopt;
+            int v = 0;
+            const auto end = value + std::strlen(value);
+            if (std::from_chars(value, end, v).ptr != end) throw Error(std::string("--shard auto: environment variable ") + name + " is not an integer");
+            return v;
+        };
+        if (const auto k8s = env_int("JOB_COMPLETION_INDEX")) {
+            shard.index = *k8s;
+            shard.count = auto_total > 0 ? auto_total : env_int("FACESYNTH_SHARD_COUNT").value_or(0);
+            if (shard.count <= 0) throw Error("--shard auto: JOB_COMPLETION_INDEX is set but the total is not (pass --shard-count or set FACESYNTH_SHARD_COUNT)");
+        } else if (const auto slurm = env_int("SLURM_ARRAY_TASK_ID")) {
+            shard.index = *slurm - env_int("SLURM_ARRAY_TASK_MIN").value_or(0);
+            shard.count = auto_total > 0 ? auto_total : env_int("SLURM_ARRAY_TASK_COUNT").value_or(0);
+            if (shard.count <= 0) throw Error("--shard auto: SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not (pass --shard-count)");
+        }
+    } else {
+        const auto slash = text.find('/');
+        const auto parse = [&](std::string_view part, int& out) {
+            const auto r = std::from_chars(part.data(), part.data() + part.size(), out);
+            return r.ec == std::errc() && r.ptr == part.data() + part.size();
+        };
+        if (slash == std::string_view::npos || !parse(text.substr(0, slash), shard.index) || !parse(text.substr(slash + 1), shard.count))
+            throw Error("--shard '" + std::string(text) + "': expected K/N (0-based K) or auto");
+    }
+    if (shard.count < 1 || shard.index < 0 || shard.index >= shard.count)
+        throw Error("--shard: index " + std::to_string(shard.index) + " is outside 0.." + std::to_string(shard.count - 1));
+    return shard;
+}
+
+std::int64_t shard_unit(const SynthConfig& config) {
+    return parse_formats(config.output.formats).wds ? config.output.wds_shard_size : 1;
+}
+
+bool in_shard(std::int64_t index, const Shard& shard, std::int64_t unit) { return (index / unit) % shard.count == shard.index; }
+
+std::string manifest_name(const Shard& shard) {
+    if (shard.count == 1) return "manifest.jsonl";
+    return "manifest-" + std::to_string(shard.index) + "-of-" + std::to_string(shard.count) + ".jsonl";
+}
+
+std::string coco_name(const Shard& shard) {
+    if (shard.count == 1) return "coco.json";
+    return "coco-" + std::to_string(shard.index) + "-of-" + std::to_string(shard.count) + ".json";
+}
+
+std::string wds_tar_name(const SynthConfig& config, std::int64_t tar_index) {
+    char number[32];
+    std::snprintf(number, sizeof number, "%06lld", static_cast<long long>(tar_index));
+    return config.output.wds_prefix + "-" + number + ".tar";
+}
+
+nlohmann::json sample_meta(const Sample& sample, const SynthConfig& config, const MorphableModel& model, const std::string& checksum) {
+    const auto& s = sample.spec;
+    const auto& k = s.intrinsics;
+    const auto& labels = sample.labels;
+    const std::string& mode = config.landmarks.mode;
+    nlohmann::json rotation = nlohmann::json::array();
+    for (int r = 0; r < 3; ++r) rotation.push_back({s.pose.rotation(r, 0), s.pose.rotation(r, 1), s.pose.rotation(r, 2)});
+    nlohmann::json lighting = s.lighting.lighting;
+    lighting["environment_radiance"] = s.lighting.environment_radiance;
+    lighting["environment_temperature"] = s.lighting.environment_temperature;
+    lighting["light_temperatures"] = s.lighting.light_temperatures;
+    const auto& b = s.background;
+    const auto& d = s.degradation;
+    nlohmann::json occluders = nlohmann::json::array();
+    for (const auto& o : s.occluders)
+        occluders.push_back({{"shape", o.shape}, {"centre", {o.centre.x(), o.centre.y()}}, {"half_size", {o.half_size.x(), o.half_size.y()}},
+                             {"angle", o.angle}, {"colour", vector_json(o.colour)}});
+    const auto box = bounding_box(chosen_landmarks(labels, mode), k.width, k.height);
+    return {
+        {"key", s.key},
+        {"index", s.index},
+        {"seed", s.seed},
+        {"model_name", model.name},
+        {"model_checksum", checksum},
+        {"alpha", s.alpha},
+        {"psi", s.psi},
+        {"beta", s.beta},
+        {"rotation", rotation},
+        {"yaw", s.angles.yaw},
+        {"pitch", s.angles.pitch},
+        {"roll", s.angles.roll},
+        {"translation", vector_json(s.pose.translation)},
+        {"intrinsics", {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"width", k.width}, {"height", k.height}}},
+        {"fov", s.fov},
+        {"image_width", k.width},
+        {"image_height", k.height},
+        {"lighting", lighting},
+        {"background", {{"type", b.type}, {"colour", vector_json(b.colour)}, {"colour2", vector_json(b.colour2)},
+                        {"gradient_angle", b.gradient_angle}, {"pattern_seed", b.pattern_seed}}},
+        {"degradation", {{"blur_sigma", d.blur_sigma}, {"noise_sigma", d.noise_sigma}, {"jpeg_quality", d.jpeg_quality},
+                         {"gamma", d.gamma}, {"gains", vector_json(d.gains)}, {"downscale", d.downscale}}},
+        {"occluders", occluders},
+        {"landmark_mode", mode},
+        {"contour_source", labels.contour_source},
+        {"landmarks", points_json(chosen_landmarks(labels, mode))},
+        {"visibility", chosen_visibility(labels, mode)},
+        {"occluded", labels.occluded},
+        {"landmarks_fixed", points_json(labels.landmarks_fixed)},
+        {"landmarks_contour", points_json(labels.landmarks_contour)},
+        {"visibility_fixed", labels.visible_fixed},
+        {"visibility_contour", labels.visible_contour},
+        {"landmarks_3d_fixed", points_json(labels.landmarks_3d_fixed)},
+        {"landmarks_3d_contour", points_json(labels.landmarks_3d_contour)},
+        {"bbox", box},
+    };
+}
+
+RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
+    const SynthConfig& config = options.config;
+    validate(config);
+    if (options.threads < 1) throw Error("--threads must be at least 1");
+    const auto formats = parse_formats(config.output.formats);
+    const std::string checksum = model.checksum();
+    const fs::path& out = options.out;
+    prepare_folder(out, config, model, checksum, options.overwrite);
+    const fs::path root = sample_root(out, config);
+    const auto files = sample_files(config);
+    for (const auto& file : files) {
+        std::error_code error;
+        fs::create_directories(root / file.folder, error);
+        if (error) throw file_error((root / file.folder).string(), "cannot create folder: " + error.message());
+    }
+    remove_stale_temporaries(out, root, config, options.shard);
+
+    const std::int64_t unit = shard_unit(config);
+    const std::int64_t tar_size = config.output.wds_shard_size;
+    const std::int64_t tar_count = (config.count + tar_size - 1) / tar_size;
+    std::set<std::int64_t> done;  // this shard's samples complete on disk (their meta file exists)
+    for (const auto& entry : fs::directory_iterator(root / "meta")) {
+        const std::string name = entry.path().filename().string();
+        const auto index = index_of_key(name);
+        if (index && name == sample_key(*index) + ".json" && *index < config.count && in_shard(*index, options.shard, unit)) done.insert(*index);
+    }
+    std::vector<char> tar_done(static_cast<std::size_t>(formats.wds ? tar_count : 0), 0);
+    for (std::int64_t t = 0; t < static_cast<std::int64_t>(tar_done.size()); ++t)
+        tar_done[static_cast<std::size_t>(t)] = in_shard(t * tar_size, options.shard, unit) && fs::exists(out / wds_tar_name(config, t));
+
+    const auto tar_of = [&](std::int64_t index) { return index / tar_size; };
+    std::vector<std::int64_t> todo;
+    std::size_t already_done = 0;
+    std::map<std::int64_t, std::int64_t> tar_remaining;  // tar index -> samples still missing
+    for (std::int64_t i = 0; i < config.count; ++i) {
+        if (!in_shard(i, options.shard, unit)) continue;
+        const bool in_finished_tar = formats.wds && tar_done[static_cast<std::size_t>(tar_of(i))];
+        if (done.count(i) || in_finished_tar) {
+            ++already_done;
+            if (!done.count(i)) done.insert(i);
+            continue;
+        }
+        todo.push_back(i);
+        if (formats.wds) ++tar_remaining[tar_of(i)];
+    }
+
+    // Rebuild the manifest from what is on disk, then append as samples finish.
+    const fs::path manifest_path = out / manifest_name(options.shard);
+    write_file_atomically(manifest_path, manifest_text({done.begin(), done.end()}, config));
+    std::FILE* manifest = std::fopen(manifest_path.c_str(), "a");
+    if (!manifest) throw file_error(manifest_path.string(), "cannot open for appending");
+    struct Closer {
+        std::FILE* f;
+        ~Closer() { std::fclose(f); }
+    } closer{manifest};
+
+    if (options.on_start) options.on_start(todo.size(), already_done);
+
+    const auto write_tar = [&](std::int64_t t) {
+        std::vector<TarMember> members;
+        const std::int64_t first = t * tar_size, last = std::min(config.count, first + tar_size);
+        for (std::int64_t i = first; i < last; ++i)
+            for (const auto& file : files)
+                members.push_back({sample_key(i) + file.wds_extension, root / file.folder / (sample_key(i) + file.suffix)});
+        write_tar_file(out / wds_tar_name(config, t), members);
+        if (!formats.folder && !formats.coco)
+            for (const auto& member : members) fs::remove(member.source);
+    };
+    RunResult result;
+    result.already_done = already_done;
+    // Tars whose samples all exist but that a killed run did not finish.
+    if (formats.wds)
+        for (std::int64_t t = 0; t < tar_count; ++t)
+            if (in_shard(t * tar_size, options.shard, unit) && !tar_done[static_cast<std::size_t>(t)] && !tar_remaining.count(t)) {
+                write_tar(t);
+                ++result.tars_written;
+            }
+
+    BackgroundLibrary backgrounds;
+    if (config.background.type == "images") backgrounds = BackgroundLibrary(config.background.folder);
+
+    std::atomic<std::size_t> next{0};
+    std::atomic<bool> failed{false};
+    std::mutex mutex;  // manifest, tar bookkeeping, progress, first error, stage times
+    std::exception_ptr first_error;
+    std::size_t generated = 0;
+    std::size_t tars_written = 0;
+    std::string renderer_name;
+    const auto start = Clock::now();
+
+    const auto worker = [&](int worker_index) {
+        try {
+            SampleGenerator generator(config, model, backgrounds, options.renderer);
+            if (worker_index == 0) {
+                std::lock_guard lock(mutex);
+                renderer_name = generator.renderer_description();
+            }
+            StageTimes times;
+            for (;;) {
+                const std::size_t slot = next.fetch_add(1);
+                if (slot >= todo.size() || failed) break;
+                const std::int64_t index = todo[slot];
+                const std::string key = sample_key(index);
+                try {
+                    Sample sample = generator.generate(index, &times);
+                    auto clock = Clock::now();
+                    std::vector<std::string> contents;
+                    contents.reserve(files.size());
+                    for (const auto& file : files) {
+                        if (file.folder == "images") contents.push_back(encode_image(sample.image, config, key));
+                        else if (file.folder == "landmarks") contents.push_back(format_pts(chosen_landmarks(sample.labels, config.landmarks.mode)));
+                        else if (file.folder == "depth") contents.push_back(encode_depth_exr(sample.depth, key));
+                        else if (file.folder == "mask") contents.push_back(encode_png(sample.mask, config.output.png_compression, key));
+                        else if (file.folder == "normals") contents.push_back(encode_normals(sample.normals, config.output.png_compression, key));
+                        else contents.push_back(sample_meta(sample, config, model, checksum).dump(1) + "\n");
+                    }
+                    const auto encoded = Clock::now();
+                    times.encode += std::chrono::duration<double>(encoded - clock).count();
+                    for (std::size_t f = 0; f < files.size(); ++f)
+                        write_file_atomically(root / files[f].folder / (key + files[f].suffix), contents[f]);
+                    bool tar_ready = false;
+                    {
+                        std::lock_guard lock(mutex);
+                        const std::string line = manifest_entry(index, config).dump() + "\n";
+                        if (std::fputs(line.c_str(), manifest) < 0 || std::fflush(manifest) != 0)
+                            throw file_error(manifest_path.string(), "write failed (disk full?)");
+                        ++generated;
+                        if (formats.wds) tar_ready = --tar_remaining[tar_of(index)] == 0;
+                        if (options.on_sample) options.on_sample();
+                    }
+                    if (tar_ready) {
+                        write_tar(tar_of(index));
+                        std::lock_guard lock(mutex);
+                        ++tars_written;
+                    }
+                    times.write += std::chrono::duration<double>(Clock::now() - encoded).count();
+                } catch (const Error& e) {
+                    throw Error("sample " + key + ": " + e.what());
+                } catch (const std::exception& e) {
+                    throw Error("sample " + key + ": " + e.what());
+                }
+            }
+            std::lock_guard lock(mutex);
+            result.times += times;
+        } catch (...) {
+            failed = true;
+            std::lock_guard lock(mutex);
+            if (!first_error) first_error = std::current_exception();
+        }
+    };
+    const int thread_count = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(options.threads), std::max<std::size_t>(todo.size(), 1)));
+    std::vector<std::thread> threads;
+    for (int t = 1; t < thread_count; ++t) threads.emplace_back(worker, t);
+    worker(0);
+    for (auto& thread : threads) thread.join();
+    if (first_error) std::rethrow_exception(first_error);
+    result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    result.generated = generated;
+    result.tars_written += tars_written;
+    result.renderer = renderer_name;
+
+    // The final manifest and COCO file list this shard's samples in index order, whatever the
+    // order they finished in.
+    std::vector<std::int64_t> all;
+    for (std::int64_t i = 0; i < config.count; ++i)
+        if (in_shard(i, options.shard, unit)) all.push_back(i);
+    write_file_atomically(manifest_path, manifest_text(all, config));
+    if (formats.coco) write_file_atomically(out / coco_name(options.shard), coco_from_meta(out, all, config).dump(1) + "\n");
+    if (!formats.folder && !formats.coco) {
+        std::error_code ignored;
+        fs::remove_all(out / kStagingFolder, ignored);  // succeeds only when other shards left nothing there either
+    }
+    return result;
+}
+
+nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::int64_t>& indices, const SynthConfig& config) {
+    nlohmann::json names = nlohmann::json::array();
+    for (int i = 1; i <= kNumIbugLandmarks; ++i) names.push_back("ibug_" + std::to_string(i));
+    // 1-based COCO skeleton along the iBUG contours: jaw, brows, nose bridge and base, eyes, lips.
+    nlohmann::json skeleton = nlohmann::json::array();
+    const auto chain = [&](int first, int last, bool closed) {
+        for (int i = first; i < last; ++i) skeleton.push_back({i, i + 1});
+        if (closed) skeleton.push_back({last, first});
+    };
+    chain(1, 17, false);
+    chain(18, 22, false);
+    chain(23, 27, false);
+    chain(28, 31, false);
+    chain(32, 36, false);
+    chain(37, 42, true);
+    chain(43, 48, true);
+    chain(49, 60, true);
+    chain(61, 68, true);
+    nlohmann::json images = nlohmann::json::array(), annotations = nlohmann::json::array();
+    const std::string extension = image_extension(config);
+    for (const auto index : indices) {
+        const std::string key = sample_key(index);
+        const fs::path meta_path = dataset / "meta" / (key + ".json");
+        nlohmann::json meta;
+        try {
+            meta = nlohmann::json::parse(read_file(meta_path));
+        } catch (const nlohmann::json::exception& e) {
+            throw file_error(meta_path.string(), std::string("invalid JSON: ") + e.what());
+        }
+        const int width = meta.at("image_width"), height = meta.at("image_height");
+        images.push_back({{"id", index + 1}, {"file_name", "images/" + key + extension}, {"width", width}, {"height", height}});
+        nlohmann::json keypoints = nlohmann::json::array();
+        int labelled = 0;
+        const auto& points = meta.at("landmarks");
+        const auto& visibility = meta.at("visibility");
+        const auto& occluded = meta.at("occluded");
+        for (std::size_t p = 0; p < points.size(); ++p) {
+            const double x = points[p][0], y = points[p][1];
+            const bool inside = x >= -0.5 && y >= -0.5 && x < width - 0.5 && y < height - 0.5;
+            int v = 0;
+            if (inside) v = visibility[p].get<int>() && !occluded[p].get<int>() ? 2 : 1;
+            keypoints.push_back(inside ? x : 0.0);
+            keypoints.push_back(inside ? y : 0.0);
+            keypoints.push_back(v);
+            labelled += v > 0;
+        }
+        const auto& box = meta.at("bbox");
+        annotations.push_back({{"id", index + 1}, {"image_id", index + 1}, {"category_id", 1}, {"iscrowd", 0},
+                               {"bbox", box}, {"area", box[2].get<double>() * box[3].get<double>()},
+                               {"num_keypoints", labelled}, {"keypoints", keypoints}});
+    }
+    return {{"info", {{"description", "facesynth synthetic faces"}, {"version", "1"}}},
+            {"images", images},
+            {"annotations", annotations},
+            {"categories", nlohmann::json::array({{{"id", 1}, {"name", "face"}, {"supercategory", "face"}, {"keypoints", names}, {"skeleton", skeleton}}})}};
+}
+
+SynthConfig read_dataset_config(const fs::path& dataset) {
+    const fs::path path = dataset / "dataset.json";
+    try {
+        return config_from_json(nlohmann::json::parse(read_file(path)).at("config"));
+    } catch (const nlohmann::json::exception& e) {
+        throw file_error(path.string(), std::string("not a facesynth dataset.json: ") + e.what());
+    } catch (const Error& e) {
+        throw file_error(path.string(), e.what());
+    }
+}
+
+MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& out) {
+    if (inputs.empty()) throw Error("synth merge: name at least one dataset folder");
+    const fs::path first_info = inputs.front() / "dataset.json";
+    const nlohmann::json info = nlohmann::json::parse(read_file(first_info), nullptr, false);
+    if (info.is_discarded()) throw file_error(first_info.string(), "invalid JSON");
+    const SynthConfig config = read_dataset_config(inputs.front());
+    const auto formats = parse_formats(config.output.formats);
+    const auto identity = dataset_identity(info.at("config"), info.value("model_checksum", ""));
+    std::map<std::int64_t, fs::path> sources;  // index -> folder holding it
+    MergeResult result;
+    for (const auto& input : inputs) {
+        const nlohmann::json other = nlohmann::json::parse(read_file(input / "dataset.json"), nullptr, false);
+        if (other.is_discarded()) throw file_error((input / "dataset.json").string(), "invalid JSON");
+        const auto difference = identity_mismatch(identity, dataset_identity(other.at("config"), other.value("model_checksum", "")));
+        if (!difference.empty())
+            throw file_error(input.string(), "made with a different config than " + inputs.front().string() + " ('" + difference + "' differs)");
+        for (const auto& entry : fs::directory_iterator(input)) {
+            const std::string name = entry.path().filename().string();
+            if (!name.starts_with("manifest") || !name.ends_with(".jsonl")) continue;
+            std::stringstream lines(read_file(entry.path()));
+            std::string line;
+            int line_number = 0;
+            while (std::getline(lines, line)) {
+                ++line_number;
+                if (line.empty()) continue;
+                const auto parsed = nlohmann::json::parse(line, nullptr, false);
+                if (parsed.is_discarded() || !parsed.contains("index"))
+                    throw file_error(entry.path().string(), "line " + std::to_string(line_number) + " is not a manifest entry");
+                const std::int64_t index = parsed.at("index");
+                if (!sources.emplace(index, input).second) ++result.duplicates;
+            }
+        }
+    }
+    std::error_code error;
+    fs::create_directories(out, error);
+    const auto files = sample_files(config);
+    std::vector<std::int64_t> indices;
+    for (const auto& [index, source] : sources) {
+        indices.push_back(index);
+        std::vector<std::pair<fs::path, fs::path>> links;
+        if (formats.folder || formats.coco)
+            for (const auto& file : files) links.push_back({source / file.folder / (sample_key(index) + file.suffix), out / file.folder / (sample_key(index) + file.suffix)});
+        if (formats.wds && index % config.output.wds_shard_size == 0) {
+            const auto tar = wds_tar_name(config, index / config.output.wds_shard_size);
+            links.push_back({source / tar, out / tar});
+        }
+        for (const auto& [from, to] : links) {
+            if (!fs::exists(from)) throw file_error(from.string(), "listed in a manifest but missing");
+            if (fs::equivalent(from.parent_path(), to.parent_path(), error) || fs::exists(to)) continue;
+            fs::create_directories(to.parent_path());
+            const auto temp = temporary_path_for(to);
+            fs::create_hard_link(from, temp, error);
+            if (error) fs::copy_file(from, temp);
+            commit_temporary_file(temp, to);
+        }
+    }
+    for (std::int64_t i = 0; i < config.count; ++i)
+        if (!sources.count(i)) ++result.missing;
+    result.samples = indices.size();
+    if (!fs::exists(out / "dataset.json") || !fs::equivalent(inputs.front(), out)) write_file_atomically(out / "dataset.json", read_file(first_info));
+    write_file_atomically(out / "manifest.jsonl", manifest_text(indices, config));
+    if (formats.coco) write_file_atomically(out / "coco.json", coco_from_meta(out, indices, config).dump(1) + "\n");
+    return result;
+}
+
+}  // namespace facesynth::synth

@@ -1,0 +1,281 @@
+#include "synth/sample.h"
+
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "morph/random.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace facesynth::synth {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point& start) {
+    const auto now = Clock::now();
+    const double s = std::chrono::duration<double>(now - start).count();
+    start = now;
+    return s;
+}
+
+cv::Scalar to_scalar(const Eigen::Vector3d& rgb01) { return {rgb01.x() * 255.0, rgb01.y() * 255.0, rgb01.z() * 255.0}; }
+
+void gradient(cv::Mat& out, const BackgroundSpec& b) {
+    const double angle = b.gradient_angle * 3.14159265358979323846 / 180.0;
+    const double dx = std::cos(angle), dy = std::sin(angle);
+    const double half_extent = 0.5 * (std::abs(dx) * out.cols + std::abs(dy) * out.rows);
+    const double cx = 0.5 * out.cols, cy = 0.5 * out.rows;
+    for (int y = 0; y < out.rows; ++y) {
+        auto* row = out.ptr<cv::Vec3b>(y);
+        for (int x = 0; x < out.cols; ++x) {
+            const double t = std::clamp(0.5 + ((x - cx) * dx + (y - cy) * dy) / (2.0 * half_extent), 0.0, 1.0);
+            const Eigen::Vector3d c = ((1 - t) * b.colour + t * b.colour2) * 255.0;
+            row[x] = cv::Vec3b(cv::saturate_cast<uchar>(c.x()), cv::saturate_cast<uchar>(c.y()), cv::saturate_cast<uchar>(c.z()));
+        }
+    }
+}
+
+// A colour gradient with random soft shapes over it: clutter without meaning.
+void procedural(cv::Mat& out, const BackgroundSpec& b) {
+    gradient(out, b);
+    Rng rng(b.pattern_seed, 0, 0);
+    const int shapes = rng.uniform_int(3, 12);
+    const int side = std::max(out.cols, out.rows);
+    for (int i = 0; i < shapes; ++i) {
+        const cv::Point centre(rng.uniform_int(0, out.cols - 1), rng.uniform_int(0, out.rows - 1));
+        const cv::Scalar colour(rng.uniform(0, 255), rng.uniform(0, 255), rng.uniform(0, 255));
+        const int size = std::max(2, static_cast<int>(rng.uniform(0.03, 0.3) * side));
+        switch (rng.uniform_int(0, 2)) {
+            case 0: cv::circle(out, centre, size, colour, cv::FILLED, cv::LINE_8); break;
+            case 1:
+                cv::rectangle(out, cv::Rect(centre.x - size / 2, centre.y - size / 3, size, std::max(1, 2 * size / 3)), colour, cv::FILLED);
+                break;
+            default:
+                cv::line(out, centre, cv::Point(rng.uniform_int(0, out.cols - 1), rng.uniform_int(0, out.rows - 1)), colour,
+                         std::max(1, size / 6), cv::LINE_8);
+        }
+    }
+    const double sigma = rng.uniform(0.5, 4.0) * side / 256.0;
+    cv::GaussianBlur(out, out, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
+}
+
+void image_crop(cv::Mat& out, const BackgroundSpec& b, const BackgroundLibrary& library) {
+    Rng rng(b.pattern_seed, 0, 0);
+    const cv::Mat& source = library.image(rng.next_u64());
+    // A random crop of the output's aspect ratio covering 30-100% of the image's shorter side.
+    const double aspect = static_cast<double>(out.cols) / out.rows;
+    const double share = rng.uniform(0.3, 1.0);
+    int crop_h = std::max(1, static_cast<int>(share * std::min<double>(source.rows, source.cols / aspect)));
+    int crop_w = std::max(1, std::min(source.cols, static_cast<int>(crop_h * aspect)));
+    crop_h = std::min(crop_h, source.rows);
+    const int x = rng.uniform_int(0, source.cols - crop_w);
+    const int y = rng.uniform_int(0, source.rows - crop_h);
+    cv::resize(source(cv::Rect(x, y, crop_w, crop_h)), out, out.size(), 0, 0, cv::INTER_AREA);
+    if (rng.uniform() < 0.5) cv::flip(out, out, 1);
+}
+
+cv::Mat make_background(const cv::Size& size, const BackgroundSpec& b, const BackgroundLibrary& library) {
+    cv::Mat out(size, CV_8UC3);
+    if (b.type == "solid") out.setTo(to_scalar(b.colour));
+    else if (b.type == "images") image_crop(out, b, library);
+    else procedural(out, b);
+    return out;
+}
+
+// face (premultiplied by coverage) + background · (1 - coverage)
+void composite(const cv::Mat& face, const cv::Mat& mask, const cv::Mat& background, cv::Mat& out) {
+    out.create(face.size(), CV_8UC3);
+    for (int y = 0; y < face.rows; ++y) {
+        const auto* f = face.ptr<cv::Vec3b>(y);
+        const auto* m = mask.ptr<uchar>(y);
+        const auto* b = background.ptr<cv::Vec3b>(y);
+        auto* o = out.ptr<cv::Vec3b>(y);
+        for (int x = 0; x < face.cols; ++x) {
+            const int keep = 255 - m[x];
+            for (int c = 0; c < 3; ++c) o[x][c] = cv::saturate_cast<uchar>(f[x][c] + (b[x][c] * keep + 127) / 255);
+        }
+    }
+}
+
+void draw_occluders(const std::vector<OccluderSpec>& occluders, cv::Mat& image, cv::Mat& coverage) {
+    coverage = cv::Mat::zeros(image.size(), CV_8UC1);
+    for (const auto& o : occluders) {
+        const cv::RotatedRect box(cv::Point2f(static_cast<float>(o.centre.x()), static_cast<float>(o.centre.y())),
+                                  cv::Size2f(static_cast<float>(2 * o.half_size.x()), static_cast<float>(2 * o.half_size.y())),
+                                  static_cast<float>(o.angle));
+        if (o.shape == "ellipse") {
+            cv::ellipse(image, box, to_scalar(o.colour), cv::FILLED, cv::LINE_AA);
+            cv::ellipse(coverage, box, cv::Scalar(255), cv::FILLED, cv::LINE_8);
+        } else {
+            cv::Point2f corners[4];
+            box.points(corners);
+            std::vector<cv::Point> polygon;
+            for (const auto& p : corners) polygon.emplace_back(cvRound(p.x), cvRound(p.y));
+            cv::fillConvexPoly(image, polygon, to_scalar(o.colour), cv::LINE_AA);
+            cv::fillConvexPoly(coverage, polygon, cv::Scalar(255), cv::LINE_8);
+        }
+    }
+}
+
+void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::int64_t index) {
+    if (d.downscale < 1) {
+        cv::Mat small;
+        const cv::Size size(std::max(1, static_cast<int>(image.cols * d.downscale)), std::max(1, static_cast<int>(image.rows * d.downscale)));
+        cv::resize(image, small, size, 0, 0, cv::INTER_AREA);
+        cv::resize(small, image, image.size(), 0, 0, cv::INTER_LINEAR);
+    }
+    if (d.blur_sigma > 0) cv::GaussianBlur(image, image, cv::Size(0, 0), d.blur_sigma, d.blur_sigma, cv::BORDER_REFLECT);
+    if (d.gamma != 1 || d.gains != Eigen::Vector3d::Ones()) {
+        cv::Mat lut(1, 256, CV_8UC3);
+        for (int v = 0; v < 256; ++v)
+            for (int c = 0; c < 3; ++c)
+                lut.at<cv::Vec3b>(v)[c] = cv::saturate_cast<uchar>(255.0 * std::pow(v / 255.0, d.gamma) * d.gains[c]);
+        cv::LUT(image, lut, image);
+    }
+    if (d.noise_sigma > 0) {
+        Rng rng = make_rng(seed, static_cast<std::uint64_t>(index), RandomStream::kNoise);
+        for (int y = 0; y < image.rows; ++y) {
+            auto* row = image.ptr<uchar>(y);
+            for (int x = 0; x < image.cols * 3; ++x) row[x] = cv::saturate_cast<uchar>(row[x] + rng.normal(0, d.noise_sigma));
+        }
+    }
+    if (d.jpeg_quality > 0) {
+        std::vector<uchar> bytes;
+        cv::Mat bgr;
+        cv::cvtColor(image, bgr, cv::COLOR_RGB2BGR);
+        cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, d.jpeg_quality});
+        cv::cvtColor(cv::imdecode(bytes, cv::IMREAD_COLOR), image, cv::COLOR_BGR2RGB);
+    }
+}
+
+// Self-occlusion from the depth buffer: a landmark is visible when it lies inside the image and,
+// in its 3x3 pixel neighbourhood, some covered pixel is not in front of it by more than the tolerance.
+std::vector<int> depth_visibility(const Eigen::Matrix2Xd& pixels, const Eigen::Matrix3Xd& camera_points, const cv::Mat& depth) {
+    std::vector<int> visible(static_cast<std::size_t>(pixels.cols()), 0);
+    for (Eigen::Index i = 0; i < pixels.cols(); ++i) {
+        const int u = static_cast<int>(std::lround(pixels(0, i)));
+        const int v = static_cast<int>(std::lround(pixels(1, i)));
+        if (u < 0 || v < 0 || u >= depth.cols || v >= depth.rows) continue;
+        const double z = camera_points(2, i);
+        const double tolerance = std::max(3.0, 0.01 * z);
+        for (int dy = -1; dy <= 1 && !visible[static_cast<std::size_t>(i)]; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+                const int x = u + dx, y = v + dy;
+                if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) continue;
+                const float d = depth.at<float>(y, x);
+                if (d > 0 && z <= d + tolerance) {
+                    visible[static_cast<std::size_t>(i)] = 1;
+                    break;
+                }
+            }
+    }
+    return visible;
+}
+
+std::vector<int> occluded_by(const Eigen::Matrix2Xd& pixels, const cv::Mat& coverage) {
+    std::vector<int> occluded(static_cast<std::size_t>(pixels.cols()), 0);
+    for (Eigen::Index i = 0; i < pixels.cols(); ++i) {
+        const int u = static_cast<int>(std::lround(pixels(0, i)));
+        const int v = static_cast<int>(std::lround(pixels(1, i)));
+        if (u >= 0 && v >= 0 && u < coverage.cols && v < coverage.rows) occluded[static_cast<std::size_t>(i)] = coverage.at<uchar>(v, u) > 127;
+    }
+    return occluded;
+}
+
+}  // namespace
+
+StageTimes& StageTimes::operator+=(const StageTimes& o) {
+    sample += o.sample;
+    render += o.render;
+    composite += o.composite;
+    encode += o.encode;
+    write += o.write;
+    return *this;
+}
+
+BackgroundLibrary::BackgroundLibrary(const std::filesystem::path& folder) {
+    std::error_code error;
+    if (!std::filesystem::is_directory(folder, error)) throw file_error(folder.string(), "background folder not found");
+    std::vector<std::filesystem::path> files;
+    for (const auto& entry : std::filesystem::directory_iterator(folder))
+        if (entry.is_regular_file()) files.push_back(entry.path());
+    std::sort(files.begin(), files.end());  // the choice of image must not depend on directory order
+    for (const auto& file : files) {
+        cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
+        if (bgr.empty() || bgr.cols < 8 || bgr.rows < 8) {
+            std::fprintf(stderr, "facesynth: warning: %s: not a readable image, skipped\n", file.string().c_str());
+            continue;
+        }
+        cv::Mat rgb;
+        cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+        images_.push_back(std::move(rgb));
+    }
+    if (images_.empty()) throw file_error(folder.string(), "no readable background images");
+}
+
+SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel& model, const BackgroundLibrary& backgrounds,
+                                 const render::RendererOptions& renderer_options)
+    : config_(config), model_(model), backgrounds_(backgrounds), renderer_(renderer_options) {
+    if (config.background.type == "images" && backgrounds.empty())
+        throw Error("background.type = \"images\" needs a background folder with readable images");
+}
+
+std::string SampleGenerator::renderer_description() const { return renderer_.backend() + " | " + renderer_.renderer_string(); }
+
+Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
+    auto clock = Clock::now();
+    StageTimes local;
+    Sample s;
+    s.spec = sample_scene(config_, model_, index);
+    const Mesh mesh = model_.instance(s.spec.alpha, s.spec.psi, s.spec.beta);
+    local.sample = seconds_since(clock);
+
+    render::Camera camera{s.spec.intrinsics, s.spec.pose, render::Projection::kPerspective};
+    render::RenderSettings settings;
+    settings.lighting = s.spec.lighting.lighting;
+    settings.geometry = true;  // depth for landmark visibility
+    renderer_.render(mesh, camera, settings, frame_);
+    local.render = seconds_since(clock);
+
+    // Landmarks. The renderer does not offer silhouette (contour) jaw points yet, so both modes
+    // carry the fixed jaw vertices and contour_source says so.
+    auto& labels = s.labels;
+    const Eigen::Matrix3Xf landmarks_3d = model_.landmark_positions(mesh.vertices);
+    labels.landmarks_3d_fixed = landmarks_3d.cast<double>();
+    labels.landmarks_fixed = render::project_points(camera, landmarks_3d);
+    const Eigen::Matrix3Xd camera_points = to_camera(s.spec.pose, landmarks_3d);
+    labels.visible_fixed = depth_visibility(labels.landmarks_fixed, camera_points, frame_.depth);
+    labels.landmarks_contour = labels.landmarks_fixed;
+    labels.landmarks_3d_contour = labels.landmarks_3d_fixed;
+    labels.visible_contour = labels.visible_fixed;
+    labels.contour_source = "fixed";
+
+    const cv::Mat background = make_background(frame_.rgb.size(), s.spec.background, backgrounds_);
+    composite(frame_.rgb, frame_.mask, background, s.image);
+    s.mask = frame_.mask.clone();
+    cv::Mat occluder_coverage;
+    draw_occluders(s.spec.occluders, s.image, occluder_coverage);
+    s.mask.setTo(0, occluder_coverage);
+    labels.occluded = occluded_by(chosen_landmarks(labels, config_.landmarks.mode), occluder_coverage);
+    degrade(s.image, s.spec.degradation, s.spec.seed, index);
+    if (config_.output.depth) s.depth = frame_.depth.clone();
+    if (config_.output.normals) s.normals = frame_.normals.clone();
+    local.composite = seconds_since(clock);
+    if (times) *times += local;
+    return s;
+}
+
+const Eigen::Matrix2Xd& chosen_landmarks(const SampleLabels& labels, const std::string& mode) {
+    return mode == "fixed" ? labels.landmarks_fixed : labels.landmarks_contour;
+}
+
+const std::vector<int>& chosen_visibility(const SampleLabels& labels, const std::string& mode) {
+    return mode == "fixed" ? labels.visible_fixed : labels.visible_contour;
+}
+
+}  // namespace facesynth::synth

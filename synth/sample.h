@@ -1,0 +1,83 @@
+#pragma once
+// Turning a SampleSpec into pixels and labels: render the face, place it over the background,
+// apply occluders and degradations, and compute the landmarks (both jaw modes) with visibility.
+#include "morph/model.h"
+#include "render/renderer.h"
+#include "synth/config.h"
+#include "synth/scene.h"
+
+#include <opencv2/core.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace facesynth::synth {
+
+struct SampleLabels {
+    Eigen::Matrix2Xd landmarks_fixed;     // 2 x 68, 0-based px
+    Eigen::Matrix2Xd landmarks_contour;   // 2 x 68, 0-based px (jaw points on the silhouette)
+    Eigen::Matrix3Xd landmarks_3d_fixed;  // 3 x 68, model space mm (with expression)
+    Eigen::Matrix3Xd landmarks_3d_contour;
+    std::vector<int> visible_fixed;       // 1 = not self-occluded and inside the image
+    std::vector<int> visible_contour;
+    std::vector<int> occluded;            // 1 = covered by an occluder (landmarks of the chosen mode)
+    std::string contour_source;           // how the contour jaw points were found
+};
+
+struct Sample {
+    SampleSpec spec;
+    SampleLabels labels;
+    cv::Mat image;    // CV_8UC3, RGB, final (background, occluders, degradations)
+    cv::Mat mask;     // CV_8UC1, visible face coverage (occluders removed)
+    cv::Mat depth;    // CV_32FC1, camera-space mm, 0 = background
+    cv::Mat normals;  // CV_32FC3, camera axes
+};
+
+// Where time goes, summed over samples (seconds).
+struct StageTimes {
+    double sample = 0;     // scene sampling + mesh instance
+    double render = 0;     // GL draw + readback
+    double composite = 0;  // background, occluders, degradations, landmarks
+    double encode = 0;     // PNG/JPEG/EXR encoding, .pts and JSON text
+    double write = 0;      // files, renames, manifest
+    StageTimes& operator+=(const StageTimes& other);
+};
+
+// Background images for background.type = "images", read once and shared read-only between threads.
+// Unreadable files are skipped with a warning on stderr; none usable is an error.
+class BackgroundLibrary {
+public:
+    BackgroundLibrary() = default;
+    explicit BackgroundLibrary(const std::filesystem::path& folder);
+    [[nodiscard]] bool empty() const { return images_.empty(); }
+    [[nodiscard]] const cv::Mat& image(std::uint64_t choice) const { return images_[choice % images_.size()]; }
+    [[nodiscard]] std::size_t size() const { return images_.size(); }
+
+private:
+    std::vector<cv::Mat> images_;  // CV_8UC3 RGB
+};
+
+// One per worker thread: owns its Renderer (GL context), created once.
+class SampleGenerator {
+public:
+    SampleGenerator(const SynthConfig& config, const MorphableModel& model, const BackgroundLibrary& backgrounds,
+                    const render::RendererOptions& renderer_options);
+    [[nodiscard]] Sample generate(std::int64_t index, StageTimes* times = nullptr);
+    [[nodiscard]] std::string renderer_description() const;
+
+private:
+    const SynthConfig& config_;
+    const MorphableModel& model_;
+    const BackgroundLibrary& backgrounds_;
+    render::Renderer renderer_;
+    render::Frame frame_;
+};
+
+// Landmarks of the mode named in config.landmarks.mode, with their visibility.
+[[nodiscard]] const Eigen::Matrix2Xd& chosen_landmarks(const SampleLabels& labels, const std::string& mode);
+[[nodiscard]] const std::vector<int>& chosen_visibility(const SampleLabels& labels, const std::string& mode);
+
+}  // namespace facesynth::synth

@@ -1,0 +1,249 @@
+#include "synth/scene.h"
+
+#include "morph/error.h"
+#include "morph/random.h"
+#include "morph/sampling.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <numeric>
+
+namespace facesynth::synth {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+double sample_angle(Rng& rng, const AngleDistribution& a) {
+    if (a.distribution == "normal") {
+        for (;;) {
+            const double v = rng.normal(a.mean, a.stddev);
+            if (v >= a.min && v <= a.max) return v;
+        }
+    }
+    return rng.uniform(a.min, a.max);
+}
+
+bool chance(Rng& rng, double probability) { return rng.uniform() < probability; }
+
+std::vector<float> sample_expression(const SynthConfig& config, const MorphableModel& model, std::int64_t index) {
+    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kExpression);
+    const int n = model.num_expression_components();
+    if (n == 0 || !model.expression) return {};
+    if (chance(rng, config.expression.neutral_share)) return {};
+    if (std::holds_alternative<PcaModel>(*model.expression))
+        return sample_coefficients(rng, n, config.expression.truncation);
+    std::vector<float> weights(static_cast<std::size_t>(n), 0.0f);
+    std::vector<int> order(static_cast<std::size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    const int active = rng.uniform_int(1, std::min(config.expression.max_active, n));
+    for (int k = 0; k < active; ++k) {  // partial Fisher-Yates: `active` distinct blendshapes
+        std::swap(order[static_cast<std::size_t>(k)], order[static_cast<std::size_t>(rng.uniform_int(k, n - 1))]);
+        weights[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])] =
+            static_cast<float>(rng.uniform(config.expression.min_weight, config.expression.max_weight));
+    }
+    return weights;
+}
+
+std::vector<float> scaled(std::vector<float> values, double scale) {
+    for (auto& v : values) v = static_cast<float>(v * scale);
+    return values;
+}
+
+// A unit vector within `max_angle` degrees of `axis` (uniform over the spherical cap).
+Eigen::Vector3d direction_in_cone(Rng& rng, const Eigen::Vector3d& axis, double max_angle) {
+    const double cos_max = std::cos(max_angle * kDegree);
+    const double z = rng.uniform(cos_max, 1.0);
+    const double phi = rng.uniform(0.0, 2.0 * std::numbers::pi);
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const Eigen::Vector3d local(r * std::cos(phi), r * std::sin(phi), z);
+    const Eigen::Vector3d a = axis.normalized();
+    const Eigen::Vector3d helper = std::abs(a.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d u = a.cross(helper).normalized();
+    const Eigen::Vector3d v = a.cross(u);
+    return (local.x() * u + local.y() * v + local.z() * a).normalized();
+}
+
+std::array<float, 3> to_floats(const Eigen::Vector3d& v) {
+    return {static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z())};
+}
+
+LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
+    const auto& c = config.lighting;
+    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kLighting);
+    LightingSpec spec;
+    auto& l = spec.lighting;
+    spec.environment_radiance = rng.uniform(c.environment_min, c.environment_max);
+    spec.environment_temperature = rng.uniform(c.colour_temperature_min, c.colour_temperature_max);
+    const Eigen::Vector3d dc = colour_of_temperature(spec.environment_temperature) * (spec.environment_radiance * render::kShUniformDc);
+    l.sh[0] = to_floats(dc);
+    for (std::size_t k = 1; k < l.sh.size(); ++k) l.sh[k] = to_floats(dc * (c.sh_strength * rng.normal()));
+    // Environments are brighter from above and in front. Real SH order (Y00, Y1-1 ~ y, Y10 ~ z, Y11 ~ x,
+    // ...) in view space, where up is +y and toward the camera is +z.
+    l.sh[1] = to_floats(Eigen::Vector3d(l.sh[1][0], l.sh[1][1], l.sh[1][2]) + dc * (0.3 * c.sh_strength));
+    l.sh[2] = to_floats(Eigen::Vector3d(l.sh[2][0], l.sh[2][1], l.sh[2][2]) + dc * (0.3 * c.sh_strength));
+    const float ambient = static_cast<float>(rng.uniform(0.0, c.ambient_max));
+    l.ambient = {ambient, ambient, ambient};
+    const int count = rng.uniform_int(0, c.directional_max);
+    for (int i = 0; i < count; ++i) {
+        // Toward the camera (+z) and somewhat from above (+y), spread over a wide cone.
+        const Eigen::Vector3d direction = direction_in_cone(rng, Eigen::Vector3d(0, 0.4, 1), 75.0);
+        const double temperature = rng.uniform(c.colour_temperature_min, c.colour_temperature_max);
+        const double intensity = rng.uniform(c.intensity_min, c.intensity_max);
+        l.lights.push_back({to_floats(direction), to_floats(colour_of_temperature(temperature) * intensity)});
+        spec.light_temperatures.push_back(temperature);
+    }
+    l.specular = static_cast<float>(rng.uniform(0.0, c.specular_max));
+    return spec;
+}
+
+Eigen::Vector3d random_colour(Rng& rng) { return {rng.uniform(), rng.uniform(), rng.uniform()}; }
+
+BackgroundSpec sample_background(const SynthConfig& config, std::int64_t index) {
+    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kBackground);
+    BackgroundSpec b;
+    b.type = config.background.type;
+    b.colour = random_colour(rng);
+    b.colour2 = random_colour(rng);
+    b.gradient_angle = rng.uniform(0.0, 360.0);
+    b.pattern_seed = rng.next_u64();
+    return b;
+}
+
+DegradationSpec sample_degradation(const SynthConfig& config, std::int64_t index) {
+    const auto& c = config.degrade;
+    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kDegradation);
+    DegradationSpec d;
+    // Every draw happens whatever the probabilities, so changing one probability never moves another value.
+    const double blur = rng.uniform(0.3, c.blur_sigma_max);
+    const double noise = rng.uniform(1.0, c.noise_sigma_max);
+    const int quality = rng.uniform_int(c.jpeg_quality_min, c.jpeg_quality_max);
+    const double gamma = rng.uniform(c.gamma_min, c.gamma_max);
+    const Eigen::Vector3d gains(rng.uniform(1 - c.colour_jitter, 1 + c.colour_jitter), rng.uniform(1 - c.colour_jitter, 1 + c.colour_jitter),
+                                rng.uniform(1 - c.colour_jitter, 1 + c.colour_jitter));
+    const double downscale = rng.uniform(c.downscale_min, 1.0);
+    if (chance(rng, c.blur_probability)) d.blur_sigma = blur;
+    if (chance(rng, c.noise_probability)) d.noise_sigma = noise;
+    if (chance(rng, c.jpeg_probability)) d.jpeg_quality = quality;
+    if (chance(rng, c.gamma_probability)) d.gamma = gamma;
+    if (chance(rng, c.colour_jitter_probability)) d.gains = gains;
+    if (chance(rng, c.downscale_probability)) d.downscale = downscale;
+    return d;
+}
+
+std::vector<OccluderSpec> sample_occluders(const SynthConfig& config, std::int64_t index, const Eigen::Matrix2Xd& landmarks) {
+    const auto& c = config.occluders;
+    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kOccluder);
+    std::vector<OccluderSpec> out;
+    if (!chance(rng, c.probability)) return out;
+    const Eigen::Vector2d low = landmarks.rowwise().minCoeff();
+    const Eigen::Vector2d high = landmarks.rowwise().maxCoeff();
+    const double face_size = (high - low).norm();
+    const int count = rng.uniform_int(1, c.max_count);
+    for (int i = 0; i < count; ++i) {
+        OccluderSpec o;
+        o.shape = rng.uniform() < 0.5 ? "ellipse" : "rectangle";
+        // Centred on a random landmark so the occluder covers part of the face.
+        const int anchor = rng.uniform_int(0, static_cast<int>(landmarks.cols()) - 1);
+        o.centre = landmarks.col(anchor) + Eigen::Vector2d(rng.normal(0, 0.05 * face_size), rng.normal(0, 0.05 * face_size));
+        o.half_size = 0.5 * face_size * Eigen::Vector2d(rng.uniform(0.15, 1.0) * c.max_size, rng.uniform(0.15, 1.0) * c.max_size);
+        o.angle = rng.uniform(0.0, 180.0);
+        o.colour = random_colour(rng);
+        out.push_back(o);
+    }
+    return out;
+}
+
+}  // namespace
+
+std::string sample_key(std::int64_t index) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "s%08lld", static_cast<long long>(index));
+    return buffer;
+}
+
+Eigen::Vector3d colour_of_temperature(double kelvin) {
+    // Planck's law at representative wavelengths of the R, G, B primaries, relative to 6500 K so
+    // that daylight is white.
+    constexpr double h = 6.62607015e-34, c = 2.99792458e8, k = 1.380649e-23;
+    const auto radiance = [&](double nm, double temperature) {
+        const double lambda = nm * 1e-9;
+        return 1.0 / (std::pow(lambda, 5) * std::expm1(h * c / (lambda * k * temperature)));
+    };
+    const std::array<double, 3> wavelengths{610.0, 550.0, 465.0};
+    Eigen::Vector3d rgb;
+    for (int i = 0; i < 3; ++i) {
+        const double nm = wavelengths[static_cast<std::size_t>(i)];
+        rgb[i] = radiance(nm, kelvin) / radiance(nm, 6500.0);
+    }
+    return rgb / rgb.maxCoeff();
+}
+
+SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index) {
+    const auto i = static_cast<std::uint64_t>(index);
+    SampleSpec s;
+    s.seed = config.seed;
+    s.index = index;
+    s.key = sample_key(index);
+    {
+        Rng rng = make_rng(config.seed, i, RandomStream::kIdentity);
+        s.alpha = scaled(sample_coefficients(rng, model.num_shape_components(), config.identity.truncation), config.identity.scale);
+    }
+    s.psi = sample_expression(config, model, index);
+    if (model.num_albedo_components() > 0) {
+        Rng rng = make_rng(config.seed, i, RandomStream::kAlbedo);
+        s.beta = scaled(sample_coefficients(rng, model.num_albedo_components(), config.albedo.truncation), config.albedo.scale);
+    }
+    {
+        Rng rng = make_rng(config.seed, i, RandomStream::kPose);
+        s.angles.yaw = sample_angle(rng, config.pose.yaw);
+        s.angles.pitch = sample_angle(rng, config.pose.pitch);
+        s.angles.roll = sample_angle(rng, config.pose.roll);
+        s.pose.rotation = rotation_from_euler(s.angles);
+    }
+
+    const auto& cam = config.camera;
+    Rng rng = make_rng(config.seed, i, RandomStream::kCamera);
+    s.fov = rng.uniform(cam.fov_min, cam.fov_max);
+    s.intrinsics = intrinsics_from_fov(s.fov, cam.width, cam.height);
+    s.intrinsics.cx += cam.principal_point_jitter * cam.width * rng.uniform(-1.0, 1.0);
+    s.intrinsics.cy += cam.principal_point_jitter * cam.height * rng.uniform(-1.0, 1.0);
+    const double face_scale = rng.uniform(cam.face_scale_min, cam.face_scale_max);
+    const double jitter = config.pose.translation_jitter;
+    const Eigen::Vector2d target_centre(0.5 * (cam.width - 1) + jitter * cam.width * rng.uniform(-1.0, 1.0),
+                                        0.5 * (cam.height - 1) + jitter * cam.height * rng.uniform(-1.0, 1.0));
+    const double target_size = face_scale * std::hypot(cam.width, cam.height);
+
+    // Place the face: the landmarks' box in rotated camera axes gives the size in mm; a first
+    // distance from the pinhole scale, then one correction from the true perspective projection.
+    const Eigen::Matrix3Xf vertices = model.shape_instance(s.alpha, s.psi);
+    const Eigen::Matrix3Xf landmarks = model.landmark_positions(vertices);
+    if (landmarks.cols() == 0) throw Error("model '" + model.name + "' has no landmarks; synth needs the 68 iBUG landmarks");
+    const Eigen::Matrix3Xd rotated = (model_to_camera_flip() * s.pose.rotation) * landmarks.cast<double>();
+    const Eigen::Vector3d low = rotated.rowwise().minCoeff();
+    const Eigen::Vector3d high = rotated.rowwise().maxCoeff();
+    const Eigen::Vector3d box_centre = 0.5 * (low + high);
+    const double size_mm = std::hypot(high.x() - low.x(), high.y() - low.y());
+    const double focal = 0.5 * (s.intrinsics.fx + s.intrinsics.fy);
+    double distance = focal * size_mm / target_size;
+    Eigen::Matrix2Xd projected;
+    for (int pass = 0; pass < 2; ++pass) {
+        const double depth = distance + box_centre.z();
+        s.pose.translation = Eigen::Vector3d((target_centre.x() - s.intrinsics.cx) * depth / s.intrinsics.fx,
+                                             (target_centre.y() - s.intrinsics.cy) * depth / s.intrinsics.fy, depth) -
+                             box_centre;
+        projected = project(s.intrinsics, s.pose, landmarks);
+        const double achieved = (projected.rowwise().maxCoeff() - projected.rowwise().minCoeff()).norm();
+        if (pass == 0 && achieved > 0) distance *= achieved / target_size;
+    }
+    s.lighting = sample_lighting(config, index);
+    s.background = sample_background(config, index);
+    s.degradation = sample_degradation(config, index);
+    s.occluders = sample_occluders(config, index, projected);
+    return s;
+}
+
+}  // namespace facesynth::synth

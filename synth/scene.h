@@ -1,0 +1,79 @@
+#pragma once
+// The per-sample scene: everything random about sample i, drawn from Rng(seed, i, stream) with one
+// RandomStream per quantity, so sample i depends only on (config, model, seed, i).
+#include "morph/camera.h"
+#include "morph/model.h"
+#include "morph/pose.h"
+#include "render/lighting.h"
+#include "synth/config.h"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace facesynth::synth {
+
+// The sampled lighting in the renderer's terms (view space: x right, y up, z toward the camera),
+// with the colour temperatures it was drawn from.
+struct LightingSpec {
+    render::Lighting lighting;
+    double environment_radiance = 0;        // radiance of the SH environment's DC term
+    double environment_temperature = 6500;  // K
+    std::vector<double> light_temperatures;  // K, one per directional light
+};
+
+struct BackgroundSpec {
+    std::string type;  // solid, procedural, images
+    Eigen::Vector3d colour = Eigen::Vector3d::Zero();   // sRGB in [0, 1]; the only colour for solid
+    Eigen::Vector3d colour2 = Eigen::Vector3d::Zero();  // second gradient colour (procedural)
+    double gradient_angle = 0;                          // degrees (procedural)
+    std::uint64_t pattern_seed = 0;                     // procedural shapes / image choice and crop
+};
+
+// One value per degradation; the neutral value means "not applied".
+struct DegradationSpec {
+    double blur_sigma = 0;          // px, 0 = none
+    double noise_sigma = 0;         // 8-bit levels, 0 = none
+    int jpeg_quality = 0;           // 0 = none
+    double gamma = 1;               // 1 = none
+    Eigen::Vector3d gains = Eigen::Vector3d::Ones();  // per-channel RGB gains, 1 = none
+    double downscale = 1;           // 1 = none
+};
+
+struct OccluderSpec {
+    std::string shape;  // "ellipse" or "rectangle"
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // px, 0-based
+    Eigen::Vector2d half_size = Eigen::Vector2d::Zero();  // px
+    double angle = 0;                                  // degrees
+    Eigen::Vector3d colour = Eigen::Vector3d::Zero();  // sRGB in [0, 1]
+};
+
+struct SampleSpec {
+    std::uint64_t seed = 0;
+    std::int64_t index = 0;
+    std::string key;  // "s00001234"
+    std::vector<float> alpha, psi, beta;
+    EulerAngles angles;
+    CameraPose pose;
+    Intrinsics intrinsics;
+    double fov = 0;  // vertical, degrees
+    LightingSpec lighting;
+    BackgroundSpec background;
+    DegradationSpec degradation;
+    std::vector<OccluderSpec> occluders;
+};
+
+// "s" + the index in 8 digits (keys without dots, as WebDataset wants).
+[[nodiscard]] std::string sample_key(std::int64_t index);
+
+// Draws the scene of sample `index`. The camera distance and translation are chosen so that the
+// sampled face (its 68 landmarks) has the sampled size and position in the image.
+[[nodiscard]] SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index);
+
+// Linear RGB of a black body at `kelvin`, normalised to a maximum component of 1.
+[[nodiscard]] Eigen::Vector3d colour_of_temperature(double kelvin);
+
+}  // namespace facesynth::synth

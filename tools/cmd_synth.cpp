@@ -1,0 +1,220 @@
+// `facesynth synth` (generate a dataset), `synth merge`, `synth sheet` and `bench synth`.
+#include "cli_common.h"
+#include "commands.h"
+
+#include "morph/atomic_file.h"
+#include "morph/error.h"
+#include "morph/model_io.h"
+#include "synth/dataset.h"
+#include "synth/sheet.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cstdio>
+#include <memory>
+#include <thread>
+#include <unistd.h>
+
+namespace facesynth::cli {
+namespace {
+
+struct SynthArgs {
+    std::string out;
+    std::string config_file;
+    std::vector<std::string> overrides;
+    std::int64_t count = -1;
+    std::int64_t seed = -1;
+    std::string size;
+    std::string model;
+    std::string formats;
+    int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    std::string shard = "0/1";
+    int shard_count = 0;
+    bool overwrite = false;
+    std::string backend = "auto";
+    bool quiet = false;
+    std::string json;
+};
+
+// Config file, then the direct flags, then --set overrides (in order).
+synth::SynthConfig resolve_config(const SynthArgs& a) {
+    synth::SynthConfig config;
+    if (!a.config_file.empty()) synth::apply_toml_file(config, a.config_file);
+    if (a.count >= 0) config.count = a.count;
+    if (a.seed >= 0) config.seed = static_cast<std::uint64_t>(a.seed);
+    if (!a.model.empty()) config.model = a.model;
+    if (!a.formats.empty()) config.output.formats = a.formats;
+    if (!a.size.empty()) {
+        int width = 0, height = 0;
+        char rest = 0;
+        if (std::sscanf(a.size.c_str(), "%dx%d%c", &width, &height, &rest) == 2) {
+        } else if (std::sscanf(a.size.c_str(), "%d%c", &width, &rest) == 1) {
+            height = width;
+        } else {
+            throw Error("--size '" + a.size + "': expected N or WxH");
+        }
+        config.camera.width = width;
+        config.camera.height = height;
+    }
+    for (const auto& o : a.overrides) synth::apply_override(config, o);
+    synth::validate(config);
+    return config;
+}
+
+void add_run_options(CLI::App* cmd, SynthArgs& a) {
+    cmd->add_option("--threads", a.threads, "worker threads, one GL context each (default: all cores)")->check(CLI::PositiveNumber);
+    cmd->add_option("--backend", a.backend, "renderer backend: auto, egl, osmesa")->check(CLI::IsMember({"auto", "egl", "osmesa"}));
+    cmd->add_option("--model", a.model, "model: builtin, a model file or folder (overrides the config's model)");
+    cmd->add_option("--size", a.size, "image size N or WxH (camera.width, camera.height)");
+    cmd->add_option("--set", a.overrides, "override a config key: key.sub=value (repeatable)");
+    cmd->add_option("--json", a.json, "write results as flat JSON to FILE");
+    cmd->add_flag("--quiet,-q", a.quiet, "no progress output");
+}
+
+void run_generate(const SynthArgs& a) {
+    if (a.out.empty()) throw CLI::RequiredError("--out");
+    synth::RunOptions options;
+    options.config = resolve_config(a);
+    options.out = a.out;
+    options.threads = a.threads;
+    options.shard = synth::parse_shard(a.shard, a.shard_count);
+    options.overwrite = a.overwrite;
+    options.renderer.backend = render::parse_backend(a.backend);
+    const MorphableModel model = load_model(options.config.model);
+    std::unique_ptr<Progress> progress;
+    options.on_start = [&](std::size_t todo, std::size_t done) {
+        if (!a.quiet && done > 0) std::fprintf(stderr, "synth: resuming, %zu samples of this shard already complete\n", done);
+        progress = std::make_unique<Progress>("synth", todo, a.quiet);
+    };
+    options.on_sample = [&] { progress->advance(); };
+    const auto result = synth::run_synth(options, model);
+    if (progress) progress->finish();
+    const double rate = result.seconds > 0 ? result.generated / result.seconds : 0.0;
+    if (!a.quiet)
+        std::printf("synth: %zu samples generated, %zu already present, shard %d/%d, %.1f samples/s, renderer %s -> %s\n", result.generated,
+                    result.already_done, options.shard.index, options.shard.count, rate, result.renderer.c_str(), a.out.c_str());
+    if (!a.json.empty())
+        write_json_file(a.json, {{"generated", result.generated}, {"already_done", result.already_done}, {"tars_written", result.tars_written},
+                                 {"seconds", result.seconds}, {"samples_per_s", rate}, {"shard_index", options.shard.index},
+                                 {"shard_count", options.shard.count}, {"threads", a.threads}, {"renderer", result.renderer},
+                                 {"out", a.out}});
+}
+
+struct BenchArgs {
+    SynthArgs run;
+    std::string work;
+    std::int64_t count = 300;
+};
+
+void run_bench(BenchArgs& b) {
+    SynthArgs a = b.run;
+    if (a.size.empty()) a.size = "256";
+    a.count = b.count;
+    a.formats = "folder";
+    const synth::SynthConfig config = resolve_config(a);
+    const MorphableModel model = load_model(config.model);
+    const std::filesystem::path work = b.work.empty() ? std::filesystem::temp_directory_path() / ("facesynth-bench-synth-" + std::to_string(::getpid())) : std::filesystem::path(b.work);
+    nlohmann::json report = {{"model", model.name}, {"vertices", model.num_vertices()}, {"width", config.camera.width},
+                             {"height", config.camera.height}, {"count", config.count}, {"image_format", config.output.image_format},
+                             {"png_compression", config.output.png_compression}};
+    const int all = a.threads;
+    for (const int threads : {1, all}) {
+        synth::RunOptions options;
+        options.config = config;
+        options.out = work;
+        options.threads = threads;
+        options.overwrite = true;
+        options.renderer.backend = render::parse_backend(a.backend);
+        const auto r = synth::run_synth(options, model);
+        const double rate = r.generated / r.seconds;
+        const double n = static_cast<double>(std::max<std::size_t>(r.generated, 1));
+        const std::string suffix = threads == 1 ? "_1_thread" : "_all_threads";
+        report["samples_per_s" + suffix] = rate;
+        report["threads" + suffix] = threads;
+        report["renderer"] = r.renderer;
+        if (threads == 1) {
+            report["ms_sample"] = 1e3 * r.times.sample / n;
+            report["ms_render"] = 1e3 * r.times.render / n;
+            report["ms_composite"] = 1e3 * r.times.composite / n;
+            report["ms_encode"] = 1e3 * r.times.encode / n;
+            report["ms_write"] = 1e3 * r.times.write / n;
+        }
+        if (!a.quiet) {
+            std::printf("bench synth: %d thread(s): %.1f samples/s (%zu samples, %.2f s)\n", threads, rate, r.generated, r.seconds);
+            std::printf("  per sample (thread time): sample %.2f ms, render+readback %.2f ms, composite+labels %.2f ms, encode %.2f ms, write %.2f ms\n",
+                        1e3 * r.times.sample / n, 1e3 * r.times.render / n, 1e3 * r.times.composite / n, 1e3 * r.times.encode / n,
+                        1e3 * r.times.write / n);
+        }
+        if (threads == all) break;
+    }
+    if (!a.quiet) std::printf("  model %s (%d vertices), %dx%d %s, renderer %s\n", model.name.c_str(), model.num_vertices(), config.camera.width,
+                              config.camera.height, config.output.image_format.c_str(), report["renderer"].get<std::string>().c_str());
+    if (b.work.empty()) std::filesystem::remove_all(work);
+    if (!a.json.empty()) write_json_file(a.json, report);
+}
+
+}  // namespace
+
+void register_synth_commands(CLI::App& app) {
+    auto args = std::make_shared<SynthArgs>();
+    CLI::App* synth_cmd = app.add_subcommand("synth", "Generate a synthetic face dataset (images, .pts, meta JSON, WebDataset, COCO)");
+    synth_cmd->add_option("--out,-o", args->out, "output dataset folder");
+    synth_cmd->add_option("--config,-c", args->config_file, "TOML config file (keys in docs/synth.md)")->check(CLI::ExistingFile);
+    synth_cmd->add_option("--count,-n", args->count, "number of samples (config key count)");
+    synth_cmd->add_option("--seed", args->seed, "dataset seed (config key seed)")->check(CLI::NonNegativeNumber);
+    synth_cmd->add_option("--format", args->formats, "output formats, comma-separated: folder, wds, coco (config key output.formats)");
+    synth_cmd->add_option("--shard", args->shard, "K/N (0-based) or auto (JOB_COMPLETION_INDEX or SLURM_ARRAY_TASK_ID)");
+    synth_cmd->add_option("--shard-count", args->shard_count, "total shards for --shard auto (else FACESYNTH_SHARD_COUNT / SLURM_ARRAY_TASK_COUNT)");
+    synth_cmd->add_flag("--overwrite", args->overwrite, "replace a dataset made with a different config in --out");
+    add_run_options(synth_cmd, *args);
+    synth_cmd->require_subcommand(0, 1);
+
+    auto merge_inputs = std::make_shared<std::vector<std::string>>();
+    auto merge_out = std::make_shared<std::string>();
+    auto merge_quiet = std::make_shared<bool>(false);
+    CLI::App* merge = synth_cmd->add_subcommand("merge", "Merge shard manifests (and their files) into one dataset folder");
+    merge->add_option("inputs", *merge_inputs, "dataset folders written by shards (one folder may hold all shards)")->required()->check(CLI::ExistingDirectory);
+    merge->add_option("--into", *merge_out, "merged dataset folder (default: the first input)");
+    merge->add_flag("--quiet,-q", *merge_quiet, "no summary line");
+    merge->callback([=] {
+        std::vector<std::filesystem::path> inputs(merge_inputs->begin(), merge_inputs->end());
+        const std::filesystem::path out = merge_out->empty() ? inputs.front() : std::filesystem::path(*merge_out);
+        const auto r = synth::merge_datasets(inputs, out);
+        if (!*merge_quiet)
+            std::printf("synth merge: %zu samples in %s/manifest.jsonl (%zu missing, %zu listed twice)\n", r.samples, out.c_str(), r.missing, r.duplicates);
+        if (r.missing > 0) std::fprintf(stderr, "facesynth: warning: %zu samples below count are in no manifest (unfinished shards?)\n", r.missing);
+    });
+
+    auto sheet_dir = std::make_shared<std::string>();
+    auto sheet_out = std::make_shared<std::string>();
+    auto sheet_options = std::make_shared<synth::SheetOptions>();
+    CLI::App* sheet = synth_cmd->add_subcommand("sheet", "Contact sheet of the first samples with landmarks drawn");
+    sheet->add_option("dataset", *sheet_dir, "dataset folder (folder format)")->required()->check(CLI::ExistingDirectory);
+    sheet->add_option("--out,-o", *sheet_out, "output PNG")->required();
+    sheet->add_option("--count", sheet_options->count, "samples to show")->check(CLI::PositiveNumber);
+    sheet->add_option("--columns", sheet_options->columns, "tiles per row")->check(CLI::PositiveNumber);
+    sheet->add_option("--tile", sheet_options->tile, "tile side, px")->check(CLI::Range(16, 2048));
+    sheet->callback([=] {
+        const cv::Mat rgb = synth::contact_sheet(*sheet_dir, *sheet_options);
+        cv::Mat bgr;
+        cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+        std::vector<uchar> bytes;
+        if (!cv::imencode(".png", bgr, bytes)) throw Error(*sheet_out + ": PNG encoding failed");
+        write_file_atomically(*sheet_out, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    });
+
+    synth_cmd->callback([=] {
+        if (synth_cmd->get_subcommands().empty()) run_generate(*args);
+    });
+
+    auto bench_args = std::make_shared<BenchArgs>();
+    CLI::App* bench = bench_group(app).add_subcommand("synth", "Dataset generation speed, end to end (samples/s, 1 thread and all threads)");
+    bench->add_option("--count,-n", bench_args->count, "samples per run")->check(CLI::PositiveNumber);
+    bench->add_option("--work", bench_args->work, "folder for the generated samples (default: a temporary folder, removed)");
+    bench->add_option("--config,-c", bench_args->run.config_file, "TOML config file")->check(CLI::ExistingFile);
+    add_run_options(bench, bench_args->run);
+    bench->callback([=] { run_bench(*bench_args); });
+}
+
+}  // namespace facesynth::cli
