@@ -410,7 +410,7 @@ private:
         const int k = r - kRowEye;
         const double t = eye_t(x);
         const double wx = smoothstep(1.5, 0.95, std::abs(t));
-        const double reach = k < 0 ? 2.0 * kFissureRows : 1.5 * kFissureRows;
+        const double reach = k < 0 ? 2.6 * kFissureRows : 1.5 * kFissureRows;
         const double wr = smoothstep(reach, kFissureRows, std::abs(k));
         return wx * wr;
     }
@@ -422,6 +422,7 @@ private:
         const int k = r - kRowEye;
         double lid = 0;
         if (std::abs(k) >= kFissureRows) lid = 1.0 + 0.45 * (std::abs(k) - kFissureRows);
+        if (k < 0) lid -= 1.3 * gauss(-k - 2.0 * kFissureRows, 0.8) * (1.0 - e_.eye_close);  // upper lid crease
         // A closed eye: the lid skin covers the ball.
         if (std::abs(k) < kFissureRows) lid = 1.0 * e_.eye_close;
         return ball + lid;
@@ -449,7 +450,7 @@ private:
         double h = std::max(0.0, midline) * std::pow(1.0 - r2, 1.6);
         // Tip lobule, alae, nostrils.
         h += 2.5 * a_.nose_tip * gauss2(x, y - y_tip, 6.5, 5.0);
-        const double ala_x = l_.x_al - 4.5, ala_y = y_base + 4.5;
+        const double ala_x = l_.x_al - 3.8, ala_y = y_base + 4.5;
         h += 8.0 * gauss2(ax - ala_x, y - ala_y, 4.2, 4.5);
         h -= 1.2 * gauss2(std::hypot(ax - ala_x, (y - ala_y) * 0.9) - 6.0, 0.0, 1.2, 1.0);  // alar crease
         h -= 3.0 * gauss2(ax - 0.42 * l_.x_al, y - (y_base + 2.2), 2.6, 1.5);                 // nostrils
@@ -462,10 +463,10 @@ private:
         double dz = 0;
         // Upper lip: skin sloping forward from subnasale to the vermilion, the vermilion bulge, its border.
         const double y_vu = l_.upper_vermilion(x), y_vl = l_.lower_vermilion(x);
-        dz += 5.0 * a_.lips * window * gauss(y - (l_.y_sto + 3.5), 4.5);
+        dz += 6.0 * a_.lips * window * gauss(y - (l_.y_sto + 3.5), 4.2);
         dz += 0.7 * window * gauss(y - y_vu, 0.9);
         // Lower lip.
-        dz += 4.5 * a_.lips * window * gauss(y - (l_.y_sto - 5.0), 4.8);
+        dz += 5.5 * a_.lips * window * gauss(y - (l_.y_sto - 5.0), 4.6);
         dz += 0.4 * window * gauss(y - y_vl, 1.0);
         // Philtrum: a groove between two ridges.
         const double philtrum = smoothstep(l_.y_sn - 1.0, l_.y_sn - 5.0, y) * smoothstep(y_vu - 0.5, y_vu + 2.0, y);
@@ -476,6 +477,12 @@ private:
         if (m == 0) dz -= 2.8 * inside;
         if (std::abs(m) == 1) dz -= 1.0 * inside;
         dz -= 2.0 * gauss2(ax - l_.x_ch, y - l_.y_sto, 3.5, 3.5);
+        // Nasolabial fold: a soft crease from the ala past the mouth corner.
+        const Eigen::Vector2d fold_top(l_.x_al + 1.5, l_.y_sn + 5.0), fold_end(l_.x_ch + 5.0, l_.y_sto - 8.0);
+        const Eigen::Vector2d q(ax, y), along = fold_end - fold_top;
+        const double u = std::clamp((q - fold_top).dot(along) / along.squaredNorm(), 0.0, 1.0);
+        const double fold_distance = (q - (fold_top + u * along)).norm();
+        dz -= 1.3 * gauss(fold_distance, 2.2) * std::sin(std::numbers::pi * (0.15 + 0.85 * u));
         return dz;
     }
 
@@ -787,7 +794,7 @@ ColourRegions colour_regions(const Eigen::Matrix3Xf& v, const Layout& l) {
             double hairline = l.y_tr - 4.0 * (1.0 - std::exp(-ax / 20.0)) - 30.0 * smoothstep(l.x_ex + 10.0, l.x_ex + 40.0, ax);
             hairline = std::min(hairline, lerp(hairline, lerp(l.y_eye + 14.0, l.y_sn, smoothstep(0.0, -60.0, v(2, id))),
                                                 smoothstep(30.0, 5.0, v(2, id))));
-            g.hair[i] = static_cast<float>(smoothstep(hairline - 2.0, hairline + 3.0, y));
+            g.hair[i] = static_cast<float>(smoothstep(hairline - 4.0, hairline + 5.0, y));
             g.cheeks[i] = static_cast<float>(front ? gauss2(ax - (l.x_ec + 6.0), y - (l.y_eye - 24.0), 12.0, 10.0) : 0.0);
             const double jaw_region = smoothstep(l.y_sn - 3.0, l.y_sn - 10.0, y) * smoothstep(l.x_ch + 35.0, l.x_ch + 15.0, ax);
             g.beard[i] = static_cast<float>(jaw_region * (1.0 - g.lips[i]) * (front ? 1.0 : 0.0));
