@@ -1,0 +1,249 @@
+// `facesynth fit` (fit the 3DMM to one face's landmarks) and `facesynth fit-lambda` (choose the
+// regularisation on synthetic validation fits). The algorithms live in fit/.
+#include "cli_common.h"
+#include "commands.h"
+
+#include "fit/evaluate.h"
+#include "fit/fit.h"
+#include "fit/overlay.h"
+#include "fit/refine.h"
+#include "morph/atomic_file.h"
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "morph/mesh_io.h"
+#include "morph/model_io.h"
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+namespace facesynth::cli {
+namespace {
+
+struct FitArgs {
+    std::string model = "builtin";
+    std::string landmarks;
+    std::string image;
+    std::string out;
+    std::string json;
+    std::string landmark_set = "68";
+    std::string jaw = "contour";
+    bool refine = false;
+    bool no_expression = false;
+    double lambda = fit::FitOptions{}.lambda;
+    int iterations = fit::FitOptions{}.iterations;
+    int components = 0;
+    double focal = 0;
+    double sigma = fit::RefineOptions{}.landmark_sigma_px;
+    bool quiet = false;
+};
+
+nlohmann::json matrix_json(const Eigen::MatrixXd& m) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (Eigen::Index r = 0; r < m.rows(); ++r) {
+        nlohmann::json row = nlohmann::json::array();
+        for (Eigen::Index c = 0; c < m.cols(); ++c) row.push_back(m(r, c));
+        rows.push_back(row);
+    }
+    return rows;
+}
+
+fit::JawMode parse_jaw(const std::string& s) {
+    if (s == "fixed") return fit::JawMode::kFixed;
+    if (s == "contour") return fit::JawMode::kContour;
+    throw Error("--jaw '" + s + "': expected fixed or contour");
+}
+
+void write_png(const std::filesystem::path& path, const cv::Mat& image) {
+    std::vector<unsigned char> bytes;
+    if (!cv::imencode(".png", image, bytes)) throw file_error(path.string(), "PNG encoding failed");
+    write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+void run_fit(const FitArgs& a) {
+    const auto start = std::chrono::steady_clock::now();
+    const MorphableModel model = load_model(a.model);
+    const Eigen::Matrix2Xd landmarks = read_pts(a.landmarks);
+    if (landmarks.cols() != kNumIbugLandmarks)
+        throw file_error(a.landmarks, "has " + std::to_string(landmarks.cols()) + " points, expected 68 (iBUG)");
+    cv::Mat image;
+    if (!a.image.empty()) {
+        image = cv::imread(a.image, cv::IMREAD_COLOR);
+        if (image.empty()) throw file_error(a.image, "cannot read the image");
+    }
+
+    fit::FitOptions options;
+    const auto subset = landmark_subset(parse_landmark_subset(a.landmark_set));
+    options.subset.assign(subset.begin(), subset.end());
+    options.jaw = parse_jaw(a.jaw);
+    options.lambda = options.expression_lambda = a.lambda;
+    options.iterations = a.iterations;
+    options.shape_components = a.components;
+    options.fit_expression = !a.no_expression;
+
+    const fit::Fitter fitter(model);
+    fit::FitResult linear;
+    try {
+        linear = fitter.fit(landmarks, options);
+    } catch (const Error& e) {
+        throw file_error(a.landmarks, e.what());
+    }
+    nlohmann::json j;
+    j["model"] = model.name;
+    j["model_checksum"] = model.checksum();
+    j["landmarks_file"] = a.landmarks;
+    j["landmark_set"] = a.landmark_set;
+    j["jaw"] = a.jaw;
+    j["landmarks_used"] = linear.used.size();
+    j["refined"] = a.refine;
+    std::vector<float> alpha = linear.alpha, psi = linear.psi;
+    Eigen::Matrix2Xd vertices_px;
+    Eigen::Matrix2Xd fitted_landmarks = linear.projected;
+    const EulerAngles* angles = &linear.pose.angles;
+    Eigen::Matrix3d rotation = linear.pose.rotation;
+    double rms = linear.reprojection_rms_px;
+    fit::RefineResult refined;
+    j["linear_reprojection_rms_px"] = linear.reprojection_rms_px;
+    j["linear_scale_px_per_mm"] = linear.pose.scale;
+    j["linear_translation_px"] = {linear.pose.translation.x(), linear.pose.translation.y()};
+    j["affine_camera"] = matrix_json(linear.camera.matrix);
+    j["iterations"] = linear.iterations;
+    if (a.refine) {
+        fit::RefineOptions r;
+        r.landmark_sigma_px = a.sigma;
+        if (!image.empty()) {
+            r.intrinsics.width = image.cols;
+            r.intrinsics.height = image.rows;
+            r.intrinsics.cx = 0.5 * (image.cols - 1);
+            r.intrinsics.cy = 0.5 * (image.rows - 1);
+        }
+        r.intrinsics.fx = r.intrinsics.fy = a.focal;
+        refined = fit::refine(fitter, landmarks, linear, options, r);
+        alpha = refined.alpha;
+        psi = refined.psi;
+        angles = &refined.angles;
+        rotation = refined.pose.rotation;
+        rms = refined.reprojection_rms_px;
+        fitted_landmarks = refined.projected;
+        j["focal_px"] = refined.intrinsics.fx;
+        j["cx"] = refined.intrinsics.cx;
+        j["cy"] = refined.intrinsics.cy;
+        j["translation_mm"] = {refined.pose.translation.x(), refined.pose.translation.y(), refined.pose.translation.z()};
+        j["refine_iterations"] = refined.iterations;
+    }
+    j["yaw_deg"] = angles->yaw;
+    j["pitch_deg"] = angles->pitch;
+    j["roll_deg"] = angles->roll;
+    j["rotation"] = matrix_json(rotation);
+    j["alpha"] = alpha;
+    j["psi"] = psi;
+    j["reprojection_rms_px"] = rms;
+
+    const Mesh mesh = model.instance(alpha, psi);
+    vertices_px.resize(2, mesh.num_vertices());
+    if (a.refine) {
+        vertices_px = project(refined.intrinsics, refined.pose, mesh.vertices);
+    } else {
+        for (int v = 0; v < mesh.num_vertices(); ++v) vertices_px.col(v) = linear.camera.project(mesh.vertices.col(v).cast<double>());
+    }
+    const std::filesystem::path out(a.out);
+    std::filesystem::create_directories(out);
+    write_obj(mesh, out / "mesh.obj");
+    write_glb(mesh, out / "mesh.glb");
+    if (!image.empty()) write_png(out / "overlay.png", fit::draw_fit_overlay(image, vertices_px, mesh.triangles, landmarks, fitted_landmarks));
+    j["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    write_json_file(out / "fit.json", j);
+    if (!a.json.empty()) write_json_file(a.json, j);
+    if (!a.quiet)
+        std::printf("yaw %.1f pitch %.1f roll %.1f deg, reprojection %.2f px (%zu landmarks) -> %s\n", angles->yaw, angles->pitch,
+                    angles->roll, rms, linear.used.size(), out.string().c_str());
+}
+
+struct LambdaArgs {
+    std::string model = "builtin";
+    std::vector<double> lambdas{0.03, 0.1, 0.3, 1, 3, 10, 30, 100};
+    std::vector<double> noise{0, 2};
+    int count = 200;
+    std::int64_t seed = 900001;
+    std::string landmark_set = "68";
+    std::string json;
+    bool quiet = false;
+};
+
+void run_lambda(const LambdaArgs& a) {
+    const MorphableModel model = load_model(a.model);
+    const fit::Fitter fitter(model);
+    fit::FitOptions base;
+    const auto subset = landmark_subset(parse_landmark_subset(a.landmark_set));
+    base.subset.assign(subset.begin(), subset.end());
+    base.jaw = fit::JawMode::kFixed;
+    nlohmann::json j;
+    j["model"] = model.name;
+    j["count"] = a.count;
+    j["seed"] = a.seed;
+    Progress progress("fit-lambda", a.noise.size(), a.quiet);
+    std::ostringstream table;
+    table << "noise_px  lambda  vertex_rmse_mm  alpha_rmse\n";
+    for (double noise : a.noise) {
+        fit::SyntheticOptions s;
+        s.noise_px = noise;
+        const auto scores = fit::score_lambdas(fitter, a.lambdas, a.count, static_cast<std::uint64_t>(a.seed), s, base);
+        const fit::LambdaScore* best = &scores.front();
+        for (const auto& sc : scores) {
+            if (sc.vertex_rmse_mm < best->vertex_rmse_mm) best = &sc;
+            char line[128];
+            std::snprintf(line, sizeof line, "%8.1f %7.3g %15.3f %11.3f\n", noise, sc.lambda, sc.vertex_rmse_mm, sc.alpha_rmse);
+            table << line;
+            char key[96];
+            std::snprintf(key, sizeof key, "noise%g_lambda%g_vertex_rmse_mm", noise, sc.lambda);
+            j[key] = sc.vertex_rmse_mm;
+        }
+        char key[64];
+        std::snprintf(key, sizeof key, "noise%g_best_lambda", noise);
+        j[key] = best->lambda;
+        progress.advance();
+    }
+    progress.finish();
+    std::fputs(table.str().c_str(), stdout);
+    if (!a.json.empty()) write_json_file(a.json, j);
+}
+
+}  // namespace
+
+void register_fit_commands(CLI::App& app) {
+    auto fit_args = std::make_shared<FitArgs>();
+    auto* cmd = app.add_subcommand("fit", "Fit the 3DMM (pose, identity, expression) to one face's 68 landmarks");
+    cmd->add_option("--model", fit_args->model, "Model: builtin, a model file, or a folder such as shared/data/sfm")->capture_default_str();
+    cmd->add_option("--landmarks", fit_args->landmarks, "iBUG .pts file with 68 points (1-based pixels)")->required()->check(CLI::ExistingFile);
+    cmd->add_option("--image", fit_args->image, "The photograph, for the overlay PNG (and the principal point)")->check(CLI::ExistingFile);
+    cmd->add_option("--out", fit_args->out, "Output folder: fit.json, mesh.obj, mesh.glb, overlay.png")->required();
+    cmd->add_option("--json", fit_args->json, "Also write the result JSON here");
+    cmd->add_flag("--refine", fit_args->refine, "Refine with Ceres: perspective camera, robust loss, priors");
+    cmd->add_option("--landmark-set", fit_args->landmark_set, "Landmark subset: 7, 13, 49 or 68")->capture_default_str()->check(CLI::IsMember({"7", "13", "49", "68"}));
+    cmd->add_option("--jaw", fit_args->jaw, "Jaw landmarks: contour (follow the silhouette, photos) or fixed (model vertices)")->capture_default_str()->check(CLI::IsMember({"fixed", "contour"}));
+    cmd->add_option("--lambda", fit_args->lambda, "Regularisation of identity and expression (see docs/fit.md)")->capture_default_str()->check(CLI::NonNegativeNumber);
+    cmd->add_option("--iterations", fit_args->iterations, "Linear alternation rounds (at most)")->capture_default_str()->check(CLI::PositiveNumber);
+    cmd->add_option("--components", fit_args->components, "Fit only the first K identity components (0: all)")->capture_default_str()->check(CLI::NonNegativeNumber);
+    cmd->add_flag("--no-expression", fit_args->no_expression, "Keep the expression neutral");
+    cmd->add_option("--focal", fit_args->focal, "Known focal length in pixels for --refine (0: estimate)")->capture_default_str()->check(CLI::NonNegativeNumber);
+    cmd->add_option("--sigma", fit_args->sigma, "Landmark noise sigma in pixels for --refine")->capture_default_str()->check(CLI::PositiveNumber);
+    cmd->add_flag("--quiet", fit_args->quiet, "Print nothing on success");
+    cmd->callback([fit_args] { run_fit(*fit_args); });
+
+    auto lambda_args = std::make_shared<LambdaArgs>();
+    auto* lam = app.add_subcommand("fit-lambda", "Choose the fit's regularisation lambda on synthetic validation fits");
+    lam->add_option("--model", lambda_args->model, "Model: builtin, a model file, or a folder")->capture_default_str();
+    lam->add_option("--lambdas", lambda_args->lambdas, "Candidate lambdas")->capture_default_str()->delimiter(',');
+    lam->add_option("--noise", lambda_args->noise, "Landmark noise levels (pixels, 512x512 image)")->capture_default_str()->delimiter(',');
+    lam->add_option("--count", lambda_args->count, "Validation cases per noise level")->capture_default_str()->check(CLI::PositiveNumber);
+    lam->add_option("--seed", lambda_args->seed, "Seed of the validation set (keep it apart from test sets)")->capture_default_str();
+    lam->add_option("--landmark-set", lambda_args->landmark_set, "Landmark subset: 7, 13, 49 or 68")->capture_default_str()->check(CLI::IsMember({"7", "13", "49", "68"}));
+    lam->add_option("--json", lambda_args->json, "Write the scores (flat keys) here");
+    lam->add_flag("--quiet", lambda_args->quiet, "No progress output");
+    lam->callback([lambda_args] { run_lambda(*lambda_args); });
+}
+
+}  // namespace facesynth::cli
