@@ -32,7 +32,7 @@ constexpr int kRowBelowLip = 75;
 constexpr int kRowGnathion = 84;
 constexpr int kFissureRows = 4;
 
-constexpr int kShapePopulation = 160;
+constexpr int kShapePopulation = 128;
 constexpr int kShapeComponents = 40;
 constexpr int kAlbedoPopulation = 120;
 constexpr int kAlbedoComponents = 30;
@@ -226,12 +226,17 @@ public:
     [[nodiscard]] Eigen::Matrix3Xf build() const {
         Eigen::Matrix3Xf points(3, kNumVertices);
         const auto row_y = regular_rows();
+        // The ear is laid out on the columns of one reference section (at ear height), so that each
+        // column crosses it at the same place on every row.
+        constexpr int kEarRow = kRowBelowEye + 2;
+        const auto ear_columns = column_points(section_at(kEarRow, row_y[kEarRow]));
         for (int r = 0; r < kRows; ++r) {
             const Section section = section_at(r, row_y[static_cast<std::size_t>(r)]);
             const auto columns = column_points(section);
             for (int c = kMidColumn; c < kColumns; ++c) {
                 const auto [x0, z0] = columns[static_cast<std::size_t>(c - kMidColumn)];
                 Eigen::Vector3d p = surface_point(r, c, x0, z0, row_y, section);
+                if (!section.under_chin) p += ear_offset(ear_columns[static_cast<std::size_t>(c - kMidColumn)].second, p, section.centre);
                 points.col(vertex_id(r, c)) = p.cast<float>();
                 points.col(vertex_id(r, kColumns - 1 - c)) = Eigen::Vector3f(static_cast<float>(-p.x()), static_cast<float>(p.y()),
                                                                             static_cast<float>(p.z()));
@@ -297,7 +302,7 @@ private:
             curve[static_cast<std::size_t>(i)] = {x, z};
             if (i > 0) {
                 const auto [px, pz] = curve[static_cast<std::size_t>(i - 1)];
-                arc[static_cast<std::size_t>(i)] = arc[static_cast<std::size_t>(i - 1)] + std::hypot(x - px, z - pz);
+                arc[static_cast<std::size_t>(i)] = arc[static_cast<std::size_t>(i - 1)] + std::sqrt((x - px) * (x - px) + (z - pz) * (z - pz));
             }
         }
         std::array<std::pair<double, double>, kColumns - kMidColumn> out{};
@@ -378,6 +383,26 @@ private:
         Eigen::Vector3d p(x, y, z);
         p += expression_offset(r, c, p);
         return p;
+    }
+
+    // The ear: a flap standing out from the side of the head with a raised rim (helix) around a
+    // hollow (concha), and a lobule, as a displacement away from the head's vertical axis.
+    [[nodiscard]] Eigen::Vector3d ear_offset(double column_z, const Eigen::Vector3d& p, double centre) const {
+        const double top = l_.y_eye + 13.0, bottom = l_.y_sn - 5.0;
+        const double back = -column_z - 16.0 * a_.head_depth, up = p.y() - 0.5 * (top + bottom);
+        const double tilt = 0.26;  // the ear's long axis leans back by about 15 degrees
+        const double u = back * std::cos(tilt) + up * std::sin(tilt), v = up * std::cos(tilt) - back * std::sin(tilt);
+        const double half_length = 0.5 * (top - bottom), half_width = 0.5 * half_length * 0.58;
+        const double rho = std::hypot(u / half_width, v / half_length);
+        if (rho > 1.1) return Eigen::Vector3d::Zero();
+        // The grid is coarse on the side of the head (about 8 mm between columns), so the ear is a
+        // smooth flap with a shallow hollow rather than a detailed helix.
+        const double flap = smoothstep(1.08, 0.55, rho) * (4.0 + 6.0 * std::clamp(0.5 + 0.5 * u / half_width, 0.0, 1.0));
+        const double concha = 3.0 * gauss2(u + 0.1 * half_width, v + 0.05 * half_length, 0.45 * half_width, 0.32 * half_length);
+        const double height = std::max(0.0, flap - concha);
+        Eigen::Vector3d outward(p.x(), 0.0, p.z() - centre);
+        if (outward.norm() < 1e-9) return Eigen::Vector3d::Zero();
+        return height * outward.normalized();
     }
 
     // Sum of the local displacement fields (mm along +z) at (x, y) of the base surface.
@@ -792,7 +817,7 @@ ColourRegions colour_regions(const Eigen::Matrix3Xf& v, const Layout& l) {
             }
             // Scalp hair above the hairline, down to the temples at the sides.
             double hairline = l.y_tr - 4.0 * (1.0 - std::exp(-ax / 20.0)) - 30.0 * smoothstep(l.x_ex + 10.0, l.x_ex + 40.0, ax);
-            hairline = std::min(hairline, lerp(hairline, lerp(l.y_eye + 14.0, l.y_sn, smoothstep(0.0, -60.0, v(2, id))),
+            hairline = std::min(hairline, lerp(hairline, lerp(l.y_eye + 17.0, l.y_sn, smoothstep(-35.0, -80.0, v(2, id))),
                                                 smoothstep(30.0, 5.0, v(2, id))));
             g.hair[i] = static_cast<float>(smoothstep(hairline - 4.0, hairline + 5.0, y));
             g.cheeks[i] = static_cast<float>(front ? gauss2(ax - (l.x_ec + 6.0), y - (l.y_eye - 24.0), 12.0, 10.0) : 0.0);
