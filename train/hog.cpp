@@ -2,11 +2,11 @@
 
 #include "morph/error.h"
 
-#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
 #include <vector>
 
 namespace facesynth::train {
@@ -25,11 +25,7 @@ void compute_hog(const cv::Mat& patch, int cells, int cell_size, std::span<float
         throw Error("compute_hog: expected an 8-bit grey patch of " + std::to_string(side) + " pixels square");
     if (static_cast<int>(out.size()) != hog_dims(cells)) throw Error("compute_hog: output size mismatch");
 
-    // Unit vectors of the unsigned orientations 0°, 45°, 90°, 135°.
-    static constexpr float kInvSqrt2 = 0.70710678f;
-    static constexpr std::array<float, kHogOrientations> kCos = {1.f, kInvSqrt2, 0.f, -kInvSqrt2};
-    static constexpr std::array<float, kHogOrientations> kSin = {0.f, kInvSqrt2, 1.f, kInvSqrt2};
-
+    constexpr float kTan22_5 = 0.41421356f;
     const int num_cells = cells * cells;
     std::vector<float> hist(static_cast<std::size_t>(num_cells) * kSignedBins, 0.f);
     for (int y = 1; y <= side - 2; ++y) {
@@ -40,17 +36,19 @@ void compute_hog(const cv::Mat& patch, int cells, int cell_size, std::span<float
         for (int x = 1; x <= side - 2; ++x) {
             const float gx = static_cast<float>(row[x + 1]) - static_cast<float>(row[x - 1]);
             const float gy = static_cast<float>(below[x]) - static_cast<float>(above[x]);
-            int best = 0;
-            float best_dot = 0.f;
-            for (int k = 0; k < kHogOrientations; ++k) {
-                const float dot = gx * kCos[k] + gy * kSin[k];
-                if (std::abs(dot) > std::abs(best_dot)) {
-                    best_dot = dot;
-                    best = k;
-                }
+            if (gx == 0.f && gy == 0.f) continue;
+            // Nearest of the 8 directions k·45°: sectors are split at 22.5° (tan = 0.41421356).
+            const float ax = std::abs(gx), ay = std::abs(gy);
+            int bin;
+            if (ay < kTan22_5 * ax) {
+                bin = gx > 0.f ? 0 : 4;
+            } else if (ax < kTan22_5 * ay) {
+                bin = gy > 0.f ? 2 : 6;
+            } else if ((gx > 0.f) == (gy > 0.f)) {
+                bin = gx > 0.f ? 1 : 5;
+            } else {
+                bin = gy > 0.f ? 3 : 7;
             }
-            if (best_dot == 0.f) continue;
-            const int bin = best_dot > 0.f ? best : best + kHogOrientations;
             cell_row[((x - 1) / cell_size) * kSignedBins + bin] += std::sqrt(gx * gx + gy * gy);
         }
     }
@@ -103,14 +101,42 @@ void compute_hog(const cv::Mat& patch, int cells, int cell_size, std::span<float
 
 void extract_patch(const cv::Mat& gray, const Eigen::Vector2d& centre, double side_px, int cells, int cell_size,
                    cv::Mat& patch) {
+    if (gray.type() != CV_8UC1 || gray.empty()) throw Error("extract_patch: expected a non-empty 8-bit grey image");
     const int inner = cells * cell_size;
     const int side = inner + 2;
-    // One output pixel spans `step` input pixels; output pixel (u, v) samples centre + step·(u - mid, v - mid).
-    const double step = side_px / inner;
-    const double mid = (side - 1) / 2.0;
-    const cv::Matx23d output_to_input(step, 0, centre.x() - step * mid, 0, step, centre.y() - step * mid);
-    cv::warpAffine(gray, patch, output_to_input, cv::Size(side, side), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                   cv::BORDER_REPLICATE);
+    patch.create(side, side, CV_8UC1);
+    // Output pixel (u, v) samples centre + step·(u - mid, v - mid), bilinear, borders replicated.
+    // (Written out rather than cv::warpAffine: per-call overhead dominates for patches this small.)
+    const float step = static_cast<float>(side_px / inner);
+    const float mid = (side - 1) / 2.0f;
+    const float x_start = static_cast<float>(centre.x()) - step * mid;
+    const float y_start = static_cast<float>(centre.y()) - step * mid;
+    const int max_x = gray.cols - 1, max_y = gray.rows - 1;
+    // Column offsets and weights are the same for every output row.
+    int x_low[64 * 8 + 2], x_high[64 * 8 + 2];
+    float x_weight[64 * 8 + 2];
+    if (side > static_cast<int>(std::size(x_low))) throw Error("extract_patch: patch too large");
+    for (int u = 0; u < side; ++u) {
+        const float x = std::clamp(x_start + step * static_cast<float>(u), 0.f, static_cast<float>(max_x));
+        const int x0 = std::min(static_cast<int>(x), max_x);
+        x_low[u] = x0;
+        x_high[u] = std::min(x0 + 1, max_x);
+        x_weight[u] = x - static_cast<float>(x0);
+    }
+    for (int v = 0; v < side; ++v) {
+        const float y = std::clamp(y_start + step * static_cast<float>(v), 0.f, static_cast<float>(max_y));
+        const int y0 = std::min(static_cast<int>(y), max_y);
+        const float wy = y - static_cast<float>(y0);
+        const std::uint8_t* top = gray.ptr<std::uint8_t>(y0);
+        const std::uint8_t* bottom = gray.ptr<std::uint8_t>(std::min(y0 + 1, max_y));
+        std::uint8_t* out = patch.ptr<std::uint8_t>(v);
+        for (int u = 0; u < side; ++u) {
+            const float wx = x_weight[u];
+            const float upper = top[x_low[u]] + wx * static_cast<float>(top[x_high[u]] - top[x_low[u]]);
+            const float lower = bottom[x_low[u]] + wx * static_cast<float>(bottom[x_high[u]] - bottom[x_low[u]]);
+            out[u] = static_cast<std::uint8_t>(upper + wy * (lower - upper) + 0.5f);
+        }
+    }
 }
 
 }  // namespace facesynth::train

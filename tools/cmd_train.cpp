@@ -1,0 +1,332 @@
+// facesynth train / detect / eval landmarks: the landmark regressor's command line (train/).
+#include "cli_common.h"
+#include "commands.h"
+
+#include "morph/atomic_file.h"
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "train/dataset.h"
+#include "train/dlib_baseline.h"
+#include "train/evaluate.h"
+#include "train/face_box.h"
+#include "train/lbf_baseline.h"
+#include "train/model_file.h"
+#include "train/regressor.h"
+#include "train/training_data.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <thread>
+
+namespace facesynth::cli {
+namespace {
+
+using namespace facesynth::train;
+
+int default_threads() { return static_cast<int>(std::max(1u, std::thread::hardware_concurrency())); }
+
+// The `eval` group is shared with other modules: reuse it when another command group made it.
+CLI::App* eval_group(CLI::App& app) {
+    try {
+        return app.get_subcommand("eval");
+    } catch (const CLI::OptionNotFound&) {
+        auto* eval = app.add_subcommand("eval", "Evaluate against ground truth");
+        eval->require_subcommand(1);
+        return eval;
+    }
+}
+
+double json_number(double value) { return std::isfinite(value) ? value : -1.0; }
+
+struct TrainArgs {
+    std::string data;
+    std::filesystem::path out;
+    std::string method = "sdm";
+    int stages = 4;
+    int augment = 10;
+    int threads = default_threads();
+    std::uint64_t seed = 1;
+    int hog_cells = 3;
+    double lambda_factor = 1.5;
+    std::filesystem::path json;
+    bool quiet = false;
+};
+
+void run_train(const TrainArgs& args) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto images = list_labelled_images(split_folder_list(args.data));
+    PreparedFaces prepared;
+    {
+        Progress progress("faces", images.size(), args.quiet);
+        PrepareOptions options;
+        options.threads = args.threads;
+        options.seed = args.seed;
+        std::size_t reported = 0;
+        options.on_progress = [&](std::size_t done, std::size_t) {
+            progress.advance(done - reported);
+            reported = done;
+        };
+        prepared = prepare_training_faces(images, options);
+        progress.finish();
+    }
+    for (const auto& w : prepared.warnings) std::fprintf(stderr, "facesynth: warning: %s\n", w.c_str());
+    const BoxStatistics& boxes = prepared.boxes;
+    if (!args.quiet)
+        std::printf("%zu faces (%zu images skipped); Haar detector matched %d, missed %d (synthesised boxes: width "
+                    "ratio %.3f±%.3f, offset (%.3f, %.3f))\n",
+                    prepared.faces.size(), prepared.warnings.size(), boxes.detector_matched, boxes.detector_missed,
+                    boxes.width_ratio_mean, boxes.width_ratio_std, boxes.offset_mean.x(), boxes.offset_mean.y());
+
+    nlohmann::json report = {{"method", args.method},
+                             {"faces", prepared.faces.size()},
+                             {"skipped_images", prepared.warnings.size()},
+                             {"detector_matched", boxes.detector_matched},
+                             {"detector_missed", boxes.detector_missed}};
+    if (args.method == "sdm") {
+        SdmTrainOptions options;
+        options.stages = args.stages;
+        options.augment = args.augment;
+        options.threads = args.threads;
+        options.seed = args.seed;
+        options.hog_cells = args.hog_cells;
+        options.lambda_factor = args.lambda_factor;
+        std::unique_ptr<Progress> progress;
+        std::size_t reported = 0;
+        options.on_progress = [&](std::size_t done, std::size_t total) {
+            if (!progress) progress = std::make_unique<Progress>("features", total, args.quiet);
+            progress->advance(done - reported);
+            reported = done;
+        };
+        double first_nme = 0, last_nme = 0;
+        options.on_stage = [&](const SdmStageReport& r) {
+            if (r.stage == 1) first_nme = r.nme_before;
+            last_nme = r.nme_after;
+            if (!args.quiet)
+                std::fprintf(stderr, "\nstage %d/%d: training NME %.4f -> %.4f (lambda %.4g, %.1f s)\n", r.stage,
+                             args.stages, r.nme_before, r.nme_after, r.lambda, r.seconds);
+            report["stage" + std::to_string(r.stage) + "_nme"] = r.nme_after;
+        };
+        SdmModel model = train_sdm(prepared.faces, boxes, options);
+        if (progress) progress->finish();
+        model.training_checksum = prepared.checksum;
+        write_sdm_model(args.out, model);
+        report["train_nme_initial"] = first_nme;
+        report["train_nme_final"] = last_nme;
+        if (!args.quiet)
+            std::printf("training NME (inter-ocular, %d perturbed starts per face): %.4f -> %.4f\n", args.augment,
+                        first_nme, last_nme);
+    } else if (args.method == "ert") {
+        ErtTrainOptions options;
+        options.threads = args.threads;
+        options.oversampling = args.augment;
+        options.seed = args.seed;
+        if (!args.quiet) std::printf("training dlib ERT (cascade depth %d, oversampling %d)...\n", options.cascade_depth, options.oversampling);
+        train_dlib_ert(prepared.faces, options, args.out);
+    } else if (args.method == "lbf") {
+        LbfTrainOptions options;
+        options.augment = args.augment;
+        options.seed = args.seed;
+        if (!args.quiet) std::printf("training OpenCV LBF (%d stages, %d initial shapes)...\n", options.stages, options.augment);
+        train_lbf(prepared.faces, options, args.out);
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    report["seconds"] = seconds;
+    if (!args.quiet) std::printf("wrote %s (%.1f s)\n", args.out.string().c_str(), seconds);
+    if (!args.json.empty()) write_json_file(args.json, report);
+}
+
+struct DetectArgs {
+    std::string regressor;
+    std::vector<std::filesystem::path> images;
+    std::filesystem::path out;
+    bool quiet = false;
+};
+
+void write_png(const std::filesystem::path& path, const cv::Mat& image) {
+    std::vector<unsigned char> png;
+    if (!cv::imencode(".png", image, png)) throw file_error(path.string(), "PNG encoding failed");
+    write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+}
+
+void run_detect(const DetectArgs& args) {
+    const auto regressor = open_regressor(args.regressor);
+    const FaceDetector detector;
+    std::filesystem::create_directories(args.out);
+    int failed = 0, faces_total = 0;
+    Progress progress("images", args.images.size(), args.quiet);
+    for (const auto& path : args.images) {
+        try {
+            const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+            if (image.empty()) throw file_error(path.string(), "cannot read image");
+            const cv::Mat gray = to_gray8(image);
+            const auto boxes = detector.detect(gray);
+            if (boxes.empty()) throw file_error(path.string(), "no face found");
+            const std::string stem = path.stem().string();
+            cv::Mat overlay = image.clone();
+            nlohmann::json faces = nlohmann::json::array();
+            const int thickness = std::max(1, image.cols / 400);
+            for (std::size_t k = 0; k < boxes.size(); ++k) {
+                const Eigen::Matrix2Xd points = regressor->predict(gray, boxes[k]);
+                write_pts(args.out / (stem + "_" + std::to_string(k) + ".pts"), points);
+                const cv::Rect2d rect = rect_from_face_box(boxes[k]);
+                cv::rectangle(overlay, rect, cv::Scalar(255, 160, 0), thickness);
+                nlohmann::json landmarks = nlohmann::json::array();
+                for (Eigen::Index i = 0; i < points.cols(); ++i) {
+                    cv::circle(overlay, cv::Point2d(points(0, i), points(1, i)), 2 * thickness, cv::Scalar(0, 255, 0),
+                               cv::FILLED, cv::LINE_AA);
+                    landmarks.push_back({points(0, i), points(1, i)});
+                }
+                faces.push_back({{"box", {rect.x, rect.y, rect.width, rect.height}},
+                                 {"pts", stem + "_" + std::to_string(k) + ".pts"},
+                                 {"landmarks", landmarks}});
+            }
+            write_png(args.out / (stem + "_overlay.png"), overlay);
+            const nlohmann::json record = {{"image", path.string()},
+                                           {"regressor", regressor->label()},
+                                           {"coordinates", "0-based pixels; box = [x, y, width, height]"},
+                                           {"faces", faces}};
+            write_file_atomically(args.out / (stem + ".json"), record.dump(2) + "\n");
+            faces_total += static_cast<int>(boxes.size());
+        } catch (const Error& e) {
+            ++failed;
+            std::fprintf(stderr, "facesynth: error: %s\n", e.what());
+        }
+        progress.advance();
+    }
+    progress.finish();
+    if (!args.quiet)
+        std::printf("%d faces in %zu images written to %s\n", faces_total, args.images.size() - failed,
+                    args.out.string().c_str());
+    if (failed) throw Error(std::to_string(failed) + " of " + std::to_string(args.images.size()) + " images failed");
+}
+
+struct EvalArgs {
+    std::vector<std::string> regressors;
+    std::string data;
+    std::filesystem::path json;
+    std::filesystem::path ced;
+    bool quiet = false;
+};
+
+void run_eval_landmarks(const EvalArgs& args) {
+    const auto images = list_labelled_images(split_folder_list(args.data));
+    std::vector<std::unique_ptr<LandmarkRegressor>> owned;
+    std::vector<const LandmarkRegressor*> regressors;
+    for (const auto& spec : args.regressors) {
+        owned.push_back(open_regressor(spec));
+        regressors.push_back(owned.back().get());
+    }
+    Evaluation evaluation;
+    {
+        Progress progress("faces", images.size(), args.quiet);
+        evaluation = evaluate_landmarks(images, regressors, [&] { progress.advance(); });
+        progress.finish();
+    }
+    for (const auto& w : evaluation.warnings) std::fprintf(stderr, "facesynth: warning: %s\n", w.c_str());
+    std::printf("%zu faces, %d detector misses (counted as failures), Haar detector %.2f ms per image\n",
+                images.size(), evaluation.detector_misses, evaluation.detector_ms_per_image);
+    std::printf("%-40s %9s %9s %8s %9s %9s\n", "regressor", "NME mean", "median", "AUC@.08", "fail@.08", "ms/face");
+    nlohmann::json report = {{"count", static_cast<int>(images.size())},
+                             {"detector_misses", evaluation.detector_misses},
+                             {"detector_ms_per_image", evaluation.detector_ms_per_image}};
+    for (std::size_t r = 0; r < evaluation.regressors.size(); ++r) {
+        const auto& reg = evaluation.regressors[r];
+        const auto& s = reg.summary;
+        std::printf("%-40s %9.4f %9.4f %8.4f %9.4f %9.3f\n", reg.label.c_str(), s.mean, s.median, s.auc_008,
+                    s.failure_rate_008, reg.ms_per_face);
+        const std::string prefix = r == 0 ? "" : args.regressors[r] + "/";
+        const auto put = [&](const std::string& key, double value) {
+            report[prefix + key] = json_number(value);
+            if (r == 0 && args.regressors.size() > 1) report[args.regressors[0] + "/" + key] = json_number(value);
+        };
+        put("nme_mean", s.mean);
+        put("nme_median", s.median);
+        put("auc_008", s.auc_008);
+        put("failure_rate_008", s.failure_rate_008);
+        put("ms_per_face", reg.ms_per_face);
+        for (const auto& [low, high] : yaw_bins()) {
+            std::vector<double> in_bin;
+            for (std::size_t f = 0; f < evaluation.faces.size(); ++f) {
+                const auto& yaw = evaluation.faces[f].yaw_deg;
+                if (yaw && std::abs(*yaw) >= low && (std::abs(*yaw) < high || high == 90)) in_bin.push_back(reg.nmes[f]);
+            }
+            if (in_bin.empty()) continue;
+            const auto bin = summarise_nme(in_bin);
+            char key[64];
+            std::snprintf(key, sizeof(key), "yaw_%02d_%02d_", low, high);
+            put(std::string(key) + "nme_mean", bin.mean);
+            put(std::string(key) + "failure_rate_008", bin.failure_rate_008);
+            put(std::string(key) + "count", bin.count);
+            std::printf("    |yaw| %2d-%2d: %4d faces, NME mean %.4f, failure rate %.3f\n", low, high, bin.count,
+                        bin.mean, bin.failure_rate_008);
+        }
+    }
+    if (!args.json.empty()) write_json_file(args.json, report);
+    if (!args.ced.empty()) {
+        std::vector<CedCurve> curves;
+        for (std::size_t r = 0; r < evaluation.regressors.size(); ++r)
+            curves.push_back({args.regressors[r], evaluation.regressors[r].nmes});
+        write_file_atomically(args.ced, ced_svg(curves));
+    }
+}
+
+}  // namespace
+
+void register_train_commands(CLI::App& app) {
+    {
+        auto args = std::make_shared<TrainArgs>();
+        auto* cmd = app.add_subcommand("train", "Train a 68-point landmark regressor on folders of images with .pts files");
+        cmd->add_option("--data", args->data, "Training folders, comma-separated (X.png + X.pts, or images/ + landmarks/)")
+            ->required();
+        cmd->add_option("--out", args->out, "Model file to write")->required();
+        cmd->add_option("--method", args->method, "sdm (our HOG cascade), ert (dlib's trainer) or lbf (OpenCV FacemarkLBF)")
+            ->check(CLI::IsMember({"sdm", "ert", "lbf"}))
+            ->capture_default_str();
+        cmd->add_option("--stages", args->stages, "SDM cascade stages")->check(CLI::Range(1, 8))->capture_default_str();
+        cmd->add_option("--augment", args->augment, "Perturbed initialisations per face")
+            ->check(CLI::Range(1, 1000))
+            ->capture_default_str();
+        cmd->add_option("--threads", args->threads, "Worker threads (results do not depend on it)")
+            ->check(CLI::Range(1, 256))
+            ->capture_default_str();
+        cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
+        cmd->add_option("--hog-cells", args->hog_cells, "SDM: HOG cells per patch side")
+            ->check(CLI::Range(1, 8))
+            ->capture_default_str();
+        cmd->add_option("--lambda-factor", args->lambda_factor, "SDM: ridge lambda = factor * ||A'A||_F / N")
+            ->check(CLI::PositiveNumber)
+            ->capture_default_str();
+        cmd->add_option("--json", args->json, "Write a JSON summary here");
+        cmd->add_flag("--quiet", args->quiet, "No progress output");
+        cmd->callback([args] { run_train(*args); });
+    }
+    {
+        auto args = std::make_shared<DetectArgs>();
+        auto* cmd = app.add_subcommand("detect", "Find faces (Haar cascade) and their 68 landmarks in images");
+        cmd->add_option("--regressor", args->regressor, "MODEL (SDM file), dlib, dlib:FILE, ert:FILE or lbf:FILE")
+            ->required();
+        cmd->add_option("images", args->images, "Images")->required();
+        cmd->add_option("--out", args->out, "Output folder: <stem>_<k>.pts, <stem>_overlay.png, <stem>.json")->required();
+        cmd->add_flag("--quiet", args->quiet, "No progress output");
+        cmd->callback([args] { run_detect(*args); });
+    }
+    {
+        auto args = std::make_shared<EvalArgs>();
+        auto* cmd = eval_group(app)->add_subcommand("landmarks", "Landmark NME on labelled images (inter-ocular)");
+        cmd->add_option("--regressor", args->regressors,
+                        "MODEL (SDM file), dlib, dlib:FILE, ert:FILE or lbf:FILE; repeat to compare on the same boxes")
+            ->required();
+        cmd->add_option("--data", args->data, "Folders with images and .pts, comma-separated")->required();
+        cmd->add_option("--json", args->json, "Write flat JSON results here");
+        cmd->add_option("--ced", args->ced, "Write the CED curves (NME 0-0.08) as SVG here");
+        cmd->add_flag("--quiet", args->quiet, "No progress output");
+        cmd->callback([args] { run_eval_landmarks(*args); });
+    }
+}
+
+}  // namespace facesynth::cli

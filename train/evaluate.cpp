@@ -1,0 +1,95 @@
+#include "train/evaluate.h"
+
+#include "morph/atomic_file.h"
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "train/sdm.h"
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+namespace facesynth::train {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// The sample's yaw from a `facesynth synth` meta file: "yaw" at the top level or under "pose".
+std::optional<double> read_yaw(const LabelledImage& image) {
+    const auto meta = image.pts.parent_path().parent_path() / "meta" / (image.pts.stem().string() + ".json");
+    if (!std::filesystem::exists(meta)) return std::nullopt;
+    try {
+        const auto json = nlohmann::json::parse(read_file(meta));
+        if (json.contains("yaw") && json["yaw"].is_number()) return json["yaw"].get<double>();
+        if (json.contains("pose") && json["pose"].is_object() && json["pose"].contains("yaw"))
+            return json["pose"]["yaw"].get<double>();
+    } catch (const std::exception&) {
+    }
+    return std::nullopt;
+}
+
+}  // namespace
+
+std::vector<std::pair<int, int>> yaw_bins() { return {{0, 15}, {15, 30}, {30, 45}, {45, 60}, {60, 90}}; }
+
+Evaluation evaluate_landmarks(const std::vector<LabelledImage>& images, std::span<const LandmarkRegressor* const> regressors,
+                              const std::function<void()>& on_image) {
+    Evaluation result;
+    for (const auto* r : regressors) result.regressors.push_back({r->label(), {}, 0, {}});
+    const FaceDetector detector;
+    std::vector<double> predict_ms(regressors.size(), 0.0);
+    double detect_ms = 0;
+    int detected_faces = 0;
+    const double inf = std::numeric_limits<double>::infinity();
+    for (const auto& image : images) {
+        FaceEvaluation face;
+        face.key = image.key;
+        face.yaw_deg = read_yaw(image);
+        try {
+            const Eigen::Matrix2Xd truth = read_pts(image.pts);
+            if (truth.cols() != kNumIbugLandmarks) throw file_error(image.pts.string(), "expected 68 points");
+            const cv::Mat loaded = cv::imread(image.image.string(), cv::IMREAD_UNCHANGED);
+            if (loaded.empty()) throw file_error(image.image.string(), "cannot read image");
+            const cv::Mat gray = to_gray8(loaded);
+            const auto start = Clock::now();
+            const auto box = match_detection(detector.detect(gray), truth);
+            detect_ms += ms_since(start);
+            face.detected = box.has_value();
+            for (std::size_t r = 0; r < regressors.size(); ++r) {
+                if (!box) {
+                    face.nme.push_back(inf);
+                    continue;
+                }
+                const auto t = Clock::now();
+                const Eigen::Matrix2Xd predicted = regressors[r]->predict(gray, *box);
+                predict_ms[r] += ms_since(t);
+                face.nme.push_back(landmark_nme(predicted, truth));
+            }
+            if (box) ++detected_faces;
+        } catch (const Error& e) {
+            result.warnings.push_back(std::string(e.what()) + " (counted as a miss)");
+            face.detected = false;
+            face.nme.assign(regressors.size(), inf);
+        }
+        if (!face.detected) ++result.detector_misses;
+        for (std::size_t r = 0; r < regressors.size(); ++r) result.regressors[r].nmes.push_back(face.nme[r]);
+        result.faces.push_back(std::move(face));
+        if (on_image) on_image();
+    }
+    result.detector_ms_per_image = images.empty() ? 0 : detect_ms / static_cast<double>(images.size());
+    for (std::size_t r = 0; r < regressors.size(); ++r) {
+        auto& reg = result.regressors[r];
+        reg.summary = summarise_nme(reg.nmes);
+        reg.ms_per_face = detected_faces ? predict_ms[r] / detected_faces : 0;
+    }
+    return result;
+}
+
+}  // namespace facesynth::train

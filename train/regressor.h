@@ -1,0 +1,35 @@
+#pragma once
+// The landmark regressors behind one interface, chosen by a spec string:
+//   PATH          our SDM cascade (train/model_file.h)
+//   dlib          dlib's pretrained 68-point predictor from libdlib-data, run on the image and box
+//   dlib:PATH     any dlib shape predictor file, run the same way
+//   ert:PATH      a dlib ERT model from `facesynth train --method ert` (runs on our canonical crop)
+//   lbf:PATH      an OpenCV LBF model from `facesynth train --method lbf` (runs on our canonical crop)
+#include "train/face_box.h"
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <memory>
+#include <string>
+
+namespace facesynth::train {
+
+class LandmarkRegressor {
+public:
+    virtual ~LandmarkRegressor() = default;
+    // Landmarks (0-based image pixels) of the face in `box` of an 8-bit grey image.
+    [[nodiscard]] virtual Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const = 0;
+    [[nodiscard]] const std::string& label() const { return label_; }
+
+protected:
+    explicit LandmarkRegressor(std::string label) : label_(std::move(label)) {}
+
+private:
+    std::string label_;
+};
+
+// Throws facesynth::Error naming the file for unreadable models.
+[[nodiscard]] std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec);
+
+}  // namespace facesynth::train
