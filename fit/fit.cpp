@@ -16,22 +16,39 @@ namespace {
 // Regularised weighted linear least squares for the coefficients c of one basis:
 //   min_c Σ_i w_i ‖A (m_i + B_i c) + a − x_i‖² / σ² + λ ‖c‖²   (Eq. 2 in docs/fit.md),
 // optionally with c >= 0 (projected Gauss-Seidel on the normal equations, exact for this convex QP).
+Eigen::VectorXd nonnegative_solve(Eigen::MatrixXd h, const Eigen::VectorXd& g, const Eigen::VectorXd& start);
+
+// Scalar: float in the alternation (twice the SIMD width; the system is regularised), double where
+// exactness matters (fit_identity_for_camera).
+template <class Scalar>
 Eigen::VectorXd solve_coefficients(const Eigen::Matrix<double, 2, 3>& a3, const Eigen::Vector2d& a,
-                                   const Eigen::Matrix3Xd& fixed_part, const Eigen::MatrixXd& basis_rows,
+                                   const Eigen::Matrix3Xd& fixed_part,
+                                   const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>& bt,
                                    const Eigen::Matrix2Xd& observed, const Eigen::VectorXd& weights, double sigma,
                                    double lambda, bool non_negative, const Eigen::VectorXd& start) {
-    const Eigen::Index n = observed.cols(), k = basis_rows.cols();
-    Eigen::MatrixXd j(2 * n, k);
-    Eigen::VectorXd b(2 * n);
+    // bt: the basis rows transposed (K x 3n), so each point's three rows are contiguous columns.
+    using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
+    using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
+    const Eigen::Index n = observed.cols(), k = bt.rows();
+    Matrix jt(k, 2 * n);  // Jᵀ
+    Vector b(2 * n);
     for (Eigen::Index i = 0; i < n; ++i) {
         const double sw = std::sqrt(weights(i)) / sigma;
-        j.middleRows<2>(2 * i).noalias() = sw * (a3 * basis_rows.middleRows<3>(3 * i));
-        b.segment<2>(2 * i) = sw * (observed.col(i) - a - a3 * fixed_part.col(i));
+        const Eigen::Matrix<double, 2, 3> m = sw * a3;
+        for (int r = 0; r < 2; ++r)
+            jt.col(2 * i + r) = Scalar(m(r, 0)) * bt.col(3 * i) + Scalar(m(r, 1)) * bt.col(3 * i + 1) + Scalar(m(r, 2)) * bt.col(3 * i + 2);
+        b.template segment<2>(2 * i) = (sw * (observed.col(i) - a - a3 * fixed_part.col(i))).cast<Scalar>();
     }
-    Eigen::MatrixXd h = Eigen::MatrixXd::Identity(k, k) * lambda;
-    h.selfadjointView<Eigen::Lower>().rankUpdate(j.transpose());
-    const Eigen::VectorXd g = j.transpose() * b;
-    if (!non_negative) return h.selfadjointView<Eigen::Lower>().ldlt().solve(g);
+    Matrix h = Matrix::Identity(k, k) * Scalar(lambda);
+    h.template selfadjointView<Eigen::Lower>().rankUpdate(jt);
+    const Vector g = jt * b;
+    if (!non_negative) return h.template selfadjointView<Eigen::Lower>().ldlt().solve(g).template cast<double>();
+    return nonnegative_solve(h.template cast<double>(), g.template cast<double>(), start);
+}
+
+// min ½ cᵀHc − gᵀc subject to c >= 0 (H's lower triangle holds the matrix).
+Eigen::VectorXd nonnegative_solve(Eigen::MatrixXd h, const Eigen::VectorXd& g, const Eigen::VectorXd& start) {
+    const Eigen::Index k = h.rows();
     h.triangularView<Eigen::StrictlyUpper>() = h.transpose();
     Eigen::VectorXd c = Eigen::VectorXd::Zero(k);
     if (start.size() == k) c = start.cwiseMax(0.0);
@@ -43,7 +60,7 @@ Eigen::VectorXd solve_coefficients(const Eigen::Matrix<double, 2, 3>& a3, const 
             change = std::max(change, std::abs(updated - c(q)));
             c(q) = updated;
         }
-        if (change < 1e-9) break;
+        if (change < 1e-7) break;
     }
     return c;
 }
@@ -110,8 +127,8 @@ std::vector<float> fit_identity_for_camera(const MorphableModel& model, const Af
         fixed += Eigen::Map<const Eigen::Matrix3Xd>(ex.data(), 3, n);
     }
     const double sigma = options.landmark_sigma_px > 0 ? options.landmark_sigma_px : decompose(camera).scale;
-    const Eigen::VectorXd alpha = solve_coefficients(camera.matrix.topLeftCorner<2, 3>(), camera.matrix.block<2, 1>(0, 3), fixed,
-                                                     lin.rows().identity, observed, weights, sigma, options.lambda, false, {});
+    const Eigen::VectorXd alpha = solve_coefficients<double>(camera.matrix.topLeftCorner<2, 3>(), camera.matrix.block<2, 1>(0, 3), fixed,
+                                                     Eigen::MatrixXd(lin.rows().identity.transpose()), observed, weights, sigma, options.lambda, false, {});
     std::vector<float> out(static_cast<std::size_t>(k_all), 0.0f);
     for (int c = 0; c < k; ++c) out[static_cast<std::size_t>(c)] = static_cast<float>(alpha(c));
     return out;
@@ -164,6 +181,14 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
         return std::sqrt((r.colwise().squaredNorm().transpose().cwiseProduct(weights)).sum() / weights.sum());
     };
 
+    // Float, transposed copies of the basis rows for the solves; refreshed when correspondences change.
+    Eigen::MatrixXf identity_t, expression_t;
+    auto refresh_transposed = [&]() {
+        identity_t = lin.rows().identity.transpose().cast<float>();
+        expression_t = lin.rows().expression.transpose().cast<float>();
+    };
+    refresh_transposed();
+
     double previous = std::numeric_limits<double>::max();
     for (int it = 0; it < options.iterations; ++it) {
         estimate_camera();
@@ -177,6 +202,7 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
                 lin.set_point(i, result.correspondences[static_cast<std::size_t>(id)]);
                 weights(i) = given_weights(i);
             }
+            refresh_transposed();
             estimate_camera();
         }
         const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (model_to_camera_flip() * result.pose.rotation).topRows<2>();
@@ -188,13 +214,13 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
                 const Eigen::VectorXd ex = rows.expression * psi;
                 fixed += Eigen::Map<const Eigen::Matrix3Xd>(ex.data(), 3, n);
             }
-            alpha = solve_coefficients(a3, result.pose.translation, fixed, rows.identity, observed, weights, sigma,
+            alpha = solve_coefficients<float>(a3, result.pose.translation, fixed, identity_t, observed, weights, sigma,
                                        options.lambda, false, {});
         }
         if (e > 0) {
             const Eigen::VectorXd id_part = rows.identity * alpha;
             const Eigen::Matrix3Xd fixed = rows.mean + Eigen::Map<const Eigen::Matrix3Xd>(id_part.data(), 3, n);
-            psi = solve_coefficients(a3, result.pose.translation, fixed, rows.expression, observed, weights, sigma,
+            psi = solve_coefficients<float>(a3, result.pose.translation, fixed, expression_t, observed, weights, sigma,
                                      options.expression_lambda, lin.has_blendshapes(), psi);
         }
         result.iterations = it + 1;

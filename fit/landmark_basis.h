@@ -22,11 +22,13 @@ struct LandmarkRows {
 
 class LandmarkBasis {
 public:
-    LandmarkBasis(const MorphableModel& model, int k) : model_(model), k_(k) {
+    LandmarkBasis(const MorphableModel& model, int k)
+        : model_(model), k_(k), identity_sd_(model.shape.eigenvalues.head(k).cwiseSqrt()) {
         if (model.expression) {
             if (const auto* pca = std::get_if<PcaModel>(&*model.expression)) {
                 expression_pca_ = pca;
                 e_ = pca->num_components();
+                expression_sd_ = pca->eigenvalues.cwiseSqrt();
             } else {
                 blendshapes_ = &std::get<std::vector<Blendshape>>(*model.expression);
                 e_ = static_cast<int>(blendshapes_->size());
@@ -52,12 +54,12 @@ public:
             const int v = p.vertices[static_cast<std::size_t>(c)];
             rows_.mean.col(i) += w * model_.shape.mean.segment<3>(3 * v).cast<double>();
             rows_.identity.middleRows(3 * i, 3) +=
-                w * (model_.shape.basis.block(3 * v, 0, 3, k_) * model_.shape.eigenvalues.head(k_).cwiseSqrt().asDiagonal())
+                w * (model_.shape.basis.block(3 * v, 0, 3, k_) * identity_sd_.asDiagonal())
                         .cast<double>();
             if (expression_pca_) {
                 rows_.mean.col(i) += w * expression_pca_->mean.segment<3>(3 * v).cast<double>();
                 rows_.expression.middleRows(3 * i, 3) +=
-                    w * (expression_pca_->basis.block(3 * v, 0, 3, e_) * expression_pca_->eigenvalues.cwiseSqrt().asDiagonal())
+                    w * (expression_pca_->basis.block(3 * v, 0, 3, e_) * expression_sd_.asDiagonal())
                             .cast<double>();
             } else if (blendshapes_) {
                 for (int b = 0; b < e_; ++b)
@@ -79,6 +81,7 @@ private:
     int e_ = 0;
     const PcaModel* expression_pca_ = nullptr;
     const std::vector<Blendshape>* blendshapes_ = nullptr;
+    Eigen::VectorXf identity_sd_, expression_sd_;  // sqrt(eigenvalues): σ-unit scaling
     LandmarkRows rows_;
 };
 

@@ -203,13 +203,13 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
         }
 
         ceres::Solver::Options solver;
-        solver.linear_solver_type = ceres::DENSE_QR;
+        solver.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
         solver.max_num_iterations = options.max_iterations;
         solver.num_threads = 1;
         solver.logging_type = ceres::SILENT;
         solver.minimizer_progress_to_stdout = false;
-        solver.function_tolerance = 1e-10;
-        solver.parameter_tolerance = 1e-10;
+        solver.function_tolerance = 1e-9;
+        solver.parameter_tolerance = 1e-8;
         ceres::Solver::Summary summary;
         ceres::Solve(solver, &problem, &summary);
         if (summary.termination_type == ceres::FAILURE) throw Error("refine: solver failed: " + summary.message);
