@@ -380,9 +380,20 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
         const auto index = index_of_key(name);
         if (index && name == sample_key(*index) + ".json" && *index < config.count && in_shard(*index, options.shard, unit)) done.insert(*index);
     }
+    // A tar is complete when it holds every file of its samples (a larger count than the run that
+    // wrote it can make the last tar short).
+    const auto tar_is_complete = [&](const fs::path& tar, std::int64_t t) {
+        if (!fs::exists(tar)) return false;
+        const std::int64_t samples = std::min(config.count, (t + 1) * tar_size) - t * tar_size;
+        try {
+            return list_tar(tar).size() == static_cast<std::size_t>(samples) * files.size();
+        } catch (const Error&) {
+            return false;
+        }
+    };
     std::vector<char> tar_done(static_cast<std::size_t>(formats.wds ? tar_count : 0), 0);
     for (std::int64_t t = 0; t < static_cast<std::int64_t>(tar_done.size()); ++t)
-        tar_done[static_cast<std::size_t>(t)] = in_shard(t * tar_size, options.shard, unit) && fs::exists(out / wds_tar_name(config, t));
+        tar_done[static_cast<std::size_t>(t)] = in_shard(t * tar_size, options.shard, unit) && tar_is_complete(out / wds_tar_name(config, t), t);
 
     const auto tar_of = [&](std::int64_t index) { return index / tar_size; };
     std::vector<std::int64_t> todo;
@@ -468,7 +479,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                         else if (file.folder == "depth") contents.push_back(encode_depth_exr(sample.depth, key));
                         else if (file.folder == "mask") contents.push_back(encode_png(sample.mask, config.output.png_compression, key));
                         else if (file.folder == "normals") contents.push_back(encode_normals(sample.normals, config.output.png_compression, key));
-                        else contents.push_back(sample_meta(sample, config, model, checksum).dump(1) + "\n");
+                        else contents.push_back(sample_meta(sample, config, model, checksum).dump() + "\n");
                     }
                     const auto encoded = Clock::now();
                     times.encode += std::chrono::duration<double>(encoded - clock).count();
@@ -521,7 +532,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
     for (std::int64_t i = 0; i < config.count; ++i)
         if (in_shard(i, options.shard, unit)) all.push_back(i);
     write_file_atomically(manifest_path, manifest_text(all, config));
-    if (formats.coco) write_file_atomically(out / coco_name(options.shard), coco_from_meta(out, all, config).dump(1) + "\n");
+    if (formats.coco) write_file_atomically(out / coco_name(options.shard), coco_from_meta(out, all, config).dump() + "\n");
     if (!formats.folder && !formats.coco) {
         std::error_code ignored;
         fs::remove_all(out / kStagingFolder, ignored);  // succeeds only when other shards left nothing there either
@@ -658,7 +669,7 @@ MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& 
     result.samples = indices.size();
     if (!fs::exists(out / "dataset.json") || !fs::equivalent(inputs.front(), out)) write_file_atomically(out / "dataset.json", read_file(first_info));
     write_file_atomically(out / "manifest.jsonl", manifest_text(indices, config));
-    if (formats.coco) write_file_atomically(out / "coco.json", coco_from_meta(out, indices, config).dump(1) + "\n");
+    if (formats.coco) write_file_atomically(out / "coco.json", coco_from_meta(out, indices, config).dump() + "\n");
     return result;
 }
 

@@ -168,6 +168,9 @@ void register_synth_commands(CLI::App& app) {
     synth_cmd->add_option("--shard-count", args->shard_count, "total shards for --shard auto (else FACESYNTH_SHARD_COUNT / SLURM_ARRAY_TASK_COUNT)");
     synth_cmd->add_flag("--overwrite", args->overwrite, "replace a dataset made with a different config in --out");
     add_run_options(synth_cmd, *args);
+    // A later flag wins over an earlier one (scripts append overrides).
+    for (const char* name : {"--count", "--seed", "--format", "--model", "--size", "--threads", "--shard", "--backend"})
+        synth_cmd->get_option(name)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
     synth_cmd->require_subcommand(0, 1);
 
     auto merge_inputs = std::make_shared<std::vector<std::string>>();

@@ -1,0 +1,173 @@
+// Configuration parsing and the per-sample scene sampler (library level, no rendering).
+#include "common/test_data.h"
+#include "common/toy_model.h"
+#include "morph/atomic_file.h"
+#include "morph/error.h"
+#include "synth/config.h"
+#include "synth/dataset.h"
+#include "synth/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+namespace facesynth::synth {
+namespace {
+
+std::string error_of(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(SynthConfig, TomlFileSetsKeysAndRejectsUnknownKeyNamingIt) {
+    const auto dir = testkit::fresh_temp_dir("synth_config_toml");
+    write_file_atomically(dir / "good.toml", "seed = 7\ncount = 5\n[pose.yaw]\ndistribution = \"normal\"\nstddev = 20\n[camera]\nwidth = 128\nfov_min = 12\n");
+    SynthConfig config;
+    apply_toml_file(config, dir / "good.toml");
+    EXPECT_EQ(config.seed, 7u);
+    EXPECT_EQ(config.count, 5);
+    EXPECT_EQ(config.pose.yaw.distribution, "normal");
+    EXPECT_EQ(config.pose.yaw.stddev, 20.0);
+    EXPECT_EQ(config.camera.width, 128);
+    EXPECT_EQ(config.camera.fov_min, 12.0);  // an integer is accepted for a number
+    EXPECT_NO_THROW(validate(config));
+
+    write_file_atomically(dir / "bad.toml", "[pose.yaw]\nmax = 40\nmaxx = 50\n");
+    SynthConfig other;
+    const std::string message = error_of([&] { apply_toml_file(other, dir / "bad.toml"); });
+    EXPECT_NE(message.find("pose.yaw.maxx"), std::string::npos) << message;
+    EXPECT_NE(message.find("bad.toml"), std::string::npos) << message;
+
+    write_file_atomically(dir / "type.toml", "[camera]\nwidth = \"wide\"\n");
+    const std::string type_message = error_of([&] { apply_toml_file(other, dir / "type.toml"); });
+    EXPECT_NE(type_message.find("camera.width"), std::string::npos) << type_message;
+}
+
+TEST(SynthConfig, OverridesParseByTypeAndNameTheKey) {
+    SynthConfig config;
+    apply_override(config, "pose.roll.max=5.5");
+    apply_override(config, "output.depth=true");
+    apply_override(config, "landmarks.mode=fixed");
+    EXPECT_EQ(config.pose.roll.max, 5.5);
+    EXPECT_TRUE(config.output.depth);
+    EXPECT_EQ(config.landmarks.mode, "fixed");
+    EXPECT_NE(error_of([&] { apply_override(config, "pose.rol.max=1"); }).find("pose.rol.max"), std::string::npos);
+    EXPECT_NE(error_of([&] { apply_override(config, "camera.width=12.5"); }).find("camera.width"), std::string::npos);
+    EXPECT_NE(error_of([&] { apply_override(config, "nothing"); }).find("key.sub=value"), std::string::npos);
+}
+
+TEST(SynthConfig, ValidationNamesTheOffendingKey) {
+    SynthConfig config;
+    config.pose.pitch.min = 10;
+    config.pose.pitch.max = -10;
+    EXPECT_NE(error_of([&] { validate(config); }).find("pose.pitch.min"), std::string::npos);
+    config = {};
+    config.output.formats = "folder,zip";
+    EXPECT_NE(error_of([&] { validate(config); }).find("output.formats"), std::string::npos);
+    config = {};
+    config.landmarks.mode = "dense";
+    EXPECT_NE(error_of([&] { validate(config); }).find("landmarks.mode"), std::string::npos);
+}
+
+TEST(SynthConfig, JsonRoundTripKeepsEveryKey) {
+    SynthConfig config;
+    config.seed = 99;
+    config.pose.yaw.max = 33;
+    config.output.formats = "wds,coco";
+    config.background.folder = "/x";
+    const SynthConfig back = config_from_json(to_json(config));
+    EXPECT_EQ(to_json(back), to_json(config));
+    EXPECT_EQ(to_json(config)["pose"]["yaw"]["max"], 33.0);
+}
+
+TEST(SynthShard, ParsesExplicitAndEnvironmentShards) {
+    const auto s = parse_shard("2/5");
+    EXPECT_EQ(s.index, 2);
+    EXPECT_EQ(s.count, 5);
+    EXPECT_THROW((void)parse_shard("5/5"), Error);
+    EXPECT_THROW((void)parse_shard("1-2"), Error);
+    ::setenv("JOB_COMPLETION_INDEX", "3", 1);
+    const auto k8s = parse_shard("auto", 4);
+    EXPECT_EQ(k8s.index, 3);
+    EXPECT_EQ(k8s.count, 4);
+    EXPECT_THROW((void)parse_shard("auto"), Error);  // no total known
+    ::unsetenv("JOB_COMPLETION_INDEX");
+    ::setenv("SLURM_ARRAY_TASK_ID", "1", 1);
+    ::setenv("SLURM_ARRAY_TASK_COUNT", "3", 1);
+    const auto slurm = parse_shard("auto");
+    EXPECT_EQ(slurm.index, 1);
+    EXPECT_EQ(slurm.count, 3);
+    ::unsetenv("SLURM_ARRAY_TASK_ID");
+    ::unsetenv("SLURM_ARRAY_TASK_COUNT");
+    const auto none = parse_shard("auto");
+    EXPECT_EQ(none.index, 0);
+    EXPECT_EQ(none.count, 1);
+}
+
+TEST(SynthScene, DependsOnlyOnSeedAndIndex) {
+    const auto model = testkit::make_toy_model();
+    SynthConfig config;
+    const auto a = sample_scene(config, model, 17);
+    const auto b = sample_scene(config, model, 17);
+    const auto c = sample_scene(config, model, 18);
+    EXPECT_EQ(a.alpha, b.alpha);
+    EXPECT_EQ(a.psi, b.psi);
+    EXPECT_TRUE(a.pose.rotation.isApprox(b.pose.rotation, 0));
+    EXPECT_TRUE(a.pose.translation == b.pose.translation);
+    EXPECT_EQ(a.key, "s00000017");
+    EXPECT_NE(a.alpha, c.alpha);
+    config.seed = 2;
+    EXPECT_NE(sample_scene(config, model, 17).alpha, a.alpha);
+}
+
+TEST(SynthScene, PlacesTheFaceAtTheSampledSizeInsideTheAngleRanges) {
+    const auto model = testkit::make_toy_model();
+    SynthConfig config;
+    config.camera.face_scale_min = 0.4;
+    config.camera.face_scale_max = 0.5;
+    config.pose.translation_jitter = 0.05;
+    const double diagonal = std::hypot(config.camera.width, config.camera.height);
+    for (int i = 0; i < 50; ++i) {
+        const auto s = sample_scene(config, model, i);
+        EXPECT_LE(std::abs(s.angles.yaw), 90.0);
+        EXPECT_LE(std::abs(s.angles.pitch), 30.0);
+        EXPECT_LE(std::abs(s.angles.roll), 20.0);
+        EXPECT_GT(s.pose.translation.z(), 0.0);
+        const auto vertices = model.shape_instance(s.alpha, s.psi);
+        const Eigen::Matrix2Xd p = project(s.intrinsics, s.pose, model.landmark_positions(vertices));
+        const double size = (p.rowwise().maxCoeff() - p.rowwise().minCoeff()).norm() / diagonal;
+        EXPECT_GT(size, 0.4 - 0.02) << "sample " << i;
+        EXPECT_LT(size, 0.5 + 0.02) << "sample " << i;
+        const Eigen::Vector2d centre = 0.5 * (p.rowwise().maxCoeff() + p.rowwise().minCoeff());
+        EXPECT_LT(std::abs(centre.x() - 127.5), 0.05 * 256 + 2) << "sample " << i;
+    }
+}
+
+TEST(SynthScene, NeutralShareGivesEmptyExpressions) {
+    const auto model = testkit::make_toy_model();
+    SynthConfig config;
+    config.expression.neutral_share = 1.0;
+    for (int i = 0; i < 10; ++i) EXPECT_TRUE(sample_scene(config, model, i).psi.empty());
+    config.expression.neutral_share = 0.0;
+    for (int i = 0; i < 10; ++i) {
+        const auto psi = sample_scene(config, model, i).psi;
+        ASSERT_EQ(static_cast<int>(psi.size()), model.num_expression_components());
+        EXPECT_GT(*std::max_element(psi.begin(), psi.end()), 0.0f);
+    }
+}
+
+TEST(SynthScene, ColourTemperatureIsWhiteAtDaylightAndWarmBelow) {
+    const auto daylight = colour_of_temperature(6500);
+    EXPECT_NEAR(daylight.x(), 1.0, 1e-9);
+    EXPECT_NEAR(daylight.z(), 1.0, 1e-9);
+    const auto warm = colour_of_temperature(3000);
+    EXPECT_GT(warm.x(), warm.y());
+    EXPECT_GT(warm.y(), warm.z());
+}
+
+}  // namespace
+}  // namespace facesynth::synth
