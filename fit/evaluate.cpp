@@ -109,6 +109,7 @@ std::vector<LambdaScore> score_lambdas(const Fitter& fitter, const std::vector<d
         for (const auto& c : cases) {
             const FitMetrics m = evaluate_fit(fitter, c.landmarks, c.truth, o);
             s.vertex_rmse_mm += m.vertex_rmse_mm / count;
+            s.vertex_rmse_mm_meanshape += m.vertex_rmse_mm_meanshape / count;
             s.alpha_rmse += m.alpha_rmse / count;
         }
         scores.push_back(s);

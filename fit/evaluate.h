@@ -62,6 +62,7 @@ struct SyntheticOptions {
 struct LambdaScore {
     double lambda = 0;
     double vertex_rmse_mm = 0;  // mean over the validation cases
+    double vertex_rmse_mm_meanshape = 0;
     double alpha_rmse = 0;
 };
 // Fits `count` synthetic cases (seed `seed`, which must differ from any test set) with each candidate λ
