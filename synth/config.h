@@ -37,7 +37,7 @@ struct ExpressionConfig {
 };
 
 struct AlbedoConfig {
-    double truncation = 2.5;  // colour coefficients truncated at ±truncation σ
+    double truncation = 2.0;  // colour coefficients truncated at ±truncation σ
     double scale = 1.0;
 };
 
@@ -54,8 +54,8 @@ struct CameraConfig {
     double fov_min = 10;                // vertical field of view range, degrees (perspective strength)
     double fov_max = 40;
     double principal_point_jitter = 0.02;  // cx, cy offset, share of the image side (uniform ±)
-    double face_scale_min = 0.45;       // face size (landmark bounding-box diagonal) / image diagonal
-    double face_scale_max = 0.65;
+    double face_scale_min = 0.35;       // face size (landmark bounding-box diagonal) / image diagonal
+    double face_scale_max = 0.55;
 };
 
 struct LightingConfig {

@@ -340,7 +340,6 @@ nlohmann::json sample_meta(const Sample& sample, const SynthConfig& config, cons
                          {"gamma", d.gamma}, {"gains", vector_json(d.gains)}, {"downscale", d.downscale}}},
         {"occluders", occluders},
         {"landmark_mode", mode},
-        {"contour_source", labels.contour_source},
         {"landmarks", points_json(chosen_landmarks(labels, mode))},
         {"visibility", chosen_visibility(labels, mode)},
         {"occluded", labels.occluded},

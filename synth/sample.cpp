@@ -3,6 +3,7 @@
 #include "morph/error.h"
 #include "morph/landmarks.h"
 #include "morph/random.h"
+#include "render/landmarks.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -153,30 +154,6 @@ void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::
     }
 }
 
-// Self-occlusion from the depth buffer: a landmark is visible when it lies inside the image and,
-// in its 3x3 pixel neighbourhood, some covered pixel is not in front of it by more than the tolerance.
-std::vector<int> depth_visibility(const Eigen::Matrix2Xd& pixels, const Eigen::Matrix3Xd& camera_points, const cv::Mat& depth) {
-    std::vector<int> visible(static_cast<std::size_t>(pixels.cols()), 0);
-    for (Eigen::Index i = 0; i < pixels.cols(); ++i) {
-        const int u = static_cast<int>(std::lround(pixels(0, i)));
-        const int v = static_cast<int>(std::lround(pixels(1, i)));
-        if (u < 0 || v < 0 || u >= depth.cols || v >= depth.rows) continue;
-        const double z = camera_points(2, i);
-        const double tolerance = std::max(3.0, 0.01 * z);
-        for (int dy = -1; dy <= 1 && !visible[static_cast<std::size_t>(i)]; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-                const int x = u + dx, y = v + dy;
-                if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) continue;
-                const float d = depth.at<float>(y, x);
-                if (d > 0 && z <= d + tolerance) {
-                    visible[static_cast<std::size_t>(i)] = 1;
-                    break;
-                }
-            }
-    }
-    return visible;
-}
-
 std::vector<int> occluded_by(const Eigen::Matrix2Xd& pixels, const cv::Mat& coverage) {
     std::vector<int> occluded(static_cast<std::size_t>(pixels.cols()), 0);
     for (Eigen::Index i = 0; i < pixels.cols(); ++i) {
@@ -242,18 +219,15 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     renderer_.render(mesh, camera, settings, frame_);
     local.render = seconds_since(clock);
 
-    // Landmarks. The renderer does not offer silhouette (contour) jaw points yet, so both modes
-    // carry the fixed jaw vertices and contour_source says so.
+    // Landmarks in both jaw modes with self-occlusion from the depth buffer (render/landmarks.h).
+    const auto projected = render::project_landmarks(model_.landmarks, mesh, camera, frame_);
     auto& labels = s.labels;
-    const Eigen::Matrix3Xf landmarks_3d = model_.landmark_positions(mesh.vertices);
-    labels.landmarks_3d_fixed = landmarks_3d.cast<double>();
-    labels.landmarks_fixed = render::project_points(camera, landmarks_3d);
-    const Eigen::Matrix3Xd camera_points = to_camera(s.spec.pose, landmarks_3d);
-    labels.visible_fixed = depth_visibility(labels.landmarks_fixed, camera_points, frame_.depth);
-    labels.landmarks_contour = labels.landmarks_fixed;
-    labels.landmarks_3d_contour = labels.landmarks_3d_fixed;
-    labels.visible_contour = labels.visible_fixed;
-    labels.contour_source = "fixed";
+    labels.landmarks_fixed = projected.pixels;
+    labels.landmarks_3d_fixed = projected.model_points;
+    labels.visible_fixed.assign(projected.visible.begin(), projected.visible.end());
+    labels.landmarks_contour = projected.contour_pixels;
+    labels.landmarks_3d_contour = projected.contour_model_points;
+    labels.visible_contour.assign(projected.contour_visible.begin(), projected.contour_visible.end());
 
     const cv::Mat background = make_background(frame_.rgb.size(), s.spec.background, backgrounds_);
     composite(frame_.rgb, frame_.mask, background, s.image);

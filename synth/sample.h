@@ -24,7 +24,6 @@ struct SampleLabels {
     std::vector<int> visible_fixed;       // 1 = not self-occluded and inside the image
     std::vector<int> visible_contour;
     std::vector<int> occluded;            // 1 = covered by an occluder (landmarks of the chosen mode)
-    std::string contour_source;           // how the contour jaw points were found
 };
 
 struct Sample {
