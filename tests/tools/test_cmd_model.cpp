@@ -1,0 +1,130 @@
+// `facesynth model ...` end to end: the real executable, its output files and exit codes
+// (0 success, 1 failure with a one-line message, 2 usage error).
+#include "morph/mesh_io.h"
+#include "morph/model_io.h"
+
+#include "common/test_data.h"
+#include "common/toy_model.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+
+using namespace facesynth;
+
+namespace {
+
+std::string cli() { return testkit::cli_path().string(); }
+
+int run(const std::string& arguments, std::string* output = nullptr) {
+    return testkit::run_command(cli() + " " + arguments, output);
+}
+
+nlohmann::json read_json(const std::filesystem::path& path) {
+    std::ifstream in(path);
+    return nlohmann::json::parse(in);
+}
+
+std::size_t count_lines(const std::string& text) { return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')); }
+
+// A small model file for commands that do not need a real one.
+std::filesystem::path toy_model_file(const std::filesystem::path& dir) {
+    testkit::ToyModelOptions o;
+    o.shape_components = 4;
+    o.latitude_steps = 12;
+    o.longitude_steps = 16;
+    const auto path = dir / "toy.fsm";
+    write_model(testkit::make_toy_model(o), path);
+    return path;
+}
+
+}  // namespace
+
+TEST(CmdModel, InfoJsonOnTheSurreyFolder) {
+    FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
+    const auto dir = testkit::fresh_temp_dir("cmd_model_info_sfm");
+    std::string output;
+    ASSERT_EQ(run("model info --model " + sfm.string() + " --json " + (dir / "info.json").string(), &output), 0) << output;
+    EXPECT_NE(output.find("vertices:             3448"), std::string::npos) << output;
+    const auto j = read_json(dir / "info.json");
+    EXPECT_EQ(j["vertices"], 3448);
+    EXPECT_EQ(j["triangles"], 6736);
+    EXPECT_EQ(j["shape_components"], 63);
+    EXPECT_EQ(j["expression_components"], 6);
+    EXPECT_EQ(j["expression_kind"], "blendshapes");
+    EXPECT_EQ(j["albedo_components"], 0);
+    EXPECT_EQ(j["landmarks"], 68);
+    EXPECT_EQ(j["contour_right"], 17);
+    EXPECT_EQ(j["symmetric_vertices"], 845);
+    EXPECT_EQ(j["units"], "mm");
+    EXPECT_LT(j["bbox_min_x"].get<double>(), -50.0);
+    EXPECT_GT(j["bbox_max_x"].get<double>(), 50.0);
+    EXPECT_EQ(j["checksum"].get<std::string>().size(), 16u);
+    // The bare model file: same geometry, no side files.
+    ASSERT_EQ(run("model info --model " + (sfm / "sfm_shape_3448.bin").string() + " --json " + (dir / "bin.json").string(), &output), 0)
+        << output;
+    const auto b = read_json(dir / "bin.json");
+    EXPECT_EQ(b["vertices"], 3448);
+    EXPECT_EQ(b["shape_components"], 63);
+    EXPECT_EQ(b["landmarks"], 0);
+}
+
+TEST(CmdModel, ConvertExportAndBuild) {
+    const auto dir = testkit::fresh_temp_dir("cmd_model_convert");
+    const auto model = toy_model_file(dir);
+    std::string output;
+    ASSERT_EQ(run("model convert --model " + model.string() + " --out " + (dir / "copy.fsm").string(), &output), 0) << output;
+    EXPECT_EQ(read_model(dir / "copy.fsm").checksum(), read_model(model).checksum());
+
+    // Export a few instances, read them back, and build a model from them.
+    const auto meshes = dir / "meshes";
+    std::filesystem::create_directories(meshes);
+    ASSERT_EQ(run("model export --model " + model.string() + " --alpha 1,-0.5 --out " + (meshes / "a.obj").string(), &output), 0) << output;
+    ASSERT_EQ(run("model export --model " + model.string() + " --random --seed 3 --out " + (meshes / "b.glb").string(), &output), 0) << output;
+    ASSERT_EQ(run("model export --model " + model.string() + " --random --seed 4 --out " + (meshes / "c.glb").string(), &output), 0) << output;
+    const Mesh a = read_mesh(meshes / "a.obj");
+    const Mesh b = read_mesh(meshes / "b.glb");
+    EXPECT_EQ(a.triangles, b.triangles);
+    EXPECT_GT((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.1f);
+    // --random is reproducible from the seed.
+    ASSERT_EQ(run("model export --model " + model.string() + " --random --seed 3 --out " + (dir / "b_again.glb").string(), &output), 0);
+    EXPECT_EQ(read_mesh(dir / "b_again.glb").vertices, b.vertices);
+
+    ASSERT_EQ(run("model build --quiet --meshes " + meshes.string() + " --like " + model.string() + " --out " + (dir / "built.fsm").string(), &output), 0)
+        << output;
+    const MorphableModel built = read_model(dir / "built.fsm");
+    EXPECT_EQ(built.num_vertices(), a.num_vertices());
+    EXPECT_EQ(built.num_shape_components(), 2);  // 3 meshes -> at most 2 components
+    EXPECT_EQ(built.landmarks.size(), 68u);
+    EXPECT_EQ(built.num_albedo_components(), 2);  // the random exports differ in albedo too
+}
+
+TEST(CmdModel, ExitCodes) {
+    const auto dir = testkit::fresh_temp_dir("cmd_model_exit");
+    const auto model = toy_model_file(dir);
+    std::string output;
+    // Usage errors: exit 2.
+    EXPECT_EQ(run("model", &output), 2) << output;
+    EXPECT_EQ(run("model info --no-such-option", &output), 2) << output;
+    EXPECT_EQ(run("model export --model " + model.string(), &output), 2) << output;  // --out missing
+    EXPECT_EQ(run("model export --model " + model.string() + " --out x.ply", &output), 2) << output;
+    EXPECT_EQ(run("model export --model " + model.string() + " --alpha 1,zz --out " + (dir / "x.obj").string(), &output), 2) << output;
+    EXPECT_EQ(run("model convert --model " + model.string() + " --out x.bin", &output), 2) << output;
+    // Failures: exit 1 with one line naming the file.
+    EXPECT_EQ(run("model info --model " + (dir / "missing.fsm").string(), &output), 1);
+    EXPECT_EQ(count_lines(output), 1u) << output;
+    EXPECT_NE(output.find("missing.fsm"), std::string::npos) << output;
+    std::ofstream(dir / "broken.fsm") << "garbage";
+    EXPECT_EQ(run("model info --model " + (dir / "broken.fsm").string(), &output), 1);
+    EXPECT_EQ(count_lines(output), 1u) << output;
+    EXPECT_NE(output.find("broken.fsm"), std::string::npos) << output;
+    EXPECT_EQ(run("model build --meshes " + dir.string() + " --out " + (dir / "none.fsm").string(), &output), 1);
+    EXPECT_EQ(count_lines(output), 1u) << output;
+    EXPECT_EQ(run("model export --model " + model.string() + " --alpha 1,1,1,1,1,1,1 --out " + (dir / "x.obj").string(), &output), 1);
+    EXPECT_EQ(count_lines(output), 1u) << output;
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.obj"));
+    // --help works on every command.
+    for (const char* command : {"model", "model info", "model export", "model convert", "model build"})
+        EXPECT_EQ(run(std::string(command) + " --help", &output), 0) << command;
+}
