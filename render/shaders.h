@@ -45,7 +45,7 @@ out Varyings {
     vec2 uv;
     flat uint label;
 } gs_out;
-out vec3 barycentric;
+out vec3 barycentric;  // perspective-correct: the surface weights of the triangle's corners
 void main() {
     for (int i = 0; i < 3; ++i) {
         gl_Position = gl_in[i].gl_Position;

@@ -1,0 +1,166 @@
+// Landmark visibility and contour points, lighting sanity, and resource steadiness.
+#include "render_fixtures.h"
+
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "render/landmarks.h"
+
+#include <nlohmann/json.hpp>
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+namespace facesynth {
+namespace {
+
+using testkit::make_camera;
+using testkit::shared_renderer;
+using testkit::toy;
+
+render::ProjectedLandmarks landmarks_at(double yaw, render::Frame* frame_out = nullptr) {
+    const Mesh mesh = toy().instance({});
+    const render::Camera camera = make_camera(yaw, 0, 0, 256, 256);
+    const render::Frame frame = shared_renderer().render(mesh, camera);
+    if (frame_out) *frame_out = frame;
+    return render::project_landmarks(toy().landmarks, mesh, camera, frame);
+}
+
+TEST(Visibility, AllVisibleAtFrontalPose) {
+    const auto lm = landmarks_at(0);
+    for (int i = 0; i < kNumIbugLandmarks; ++i) EXPECT_TRUE(lm.visible[static_cast<std::size_t>(i)]) << i;
+}
+
+TEST(Visibility, FarEyeCornerHiddenAtYaw80) {
+    // yaw > 0 turns the face toward the image right: the subject's left side goes away.
+    const auto lm = landmarks_at(80);
+    EXPECT_FALSE(lm.visible[kLeftEyeOuterCorner]);
+    EXPECT_TRUE(lm.visible[kRightEyeOuterCorner]);
+    EXPECT_FALSE(lm.visible[16]);  // far jaw end
+    EXPECT_TRUE(lm.visible[0]);
+    const auto mirrored = landmarks_at(-80);
+    EXPECT_FALSE(mirrored.visible[kRightEyeOuterCorner]);
+    EXPECT_TRUE(mirrored.visible[kLeftEyeOuterCorner]);
+}
+
+TEST(Contour, FrontalContourPointsAreOnTheOutlineAndSymmetric) {
+    render::Frame frame;
+    const auto lm = landmarks_at(0, &frame);
+    for (int i = 0; i < 8; ++i) {
+        const Eigen::Vector2d right = lm.contour_pixels.col(i), left = lm.contour_pixels.col(16 - i);
+        // Mirror about cx = 127.5, up to the quantisation of 4x MSAA coverage on each side.
+        EXPECT_NEAR(right.x() + left.x(), 255.0, 0.5) << i;
+        EXPECT_NEAR(right.y(), left.y(), 0.3) << i;
+        // Outward of the fixed point, at its height.
+        EXPECT_LE(right.x(), lm.pixels(0, i) + 1e-6) << i;
+        EXPECT_NEAR(right.y(), lm.pixels(1, i), 1e-6) << i;
+    }
+    EXPECT_EQ(lm.contour_pixels.col(kChinLandmark), lm.pixels.col(kChinLandmark));
+}
+
+TEST(Contour, FarSideJawPointsMoveToTheOutlineAtYaw60) {
+    render::Frame frame;
+    const auto lm = landmarks_at(60, &frame);
+    int hidden_fixed = 0;
+    for (int i = 9; i < 17; ++i) {
+        const std::size_t s = static_cast<std::size_t>(i);
+        hidden_fixed += lm.visible[s] ? 0 : 1;
+        EXPECT_TRUE(lm.contour_visible[s]) << i;
+        // On the outline: half coverage there, background just outside.
+        const Eigen::Vector2d p = lm.contour_pixels.col(i);
+        EXPECT_GT(p.x(), lm.pixels(0, i)) << i;  // moved outward (image right)
+        const int x = static_cast<int>(std::lround(p.x() + 2)), y = static_cast<int>(std::lround(p.y()));
+        EXPECT_EQ(frame.mask.at<std::uint8_t>(y, x), 0) << i;
+        EXPECT_GT(frame.mask.at<std::uint8_t>(y, static_cast<int>(std::lround(p.x() - 2))), 200) << i;
+    }
+    EXPECT_GE(hidden_fixed, 4);
+}
+
+TEST(Lighting, DcOnlyShIsFlatAlbedoTimesConstant) {
+    Mesh mesh = toy().instance({});
+    render::RenderSettings settings;
+    settings.lighting = render::uniform_lighting(0.9f);
+    settings.lighting.gamma = 1.0f;
+    const render::Frame frame = shared_renderer().render(mesh, make_camera(25, 10, 0, 128, 128), settings);
+    const Eigen::Vector3f albedo = mesh.colours.col(0);  // the mean albedo is uniform
+    ASSERT_TRUE(mesh.colours.isApprox(albedo.replicate(1, mesh.colours.cols())));
+    int checked = 0;
+    for (int y = 0; y < 128; ++y)
+        for (int x = 0; x < 128; ++x) {
+            if (frame.mask.at<std::uint8_t>(y, x) != 255) continue;
+            const cv::Vec3b c = frame.rgb.at<cv::Vec3b>(y, x);
+            for (int k = 0; k < 3; ++k) ASSERT_NEAR(c[k], 255.0 * 0.9 * albedo[k], 1.0) << x << "," << y;
+            ++checked;
+        }
+    EXPECT_GT(checked, 3000);
+}
+
+TEST(Lighting, WhiteFurnaceConservesEnergyAndBandOneFollowsTheNormal) {
+    Mesh mesh = toy().instance({});
+    mesh.colours.setOnes();
+    render::RenderSettings settings;
+    settings.lighting = render::uniform_lighting(1.0f);
+    settings.lighting.gamma = 1.0f;
+    settings.msaa_samples = 0;
+    const render::Camera camera = make_camera(0, 0, 0, 96, 96);
+    render::Frame frame = shared_renderer().render(mesh, camera, settings);
+    cv::Scalar inside = cv::mean(frame.rgb, frame.mask);
+    EXPECT_NEAR(inside[0], 255.0, 0.5);
+    // Light from above (L_1,-1 > 0): upward-facing normals (camera y < 0) get brighter.
+    settings.lighting.sh[1] = {1.0f, 1.0f, 1.0f};
+    settings.lighting.sh[0] = {2.0f, 2.0f, 2.0f};
+    frame = shared_renderer().render(mesh, camera, settings);
+    EXPECT_GT(frame.rgb.at<cv::Vec3b>(20, 48)[0], frame.rgb.at<cv::Vec3b>(76, 48)[0] + 20);
+}
+
+TEST(Lighting, JsonRoundTrip) {
+    render::Lighting lighting;
+    lighting.lights.push_back({{0.1f, 0.2f, 0.9f}, {0.5f, 0.4f, 0.3f}});
+    lighting.specular = 0.25f;
+    lighting.gamma = 2.0f;
+    const nlohmann::json j = lighting;
+    const render::Lighting back = j.get<render::Lighting>();
+    EXPECT_EQ(nlohmann::json(back), j);
+    EXPECT_THROW((void)nlohmann::json::parse(R"({"gamma": "x"})").get<render::Lighting>(), Error);
+}
+
+long resident_kib() {
+    std::ifstream status("/proc/self/status");
+    std::string line;
+    while (std::getline(status, line))
+        if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+    return -1;
+}
+
+TEST(Resources, ThousandsOfRendersKeepMemorySteady) {
+    const Mesh mesh = toy().instance({});
+    render::Renderer& renderer = shared_renderer();
+    render::Frame frame;
+    render::RenderSettings settings;
+    settings.msaa_samples = 2;
+    auto run = [&](int count) {
+        for (int i = 0; i < count; ++i) {
+            const int size = 24 + (i / 250 % 3) * 8;  // targets are re-created on each size change
+            settings.barycentrics = i % 5 == 0;
+            renderer.render(mesh, make_camera(i % 90 - 45.0, 0, 0, size, size + 1), settings, frame);
+        }
+    };
+    run(300);
+    const long before = resident_kib();
+    run(2000);
+    const long after = resident_kib();
+    EXPECT_LT(after - before, 2048) << "RSS grew from " << before << " to " << after << " KiB";
+}
+
+TEST(Resources, RenderersAreMovableAndReleaseTheirContext) {
+    const Mesh mesh = toy().instance({});
+    render::Renderer a(render::RendererOptions{render::Backend::kEgl, false});
+    render::Renderer b = std::move(a);
+    EXPECT_GT(cv::countNonZero(b.render(mesh, make_camera(0, 0, 0, 32, 32)).mask), 100);
+    for (int i = 0; i < 3; ++i) {
+        render::Renderer r(render::RendererOptions{render::Backend::kOsmesa, false});
+        EXPECT_GT(cv::countNonZero(r.render(mesh, make_camera(0, 0, 0, 32, 32)).mask), 100);
+    }
+}
+
+}  // namespace
+}  // namespace facesynth

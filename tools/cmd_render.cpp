@@ -1,0 +1,358 @@
+// `facesynth render` (one image with every ground-truth map and an overlay to check by eye) and
+// `facesynth bench render` (renders per second). The renderer lives in render/.
+#include "cli_common.h"
+#include "commands.h"
+
+#include "morph/atomic_file.h"
+#include "morph/error.h"
+#include "morph/model_io.h"
+#include "morph/random.h"
+#include "morph/sampling.h"
+#include "render/landmarks.h"
+#include "render/renderer.h"
+#include "synth/exr.h"
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <cstdio>
+#include <numbers>
+#include <optional>
+#include <mutex>
+#include <thread>
+
+namespace facesynth::cli {
+namespace {
+
+struct ViewArgs {
+    std::string model = "builtin";
+    double yaw = 0, pitch = 0, roll = 0;
+    int size = 256, width = 0, height = 0;
+    double fov = 30.0;
+    double distance = 0.0;  // 0: frame the mesh
+    bool orthographic = false;
+    std::string backend = "auto";
+    int msaa = 4;
+};
+
+struct RenderArgs {
+    ViewArgs view;
+    std::optional<std::int64_t> seed;
+    double truncation = 3.0;
+    std::string lighting_file;
+    std::string out;
+    std::string json;
+    bool quiet = false;
+};
+
+struct BenchArgs {
+    ViewArgs view;
+    int count = 1000;
+    int threads = 1;
+    bool barycentrics = false;
+    std::string json;
+    bool quiet = false;
+};
+
+void add_view_options(CLI::App* cmd, ViewArgs& v) {
+    cmd->add_option("--model,-m", v.model, "model: builtin, a model file or a model folder")->capture_default_str();
+    cmd->add_option("--yaw", v.yaw, "degrees; > 0 turns the face toward the image right")->capture_default_str();
+    cmd->add_option("--pitch", v.pitch, "degrees; > 0 looks up")->capture_default_str();
+    cmd->add_option("--roll", v.roll, "degrees; > 0 counter-clockwise in the image")->capture_default_str();
+    cmd->add_option("--size", v.size, "image width and height in pixels")->check(CLI::Range(1, 16384))->capture_default_str();
+    cmd->add_option("--width", v.width, "image width (overrides --size)")->check(CLI::Range(1, 16384));
+    cmd->add_option("--height", v.height, "image height (overrides --size)")->check(CLI::Range(1, 16384));
+    cmd->add_option("--fov", v.fov, "vertical field of view, degrees")->check(CLI::Range(1.0, 170.0))->capture_default_str();
+    cmd->add_option("--distance", v.distance, "camera to mesh-centre distance in mm (0: fit the mesh in 80% of the image)")
+        ->check(CLI::NonNegativeNumber)->capture_default_str();
+    cmd->add_flag("--orthographic", v.orthographic, "orthographic camera scaled to fit the mesh (ignores --fov, --distance)");
+    cmd->add_option("--backend", v.backend, "auto, egl or osmesa (auto: EGL, then OSMesa)")
+        ->check(CLI::IsMember({"auto", "egl", "osmesa"}))->capture_default_str();
+    cmd->add_option("--msaa", v.msaa, "multisample anti-aliasing samples (0 = off)")->check(CLI::Range(0, 16))->capture_default_str();
+}
+
+// A camera looking at the centre of the mesh's bounding box with the requested pose.
+render::Camera frame_camera(const ViewArgs& v, const Mesh& mesh) {
+    const int width = v.width > 0 ? v.width : v.size, height = v.height > 0 ? v.height : v.size;
+    const Eigen::Vector3f low = mesh.vertices.rowwise().minCoeff(), high = mesh.vertices.rowwise().maxCoeff();
+    const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
+    const double extent = std::max(high.x() - low.x(), high.y() - low.y());
+    render::Camera camera;
+    camera.pose.rotation = rotation_from_euler({v.yaw, v.pitch, v.roll});
+    const double fill = 0.8 * std::min(width, height);
+    if (v.orthographic) {
+        camera.projection = render::Projection::kOrthographic;
+        camera.intrinsics = intrinsics_from_fov(v.fov, width, height);
+        camera.intrinsics.fx = camera.intrinsics.fy = fill / extent;
+    } else {
+        camera.intrinsics = intrinsics_from_fov(v.fov, width, height);
+    }
+    const double distance = v.distance > 0 ? v.distance
+                                           : 0.5 * extent * camera.intrinsics.fy / (0.5 * fill) +
+                                                 0.5 * static_cast<double>(high.z() - low.z());
+    camera.pose.translation = -(model_to_camera_flip() * camera.pose.rotation * centre) + Eigen::Vector3d(0, 0, distance);
+    return camera;
+}
+
+void write_png(const std::filesystem::path& path, const cv::Mat& image) {
+    std::vector<unsigned char> bytes;
+    if (!cv::imencode(".png", image, bytes)) throw file_error(path.string(), "PNG encoding failed");
+    write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+cv::Mat to_bgr(const cv::Mat& rgb) {
+    cv::Mat bgr;
+    cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+    return bgr;
+}
+
+// Normals as a picture: x right -> red, y up -> green, toward the camera -> blue, (n + 1) / 2.
+cv::Mat normals_picture(const cv::Mat& normals, const cv::Mat& mask) {
+    cv::Mat bgr(normals.size(), CV_8UC3, cv::Scalar::all(0));
+    for (int y = 0; y < normals.rows; ++y)
+        for (int x = 0; x < normals.cols; ++x) {
+            if (mask.at<std::uint8_t>(y, x) == 0) continue;
+            const cv::Vec3f n = normals.at<cv::Vec3f>(y, x);
+            auto byte = [](float value) { return cv::saturate_cast<std::uint8_t>(127.5f * (value + 1.0f)); };
+            bgr.at<cv::Vec3b>(y, x) = cv::Vec3b(byte(-n[2]), byte(-n[1]), byte(n[0]));
+        }
+    return bgr;
+}
+
+// The render, enlarged for legibility, with fixed landmarks (green visible, red hidden, with their
+// 1-based number) and contour jaw points (yellow) drawn on it.
+cv::Mat overlay_picture(const cv::Mat& rgb, const render::ProjectedLandmarks& lm) {
+    const int scale = std::max(1, static_cast<int>(std::ceil(768.0 / std::max(rgb.cols, rgb.rows))));
+    cv::Mat big;
+    cv::resize(to_bgr(rgb), big, cv::Size(), scale, scale, cv::INTER_CUBIC);
+    auto at = [scale](const Eigen::Vector2d& p) {
+        // Pixel centre (x, y) sits at scale·(x + 0.5) - 0.5 in the enlarged image; 4 fractional bits.
+        return cv::Point(static_cast<int>(std::lround(16.0 * (scale * (p.x() + 0.5) - 0.5))),
+                         static_cast<int>(std::lround(16.0 * (scale * (p.y() + 0.5) - 0.5))));
+    };
+    const cv::Scalar green(60, 220, 60), red(40, 40, 255), yellow(0, 230, 255);
+    for (Eigen::Index i = 0; i < lm.pixels.cols(); ++i) {
+        const bool visible = lm.visible[static_cast<std::size_t>(i)] != 0;
+        cv::circle(big, at(lm.pixels.col(i)), 3 * 16, visible ? green : red, visible ? cv::FILLED : 2, cv::LINE_AA, 4);
+        const cv::Point label = at(lm.pixels.col(i)) / 16 + cv::Point(4, -4);
+        cv::putText(big, std::to_string(i + 1), label, cv::FONT_HERSHEY_PLAIN, 0.7, visible ? green : red, 1, cv::LINE_AA);
+    }
+    for (Eigen::Index i = 0; i < std::min<Eigen::Index>(17, lm.contour_pixels.cols()); ++i) {
+        if (lm.contour_pixels.col(i) == lm.pixels.col(i)) continue;
+        const cv::Point p = at(lm.contour_pixels.col(i));
+        cv::drawMarker(big, p / 16, yellow, cv::MARKER_TILTED_CROSS, 9, 2, cv::LINE_AA);
+        cv::line(big, at(lm.pixels.col(i)), p, yellow, 1, cv::LINE_AA, 4);
+    }
+    return big;
+}
+
+nlohmann::json points_json(const Eigen::MatrixXd& points) {
+    nlohmann::json out = nlohmann::json::array();
+    for (Eigen::Index i = 0; i < points.cols(); ++i) {
+        nlohmann::json p = nlohmann::json::array();
+        for (Eigen::Index r = 0; r < points.rows(); ++r) p.push_back(points(r, i));
+        out.push_back(std::move(p));
+    }
+    return out;
+}
+
+void run_render(const RenderArgs& a) {
+    const MorphableModel model = load_model(a.view.model);
+    std::vector<float> alpha, psi, beta;
+    if (a.seed) {
+        const auto seed = static_cast<std::uint64_t>(*a.seed);
+        Rng identity = make_rng(seed, 0, RandomStream::kIdentity);
+        alpha = sample_coefficients(identity, model.num_shape_components(), a.truncation);
+        Rng albedo = make_rng(seed, 0, RandomStream::kAlbedo);
+        beta = sample_coefficients(albedo, model.num_albedo_components(), a.truncation);
+    }
+    const Mesh mesh = model.instance(alpha, psi, beta);
+    const render::Camera camera = frame_camera(a.view, mesh);
+    render::RenderSettings settings;
+    settings.msaa_samples = a.view.msaa;
+    settings.barycentrics = false;
+    if (!a.lighting_file.empty()) {
+        try {
+            settings.lighting = nlohmann::json::parse(read_file(a.lighting_file)).get<render::Lighting>();
+        } catch (const nlohmann::json::exception& e) {
+            throw file_error(a.lighting_file, e.what());
+        } catch (const Error& e) {
+            throw file_error(a.lighting_file, e.what());
+        }
+    }
+    render::Renderer renderer({render::parse_backend(a.view.backend), true});
+    const render::Frame frame = renderer.render(mesh, camera, settings);
+    const render::ProjectedLandmarks lm = render::project_landmarks(model.landmarks, mesh, camera, frame);
+
+    const std::filesystem::path out(a.out);
+    std::error_code ec;
+    std::filesystem::create_directories(out, ec);
+    if (ec) throw file_error(out.string(), "cannot create the folder: " + ec.message());
+    write_png(out / "image.png", to_bgr(frame.rgb));
+    write_png(out / "mask.png", frame.mask);
+    const std::string exr = synth::encode_depth_exr(frame.depth, (out / "depth.exr").string());
+    write_file_atomically(out / "depth.exr", exr);
+    write_png(out / "normals.png", normals_picture(frame.normals, frame.mask));
+    write_png(out / "labels.png", frame.labels);
+    write_png(out / "overlay.png", overlay_picture(frame.rgb, lm));
+
+    nlohmann::json j;
+    j["model"] = model.name;
+    j["model_checksum"] = model.checksum();
+    j["backend"] = renderer.backend();
+    j["renderer"] = renderer.renderer_string();
+    j["width"] = camera.intrinsics.width;
+    j["height"] = camera.intrinsics.height;
+    j["projection"] = a.view.orthographic ? "orthographic" : "perspective";
+    j["fx"] = camera.intrinsics.fx;
+    j["fy"] = camera.intrinsics.fy;
+    j["cx"] = camera.intrinsics.cx;
+    j["cy"] = camera.intrinsics.cy;
+    j["yaw"] = a.view.yaw;
+    j["pitch"] = a.view.pitch;
+    j["roll"] = a.view.roll;
+    j["rotation"] = points_json(camera.pose.rotation.transpose());  // rows of R
+    j["translation"] = {camera.pose.translation.x(), camera.pose.translation.y(), camera.pose.translation.z()};
+    j["seed"] = a.seed ? nlohmann::json(*a.seed) : nlohmann::json(nullptr);
+    j["alpha"] = alpha;
+    j["beta"] = beta;
+    j["lighting"] = settings.lighting;
+    j["msaa"] = settings.msaa_samples;
+    j["landmarks_fixed"] = points_json(lm.pixels);
+    j["landmarks_contour"] = points_json(lm.contour_pixels);
+    j["landmarks_3d_fixed"] = points_json(lm.model_points);
+    j["landmarks_3d_contour"] = points_json(lm.contour_model_points);
+    j["landmarks_camera_fixed"] = points_json(lm.camera_points);
+    j["visible_fixed"] = lm.visible;
+    j["visible_contour"] = lm.contour_visible;
+    write_json_file(out / "render.json", j);
+    if (!a.json.empty()) write_json_file(a.json, j);
+    if (!a.quiet) {
+        const auto visible = std::count(lm.visible.begin(), lm.visible.end(), 1);
+        std::printf("render: %s, %dx%d, %ld of %zu landmarks visible -> %s (%s | %s)\n", model.name.c_str(),
+                    camera.intrinsics.width, camera.intrinsics.height, static_cast<long>(visible), lm.visible.size(),
+                    out.string().c_str(), renderer.backend().c_str(), renderer.renderer_string().c_str());
+    }
+}
+
+struct BenchResult {
+    double seconds = 0;
+    std::string backend, renderer;
+};
+
+void run_bench(const BenchArgs& b) {
+    const MorphableModel model = load_model(b.view.model);
+    const Mesh mesh = model.instance({});
+    const int threads = std::max(1, b.threads);
+    const int per_thread = std::max(1, b.count / threads);
+    std::vector<std::string> errors(static_cast<std::size_t>(threads));
+    std::vector<std::string> backends(static_cast<std::size_t>(threads)), renderers(static_cast<std::size_t>(threads));
+    std::vector<double> seconds(static_cast<std::size_t>(threads), 0.0);
+    std::vector<render::Renderer> pool;
+    // Contexts are created (and warmed up) before timing: the benchmark measures steady-state renders.
+    for (int t = 0; t < threads; ++t) pool.emplace_back(render::RendererOptions{render::parse_backend(b.view.backend), true});
+    render::RenderSettings settings;
+    settings.msaa_samples = b.view.msaa;
+    settings.geometry = true;
+    settings.barycentrics = b.barycentrics;
+    Progress progress("bench render", static_cast<std::size_t>(per_thread) * static_cast<std::size_t>(threads), b.quiet);
+    std::mutex progress_mutex;
+    auto worker = [&](int t) {
+        try {
+            render::Renderer& renderer = pool[static_cast<std::size_t>(t)];
+            render::Frame frame;
+            ViewArgs view = b.view;
+            for (int i = 0; i < 5; ++i) renderer.render(mesh, frame_camera(view, mesh), settings, frame);
+            std::vector<render::Camera> cameras;
+            for (int i = 0; i < per_thread; ++i) {
+                Rng rng = make_rng(1, static_cast<std::uint64_t>(t * per_thread + i), RandomStream::kPose);
+                view.yaw = rng.uniform(-60, 60);
+                view.pitch = rng.uniform(-20, 20);
+                view.roll = rng.uniform(-15, 15);
+                cameras.push_back(frame_camera(view, mesh));
+            }
+            const auto start = std::chrono::steady_clock::now();
+            for (int i = 0; i < per_thread; ++i) {
+                renderer.render(mesh, cameras[static_cast<std::size_t>(i)], settings, frame);
+                if (i % 50 == 49) {
+                    std::lock_guard lock(progress_mutex);
+                    progress.advance(50);
+                }
+            }
+            seconds[static_cast<std::size_t>(t)] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            backends[static_cast<std::size_t>(t)] = renderer.backend();
+            renderers[static_cast<std::size_t>(t)] = renderer.renderer_string();
+        } catch (const std::exception& e) {
+            errors[static_cast<std::size_t>(t)] = e.what();
+        }
+    };
+    const std::clock_t cpu_start = std::clock();
+    if (threads == 1) {
+        worker(0);
+    } else {
+        std::vector<std::thread> workers;
+        for (int t = 0; t < threads; ++t) workers.emplace_back(worker, t);
+        for (auto& w : workers) w.join();
+    }
+    const double cpu_seconds = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
+    progress.finish();
+    for (const auto& e : errors)
+        if (!e.empty()) throw Error("bench render: " + e);
+    const double wall = *std::max_element(seconds.begin(), seconds.end());
+    const int total = per_thread * threads;
+    const double rate = total / wall;
+    const char* lp_threads = std::getenv("LP_NUM_THREADS");
+    nlohmann::json j;
+    j["renders_per_s"] = rate;
+    j["ms_per_render"] = 1000.0 * wall / per_thread;
+    // Process CPU time per render (all threads, including the warm-up): meaningful on a busy machine.
+    j["cpu_ms_per_render"] = 1000.0 * cpu_seconds / (total + 5 * threads);
+    j["backend"] = backends[0];
+    j["renderer"] = renderers[0];
+    j["model"] = model.name;
+    j["vertices"] = mesh.num_vertices();
+    j["triangles"] = mesh.num_triangles();
+    j["width"] = b.view.width > 0 ? b.view.width : b.view.size;
+    j["height"] = b.view.height > 0 ? b.view.height : b.view.size;
+    j["count"] = total;
+    j["threads"] = threads;
+    j["msaa"] = b.view.msaa;
+    j["barycentrics"] = b.barycentrics;
+    j["lp_num_threads"] = lp_threads ? lp_threads : "";
+    if (!b.json.empty()) write_json_file(b.json, j);
+    std::printf("bench render: %s (%d vertices) %dx%d, %d thread(s), msaa %d: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
+                model.name.c_str(), mesh.num_vertices(), j["width"].get<int>(), j["height"].get<int>(), threads, b.view.msaa,
+                rate, j["ms_per_render"].get<double>(), j["cpu_ms_per_render"].get<double>(), backends[0].c_str(), renderers[0].c_str());
+}
+
+}  // namespace
+
+void register_render_commands(CLI::App& app) {
+    auto args = std::make_shared<RenderArgs>();
+    CLI::App* cmd = app.add_subcommand("render", "Render one face with depth, mask, normals, labels, landmarks and an overlay");
+    add_view_options(cmd, args->view);
+    cmd->add_option("--seed", args->seed, "draw identity and albedo from the model's prior with this seed (default: mean face)");
+    cmd->add_option("--truncation", args->truncation, "coefficient truncation in standard deviations")->capture_default_str();
+    cmd->add_option("--lighting", args->lighting_file, "lighting JSON (docs/render.md)")->check(CLI::ExistingFile);
+    cmd->add_option("--out,-o", args->out, "output folder")->required();
+    cmd->add_option("--json", args->json, "also write render.json's content to this file");
+    cmd->add_flag("--quiet,-q", args->quiet, "print nothing");
+    cmd->callback([args] { run_render(*args); });
+
+    auto bench_args = std::make_shared<BenchArgs>();
+    CLI::App* bench = bench_group(app).add_subcommand("render", "Renders per second (RGB, mask, depth, normals, ids, labels + read-back)");
+    add_view_options(bench, bench_args->view);
+    bench->add_option("--count,-n", bench_args->count, "renders in total")->check(CLI::PositiveNumber)->capture_default_str();
+    bench->add_option("--threads,-t", bench_args->threads, "worker threads, one renderer each")->check(CLI::Range(1, 256))->capture_default_str();
+    bench->add_flag("--barycentrics", bench_args->barycentrics, "also render and read back barycentrics");
+    bench->add_option("--json", bench_args->json, "write the result (renders_per_s, ms_per_render, backend, renderer, ...) here");
+    bench->add_flag("--quiet,-q", bench_args->quiet, "no progress output");
+    bench->callback([bench_args] { run_bench(*bench_args); });
+}
+
+}  // namespace facesynth::cli
