@@ -31,6 +31,9 @@ constexpr int kRowStomion = 63;  // the mouth line: the inner lips are the rows 
 constexpr int kRowBelowLip = 75;
 constexpr int kRowGnathion = 84;
 constexpr int kFissureRows = 4;
+// Columns (counted from the midline) that carry the inner and outer eye corners.
+constexpr int kInnerCanthusColumn = 7;
+constexpr int kOuterCanthusColumn = 18;
 
 constexpr int kShapePopulation = 128;
 constexpr int kShapeComponents = 40;
@@ -230,12 +233,15 @@ public:
         // column crosses it at the same place on every row.
         constexpr int kEarRow = kRowBelowEye + 2;
         const auto ear_columns = column_points(section_at(kEarRow, row_y[kEarRow]));
+        const auto eye_row = column_points(section_at(kRowEye, row_y[kRowEye]));
+        const EyeColumns eye{eye_row[static_cast<std::size_t>(kInnerCanthusColumn)].first,
+                             eye_row[static_cast<std::size_t>(kOuterCanthusColumn)].first};
         for (int r = 0; r < kRows; ++r) {
             const Section section = section_at(r, row_y[static_cast<std::size_t>(r)]);
             const auto columns = column_points(section);
             for (int c = kMidColumn; c < kColumns; ++c) {
                 const auto [x0, z0] = columns[static_cast<std::size_t>(c - kMidColumn)];
-                Eigen::Vector3d p = surface_point(r, c, x0, z0, row_y, section);
+                Eigen::Vector3d p = surface_point(r, c, x0, z0, row_y, section, eye);
                 if (!section.under_chin) p += ear_offset(ear_columns[static_cast<std::size_t>(c - kMidColumn)].second, p, section.centre);
                 points.col(vertex_id(r, c)) = p.cast<float>();
                 points.col(vertex_id(r, kColumns - 1 - c)) = Eigen::Vector3f(static_cast<float>(-p.x()), static_cast<float>(p.y()),
@@ -246,6 +252,11 @@ public:
     }
 
 private:
+    // x of the columns that carry the inner and outer eye corners, on this individual's eye row.
+    struct EyeColumns {
+        double inner, outer;
+    };
+
     struct Section {
         double y, half_width, depth, back_depth, exponent, centre;
         bool under_chin;
@@ -344,7 +355,7 @@ private:
             const double upper = margin_y(-1), lower = margin_y(+1);
             if (std::abs(k) <= kFissureRows) {
                 const double f = double(kFissureRows - k) / (2 * kFissureRows);  // 1 at the upper margin
-                const double gap = std::max(upper - lower, 0.3);
+                const double gap = std::max(upper - lower, 1.0);
                 return lower + gap * f;
             }
             const int side = k < 0 ? -1 : 1;
@@ -367,13 +378,30 @@ private:
         return y;
     }
 
+    // Sideways warp that puts the eye corners of every individual on the same two columns, so the
+    // rows that meet at the canthi meet at the same vertices in the whole population (otherwise
+    // blending faces whose corners fall on different columns folds the thin triangles there).
+    [[nodiscard]] double eye_aligned_x(int r, double x, const EyeColumns& eye) const {
+        const int k = r - kRowEye;
+        const double weight = smoothstep(3.5 * kFissureRows, 2.5 * kFissureRows, std::abs(k));
+        if (weight <= 0) return x;
+        const double ax = std::abs(x), end = eye.outer + 14.0;
+        double mapped = ax;
+        if (ax <= eye.inner) mapped = ax * l_.x_en / eye.inner;
+        else if (ax <= eye.outer) mapped = lerp(l_.x_en, l_.x_ex, (ax - eye.inner) / (eye.outer - eye.inner));
+        else if (ax <= end) mapped = lerp(l_.x_ex, end, (ax - eye.outer) / (end - eye.outer));
+        return (x < 0 ? -1.0 : 1.0) * lerp(ax, mapped, weight);
+    }
+
     [[nodiscard]] Eigen::Vector3d surface_point(int r, int c, double x0, double z0, const std::array<double, kRows>& row_y,
-                                                const Section& section) const {
-        const double x = x0;
-        const double y = warped_y(r, x, row_y);
+                                                const Section& section, const EyeColumns& eye) const {
+        // Eyes and mouth are on the front; the back of the head has columns at the same |x| too.
+        const bool face_side = z0 > 10.0;
+        const double x = face_side ? eye_aligned_x(r, x0, eye) : x0;
+        const double y = face_side ? warped_y(r, x, row_y) : row_y[static_cast<std::size_t>(r)];
         double z = z0;
-        // The front re-evaluates the section at the warped height.
-        if (!section.under_chin && z0 > section.centre && std::abs(y - section.y) > 1e-9) {
+        // The front re-evaluates the section at the warped position.
+        if (!section.under_chin && z0 > section.centre && (std::abs(y - section.y) > 1e-9 || x != x0)) {
             const double a = width(y), b = depth(y), n = exponent_(y), centre = forward_(y);
             const double q = std::min(1.0, std::abs(x) / a);
             z = centre + (b - centre) * std::pow(std::max(0.0, 1.0 - std::pow(q, n)), 1.0 / n);

@@ -98,6 +98,36 @@ TEST_F(BuiltinModel, NormalsPointOutward) {
     EXPECT_GT(n(2, tip), 0.6f);
 }
 
+// Area (mm²) of triangles that face against their corners' normals: folds in the surface.
+double folded_area(const Eigen::Matrix3Xf& v, const std::vector<Triangle>& triangles) {
+    const Eigen::Matrix3Xf n = vertex_normals(v, triangles);
+    double area = 0;
+    for (const auto& t : triangles) {
+        const Eigen::Vector3f face = (v.col(t[1]) - v.col(t[0])).cross(v.col(t[2]) - v.col(t[0]));
+        const Eigen::Vector3f corners = n.col(t[0]) + n.col(t[1]) + n.col(t[2]);
+        if (face.dot(corners) < 0.0f) area += 0.5 * face.norm();
+    }
+    return area;
+}
+
+TEST_F(BuiltinModel, SurfaceHasNoFoldsAtTheMeanOrTwoSigma) {
+    const auto& m = model();
+    EXPECT_LT(folded_area(m.shape_instance({}), m.triangles), 1.0);
+    for (int k = 0; k < m.num_shape_components(); k += 3)
+        for (float s : {-2.0f, 2.0f}) {
+            std::vector<float> alpha(static_cast<std::size_t>(m.num_shape_components()), 0.0f);
+            alpha[static_cast<std::size_t>(k)] = s;
+            // A few mm² of lid-margin overhang at the canthi are allowed.
+            EXPECT_LT(folded_area(m.shape_instance(alpha), m.triangles), 8.0) << "component " << k << " at " << s;
+        }
+    const int expressions = m.num_expression_components();
+    for (int e = 0; e < expressions; ++e) {
+        std::vector<float> psi(static_cast<std::size_t>(expressions), 0.0f);
+        psi[static_cast<std::size_t>(e)] = 1.0f;
+        EXPECT_LT(folded_area(m.shape_instance({}, psi), m.triangles), 12.0) << "blendshape " << e;
+    }
+}
+
 TEST_F(BuiltinModel, SymmetryMapIsAnInvolutionMirroringX) {
     const auto& m = model();
     ASSERT_EQ(static_cast<int>(m.symmetry.size()), m.num_vertices());
