@@ -22,8 +22,8 @@ struct FitOptions {
     double convergence_px = 1e-3;    // stop when the reprojection RMS changes less than this
     // Identity prior weight λ in  Σ w_i ‖r_i‖² / σ_i² + λ ‖α‖²  (α in σ units). σ_i is
     // landmark_sigma_px when > 0, otherwise 1 mm at the current camera scale (image-size invariant).
-    double lambda = 4.0;
-    double expression_lambda = 4.0;  // the same for the expression coefficients / blendshape weights
+    double lambda = 30.0;            // chosen by `facesynth fit-lambda` (docs/fit.md)
+    double expression_lambda = 30.0; // the same for the expression coefficients / blendshape weights
     double landmark_sigma_px = 0;
     int shape_components = 0;        // fit only the first k identity components (0: all)
     bool fit_expression = true;

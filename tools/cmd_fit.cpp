@@ -39,7 +39,7 @@ struct FitArgs {
     int iterations = fit::FitOptions{}.iterations;
     int components = 0;
     double focal = 0;
-    double sigma = fit::RefineOptions{}.landmark_sigma_px;
+    double sigma = 3.0;  // annotation noise on photographs (docs/fit.md)
     bool quiet = false;
 };
 

@@ -1,0 +1,88 @@
+#include "fit/contour.h"
+#include "fit/fit.h"
+
+#include "common/toy_model.h"
+#include "morph/landmarks.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+namespace facesynth::fit {
+namespace {
+
+TEST(Contour, EdgeTopologyOfAClosedMeshHasTwoTrianglesPerEdge) {
+    const MorphableModel m = testkit::make_toy_model({});
+    const auto edges = edge_topology(m.triangles, m.num_vertices());
+    EXPECT_EQ(edges.size() * 2, m.triangles.size() * 3);
+    for (const auto& e : edges) {
+        EXPECT_LT(e.a, e.b);
+        EXPECT_GE(e.left, 0);
+        EXPECT_GE(e.right, 0);
+    }
+    // An open mesh: one triangle has three boundary edges.
+    const auto open = edge_topology({Triangle{0, 1, 2}}, 3);
+    ASSERT_EQ(open.size(), 3u);
+    for (const auto& e : open) EXPECT_EQ(e.right, -1);
+}
+
+TEST(Contour, OccludingVerticesOfAFrontalEllipsoidLieOnItsOutline) {
+    const MorphableModel m = testkit::make_toy_model({});
+    const ContourFinder finder(m);
+    const auto mean = as_points(m.shape.mean);
+    const auto ids = finder.occluding_vertices(Eigen::Matrix3d::Identity());
+    ASSERT_GT(ids.size(), 20u);
+    for (int id : ids) EXPECT_LT(std::abs(mean(2, id)), 15.0f) << "vertex " << id;  // near the z = 0 outline
+    // Turned 90°: the outline is the x = 0 meridian.
+    const auto side = finder.occluding_vertices(rotation_from_euler({90, 0, 0}));
+    for (int id : side) EXPECT_LT(std::abs(mean(0, id)), 15.0f) << "vertex " << id;
+}
+
+// Jaw landmarks placed on the silhouette of a turned head, as annotators mark them: for each jaw point,
+// the outermost projected front-region vertex at the image height of the fixed jaw landmark.
+Eigen::Matrix2Xd silhouette_landmarks(const MorphableModel& m, const ScaledOrthographic& camera) {
+    const Eigen::Matrix3Xf shape = m.shape_instance({});
+    const AffineCamera a = camera.to_affine();
+    Eigen::Matrix2Xd lm(2, 68);
+    for (int l = 0; l < 68; ++l) lm.col(l) = a.project(m.landmarks[static_cast<std::size_t>(l)].position(shape).cast<double>());
+    Eigen::Matrix2Xd all(2, shape.cols());
+    for (Eigen::Index v = 0; v < shape.cols(); ++v) all.col(v) = a.project(shape.col(v).cast<double>());
+    for (int j = 0; j < kNumJawLandmarks; ++j) {
+        if (j == kChinLandmark) continue;
+        const double y = lm(1, j);
+        double best = j < kChinLandmark ? std::numeric_limits<double>::max() : -std::numeric_limits<double>::max();
+        for (Eigen::Index v = 0; v < shape.cols(); ++v) {
+            if (shape(2, v) < 0 || std::abs(all(1, v) - y) > 2.0) continue;
+            best = j < kChinLandmark ? std::min(best, all(0, v)) : std::max(best, all(0, v));
+        }
+        lm(0, j) = best;
+    }
+    return lm;
+}
+
+TEST(Contour, ContourModeFollowsTheSilhouetteBetterThanFixedJawPoints) {
+    const MorphableModel m = testkit::make_toy_model({.shape_components = 6});
+    const Fitter fitter(m);
+    const EulerAngles angles{40, 0, 0};
+    const ScaledOrthographic camera{2.0, rotation_from_euler(angles), {256, 256}, angles};
+    const Eigen::Matrix2Xd lm = silhouette_landmarks(m, camera);
+    FitOptions o;
+    o.fit_expression = false;
+    o.iterations = 10;
+    o.jaw = JawMode::kFixed;
+    const FitResult fixed = fitter.fit(lm, o);
+    o.jaw = JawMode::kContour;
+    const FitResult contour = fitter.fit(lm, o);
+    EXPECT_LT(contour.reprojection_rms_px, fixed.reprojection_rms_px);
+    EXPECT_LT(std::abs(contour.pose.angles.yaw - angles.yaw), std::abs(fixed.pose.angles.yaw - angles.yaw) + 1e-9);
+    EXPECT_NEAR(contour.pose.angles.yaw, angles.yaw, 3.0);
+    // The jaw correspondences moved away from the fixed vertices on the far side.
+    int moved = 0;
+    for (int j = 9; j < kNumJawLandmarks; ++j)
+        moved += contour.correspondences[static_cast<std::size_t>(j)].vertices[0] != m.landmarks[static_cast<std::size_t>(j)].vertices[0];
+    EXPECT_GT(moved, 0);
+}
+
+}  // namespace
+}  // namespace facesynth::fit
