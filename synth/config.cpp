@@ -156,7 +156,7 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"expression.min_weight", &c.expression.min_weight, "blendshape weight lower bound"});
     f.push_back({"expression.max_weight", &c.expression.max_weight, "blendshape weight upper bound"});
     f.push_back({"expression.truncation", &c.expression.truncation, "PCA expression models: coefficients truncated at ±k σ"});
-    f.push_back({"albedo.truncation", &c.albedo.truncation, "colour coefficients truncated at ±k σ"});
+    f.push_back({"albedo.truncation", &c.albedo.truncation, "colour coefficients truncated at ±k σ (models without a colour model get a random uniform skin tone)"});
     f.push_back({"albedo.scale", &c.albedo.scale, "multiplier on the colour coefficients (0 = mean colour)"});
     add_angle(f, "yaw", c.pose.yaw);
     add_angle(f, "pitch", c.pose.pitch);

@@ -59,13 +59,13 @@ struct CameraConfig {
 };
 
 struct LightingConfig {
-    double environment_min = 0.35;         // radiance of the SH environment (DC term), uniform in [min, max]
-    double environment_max = 0.75;
+    double environment_min = 0.3;         // radiance of the SH environment (DC term), uniform in [min, max]
+    double environment_max = 0.7;
     double sh_strength = 0.35;             // stddev of SH bands 1-2 relative to the DC term
     double ambient_max = 0.1;              // extra grey ambient uniform in [0, ambient_max]
     int directional_max = 2;               // 0..directional_max directional lights per sample
     double intensity_min = 0.2;            // per directional light
-    double intensity_max = 0.8;
+    double intensity_max = 0.6;
     double colour_temperature_min = 3200;  // K, directional lights and the SH tint
     double colour_temperature_max = 7500;
     double specular_max = 0.25;            // Blinn-Phong specular weight uniform in [0, specular_max]

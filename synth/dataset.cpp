@@ -324,6 +324,7 @@ nlohmann::json sample_meta(const Sample& sample, const SynthConfig& config, cons
         {"alpha", s.alpha},
         {"psi", s.psi},
         {"beta", s.beta},
+        {"skin_tone", s.skin_tone ? vector_json(*s.skin_tone) : nlohmann::json(nullptr)},
         {"rotation", rotation},
         {"yaw", s.angles.yaw},
         {"pitch", s.angles.pitch},

@@ -209,7 +209,8 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     StageTimes local;
     Sample s;
     s.spec = sample_scene(config_, model_, index);
-    const Mesh mesh = model_.instance(s.spec.alpha, s.spec.psi, s.spec.beta);
+    Mesh mesh = model_.instance(s.spec.alpha, s.spec.psi, s.spec.beta);
+    if (s.spec.skin_tone) mesh.colours = s.spec.skin_tone->cast<float>().replicate(1, mesh.num_vertices());
     local.sample = seconds_since(clock);
 
     render::Camera camera{s.spec.intrinsics, s.spec.pose, render::Projection::kPerspective};

@@ -48,6 +48,18 @@ std::vector<float> sample_expression(const SynthConfig& config, const MorphableM
     return weights;
 }
 
+// A skin colour between a light and a dark sRGB tone with a little hue variation, as linear RGB.
+Eigen::Vector3d sample_skin_tone(Rng& rng) {
+    const Eigen::Vector3d light(0.92, 0.76, 0.66), dark(0.34, 0.21, 0.15);
+    const double t = rng.uniform();
+    Eigen::Vector3d srgb = (1 - t) * light + t * dark;
+    srgb.x() *= rng.uniform(0.95, 1.05);
+    srgb.z() *= rng.uniform(0.9, 1.1);
+    Eigen::Vector3d linear;
+    for (int c = 0; c < 3; ++c) linear[c] = std::pow(std::clamp(srgb[c], 0.0, 1.0), 2.2);
+    return linear;
+}
+
 std::vector<float> scaled(std::vector<float> values, double scale) {
     for (auto& v : values) v = static_cast<float>(v * scale);
     return values;
@@ -196,6 +208,9 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
     if (model.num_albedo_components() > 0) {
         Rng rng = make_rng(config.seed, i, RandomStream::kAlbedo);
         s.beta = scaled(sample_coefficients(rng, model.num_albedo_components(), config.albedo.truncation), config.albedo.scale);
+    } else {
+        Rng rng = make_rng(config.seed, i, RandomStream::kAlbedo);
+        s.skin_tone = sample_skin_tone(rng);
     }
     {
         Rng rng = make_rng(config.seed, i, RandomStream::kPose);

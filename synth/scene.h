@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,8 @@ struct SampleSpec {
     std::int64_t index = 0;
     std::string key;  // "s00001234"
     std::vector<float> alpha, psi, beta;
+    // Uniform skin colour (linear RGB) for models without a colour model; empty otherwise.
+    std::optional<Eigen::Vector3d> skin_tone;
     EulerAngles angles;
     CameraPose pose;
     Intrinsics intrinsics;
