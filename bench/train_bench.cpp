@@ -29,24 +29,27 @@ std::vector<TrainingFace> faces(int count) {
     return out;
 }
 
-const SdmModel& model() {
-    static const SdmModel trained = [] {
+// Trained once per HOG cell count (2 or 3 cells per patch side).
+const SdmModel& model(int hog_cells = 3) {
+    static const auto train = [](int cells) {
         SdmTrainOptions options;
         options.augment = 2;
+        options.hog_cells = cells;
         return train_sdm(faces(30), BoxStatistics{}, options);
-    }();
-    return trained;
+    };
+    static const SdmModel two = train(2), three = train(3);
+    return hog_cells == 2 ? two : three;
 }
 
 void BM_SdmDetectPerFace(benchmark::State& state) {
     const auto cartoon = facesynth::testkit::make_cartoon_face(12, 0, 400);
     const Eigen::Vector2d low = cartoon.landmarks.rowwise().minCoeff(), high = cartoon.landmarks.rowwise().maxCoeff();
     const FaceBox box{(low + high) / 2, (high - low).maxCoeff()};
-    const SdmModel& m = model();
+    const SdmModel& m = model(static_cast<int>(state.range(0)));
     for (auto _ : state) benchmark::DoNotOptimize(sdm_detect(m, cartoon.gray, box));
-    state.SetLabel("68 points, 4 stages, crop + HOG + regression");
+    state.SetLabel("68 points, 4 stages, crop + HOG + regression; arg = HOG cells per side");
 }
-BENCHMARK(BM_SdmDetectPerFace)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SdmDetectPerFace)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond);
 
 // The two parts of the cascade separately: features for all 4 stages, and the 4 linear updates.
 void BM_SdmFeaturesAllStages(benchmark::State& state) {

@@ -161,6 +161,7 @@ void run_detect(const DetectArgs& args) {
     Progress progress("images", args.images.size(), args.quiet);
     for (const auto& path : args.images) {
         try {
+            if (!std::filesystem::is_regular_file(path)) throw file_error(path.string(), "file not found");
             const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
             if (image.empty()) throw file_error(path.string(), "cannot read image");
             const cv::Mat gray = to_gray8(image);
