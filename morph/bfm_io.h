@@ -11,7 +11,8 @@ namespace facesynth {
 // Reads /shape (required), /color and /expression (optional): model/{mean,pcaBasis,pcaVariance}
 // and representer/{points,cells}. Coordinates are converted to millimetres by unit_scale_to_mm
 // (a warning on stderr says so when they were not in mm). Throws facesynth::Error naming the file,
-// the dataset and the problem.
+// the dataset and the problem. HDF5's own error printing is switched off while it reads (a
+// process-wide HDF5 setting): do not read HDF5 files on other threads at the same time.
 [[nodiscard]] MorphableModel read_bfm2017(const std::filesystem::path& path);
 
 // The factor that turns coordinates into millimetres, judged from the bounding-box diagonal of a
