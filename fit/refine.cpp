@@ -9,6 +9,7 @@
 #include <ceres/normal_prior.h>
 #include <ceres/rotation.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -78,6 +79,30 @@ private:
     Eigen::MatrixXd identity_, expression_;
     Eigen::Vector2d observed_;
     double scale_, cx_, cy_;
+};
+
+// Blendshape weights must stay >= 0. Hard bounds make Levenberg-Marquardt crawl (projected steps
+// disagree with the model's predicted decrease), so a one-sided quadratic penalty keeps them there:
+// r_j = κ · min(ψ_j, 0); the result is clamped at 0 afterwards (the penalty leaves |ψ_j| ≲ 1/κ² below).
+class NonNegativePenalty final : public ceres::CostFunction {
+public:
+    NonNegativePenalty(int size, double kappa) : kappa_(kappa) {
+        set_num_residuals(size);
+        mutable_parameter_block_sizes()->push_back(size);
+    }
+    bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+        const int n = num_residuals();
+        if (jacobians && jacobians[0]) std::fill(jacobians[0], jacobians[0] + n * n, 0.0);
+        for (int j = 0; j < n; ++j) {
+            const bool negative = parameters[0][j] < 0;
+            residuals[j] = negative ? kappa_ * parameters[0][j] : 0.0;
+            if (jacobians && jacobians[0] && negative) jacobians[0][j * n + j] = kappa_;
+        }
+        return true;
+    }
+
+private:
+    double kappa_;
 };
 
 ScaledOrthographic weak_perspective(const RefineResult& r) {
@@ -191,8 +216,7 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
             problem.AddResidualBlock(new ceres::NormalPrior(std::sqrt(options.expression_prior) * Eigen::MatrixXd::Identity(e, e),
                                                             Eigen::VectorXd::Zero(e)),
                                      nullptr, psi.data());
-            if (blendshapes)
-                for (int c = 0; c < e; ++c) problem.SetParameterLowerBound(psi.data(), c, 0.0);
+            if (blendshapes) problem.AddResidualBlock(new NonNegativePenalty(e, 100.0), nullptr, psi.data());
         }
         if (estimate_focal) {
             Eigen::MatrixXd a(1, 1);
@@ -208,7 +232,7 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
         solver.num_threads = 1;
         solver.logging_type = ceres::SILENT;
         solver.minimizer_progress_to_stdout = false;
-        solver.function_tolerance = 1e-9;
+        solver.function_tolerance = 1e-6;
         solver.parameter_tolerance = 1e-8;
         ceres::Solver::Summary summary;
         ceres::Solve(solver, &problem, &summary);
@@ -224,6 +248,7 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
     result.alpha.assign(static_cast<std::size_t>(k_all), 0.0f);
     for (int c = 0; c < k; ++c) result.alpha[static_cast<std::size_t>(c)] = static_cast<float>(alpha(c));
     result.psi.assign(static_cast<std::size_t>(basis.e()), 0.0f);
+    if (blendshapes) psi = psi.cwiseMax(0.0);
     for (int c = 0; c < e; ++c) result.psi[static_cast<std::size_t>(c)] = static_cast<float>(psi(c));
 
     LandmarkBasis all(model, k);
