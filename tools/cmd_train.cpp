@@ -272,7 +272,8 @@ void run_eval_landmarks(const EvalArgs& args) {
         std::vector<CedCurve> curves;
         for (std::size_t r = 0; r < evaluation.regressors.size(); ++r)
             curves.push_back({args.regressors[r], evaluation.regressors[r].nmes});
-        write_file_atomically(args.ced, ced_svg(curves));
+        const bool png = args.ced.extension() == ".png";
+        write_file_atomically(args.ced, png ? ced_png(curves) : ced_svg(curves));
     }
 }
 
@@ -324,7 +325,7 @@ void register_train_commands(CLI::App& app) {
             ->required();
         cmd->add_option("--data", args->data, "Folders with images and .pts, comma-separated")->required();
         cmd->add_option("--json", args->json, "Write flat JSON results here");
-        cmd->add_option("--ced", args->ced, "Write the CED curves (NME 0-0.08) as SVG here");
+        cmd->add_option("--ced", args->ced, "Write the CED curves (NME 0-0.08) here: .svg, or .png");
         cmd->add_flag("--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_eval_landmarks(*args); });
     }

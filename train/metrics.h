@@ -27,5 +27,7 @@ struct CedCurve {
     std::vector<double> nmes;
 };
 [[nodiscard]] std::string ced_svg(std::span<const CedCurve> curves, double max_nme = 0.08);
+// The same plot as PNG bytes (drawn with OpenCV).
+[[nodiscard]] std::string ced_png(std::span<const CedCurve> curves, double max_nme = 0.08);
 
 }  // namespace facesynth::train
