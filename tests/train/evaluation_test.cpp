@@ -34,6 +34,9 @@ TEST(Metrics, SummaryByHand) {
     const std::string svg = ced_svg(curves);
     EXPECT_NE(svg.find("<svg"), std::string::npos);
     EXPECT_NE(svg.find("ours"), std::string::npos);
+    const std::string png = ced_png(curves);
+    ASSERT_GT(png.size(), 8u);
+    EXPECT_EQ(png.substr(1, 3), "PNG");
 }
 
 TEST(Dataset, FindsSideBySideAndSynthLayouts) {
