@@ -50,6 +50,7 @@ EGLDisplay hardware_device_display() {
     return EGL_NO_DISPLAY;
 }
 
+
 class EglContext final : public GlContext {
 public:
     explicit EglContext(bool allow_device) {
@@ -81,6 +82,7 @@ public:
 
     ~EglContext() override {
         if (eglGetCurrentContext() == context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        if (last_bound_context() == this) last_bound_context() = nullptr;
         eglDestroyContext(display_, context_);
         // eglTerminate would also end other renderers' contexts on this display (displays are
         // shared per device within a process), so the display stays initialised.
@@ -89,9 +91,12 @@ public:
     EglContext& operator=(const EglContext&) = delete;
 
     void make_current() override {
-        if (eglGetCurrentContext() == context_) return;
+        if (last_bound_context() == this && eglGetCurrentContext() == context_) return;
+        // EGL may believe this context is still bound after OSMesa took the thread: unbind first.
+        if (eglGetCurrentContext() == context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_))
             throw Error(egl_error_text("eglMakeCurrent"));
+        last_bound_context() = this;
     }
     void* get_proc_address(const char* name) const override {
         return reinterpret_cast<void*>(eglGetProcAddress(name));
@@ -117,6 +122,7 @@ private:
             context_ = EGL_NO_CONTEXT;
             return false;
         }
+        last_bound_context() = this;
         return true;
     }
 
@@ -126,6 +132,11 @@ private:
 };
 
 }  // namespace
+
+const GlContext*& last_bound_context() {
+    thread_local const GlContext* bound = nullptr;
+    return bound;
+}
 
 std::unique_ptr<GlContext> create_egl_context(bool allow_device) { return std::make_unique<EglContext>(allow_device); }
 

@@ -22,4 +22,9 @@ public:
 // Mesa's classic off-screen path. Throws facesynth::Error saying what failed.
 [[nodiscard]] std::unique_ptr<GlContext> create_osmesa_context();
 
+// EGL and OSMesa share Mesa's GL dispatch (one current context per thread), but neither knows when
+// the other bound a context. Each backend records here which context it bound last on this thread
+// and rebinds when another was bound since.
+[[nodiscard]] const GlContext*& last_bound_context();
+
 }  // namespace facesynth::render::detail

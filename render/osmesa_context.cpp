@@ -19,15 +19,19 @@ public:
         if (context_ == nullptr) throw Error("OSMesa: creating an OpenGL 3.3 core context failed");
         make_current();
     }
-    ~OsmesaContext() override { OSMesaDestroyContext(context_); }
+    ~OsmesaContext() override {
+        if (last_bound_context() == this) last_bound_context() = nullptr;
+        OSMesaDestroyContext(context_);
+    }
     OsmesaContext(const OsmesaContext&) = delete;
     OsmesaContext& operator=(const OsmesaContext&) = delete;
 
     void make_current() override {
-        if (OSMesaGetCurrentContext() == context_) return;
+        if (last_bound_context() == this && OSMesaGetCurrentContext() == context_) return;
         // Rendering goes to framebuffer objects; the default framebuffer is a 1x1 placeholder.
         if (!OSMesaMakeCurrent(context_, placeholder_.data(), GL_UNSIGNED_BYTE, 1, 1))
             throw Error("OSMesa: OSMesaMakeCurrent failed");
+        last_bound_context() = this;
     }
     void* get_proc_address(const char* name) const override {
         return reinterpret_cast<void*>(OSMesaGetProcAddress(name));

@@ -103,8 +103,15 @@ GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& sou
     return shader;
 }
 
-GLuint link_program(const GlFunctions& gl, bool with_barycentrics) {
-    const std::string header = std::string("#version 330 core\n") + (with_barycentrics ? "#define WITH_BARYCENTRICS\n" : "");
+// Shader variants: bit flags compiled in with #define.
+enum Variant : unsigned { kWithBarycentrics = 1, kWithTexture = 2, kWithLights = 4, kNumVariants = 8 };
+
+GLuint link_program(const GlFunctions& gl, unsigned variant) {
+    const bool with_barycentrics = (variant & kWithBarycentrics) != 0;
+    std::string header = "#version 330 core\n";
+    if (with_barycentrics) header += "#define WITH_BARYCENTRICS\n";
+    if (variant & kWithTexture) header += "#define WITH_TEXTURE\n";
+    if (variant & kWithLights) header += "#define WITH_LIGHTS\n";
     std::vector<GLuint> shaders{compile_shader(gl, GL_VERTEX_SHADER, header + detail::kVertexShader),
                                 compile_shader(gl, GL_FRAGMENT_SHADER, header + detail::kFragmentShader)};
     if (with_barycentrics) shaders.push_back(compile_shader(gl, GL_GEOMETRY_SHADER, header + detail::kGeometryShader));
@@ -126,7 +133,7 @@ GLuint link_program(const GlFunctions& gl, bool with_barycentrics) {
 struct Program {
     GLuint id = 0;
     GLint model_to_clip = -1, model_to_camera = -1, sh = -1, ambient = -1, light_count = -1, light_direction = -1,
-          light_colour = -1, specular = -1, shininess = -1, inverse_gamma = -1, perspective = -1, use_texture = -1,
+          light_colour = -1, specular = -1, shininess = -1, inverse_gamma = -1, perspective = -1,
           albedo_texture = -1;
 
     void locate(const GlFunctions& gl) {
@@ -142,7 +149,6 @@ struct Program {
         shininess = at("shininess");
         inverse_gamma = at("inverse_gamma");
         perspective = at("perspective");
-        use_texture = at("use_texture");
         albedo_texture = at("albedo_texture");
     }
 };
@@ -156,7 +162,7 @@ struct Renderer::Impl {
     std::unique_ptr<detail::GlContext> context;
     GlFunctions gl;
     std::string renderer_string;
-    Program plain, with_barycentrics;
+    std::array<Program, kNumVariants> programs{};  // linked on first use
     GLuint vao = 0;
     std::array<GLuint, 5> vertex_buffers{};  // by Attribute
     GLuint index_buffer = 0;
@@ -196,10 +202,7 @@ struct Renderer::Impl {
         renderer_string = std::string(reinterpret_cast<const char*>(gl.GetString(GL_RENDERER))) + " | " +
                           reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
         gl.GetIntegerv(GL_MAX_SAMPLES, &max_samples);
-        plain.id = link_program(gl, false);
-        plain.locate(gl);
-        with_barycentrics.id = link_program(gl, true);
-        with_barycentrics.locate(gl);
+        (void)program(0);
         gl.GenVertexArrays(1, &vao);
         gl.GenBuffers(static_cast<GLsizei>(vertex_buffers.size()), vertex_buffers.data());
         gl.GenBuffers(1, &index_buffer);
@@ -233,8 +236,17 @@ struct Renderer::Impl {
         gl.DeleteBuffers(1, &index_buffer);
         gl.DeleteBuffers(static_cast<GLsizei>(vertex_buffers.size()), vertex_buffers.data());
         gl.DeleteVertexArrays(1, &vao);
-        gl.DeleteProgram(plain.id);
-        gl.DeleteProgram(with_barycentrics.id);
+        for (const Program& p : programs)
+            if (p.id) gl.DeleteProgram(p.id);
+    }
+
+    const Program& program(unsigned variant) {
+        Program& p = programs.at(variant);
+        if (p.id == 0) {
+            p.id = link_program(gl, variant);
+            p.locate(gl);
+        }
+        return p;
     }
 
     void check(const char* stage) const {
@@ -342,8 +354,7 @@ struct Renderer::Impl {
         }
     }
 
-    void set_uniforms(const Program& program, const Mesh& mesh, const Camera& camera, const Lighting& lighting,
-                      bool textured) {
+    void set_uniforms(const Program& program, const Mesh& mesh, const Camera& camera, const Lighting& lighting) {
         const Eigen::Matrix3d rotation = model_to_camera_rotation(camera.pose);
         Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
         model_to_camera.topLeftCorner<3, 3>() = rotation;
@@ -388,7 +399,6 @@ struct Renderer::Impl {
         if (!(lighting.gamma > 0)) throw Error("render: gamma must be positive");
         gl.Uniform1f(program.inverse_gamma, 1.0f / lighting.gamma);
         gl.Uniform1i(program.perspective, camera.projection == Projection::kPerspective ? 1 : 0);
-        gl.Uniform1i(program.use_texture, textured ? 1 : 0);
         gl.Uniform1i(program.albedo_texture, 0);
     }
 
@@ -404,8 +414,10 @@ struct Renderer::Impl {
         ensure_targets(w, h, settings.msaa_samples);
         gl.BindVertexArray(vao);
         upload_mesh(mesh, extras);
-        const Program& program = settings.barycentrics ? with_barycentrics : plain;
-        set_uniforms(program, mesh, camera, settings.lighting, extras.texture != nullptr);
+        const unsigned variant = (settings.barycentrics ? kWithBarycentrics : 0u) |
+                                 (extras.texture != nullptr ? kWithTexture : 0u) |
+                                 (settings.lighting.lights.empty() ? 0u : kWithLights);
+        set_uniforms(program(variant), mesh, camera, settings.lighting);
         if (settings.cull_back_faces)
             gl.Enable(GL_CULL_FACE);
         else

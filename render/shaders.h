@@ -1,5 +1,7 @@
 #pragma once
-// Internal: GLSL 3.30 core sources of the renderer's one program (and its barycentric variant).
+// Internal: GLSL 3.30 core sources of the renderer's program. Optional parts are compiled in by
+// #define (WITH_BARYCENTRICS, WITH_TEXTURE, WITH_LIGHTS) rather than branched on at run time:
+// llvmpipe runs both sides of a branch across a SIMD quad, so an unused texture fetch costs.
 namespace facesynth::render::detail {
 
 inline constexpr const char* kVertexShader = R"(
@@ -82,7 +84,6 @@ uniform float specular;
 uniform float shininess;
 uniform float inverse_gamma;
 uniform int perspective;
-uniform int use_texture;
 uniform sampler2D albedo_texture;
 layout(location = 0) out vec4 out_colour;
 layout(location = 1) out vec4 out_geometry;   // camera z, camera-space normal
@@ -100,10 +101,15 @@ vec3 sh_irradiance_over_pi(vec3 n) {   // n in view space (x right, y up, z towa
 void main() {
     vec3 n = normalize(fs_in.camera_normal);
     if (!gl_FrontFacing) n = -n;
-    vec3 albedo = use_texture != 0 ? texture(albedo_texture, fs_in.uv).rgb : fs_in.albedo;
+#ifdef WITH_TEXTURE
+    vec3 albedo = texture(albedo_texture, fs_in.uv).rgb;
+#else
+    vec3 albedo = fs_in.albedo;
+#endif
     vec3 view_normal = vec3(n.x, -n.y, -n.z);
     vec3 diffuse = ambient + max(sh_irradiance_over_pi(view_normal), vec3(0.0));
     vec3 highlight = vec3(0.0);
+#ifdef WITH_LIGHTS
     vec3 to_eye = perspective != 0 ? normalize(-fs_in.camera_position) : vec3(0.0, 0.0, -1.0);
     for (int i = 0; i < light_count; ++i) {
         float n_dot_l = dot(n, light_direction[i]);
@@ -112,6 +118,7 @@ void main() {
         vec3 h = normalize(light_direction[i] + to_eye);
         highlight += light_colour[i] * (specular * pow(max(dot(n, h), 0.0), shininess));
     }
+#endif
     vec3 linear_rgb = clamp(albedo * diffuse + highlight, 0.0, 1.0);
     out_colour = vec4(pow(linear_rgb, vec3(inverse_gamma)), 1.0);
     out_geometry = vec4(fs_in.camera_position.z, n);

@@ -55,6 +55,7 @@ struct BenchArgs {
     int count = 1000;
     int threads = 1;
     bool barycentrics = false;
+    bool colour_only = false;
     std::string json;
     bool quiet = false;
 };
@@ -258,7 +259,7 @@ void run_bench(const BenchArgs& b) {
     for (int t = 0; t < threads; ++t) pool.emplace_back(render::RendererOptions{render::parse_backend(b.view.backend), true});
     render::RenderSettings settings;
     settings.msaa_samples = b.view.msaa;
-    settings.geometry = true;
+    settings.geometry = !b.colour_only;
     settings.barycentrics = b.barycentrics;
     Progress progress("bench render", static_cast<std::size_t>(per_thread) * static_cast<std::size_t>(threads), b.quiet);
     std::mutex progress_mutex;
@@ -323,6 +324,7 @@ void run_bench(const BenchArgs& b) {
     j["threads"] = threads;
     j["msaa"] = b.view.msaa;
     j["barycentrics"] = b.barycentrics;
+    j["geometry"] = !b.colour_only;
     j["lp_num_threads"] = lp_threads ? lp_threads : "";
     if (!b.json.empty()) write_json_file(b.json, j);
     std::printf("bench render: %s (%d vertices) %dx%d, %d thread(s), msaa %d: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
@@ -350,6 +352,7 @@ void register_render_commands(CLI::App& app) {
     bench->add_option("--count,-n", bench_args->count, "renders in total")->check(CLI::PositiveNumber)->capture_default_str();
     bench->add_option("--threads,-t", bench_args->threads, "worker threads, one renderer each")->check(CLI::Range(1, 256))->capture_default_str();
     bench->add_flag("--barycentrics", bench_args->barycentrics, "also render and read back barycentrics");
+    bench->add_flag("--colour-only", bench_args->colour_only, "RGB and mask only (no depth, normals, ids, labels)");
     bench->add_option("--json", bench_args->json, "write the result (renders_per_s, ms_per_render, backend, renderer, ...) here");
     bench->add_flag("--quiet,-q", bench_args->quiet, "no progress output");
     bench->callback([bench_args] { run_bench(*bench_args); });
