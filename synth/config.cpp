@@ -199,6 +199,7 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"occluders.max_count", &c.occluders.max_count, "1..n occluding shapes"});
     f.push_back({"occluders.max_size", &c.occluders.max_size, "largest occluder extent, share of the face size"});
     f.push_back({"landmarks.mode", &c.landmarks.mode, "jaw points written to .pts: \"contour\" (300-W style) or \"fixed\""});
+    f.push_back({"render.msaa_samples", &c.render.msaa_samples, "multisample anti-aliasing samples (0 or 1 = none)"});
     f.push_back({"output.formats", &c.output.formats, "comma-separated: folder, wds, coco"});
     f.push_back({"output.image_format", &c.output.image_format, "\"png\" or \"jpg\""});
     f.push_back({"output.png_compression", &c.output.png_compression, "PNG zlib level 0-9 (low = fast, larger files)"});
@@ -283,6 +284,7 @@ void validate(const SynthConfig& c) {
     require(c.occluders.max_count >= 1, "occluders.max_count", "must be at least 1");
     require(c.occluders.max_size > 0 && c.occluders.max_size <= 1, "occluders.max_size", "must be in (0, 1]");
     require(c.landmarks.mode == "contour" || c.landmarks.mode == "fixed", "landmarks.mode", "must be \"contour\" or \"fixed\"");
+    require(c.render.msaa_samples >= 0 && c.render.msaa_samples <= 16, "render.msaa_samples", "must be in [0, 16]");
     (void)parse_formats(c.output.formats);
     require(c.output.image_format == "png" || c.output.image_format == "jpg", "output.image_format", "must be \"png\" or \"jpg\"");
     require(c.output.png_compression >= 0 && c.output.png_compression <= 9, "output.png_compression", "must be in [0, 9]");
@@ -311,6 +313,35 @@ SynthConfig config_from_json(const nlohmann::json& json) {
     SynthConfig config;
     apply_json_object(config_fields(config), json, "");
     return config;
+}
+
+std::string to_commented_toml(const SynthConfig& config) {
+    SynthConfig copy = config;
+    std::string text;
+    std::string table;
+    for (const auto& field : config_fields(copy)) {
+        const auto dot = field.key.rfind('.');
+        const std::string section = dot == std::string::npos ? "" : field.key.substr(0, dot);
+        const std::string name = dot == std::string::npos ? field.key : field.key.substr(dot + 1);
+        if (section != table) {
+            text += "\n[" + section + "]\n";
+            table = section;
+        }
+        const std::string value = std::visit(
+            [](auto* p) -> std::string {
+                using T = std::remove_pointer_t<decltype(p)>;
+                if constexpr (std::is_same_v<T, std::string>) return nlohmann::json(*p).dump();
+                else if constexpr (std::is_same_v<T, bool>) return *p ? "true" : "false";
+                else if constexpr (std::is_same_v<T, double>) {
+                    std::string v = nlohmann::json(*p).dump();
+                    if (v.find_first_of(".eE") == std::string::npos) v += ".0";
+                    return v;
+                } else return std::to_string(*p);
+            },
+            field.target);
+        text += name + " = " + value + "  # " + field.help + "\n";
+    }
+    return text;
 }
 
 OutputFormats parse_formats(const std::string& formats) {

@@ -100,6 +100,10 @@ struct OccluderConfig {
     double max_size = 0.35;  // largest shape extent, share of the face size
 };
 
+struct RenderConfig {
+    int msaa_samples = 4;  // colour anti-aliasing samples (0 or 1 = none; fewer is faster)
+};
+
 struct LandmarkConfig {
     std::string mode = "contour";  // jaw points in the .pts files: "contour" or "fixed"
 };
@@ -130,6 +134,7 @@ struct SynthConfig {
     DegradationConfig degrade;
     OccluderConfig occluders;
     LandmarkConfig landmarks;
+    RenderConfig render;
     OutputConfig output;
 };
 
@@ -155,6 +160,9 @@ void validate(const SynthConfig& config);
 [[nodiscard]] nlohmann::json to_json(const SynthConfig& config);
 // Reads a configuration back from to_json's output (unknown keys are errors).
 [[nodiscard]] SynthConfig config_from_json(const nlohmann::json& json);
+
+// The configuration as a commented TOML document (every key, its value and its meaning).
+[[nodiscard]] std::string to_commented_toml(const SynthConfig& config);
 
 // Output formats named in output.formats.
 struct OutputFormats {

@@ -82,12 +82,16 @@ std::string encode_png(const cv::Mat& image, int compression, const std::string&
     return {bytes.begin(), bytes.end()};
 }
 
+// Unit normals n as 8-bit RGB (n + 1) / 2; background (zero normal) stays black.
 std::string encode_normals(const cv::Mat& normals, int compression, const std::string& context) {
-    cv::Mat rgb8;
-    normals.convertTo(rgb8, CV_8UC3, 127.5, 127.5);
-    rgb8.setTo(cv::Scalar(0, 0, 0), normals.reshape(1, static_cast<int>(normals.total())).col(2).reshape(1, normals.rows) == 0);
-    cv::Mat bgr;
-    cv::cvtColor(rgb8, bgr, cv::COLOR_RGB2BGR);
+    cv::Mat bgr(normals.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+    for (int y = 0; y < normals.rows; ++y) {
+        const auto* n = normals.ptr<cv::Vec3f>(y);
+        auto* o = bgr.ptr<cv::Vec3b>(y);
+        for (int x = 0; x < normals.cols; ++x)
+            if (n[x] != cv::Vec3f(0, 0, 0))
+                for (int c = 0; c < 3; ++c) o[x][2 - c] = cv::saturate_cast<uchar>(127.5 * (n[x][c] + 1.0f));
+    }
     return encode_png(bgr, compression, context);
 }
 

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <memory>
 #include <thread>
+#include <sys/resource.h>
 #include <unistd.h>
 
 namespace facesynth::cli {
@@ -101,6 +102,14 @@ void run_generate(const SynthArgs& a) {
                                  {"out", a.out}});
 }
 
+// User + system CPU time of the whole process (all threads, Mesa's included).
+double process_cpu_seconds() {
+    rusage usage{};
+    ::getrusage(RUSAGE_SELF, &usage);
+    const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+    return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
 struct BenchArgs {
     SynthArgs run;
     std::string work;
@@ -126,12 +135,15 @@ void run_bench(BenchArgs& b) {
         options.threads = threads;
         options.overwrite = true;
         options.renderer.backend = render::parse_backend(a.backend);
+        const double cpu_before = process_cpu_seconds();
         const auto r = synth::run_synth(options, model);
+        const double cpu_ms = 1e3 * (process_cpu_seconds() - cpu_before) / std::max<double>(static_cast<double>(r.generated), 1.0);
         const double rate = r.generated / r.seconds;
         const double n = static_cast<double>(std::max<std::size_t>(r.generated, 1));
         const std::string suffix = threads == 1 ? "_1_thread" : "_all_threads";
         report["samples_per_s" + suffix] = rate;
         report["threads" + suffix] = threads;
+        report["cpu_ms_per_sample" + suffix] = cpu_ms;
         report["renderer"] = r.renderer;
         if (threads == 1) {
             report["ms_sample"] = 1e3 * r.times.sample / n;
@@ -141,7 +153,8 @@ void run_bench(BenchArgs& b) {
             report["ms_write"] = 1e3 * r.times.write / n;
         }
         if (!a.quiet) {
-            std::printf("bench synth: %d thread(s): %.1f samples/s (%zu samples, %.2f s)\n", threads, rate, r.generated, r.seconds);
+            std::printf("bench synth: %d thread(s): %.1f samples/s (%zu samples, %.2f s), process CPU %.2f ms/sample\n", threads, rate,
+                        r.generated, r.seconds, cpu_ms);
             std::printf("  per sample (thread time): sample %.2f ms, render+readback %.2f ms, composite+labels %.2f ms, encode %.2f ms, write %.2f ms\n",
                         1e3 * r.times.sample / n, 1e3 * r.times.render / n, 1e3 * r.times.composite / n, 1e3 * r.times.encode / n,
                         1e3 * r.times.write / n);
@@ -188,6 +201,11 @@ void register_synth_commands(CLI::App& app) {
             std::printf("synth merge: %zu samples in %s/manifest.jsonl (%zu missing, %zu listed twice)\n", r.samples, out.c_str(), r.missing, r.duplicates);
         if (r.missing > 0) std::fprintf(stderr, "facesynth: warning: %zu samples below count are in no manifest (unfinished shards?)\n", r.missing);
     });
+
+    CLI::App* defaults = synth_cmd->add_subcommand("defaults", "Print the configuration (defaults, or --config/--set applied) as commented TOML");
+    defaults->add_option("--config,-c", args->config_file, "TOML config file to resolve")->check(CLI::ExistingFile);
+    defaults->add_option("--set", args->overrides, "override a config key: key.sub=value (repeatable)");
+    defaults->callback([=] { std::fputs(synth::to_commented_toml(resolve_config(*args)).c_str(), stdout); });
 
     auto sheet_dir = std::make_shared<std::string>();
     auto sheet_out = std::make_shared<std::string>();
