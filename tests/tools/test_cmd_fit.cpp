@@ -45,6 +45,30 @@ TEST(CmdFit, WrongLandmarkCountIsAOneLineErrorNamingTheFile) {
     EXPECT_FALSE(std::filesystem::exists(dir / "o" / "fit.json"));
 }
 
+// The ground-truth evaluation on a few hundred generated cases, with asserted bounds (issue 5 targets:
+// exact landmarks, 68 points, refined: pose MAE < 1° per angle, identity RMSE >= 30% below the mean).
+TEST(CmdFit, EvalFitMeetsTheAccuracyTargetsOnTheBuiltInModel) {
+    const auto dir = fresh_temp_dir("cmd_fit_eval");
+    auto eval = [&](const std::string& extra) {
+        std::string out;
+        const auto json = dir / "eval.json";
+        const int status = run_command(cli_path().string() + " eval fit --model builtin --count 200 --refine --quiet --json " +
+                                           json.string() + " " + extra,
+                                       &out);
+        EXPECT_EQ(status, 0) << out;
+        std::ifstream in(json);
+        return nlohmann::json::parse(in);
+    };
+    const auto exact = eval("");
+    EXPECT_EQ(exact["count"].get<int>(), 200);
+    for (const char* key : {"yaw_mae_deg", "pitch_mae_deg", "roll_mae_deg"}) EXPECT_LT(exact[key].get<double>(), 1.0) << key;
+    EXPECT_LT(exact["vertex_rmse_mm"].get<double>(), 0.7 * exact["vertex_rmse_mm_meanshape"].get<double>());
+    const auto noisy = eval("--noise 2 --sigma 2");
+    for (const char* key : {"yaw_mae_deg", "pitch_mae_deg", "roll_mae_deg"}) EXPECT_LT(noisy[key].get<double>(), 2.0) << key;
+    EXPECT_LT(noisy["vertex_rmse_mm"].get<double>(), 0.8 * noisy["vertex_rmse_mm_meanshape"].get<double>());
+    EXPECT_GT(noisy["vertex_rmse_mm"].get<double>(), exact["vertex_rmse_mm"].get<double>());
+}
+
 TEST(CmdFit, UsageErrorsExitTwo) {
     std::string out;
     EXPECT_EQ(run_command(cli_path().string() + " fit --landmark-set 12 --out x --landmarks /nonexistent.pts", &out), 2) << out;
