@@ -321,7 +321,7 @@ void register_train_commands(CLI::App& app) {
         auto args = std::make_shared<EvalArgs>();
         auto* cmd = eval_group(app)->add_subcommand("landmarks", "Landmark NME on labelled images (inter-ocular)");
         cmd->add_option("--regressor", args->regressors,
-                        "MODEL (SDM file), dlib, dlib:FILE, ert:FILE or lbf:FILE; repeat to compare on the same boxes")
+                        "MODEL (SDM file), mean:MODEL (its mean shape only), dlib, dlib:FILE, ert:FILE or lbf:FILE; repeat to compare on the same boxes")
             ->required();
         cmd->add_option("--data", args->data, "Folders with images and .pts, comma-separated")->required();
         cmd->add_option("--json", args->json, "Write flat JSON results here");

@@ -10,7 +10,11 @@ namespace {
 
 class SdmRegressor final : public LandmarkRegressor {
 public:
-    explicit SdmRegressor(const std::string& path) : LandmarkRegressor("sdm:" + path), model_(read_sdm_model(path)) {}
+    // mean_only: the model's mean shape placed in the box, no stages (the initialisation baseline).
+    SdmRegressor(const std::string& path, bool mean_only)
+        : LandmarkRegressor((mean_only ? "mean:" : "sdm:") + path), model_(read_sdm_model(path)) {
+        if (mean_only) model_.stages.clear();
+    }
     Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override { return sdm_detect(model_, gray, box); }
 
 private:
@@ -60,8 +64,9 @@ std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec) {
     if (spec.rfind("dlib:", 0) == 0) return std::make_unique<DlibRegressor>(spec, spec.substr(5));
     if (spec.rfind("ert:", 0) == 0) return std::make_unique<ErtRegressor>(spec.substr(4));
     if (spec.rfind("lbf:", 0) == 0) return std::make_unique<LbfRegressor>(spec.substr(4));
-    if (spec.rfind("sdm:", 0) == 0) return std::make_unique<SdmRegressor>(spec.substr(4));
-    return std::make_unique<SdmRegressor>(spec);
+    if (spec.rfind("sdm:", 0) == 0) return std::make_unique<SdmRegressor>(spec.substr(4), false);
+    if (spec.rfind("mean:", 0) == 0) return std::make_unique<SdmRegressor>(spec.substr(5), true);
+    return std::make_unique<SdmRegressor>(spec, false);
 }
 
 }  // namespace facesynth::train

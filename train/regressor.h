@@ -4,6 +4,7 @@
 //   dlib          dlib's pretrained 68-point predictor from libdlib-data, run on the image and box
 //   dlib:PATH     any dlib shape predictor file, run the same way
 //   ert:PATH      a dlib ERT model from `facesynth train --method ert` (runs on our canonical crop)
+//   mean:PATH     the SDM model's mean shape placed in the box, no stages (initialisation baseline)
 //   lbf:PATH      an OpenCV LBF model from `facesynth train --method lbf` (runs on our canonical crop)
 #include "train/face_box.h"
 
