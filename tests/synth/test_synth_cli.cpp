@@ -111,7 +111,7 @@ TEST(SynthCli, MetaCarriesGroundTruthConsistentWithPts) {
 
 TEST(SynthCli, ResumesAfterSigkillWithoutPartialOrDuplicateFiles) {
     const auto dir = testkit::fresh_temp_dir("synth_resume");
-    const int count = 30;
+    const int count = 60;
     std::string log;
     ASSERT_EQ(synth(" -o " + (dir / "clean").string() + base_args(count) + " --threads 2", &log), 0) << log;
     const fs::path out = dir / "killed";
@@ -127,14 +127,14 @@ TEST(SynthCli, ResumesAfterSigkillWithoutPartialOrDuplicateFiles) {
         }
         // Kill once a random number of samples exist (so the kill lands mid-run on any machine
         // speed), after a further random few milliseconds; the first attempt kills at startup.
-        const int target = attempt == 0 ? 0 : rng.uniform_int(1, count - 2);
+        const int target = attempt == 0 ? 0 : rng.uniform_int(1, count / 2);
         int status = 0;
         bool exited = false;
         while (!exited && count_files(out / "meta") < target) {
             exited = ::waitpid(pid, &status, WNOHANG) == pid;
             std::this_thread::sleep_for(std::chrono::milliseconds(2));
         }
-        std::this_thread::sleep_for(std::chrono::milliseconds(rng.uniform_int(0, 30)));
+        std::this_thread::sleep_for(std::chrono::milliseconds(rng.uniform_int(0, 8)));
         if (!exited) {
             ::kill(pid, SIGKILL);
             ::waitpid(pid, &status, 0);
