@@ -98,6 +98,10 @@ public:
             throw Error(egl_error_text("eglMakeCurrent"));
         last_bound_context() = this;
     }
+    void release() override {
+        if (eglGetCurrentContext() == context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        if (last_bound_context() == this) last_bound_context() = nullptr;
+    }
     void* get_proc_address(const char* name) const override {
         return reinterpret_cast<void*>(eglGetProcAddress(name));
     }

@@ -11,6 +11,8 @@ public:
     virtual ~GlContext() = default;
     // Binds the context to the calling thread if it is not already.
     virtual void make_current() = 0;
+    // Unbinds the context from the calling thread (if bound there) so another thread may bind it.
+    virtual void release() = 0;
     [[nodiscard]] virtual void* get_proc_address(const char* name) const = 0;
     // "egl-device", "egl-surfaceless" or "osmesa".
     [[nodiscard]] virtual std::string backend_name() const = 0;

@@ -33,6 +33,10 @@ public:
             throw Error("OSMesa: OSMesaMakeCurrent failed");
         last_bound_context() = this;
     }
+    void release() override {
+        if (OSMesaGetCurrentContext() == context_) OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
+        if (last_bound_context() == this) last_bound_context() = nullptr;
+    }
     void* get_proc_address(const char* name) const override {
         return reinterpret_cast<void*>(OSMesaGetProcAddress(name));
     }

@@ -220,6 +220,8 @@ struct Renderer::Impl {
         gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
         gl.PixelStorei(GL_UNPACK_ALIGNMENT, 1);
         check("initialisation");
+        // Free for any thread: render() binds the context where it runs.
+        context->release();
     }
 
     ~Impl() {
@@ -238,6 +240,7 @@ struct Renderer::Impl {
         gl.DeleteVertexArrays(1, &vao);
         for (const Program& p : programs)
             if (p.id) gl.DeleteProgram(p.id);
+        context->release();
     }
 
     const Program& program(unsigned variant) {
@@ -553,6 +556,10 @@ Frame Renderer::render(const Mesh& mesh, const Camera& camera, const RenderSetti
     Frame frame;
     impl_->render(mesh, camera, settings, frame, extras);
     return frame;
+}
+
+void Renderer::detach() {
+    if (impl_) impl_->context->release();
 }
 
 std::string Renderer::backend() const { return impl_->context->backend_name(); }

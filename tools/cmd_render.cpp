@@ -288,6 +288,7 @@ void run_bench(const BenchArgs& b) {
             seconds[static_cast<std::size_t>(t)] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             backends[static_cast<std::size_t>(t)] = renderer.backend();
             renderers[static_cast<std::size_t>(t)] = renderer.renderer_string();
+            renderer.detach();
         } catch (const std::exception& e) {
             errors[static_cast<std::size_t>(t)] = e.what();
         }

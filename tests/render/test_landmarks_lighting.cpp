@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <thread>
 
 namespace facesynth {
 namespace {
@@ -160,6 +161,25 @@ TEST(Resources, RenderersAreMovableAndReleaseTheirContext) {
         render::Renderer r(render::RendererOptions{render::Backend::kOsmesa, false});
         EXPECT_GT(cv::countNonZero(r.render(mesh, make_camera(0, 0, 0, 32, 32)).mask), 100);
     }
+}
+
+TEST(Resources, RenderersMoveBetweenThreads) {
+    const Mesh mesh = toy().instance({});
+    std::vector<render::Renderer> pool;
+    for (int i = 0; i < 2; ++i) pool.emplace_back(render::RendererOptions{render::Backend::kEgl, false});
+    std::vector<int> covered(2, 0);
+    std::vector<std::thread> workers;
+    for (int t = 0; t < 2; ++t)
+        workers.emplace_back([&, t] {
+            auto& renderer = pool[static_cast<std::size_t>(t)];
+            covered[static_cast<std::size_t>(t)] = cv::countNonZero(renderer.render(mesh, make_camera(10.0 * t, 0, 0, 48, 48)).mask);
+            renderer.detach();
+        });
+    for (auto& w : workers) w.join();
+    EXPECT_GT(covered[0], 300);
+    EXPECT_GT(covered[1], 300);
+    // Back on this thread after the workers detached.
+    EXPECT_GT(cv::countNonZero(pool[0].render(mesh, make_camera(0, 0, 0, 48, 48)).mask), 300);
 }
 
 }  // namespace
