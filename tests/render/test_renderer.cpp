@@ -55,5 +55,26 @@ TEST(Renderer, RejectsInvalidInput) {
     EXPECT_THROW((void)shared_renderer().render(mesh, camera), Error);
 }
 
+TEST(Renderer, TextureAndVertexLabelsReachTheOutputs) {
+    const Mesh mesh = toy().instance({});
+    const cv::Mat texture(8, 8, CV_8UC3, cv::Scalar(200, 100, 50));  // R G B, sRGB-encoded
+    const std::vector<std::uint8_t> labels(static_cast<std::size_t>(mesh.num_vertices()),
+                                           static_cast<std::uint8_t>(render::Region::kLips));
+    render::RenderSettings settings;
+    settings.lighting = render::uniform_lighting(1.0f);
+    settings.msaa_samples = 0;
+    const render::Frame frame =
+        shared_renderer().render(mesh, make_camera(0, 0, 0, 64, 64), settings, {labels, &texture});
+    // Sampled as sRGB (linearised), lit by a uniform radiance of 1, re-encoded with gamma 2.2: the
+    // texel comes back to within the sRGB-vs-2.2 curve difference.
+    const cv::Vec3b centre = frame.rgb.at<cv::Vec3b>(32, 32);
+    EXPECT_NEAR(centre[0], 200, 4);
+    EXPECT_NEAR(centre[1], 100, 4);
+    EXPECT_NEAR(centre[2], 50, 6);
+    EXPECT_EQ(frame.labels.at<std::uint8_t>(32, 32), static_cast<std::uint8_t>(render::Region::kLips));
+    EXPECT_EQ(frame.labels.at<std::uint8_t>(0, 0), static_cast<std::uint8_t>(render::Region::kBackground));
+    EXPECT_EQ(frame.triangle_ids.at<int>(0, 0), -1);
+}
+
 }  // namespace
 }  // namespace facesynth
