@@ -121,13 +121,13 @@ bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_
     if (frame.depth.empty()) throw Error("render: landmark visibility needs the depth buffer (settings.geometry)");
     if (!inside_image(frame.depth, pixel)) return false;
     const int cx = static_cast<int>(std::lround(pixel.x())), cy = static_cast<int>(std::lround(pixel.y()));
-    // On the background right at the outline: nothing covers it.
-    if (frame.depth.at<float>(cy, cx) <= 0.0f) return true;
+    // Background in the window: the point is on the outline, where the depth of the rim pixels
+    // changes too fast across a pixel for the tolerance to decide.
     const int n = options.neighbourhood_px;
     for (int y = std::max(0, cy - n); y <= std::min(frame.depth.rows - 1, cy + n); ++y)
         for (int x = std::max(0, cx - n); x <= std::min(frame.depth.cols - 1, cx + n); ++x) {
             const float d = frame.depth.at<float>(y, x);
-            if (d > 0.0f && d >= camera_z - options.depth_tolerance_mm) return true;
+            if (d <= 0.0f || d >= camera_z - options.depth_tolerance_mm) return true;
         }
     return false;
 }

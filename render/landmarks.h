@@ -16,7 +16,8 @@
 namespace facesynth::render {
 
 struct LandmarkOptions {
-    // A landmark is hidden when the rendered surface around its pixel lies more than this in front.
+    // A landmark is hidden when the rendered surface in the window around its pixel lies more than
+    // this in front everywhere (a window touching the background counts as visible: the outline).
     double depth_tolerance_mm = 2.0;
     int neighbourhood_px = 1;  // half-size of the depth window searched around the landmark's pixel
 };
