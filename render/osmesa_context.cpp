@@ -34,7 +34,8 @@ public:
         last_bound_context() = this;
     }
     void release() override {
-        if (OSMesaGetCurrentContext() == context_) OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
+        // OSMesa has no unbind (OSMesaMakeCurrent(NULL, ...) crashes in Mesa 22) and does not tie a
+        // context to one thread; forgetting the binding makes the next make_current rebind.
         if (last_bound_context() == this) last_bound_context() = nullptr;
     }
     void* get_proc_address(const char* name) const override {
