@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <limits>
 
 namespace facesynth::fit {
@@ -14,6 +15,12 @@ namespace {
 double angle_error(double a, double b) {
     const double d = std::fmod(std::abs(a - b), 360.0);
     return d > 180.0 ? 360.0 - d : d;
+}
+
+double thread_cpu_ms() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
 }
 
 double rmse(const Eigen::VectorXf& a, const Eigen::VectorXf& b) {
@@ -25,6 +32,7 @@ double rmse(const Eigen::VectorXf& a, const Eigen::VectorXf& b) {
 FitMetrics evaluate_fit(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, const FitTruth& truth, const EvalOptions& options) {
     const MorphableModel& model = fitter.model();
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = thread_cpu_ms();
     std::vector<float> alpha;
     FitMetrics m;
     const FitResult linear = fitter.fit(landmarks, options.fit);
@@ -39,6 +47,7 @@ FitMetrics evaluate_fit(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks,
         alpha = linear.alpha;
     }
     m.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    m.cpu_ms = thread_cpu_ms() - cpu_start;
 
     m.truth = euler_from_rotation(truth.rotation);
     m.yaw_error_deg = angle_error(m.fitted.yaw, m.truth.yaw);

@@ -31,6 +31,7 @@ struct FitMetrics {
     double alpha_rmse = 0;                // over the model's components, σ units
     double reprojection_px = 0;           // RMS over the used landmarks
     double ms = 0;                        // wall time of the fit (and refinement)
+    double cpu_ms = 0;                    // CPU time of the calling thread for the same (robust on a loaded machine)
 };
 
 // Fits `landmarks` (2 x 68, 0-based pixels; the jaw mode in options.fit.jaw says how they were made)

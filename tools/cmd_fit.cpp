@@ -3,6 +3,7 @@
 #include "cli_common.h"
 #include "commands.h"
 
+#include "fit/dataset_eval.h"
 #include "fit/evaluate.h"
 #include "fit/fit.h"
 #include "fit/overlay.h"
@@ -216,100 +217,149 @@ void run_lambda(const LambdaArgs& a) {
 
 struct EvalArgs {
     std::string model = "builtin";
+    std::string data;  // a `facesynth synth` dataset folder; empty: cases generated in code
+    std::string mode = "contour";
     int count = 300;
     std::int64_t seed = 424242;  // the test set: never the validation seed of fit-lambda
     double noise = 0;
     std::string landmark_set = "68";
     bool refine = false;
+    bool visible_only = false;
     double lambda = fit::FitOptions{}.lambda;
     double sigma = fit::RefineOptions{}.landmark_sigma_px;
     double max_yaw = 60;
+    bool max_yaw_given = false;
     std::string json;
     bool quiet = false;
 };
 
-struct Accumulator {
-    double yaw = 0, pitch = 0, roll = 0, vertex = 0, meanshape = 0, alpha = 0, reprojection = 0, ms = 0;
-    int count = 0;
-    void add(const fit::FitMetrics& m) {
-        yaw += m.yaw_error_deg;
-        pitch += m.pitch_error_deg;
-        roll += m.roll_error_deg;
-        vertex += m.vertex_rmse_mm;
-        meanshape += m.vertex_rmse_mm_meanshape;
-        alpha += m.alpha_rmse;
-        reprojection += m.reprojection_px;
-        ms += m.ms;
-        ++count;
-    }
-    void write(nlohmann::json& j, const std::string& prefix) const {
-        const double n = std::max(count, 1);
-        j[prefix + "count"] = count;
-        j[prefix + "yaw_mae_deg"] = yaw / n;
-        j[prefix + "pitch_mae_deg"] = pitch / n;
-        j[prefix + "roll_mae_deg"] = roll / n;
-        j[prefix + "vertex_rmse_mm"] = vertex / n;
-        j[prefix + "vertex_rmse_mm_meanshape"] = meanshape / n;
-        j[prefix + "alpha_rmse"] = alpha / n;
-        j[prefix + "reprojection_px"] = reprojection / n;
-        j[prefix + "ms_per_fit"] = ms / n;
-    }
-    void print(const char* label) const {
-        const double n = std::max(count, 1);
-        std::printf("%-12s %5d %7.2f %7.2f %7.2f %9.2f %10.2f %7.3f %7.2f %7.3f\n", label, count, yaw / n, pitch / n, roll / n,
-                    vertex / n, meanshape / n, alpha / n, reprojection / n, ms / n);
-    }
-};
+void print_summary_row(const std::string& label, const fit::MetricsSummary& s) {
+    const double n = std::max(s.count, 1);
+    std::printf("%-12s %5d %7.2f %7.2f %7.2f %9.2f %10.2f %7.3f %7.2f %7.3f %7.3f\n", label.c_str(), s.count, s.yaw / n, s.pitch / n,
+                s.roll / n, s.vertex / n, s.meanshape / n, s.alpha / n, s.reprojection / n, s.ms / n, s.cpu_ms / n);
+}
 
-// Ground-truth evaluation on a synthetic test set generated in code (landmarks projected from random
-// faces and poses with fixed jaw correspondences, plus noise); see docs/fit.md.
-void run_eval(const EvalArgs& a) {
-    const MorphableModel model = load_model(a.model);
-    const fit::Fitter fitter(model);
+void print_summary(const fit::YawBinnedSummary& summary, bool skip_empty) {
+    std::printf("%-12s %5s %7s %7s %7s %9s %10s %7s %7s %7s %7s\n", "yaw bin", "n", "yaw", "pitch", "roll", "rmse_mm", "mean_mm", "alpha",
+                "repr_px", "ms", "cpu_ms");
+    for (std::size_t b = 0; b < summary.bins.size(); ++b)
+        if (!skip_empty || summary.bins[b].count > 0) print_summary_row(summary.label(b), summary.bins[b]);
+    print_summary_row("all", summary.all);
+}
+
+fit::EvalOptions eval_options(const EvalArgs& a, fit::JawMode jaw) {
     fit::EvalOptions o;
     const auto subset = landmark_subset(parse_landmark_subset(a.landmark_set));
     o.fit.subset.assign(subset.begin(), subset.end());
-    o.fit.jaw = fit::JawMode::kFixed;
+    o.fit.jaw = jaw;
     o.fit.lambda = o.fit.expression_lambda = a.lambda;
     o.refine = a.refine;
     o.refine_options.landmark_sigma_px = a.sigma;
-    fit::SyntheticOptions s;
-    s.noise_px = a.noise;
-    s.max_yaw_deg = a.max_yaw;
-    Accumulator all;
-    std::vector<Accumulator> bins(static_cast<std::size_t>(std::ceil(2 * a.max_yaw / 15.0)));
-    Progress progress("eval fit", static_cast<std::size_t>(a.count), a.quiet);
-    for (int i = 0; i < a.count; ++i) {
-        const fit::SyntheticCase c = fit::make_synthetic_case(model, static_cast<std::uint64_t>(a.seed), static_cast<std::uint64_t>(i), s);
-        o.refine_options.intrinsics = c.intrinsics;
-        const fit::FitMetrics m = fit::evaluate_fit(fitter, c.landmarks, c.truth, o);
-        all.add(m);
-        const auto bin = std::min(bins.size() - 1, static_cast<std::size_t>(std::max(0.0, (m.truth.yaw + a.max_yaw) / 15.0)));
-        bins[bin].add(m);
-        progress.advance();
-    }
-    progress.finish();
-    nlohmann::json j;
+    return o;
+}
+
+void write_eval_header(nlohmann::json& j, const EvalArgs& a, const MorphableModel& model) {
     j["model"] = model.name;
+    j["model_checksum"] = model.checksum();
     j["noise_px"] = a.noise;
     j["landmarks"] = a.landmark_set;
     j["refine"] = a.refine;
     j["lambda"] = a.lambda;
+    j["sigma_px"] = a.sigma;
     j["seed"] = a.seed;
-    all.write(j, "");
-    if (!a.quiet) std::printf("%-12s %5s %7s %7s %7s %9s %10s %7s %7s %7s\n", "yaw bin", "n", "yaw", "pitch", "roll", "rmse_mm",
-                              "mean_mm", "alpha", "repr_px", "ms");
-    for (std::size_t b = 0; b < bins.size(); ++b) {
-        const int low = static_cast<int>(-a.max_yaw + 15.0 * static_cast<double>(b));
-        char label[32];
-        std::snprintf(label, sizeof label, "[%d,%d)", low, low + 15);
-        char prefix[48];
-        std::snprintf(prefix, sizeof prefix, "yaw_%d_%d_", low, low + 15);
-        bins[b].write(j, prefix);
-        if (!a.quiet) bins[b].print(label);
+}
+
+// Ground-truth evaluation on a synthetic test set generated in code (landmarks projected from random
+// faces and poses with fixed jaw correspondences, plus noise); see docs/fit.md.
+void run_eval_generated(const EvalArgs& a) {
+    const MorphableModel model = load_model(a.model);
+    const fit::Fitter fitter(model);
+    fit::EvalOptions o = eval_options(a, fit::JawMode::kFixed);
+    fit::SyntheticOptions s;
+    s.noise_px = a.noise;
+    s.max_yaw_deg = a.max_yaw;
+    fit::YawBinnedSummary summary(a.max_yaw);
+    Progress progress("eval fit", static_cast<std::size_t>(a.count), a.quiet);
+    for (int i = 0; i < a.count; ++i) {
+        const fit::SyntheticCase c = fit::make_synthetic_case(model, static_cast<std::uint64_t>(a.seed), static_cast<std::uint64_t>(i), s);
+        o.refine_options.intrinsics = c.intrinsics;
+        summary.add(fit::evaluate_fit(fitter, c.landmarks, c.truth, o));
+        progress.advance();
     }
-    if (!a.quiet) all.print("all");
+    progress.finish();
+    nlohmann::json j;
+    write_eval_header(j, a, model);
+    j["data"] = "";
+    j["mode"] = "fixed";
+    j["visible_only"] = false;
+    j["failed"] = 0;
+    summary.write(j);
+    if (!a.quiet) print_summary(summary, false);
     if (!a.json.empty()) write_json_file(a.json, j);
+}
+
+// Ground-truth evaluation on a rendered `facesynth synth` dataset: every sample of DIR/manifest.jsonl,
+// fitted from its true 2D landmarks (docs/fit.md, "eval fit on a dataset"). A sample whose meta file is
+// missing or corrupt, or whose fit fails, is reported on one line and skipped; the command then exits 1
+// saying how many failed. A dataset made with another model is refused at once.
+void run_eval_dataset(const EvalArgs& a) {
+    const MorphableModel model = load_model(a.model);
+    const std::string checksum = model.checksum();
+    const std::filesystem::path dir(a.data);
+    const std::vector<fit::DatasetEntry> entries = fit::read_dataset_manifest(dir);
+    if (entries.empty()) throw file_error((dir / "manifest.jsonl").string(), "lists no samples");
+    auto mismatch = [&](const std::string& theirs) {
+        return Error("dataset " + dir.string() + " was made with model checksum " + theirs + ", but --model " + a.model + " (" + model.name +
+                     ") has checksum " + checksum + ": evaluate with the dataset's model");
+    };
+    if (const std::string theirs = fit::dataset_model_checksum(dir); !theirs.empty() && theirs != checksum) throw mismatch(theirs);
+
+    const fit::Fitter fitter(model);
+    fit::DatasetEvalOptions o;
+    o.eval = eval_options(a, a.mode == "fixed" ? fit::JawMode::kFixed : fit::JawMode::kContour);
+    o.noise_px = a.noise;
+    o.noise_seed = static_cast<std::uint64_t>(a.seed);
+    o.visible_only = a.visible_only;
+    fit::YawBinnedSummary summary(a.max_yaw_given ? a.max_yaw : 90.0);
+    int failed = 0;
+    Progress progress("eval fit", entries.size(), a.quiet);
+    for (const auto& entry : entries) {
+        fit::DatasetSample sample;
+        try {
+            sample = fit::read_sample_meta(entry.meta);
+        } catch (const Error& e) {
+            std::fprintf(stderr, "facesynth: error: sample %s: %s\n", entry.key.c_str(), e.what());
+            ++failed;
+            progress.advance();
+            continue;
+        }
+        if (sample.model_checksum != checksum) throw mismatch(sample.model_checksum + " (" + entry.meta.string() + ")");
+        try {
+            summary.add(fit::evaluate_dataset_sample(fitter, sample, o));
+        } catch (const Error& e) {
+            std::fprintf(stderr, "facesynth: error: sample %s (%s): fit failed: %s\n", entry.key.c_str(), entry.meta.string().c_str(), e.what());
+            ++failed;
+        }
+        progress.advance();
+    }
+    progress.finish();
+    nlohmann::json j;
+    write_eval_header(j, a, model);
+    j["data"] = dir.string();
+    j["mode"] = a.mode;
+    j["visible_only"] = a.visible_only;
+    j["failed"] = failed;
+    summary.write(j);
+    if (!a.quiet) print_summary(summary, true);
+    if (!a.json.empty()) write_json_file(a.json, j);
+    if (failed > 0)
+        throw Error("eval fit: " + std::to_string(failed) + " of " + std::to_string(entries.size()) + " samples of " + dir.string() +
+                    " failed (see the lines above); the metrics cover the other " + std::to_string(summary.all.count));
+}
+
+void run_eval(const EvalArgs& a) {
+    if (a.data.empty()) run_eval_generated(a);
+    else run_eval_dataset(a);
 }
 
 }  // namespace
@@ -355,19 +405,25 @@ void register_fit_commands(CLI::App& app) {
         eval->require_subcommand(1);
     }
     auto eval_args = std::make_shared<EvalArgs>();
-    auto* ev = eval->add_subcommand("fit", "Fit accuracy on a synthetic test set generated in code (fixed jaw correspondences)");
-    ev->add_option("--model", eval_args->model, "Model: builtin, a model file, or a folder")->capture_default_str();
-    ev->add_option("--count", eval_args->count, "Test cases")->capture_default_str()->check(CLI::PositiveNumber);
-    ev->add_option("--seed", eval_args->seed, "Seed of the test set")->capture_default_str();
-    ev->add_option("--noise", eval_args->noise, "Gaussian landmark noise sigma (pixels, 512x512 image)")->capture_default_str()->check(CLI::NonNegativeNumber);
+    auto* ev = eval->add_subcommand("fit", "Fit accuracy against ground truth: on a `synth` dataset (--data) or on cases generated in code");
+    ev->add_option("--model", eval_args->model, "Model: builtin, a model file, or a folder (must be the dataset's model)")->capture_default_str();
+    ev->add_option("--data", eval_args->data, "A `facesynth synth` dataset folder (manifest.jsonl, meta/); without it, --count cases are generated in code")->check(CLI::ExistingDirectory);
+    ev->add_option("--mode", eval_args->mode, "With --data: fit the contour jaw labels with contour correspondences, or the fixed ones with fixed vertices")->capture_default_str()->check(CLI::IsMember({"fixed", "contour"}));
+    ev->add_flag("--visible-only", eval_args->visible_only, "With --data: ignore landmarks flagged not visible in the chosen mode");
+    ev->add_option("--count", eval_args->count, "Test cases generated in code (without --data)")->capture_default_str()->check(CLI::PositiveNumber);
+    ev->add_option("--seed", eval_args->seed, "Seed of the generated test set, and of the --noise draws with --data")->capture_default_str();
+    ev->add_option("--noise", eval_args->noise, "Gaussian landmark noise sigma (pixels)")->capture_default_str()->check(CLI::NonNegativeNumber);
     ev->add_option("--landmarks", eval_args->landmark_set, "Landmark subset: 7, 13, 49 or 68")->capture_default_str()->check(CLI::IsMember({"7", "13", "49", "68"}));
     ev->add_flag("--refine", eval_args->refine, "Refine with Ceres (true intrinsics)");
     ev->add_option("--lambda", eval_args->lambda, "Linear fit regularisation")->capture_default_str()->check(CLI::NonNegativeNumber);
     ev->add_option("--sigma", eval_args->sigma, "Landmark sigma (pixels) of the refinement")->capture_default_str()->check(CLI::PositiveNumber);
-    ev->add_option("--max-yaw", eval_args->max_yaw, "Yaw range +-degrees")->capture_default_str()->check(CLI::Range(1.0, 90.0));
+    auto* max_yaw = ev->add_option("--max-yaw", eval_args->max_yaw, "Yaw range +-degrees of the generated cases and of the yaw bins (with --data default 90)")->capture_default_str()->check(CLI::Range(1.0, 90.0));
     ev->add_option("--json", eval_args->json, "Write the flat metrics here");
     ev->add_flag("--quiet", eval_args->quiet, "Only the JSON, no table or progress");
-    ev->callback([eval_args] { run_eval(*eval_args); });
+    ev->callback([eval_args, max_yaw] {
+        eval_args->max_yaw_given = max_yaw->count() > 0;
+        run_eval(*eval_args);
+    });
 }
 
 }  // namespace facesynth::cli
