@@ -2,7 +2,8 @@
 """Paper-style fitting sweep: error vs number of landmarks (7/13/49/68) and landmark noise (0/1/2/4 px).
 
 Runs `facesynth eval fit` for every combination and writes a Markdown table and an SVG plot.
-Usage: tools/fit_sweep.py FACESYNTH MODEL OUT_DIR [--count N] [--refine]
+Usage: tools/fit_sweep.py FACESYNTH MODEL OUT_DIR [--count N] [--refine] [--data DATASET [--mode fixed|contour]]
+With --data the cases are the samples of a rendered `facesynth synth` dataset (eval fit --data).
 """
 import argparse
 import json
@@ -20,6 +21,8 @@ def run(args, landmark_set, noise):
            "--count", str(args.count), "--lambda", str(args.lam), "--sigma", str(max(1.0, noise)), "--quiet", "--json", out]
     if args.refine:
         cmd.append("--refine")
+    if args.data:
+        cmd += ["--data", args.data, "--mode", args.mode]
     subprocess.run(cmd, check=True)
     with open(out) as f:
         return json.load(f)
@@ -50,6 +53,8 @@ def main():
     p.add_argument("--count", type=int, default=300)
     p.add_argument("--lam", type=float, default=30)
     p.add_argument("--refine", action="store_true")
+    p.add_argument("--data", default="", help="a facesynth synth dataset folder (default: cases generated in code)")
+    p.add_argument("--mode", default="fixed", choices=["fixed", "contour"], help="jaw labels with --data")
     args = p.parse_args()
     os.makedirs(args.out, exist_ok=True)
     results = {s: {n: run(args, s, n) for n in NOISES} for s in SETS}
