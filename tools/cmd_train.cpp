@@ -240,11 +240,13 @@ void run_eval_landmarks(const EvalArgs& args) {
         const auto& s = reg.summary;
         std::printf("%-40s %9.4f %9.4f %8.4f %9.4f %9.3f\n", reg.label.c_str(), s.mean, s.median, s.auc_008,
                     s.failure_rate_008, reg.ms_per_face);
-        const std::string prefix = r == 0 ? "" : args.regressors[r] + "/";
-        const auto put = [&](const std::string& key, double value) {
-            report[prefix + key] = json_number(value);
-            if (r == 0 && args.regressors.size() > 1) report[args.regressors[0] + "/" + key] = json_number(value);
-        };
+        // Keys stay stable whatever the file names: the first regressor's metrics are unprefixed,
+        // each further one's are prefixed by its position (regressor2_nme_mean, ...), and
+        // regressorN names its spec.
+        const std::string position = "regressor" + std::to_string(r + 1);
+        report[position] = args.regressors[r];
+        const std::string prefix = r == 0 ? "" : position + "_";
+        const auto put = [&](const std::string& key, double value) { report[prefix + key] = json_number(value); };
         put("nme_mean", s.mean);
         put("nme_median", s.median);
         put("auc_008", s.auc_008);
