@@ -33,7 +33,7 @@ std::vector<Edge> edge_topology(const std::vector<Triangle>& triangles, int num_
     return edges;
 }
 
-ContourFinder::ContourFinder(const MorphableModel& model) : model_(model) {
+ContourFinder::ContourFinder(const MorphableModel& model) : model_(model), region_(jaw_contour_region(model)) {
     const int v = model.num_vertices();
     edges_ = edge_topology(model.triangles, v);
     const auto mean = as_points(model.shape.mean);
@@ -96,16 +96,52 @@ std::vector<int> ContourFinder::candidates(const Eigen::Matrix3d& rotation) cons
 }
 
 template <class PositionOf>
-std::vector<int> ContourFinder::choose(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
-                                       const std::vector<int>& jaw_indices, PositionOf&& position_of) const {
-    std::vector<int> result(kNumJawLandmarks, -1);
-    const std::vector<int> cand = candidates(camera.rotation);
+std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+                                                               const std::vector<int>& jaw_indices, PositionOf&& position_of) const {
+    std::vector<std::optional<SurfacePoint>> result(kNumJawLandmarks);
     const Eigen::Matrix<double, 2, 3> m = camera.scale * (model_to_camera_flip() * camera.rotation).topRows<2>();
+    const int far = far_side(camera.rotation);
+    const Eigen::Vector2d toward_left = (m * Eigen::Vector3d::UnitX()).normalized();
+    auto fixed_defined = [&](int j) {
+        if (j >= static_cast<int>(model_.landmarks.size())) return false;
+        const SurfacePoint& p = model_.landmarks[static_cast<std::size_t>(j)];
+        for (int id : p.vertices)
+            if (id < 0 || id >= model_.num_vertices()) return false;
+        return p.weights[0] + p.weights[1] + p.weights[2] > 0.5f;
+    };
+
+    // The shared definition: far side on the face region's outline, near side on the fixed jaw line.
+    Eigen::Matrix2Xd region_projected;
+    std::vector<int> fallback;
+    for (int j : jaw_indices) {
+        if (j < 0 || j >= kNumJawLandmarks || j == kChinLandmark) continue;
+        if (!fixed_defined(j) || region_.vertices.empty()) {
+            fallback.push_back(j);
+            continue;
+        }
+        if (!jaw_on_side(j, far)) {
+            result[static_cast<std::size_t>(j)] = model_.landmarks[static_cast<std::size_t>(j)];
+            continue;
+        }
+        if (region_projected.cols() == 0) {
+            region_projected.resize(2, static_cast<Eigen::Index>(region_.vertices.size()));
+            for (std::size_t r = 0; r < region_.vertices.size(); ++r)
+                region_projected.col(static_cast<Eigen::Index>(r)) = m * position_of(region_.vertices[r]) + camera.translation;
+        }
+        const Eigen::Vector2d outward = j < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
+        if (const auto hit = jaw_contour_point(region_, region_projected, far, landmarks.col(j), outward))
+            result[static_cast<std::size_t>(j)] = hit->point;
+        else
+            result[static_cast<std::size_t>(j)] = model_.landmarks[static_cast<std::size_t>(j)];
+    }
+    if (fallback.empty()) return result;
+
+    // Models without fixed jaw points: the nearest candidate on the landmark's side (eos).
+    const std::vector<int> cand = candidates(camera.rotation);
     Eigen::Matrix2Xd projected(2, static_cast<Eigen::Index>(cand.size()));
     for (std::size_t c = 0; c < cand.size(); ++c)
         projected.col(static_cast<Eigen::Index>(c)) = m * position_of(cand[c]) + camera.translation;
-    for (int j : jaw_indices) {
-        if (j < 0 || j >= kNumJawLandmarks || j == kChinLandmark) continue;
+    for (int j : fallback) {
         const int wanted_side = j < kChinLandmark ? -1 : 1;
         double best = std::numeric_limits<double>::max();
         for (std::size_t c = 0; c < cand.size(); ++c) {
@@ -114,21 +150,21 @@ std::vector<int> ContourFinder::choose(const Eigen::Matrix2Xd& landmarks, const 
             const double d = (projected.col(static_cast<Eigen::Index>(c)) - landmarks.col(j)).squaredNorm();
             if (d < best) {
                 best = d;
-                result[static_cast<std::size_t>(j)] = cand[c];
+                result[static_cast<std::size_t>(j)] = SurfacePoint::at_vertex(cand[c]);
             }
         }
     }
     return result;
 }
 
-std::vector<int> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                                                     const Eigen::Matrix3Xf& vertices,
                                                     const std::vector<int>& jaw_indices) const {
     return choose(landmarks, camera, jaw_indices,
                   [&](int id) -> Eigen::Vector3d { return vertices.col(id).cast<double>(); });
 }
 
-std::vector<int> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                                                     const std::vector<float>& alpha, const std::vector<float>& psi,
                                                     const std::vector<int>& jaw_indices) const {
     const auto& shape = model_.shape;

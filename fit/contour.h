@@ -1,15 +1,18 @@
 #pragma once
-// Jaw contour correspondences: on photographs the 17 jaw landmarks lie on the visible outline of the
-// face, so their model points change with pose. Candidates are the vertices of the model's contour
-// chains and of occluding edges (an edge between a front- and a back-facing triangle, or a mesh
-// boundary edge of a front-facing triangle) under the current camera; each jaw landmark takes the
-// candidate on its side of the face whose projection is nearest to it (as eos does). O(triangles +
-// edges) per update, no ray casting: front/back facing uses the mean shape's triangle normals.
+// Jaw contour correspondences: on photographs the jaw landmarks on the side turned away from the camera
+// lie on the face's occluding contour, so their model points change with pose. The definition is the
+// one synth's contour labels use (morph/jaw_contour.h): under the current affine camera and shape, the
+// far-side jaw landmark corresponds to the outermost point (in the far direction) of the face region
+// on the line through it along the face's horizontal image direction; near-side landmarks and the
+// chin keep the model's fixed jaw landmarks. Landmarks whose fixed point the model lacks fall back to
+// the nearest candidate among contour-chain vertices and face-region occluding-edge vertices (eos).
 #include "fit/affine_camera.h"
+#include "morph/jaw_contour.h"
 #include "morph/model.h"
 
 #include <Eigen/Core>
 
+#include <optional>
 #include <vector>
 
 namespace facesynth::fit {
@@ -30,14 +33,14 @@ public:
     // camera space after the flip, i.e. a triangle faces the camera when (R n).z > 0).
     [[nodiscard]] std::vector<int> occluding_vertices(const Eigen::Matrix3d& rotation) const;
 
-    // For each jaw landmark j in `jaw_indices` (0-based iBUG ids 0..16 except the chin 8), the vertex
-    // among the candidates on that landmark's side whose projection under `camera` (of `vertices`,
-    // the current shape) is nearest to landmarks.col(j). Returns 17 vertex ids (-1 where not asked).
-    [[nodiscard]] std::vector<int> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+    // For each jaw landmark j in `jaw_indices` (0-based iBUG ids 0..16 except the chin 8), its model
+    // point under `camera` and `vertices` (the current shape), as described above. Returns 17 entries
+    // (nullopt where not asked or not found).
+    [[nodiscard]] std::vector<std::optional<SurfacePoint>> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                                                        const Eigen::Matrix3Xf& vertices,
                                                        const std::vector<int>& jaw_indices) const;
     // The same, reconstructing only candidate vertices from coefficients (faster than a full shape).
-    [[nodiscard]] std::vector<int> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+    [[nodiscard]] std::vector<std::optional<SurfacePoint>> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                                                        const std::vector<float>& alpha, const std::vector<float>& psi,
                                                        const std::vector<int>& jaw_indices) const;
 
@@ -46,7 +49,7 @@ public:
 private:
     std::vector<int> candidates(const Eigen::Matrix3d& rotation) const;
     template <class PositionOf>
-    std::vector<int> choose(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+    std::vector<std::optional<SurfacePoint>> choose(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                             const std::vector<int>& jaw_indices, PositionOf&& position_of) const;
 
     const MorphableModel& model_;
@@ -54,6 +57,7 @@ private:
     Eigen::Matrix3Xf triangle_normals_;   // of the mean shape
     std::vector<signed char> side_;       // per vertex: -1 subject's right (x < 0), +1 left, 0 midline
     std::vector<char> in_face_region_;    // per vertex: front half and at jaw height (mean shape)
+    JawContourRegion region_;             // the shared definition's face region
 };
 
 }  // namespace facesynth::fit

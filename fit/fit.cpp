@@ -197,8 +197,8 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
                                                           to_floats(psi, static_cast<std::size_t>(lin.e())), jaw_used);
             for (Eigen::Index i = 0; i < n; ++i) {
                 const int id = result.used[static_cast<std::size_t>(i)];
-                if (id >= kNumJawLandmarks || jaw[static_cast<std::size_t>(id)] < 0) continue;
-                result.correspondences[static_cast<std::size_t>(id)] = SurfacePoint::at_vertex(jaw[static_cast<std::size_t>(id)]);
+                if (id >= kNumJawLandmarks || !jaw[static_cast<std::size_t>(id)]) continue;
+                result.correspondences[static_cast<std::size_t>(id)] = *jaw[static_cast<std::size_t>(id)];
                 lin.set_point(i, result.correspondences[static_cast<std::size_t>(id)]);
                 weights(i) = given_weights(i);
             }

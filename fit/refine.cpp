@@ -189,8 +189,8 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
             for (int c = 0; c < e; ++c) p[static_cast<std::size_t>(c)] = static_cast<float>(psi(c));
             const auto jaw = fitter.contour().jaw_correspondences(landmarks, weak_perspective(current), a, p, jaw_used);
             for (int id : jaw_used)
-                if (jaw[static_cast<std::size_t>(id)] >= 0)
-                    result.correspondences[static_cast<std::size_t>(id)] = SurfacePoint::at_vertex(jaw[static_cast<std::size_t>(id)]);
+                if (jaw[static_cast<std::size_t>(id)])
+                    result.correspondences[static_cast<std::size_t>(id)] = *jaw[static_cast<std::size_t>(id)];
         }
         basis.resize(n);
         for (Eigen::Index i = 0; i < n; ++i) basis.set_point(i, result.correspondences[static_cast<std::size_t>(initial.used[static_cast<std::size_t>(i)])]);

@@ -1,6 +1,7 @@
 #include "render/landmarks.h"
 
 #include "morph/error.h"
+#include "morph/jaw_contour.h"
 #include "morph/landmarks.h"
 
 #include <Eigen/Geometry>
@@ -24,63 +25,8 @@ void pixel_ray(const Camera& camera, const Eigen::Vector2d& pixel, Eigen::Vector
     }
 }
 
-// Mask coverage in [0, 1] at a sub-pixel position (bilinear; outside the image is background).
-double coverage(const cv::Mat& mask, const Eigen::Vector2d& p) {
-    const double fx = std::floor(p.x()), fy = std::floor(p.y());
-    const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
-    const double ax = p.x() - fx, ay = p.y() - fy;
-    auto at = [&](int x, int y) -> double {
-        if (x < 0 || y < 0 || x >= mask.cols || y >= mask.rows) return 0.0;
-        return mask.at<std::uint8_t>(y, x) / 255.0;
-    };
-    return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x0 + 1, y0)) + ay * ((1 - ax) * at(x0, y0 + 1) + ax * at(x0 + 1, y0 + 1));
-}
-
 bool inside_image(const cv::Mat& image, const Eigen::Vector2d& p) {
     return p.x() >= -0.5 && p.y() >= -0.5 && p.x() < image.cols - 0.5 && p.y() < image.rows - 0.5;
-}
-
-// The point where the face outline crosses the ray start + s · direction (s ≥ 0) first, at
-// coverage 0.5; nullopt when the ray leaves the image first. Starts outside the face: searches back.
-std::optional<Eigen::Vector2d> outline_along(const cv::Mat& mask, Eigen::Vector2d start, const Eigen::Vector2d& direction) {
-    constexpr double kStep = 0.5;
-    const double limit = 2.0 * (mask.cols + mask.rows);
-    Eigen::Vector2d step = kStep * direction;
-    if (coverage(mask, start) < 0.5) {
-        // Behind the outline already (e.g. a culled rim): walk inward to the face first.
-        double s = 0;
-        while (coverage(mask, start) < 0.5) {
-            start -= step;
-            s += kStep;
-            if (s > limit) return std::nullopt;
-        }
-    }
-    Eigen::Vector2d inside = start;
-    for (double s = 0; s < limit; s += kStep) {
-        const Eigen::Vector2d next = inside + step;
-        if (!inside_image(mask, next)) return std::nullopt;
-        if (coverage(mask, next) < 0.5) {
-            Eigen::Vector2d outside = next;
-            for (int i = 0; i < 12; ++i) {
-                const Eigen::Vector2d mid = 0.5 * (inside + outside);
-                (coverage(mask, mid) >= 0.5 ? inside : outside) = mid;
-            }
-            return 0.5 * (inside + outside);
-        }
-        inside = next;
-    }
-    return std::nullopt;
-}
-
-// The face pixel nearest to an outline point, walking back toward the face.
-std::optional<cv::Point> face_pixel_near(const Frame& frame, const Eigen::Vector2d& outline, const Eigen::Vector2d& inward) {
-    for (double s = 0; s <= 3.0; s += 0.25) {
-        const Eigen::Vector2d p = outline + s * inward;
-        const int x = static_cast<int>(std::lround(p.x())), y = static_cast<int>(std::lround(p.y()));
-        if (x < 0 || y < 0 || x >= frame.triangle_ids.cols || y >= frame.triangle_ids.rows) continue;
-        if (frame.triangle_ids.at<int>(y, x) >= 0) return cv::Point(x, y);
-    }
-    return std::nullopt;
 }
 
 }  // namespace
@@ -133,7 +79,8 @@ bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_
 }
 
 ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, const Mesh& mesh, const Camera& camera,
-                                     const Frame& frame, const LandmarkOptions& options) {
+                                     const Frame& frame, const LandmarkOptions& options,
+                                     const JawContourRegion* contour_region) {
     if (frame.mask.empty() || frame.depth.empty())
         throw Error("render: landmarks need a frame rendered with geometry (depth and mask)");
     const int count = static_cast<int>(landmarks.size());
@@ -159,30 +106,31 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
     out.contour_visible = out.visible;
     if (count != kNumIbugLandmarks) return out;
 
-    // The face's horizontal direction in the image at each jaw point: the projected model x axis.
+    const int side = contour_region ? far_side(camera.pose.rotation) : 0;
+    if (side == 0 || contour_region->vertices.empty()) return out;  // frontal: the jaw line is the outline
+
+    // The shared definition (morph/jaw_contour.h) on the rendered shape with the render's camera.
+    const auto& region = *contour_region;
+    Eigen::Matrix3Xf region_points(3, static_cast<Eigen::Index>(region.vertices.size()));
+    for (std::size_t r = 0; r < region.vertices.size(); ++r) {
+        const int v = region.vertices[r];
+        if (v < 0 || v >= mesh.num_vertices()) throw Error("render: contour region refers to a vertex outside the mesh");
+        region_points.col(static_cast<Eigen::Index>(r)) = mesh.vertices.col(v);
+    }
+    const Eigen::Matrix2Xd projected = project_points(camera, region_points);
     for (int i = 0; i < kNumJawLandmarks; ++i) {
-        if (i == kChinLandmark) continue;
+        if (!jaw_on_side(i, side)) continue;  // near side and chin: the fixed points
         const Eigen::Vector3d x = out.model_points.col(i);
         const Eigen::Vector2d toward_left = (project_point(camera, x + Eigen::Vector3d::UnitX()) - out.pixels.col(i)).normalized();
         // Points 0-7 are on the subject's right (model -x), 9-16 on the left.
         const Eigen::Vector2d outward = i < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
-        const auto outline = outline_along(frame.mask, out.pixels.col(i), outward);
+        const auto hit = jaw_contour_point(region, projected, side, out.pixels.col(i), outward);
+        if (!hit) continue;
         const std::size_t s = static_cast<std::size_t>(i);
-        if (!outline) {
-            out.contour_visible[s] = 0;  // the outline leaves the image: keep the fixed point, hidden
-            continue;
-        }
-        out.contour_pixels.col(i) = *outline;
-        out.contour_visible[s] = 1;
-        if (const auto face_pixel = face_pixel_near(frame, *outline, -outward)) {
-            const int triangle = frame.triangle_ids.at<int>(face_pixel->y, face_pixel->x);
-            if (const auto weights = ray_barycentrics(mesh, camera, triangle, *outline)) {
-                const Triangle& t = mesh.triangles[static_cast<std::size_t>(triangle)];
-                Eigen::Vector3d p = Eigen::Vector3d::Zero();
-                for (int k = 0; k < 3; ++k) p += (*weights)[k] * mesh.vertices.col(t[static_cast<std::size_t>(k)]).cast<double>();
-                out.contour_model_points.col(i) = p;
-            }
-        }
+        const Eigen::Vector3d p = hit->point.position(mesh.vertices).cast<double>();
+        out.contour_pixels.col(i) = project_point(camera, p);
+        out.contour_model_points.col(i) = p;
+        out.contour_visible[s] = is_visible(frame, out.contour_pixels.col(i), to_camera(camera.pose, p).z(), options) ? 1 : 0;
     }
     return out;
 }

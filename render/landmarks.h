@@ -2,6 +2,7 @@
 // Landmarks of a rendered image: exact 2D positions with the render's camera, 3D positions, and
 // visibility from the rendered depth buffer; the 17 jaw points also in `contour` mode (moved to the
 // visible face outline, as 300-W annotators click them). DESIGN.md §3.
+#include "morph/jaw_contour.h"
 #include "morph/mesh.h"
 #include "morph/model.h"
 #include "render/renderer.h"
@@ -28,17 +29,21 @@ struct ProjectedLandmarks {
     Eigen::Matrix3Xd model_points;    // model space, mm
     Eigen::Matrix3Xd camera_points;   // OpenCV camera space, mm
     std::vector<std::uint8_t> visible;
-    // `contour` mode: identical except the jaw points 0-7 and 9-16 (68-point sets only), which lie on
-    // the face outline at the height of their fixed point; their 3D points are on the outline's surface.
+    // `contour` mode: identical except the jaw points on the side turned away from the camera (0-7 at
+    // yaw < 0, 9-16 at yaw > 0; 68-point sets only), which lie on the face's occluding contour at the
+    // height of their fixed point (morph/jaw_contour.h); their 3D points are on that contour's surface.
+    // The near side and the chin keep the fixed points. Without a contour region all are fixed.
     Eigen::Matrix2Xd contour_pixels;
     Eigen::Matrix3Xd contour_model_points;
     std::vector<std::uint8_t> contour_visible;
 };
 
 // Needs frame.depth (settings.geometry) and frame.mask from a render of `mesh` with `camera`.
+// `contour_region` (jaw_contour_region of the model `mesh` is an instance of) enables contour mode.
 [[nodiscard]] ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, const Mesh& mesh,
                                                    const Camera& camera, const Frame& frame,
-                                                   const LandmarkOptions& options = {});
+                                                   const LandmarkOptions& options = {},
+                                                   const JawContourRegion* contour_region = nullptr);
 
 // Whether a camera-space depth `camera_z` at `pixel` is unoccluded in the frame's depth buffer.
 [[nodiscard]] bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z,

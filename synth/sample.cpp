@@ -197,7 +197,8 @@ BackgroundLibrary::BackgroundLibrary(const std::filesystem::path& folder) {
 
 SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel& model, const BackgroundLibrary& backgrounds,
                                  const render::RendererOptions& renderer_options)
-    : config_(config), model_(model), backgrounds_(backgrounds), renderer_(renderer_options) {
+    : config_(config), model_(model), backgrounds_(backgrounds),
+      contour_region_(jaw_contour_region(model)), renderer_(renderer_options) {
     if (config.background.type == "images" && backgrounds.empty())
         throw Error("background.type = \"images\" needs a background folder with readable images");
 }
@@ -222,7 +223,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     local.render = seconds_since(clock);
 
     // Landmarks in both jaw modes with self-occlusion from the depth buffer (render/landmarks.h).
-    const auto projected = render::project_landmarks(model_.landmarks, mesh, camera, frame_);
+    const auto projected = render::project_landmarks(model_.landmarks, mesh, camera, frame_, {}, &contour_region_);
     auto& labels = s.labels;
     labels.landmarks_fixed = projected.pixels;
     labels.landmarks_3d_fixed = projected.model_points;

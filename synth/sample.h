@@ -1,6 +1,7 @@
 #pragma once
 // Turning a SampleSpec into pixels and labels: render the face, place it over the background,
 // apply occluders and degradations, and compute the landmarks (both jaw modes) with visibility.
+#include "morph/jaw_contour.h"
 #include "morph/model.h"
 #include "render/renderer.h"
 #include "synth/config.h"
@@ -71,6 +72,7 @@ private:
     const SynthConfig& config_;
     const MorphableModel& model_;
     const BackgroundLibrary& backgrounds_;
+    JawContourRegion contour_region_;  // the face region of the jaw contour definition
     render::Renderer renderer_;
     render::Frame frame_;
 };

@@ -186,9 +186,10 @@ void run_render(const RenderArgs& a) {
             throw file_error(a.lighting_file, e.what());
         }
     }
+    const JawContourRegion contour_region = jaw_contour_region(model);
     render::Renderer renderer({render::parse_backend(a.view.backend), true});
     const render::Frame frame = renderer.render(mesh, camera, settings);
-    const render::ProjectedLandmarks lm = render::project_landmarks(model.landmarks, mesh, camera, frame);
+    const render::ProjectedLandmarks lm = render::project_landmarks(model.landmarks, mesh, camera, frame, {}, &contour_region);
 
     const std::filesystem::path out(a.out);
     std::error_code ec;

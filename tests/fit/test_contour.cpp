@@ -48,8 +48,9 @@ Eigen::Matrix2Xd silhouette_landmarks(const MorphableModel& m, const ScaledOrtho
     for (int l = 0; l < 68; ++l) lm.col(l) = a.project(m.landmarks[static_cast<std::size_t>(l)].position(shape).cast<double>());
     Eigen::Matrix2Xd all(2, shape.cols());
     for (Eigen::Index v = 0; v < shape.cols(); ++v) all.col(v) = a.project(shape.col(v).cast<double>());
-    for (int j = 0; j < kNumJawLandmarks; ++j) {
-        if (j == kChinLandmark) continue;
+    // Only the side turned away from the camera (yaw > 0: the subject's left, iBUG 10-17) moves; the
+    // near side stays on the fixed jaw line (morph/jaw_contour.h).
+    for (int j = kChinLandmark + 1; j < kNumJawLandmarks; ++j) {
         const double y = lm(1, j);
         double best = j < kChinLandmark ? std::numeric_limits<double>::max() : -std::numeric_limits<double>::max();
         for (Eigen::Index v = 0; v < shape.cols(); ++v) {

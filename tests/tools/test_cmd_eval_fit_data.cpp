@@ -53,12 +53,12 @@ TEST(CmdEvalFitData, RefinedFitOfARenderedDatasetBeatsTheMeanShapeAndRecoversThe
     EXPECT_EQ(contour["count"].get<int>(), 60);
     EXPECT_EQ(contour["failed"].get<int>(), 0);
     EXPECT_EQ(contour["mode"].get<std::string>(), "contour");
-    // The fitter's contour correspondences (occluding edges of the face region) and synth's contour
-    // labels (the rendered head outline, marched horizontally) are different definitions of the jaw
-    // outline, so the contour fit is looser than the fixed one (docs/fit.md); these bounds catch breakage.
-    for (const char* key : {"yaw_mae_deg", "pitch_mae_deg", "roll_mae_deg"}) EXPECT_LT(contour[key].get<double>(), 5.0) << key;
-    EXPECT_LT(contour["reprojection_px"].get<double>(), 3.0);
-    EXPECT_LT(contour["vertex_rmse_mm"].get<double>(), 2.0 * contour["vertex_rmse_mm_meanshape"].get<double>());
+    // synth's contour labels and the fitter's contour correspondences follow one definition
+    // (morph/jaw_contour.h: far side on the face region's outline, near side fixed), so the contour fit
+    // recovers the pose and beats the mean shape clearly (measured 0.48 / 0.53 / 0.28°, 0.42 px, -47%).
+    for (const char* key : {"yaw_mae_deg", "pitch_mae_deg", "roll_mae_deg"}) EXPECT_LT(contour[key].get<double>(), 1.0) << key;
+    EXPECT_LT(contour["reprojection_px"].get<double>(), 1.0);
+    EXPECT_LT(contour["vertex_rmse_mm"].get<double>(), 0.7 * contour["vertex_rmse_mm_meanshape"].get<double>());
     // Per 15° bins over ±90° (stable keys); a ±60° dataset leaves the outer bins empty.
     int binned = 0;
     for (int low = -90; low < 90; low += 15) {

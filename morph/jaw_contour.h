@@ -1,0 +1,57 @@
+#pragma once
+// The jaw contour definition shared by rendering (synth labels) and fitting (contour correspondences).
+//
+// A 300-W annotator marks the 17 jaw points on the visible face outline. As the face turns, only the
+// points on the side turned AWAY from the camera move onto the face's occluding contour (cheek and jaw
+// outline); the side turned toward the camera keeps them on the jaw line, i.e. the fixed jaw landmarks,
+// and the chin (iBUG 9) never moves (landmark marching, Zhu et al. CVPR 2015).
+//
+// Definition: for a jaw point j on the far side, draw the line through its projected fixed point
+// along the face's horizontal image direction (the projected model x axis). The contour point is the
+// intersection of that line with an edge of the face region's triangles that lies furthest out in
+// the far direction. The face region (jaw_contour_region) is the part of the mean shape within the
+// height range and in front of the depth spanned by the contour chains and the fixed jaw points
+// (widened by 5% of the model size): cheeks and jaw, not ears, the back of the head, hair or neck.
+// On that line the outermost projected point of the region lies on the region's occluding contour.
+#include "morph/model.h"
+
+#include <Eigen/Core>
+
+#include <optional>
+#include <vector>
+
+namespace facesynth {
+
+struct JawContourRegion {
+    std::vector<int> vertices;                 // face-region vertex ids (global)
+    std::vector<std::array<int, 2>> edges;     // unique edges of face-region triangles, as indices into `vertices`
+    std::vector<signed char> side;             // per region vertex: -1 subject's right (x < 0), +1 left, 0 midline
+};
+
+// The face region of a model (computed once per model). Empty when the model has no contour chains.
+[[nodiscard]] JawContourRegion jaw_contour_region(const MorphableModel& model);
+
+// The side turned away from the camera for a rotation R (pose.h convention, viewer at +z before the
+// flip): +1 the subject's left (model +x, iBUG 10-17; yaw > 0), -1 the right (iBUG 1-8; yaw < 0),
+// 0 at exactly frontal.
+[[nodiscard]] int far_side(const Eigen::Matrix3d& rotation);
+
+// Whether 0-based jaw landmark j (0..16) lies on side `side` (-1: 0..7, +1: 9..16; the chin is on none).
+[[nodiscard]] inline bool jaw_on_side(int j, int side) {
+    return side != 0 && j != 8 && j >= 0 && j < 17 && ((j < 8) == (side < 0));
+}
+
+// The contour point of a far-side jaw point: `projected` holds the image positions of
+// region.vertices (2 × region.vertices.size()), `fixed_pixel` the projected fixed jaw point and
+// `outward` the image direction pointing away from the face on that side. Only region vertices on
+// `side` (or the midline) take part. Returns the surface point on the chosen edge (two vertices with
+// weights) and its image position; nullopt when the line meets no region edge.
+struct JawContourHit {
+    SurfacePoint point;
+    Eigen::Vector2d pixel;
+};
+[[nodiscard]] std::optional<JawContourHit> jaw_contour_point(const JawContourRegion& region, const Eigen::Matrix2Xd& projected,
+                                                             int side, const Eigen::Vector2d& fixed_pixel,
+                                                             const Eigen::Vector2d& outward);
+
+}  // namespace facesynth
