@@ -95,13 +95,12 @@ std::vector<int> ContourFinder::candidates(const Eigen::Matrix3d& rotation) cons
     return out;
 }
 
-template <class PositionOf>
-std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
-                                                               const std::vector<int>& jaw_indices, PositionOf&& position_of) const {
+template <class Project, class PositionOf>
+std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matrix2Xd& landmarks, const Eigen::Matrix3d& rotation,
+                                                               Project&& project, const std::vector<int>& jaw_indices,
+                                                               PositionOf&& position_of) const {
     std::vector<std::optional<SurfacePoint>> result(kNumJawLandmarks);
-    const Eigen::Matrix<double, 2, 3> m = camera.scale * (model_to_camera_flip() * camera.rotation).topRows<2>();
-    const int far = far_side(camera.rotation);
-    const Eigen::Vector2d toward_left = (m * Eigen::Vector3d::UnitX()).normalized();
+    const int far = far_side(rotation);
     auto fixed_defined = [&](int j) {
         if (j >= static_cast<int>(model_.landmarks.size())) return false;
         const SurfacePoint& p = model_.landmarks[static_cast<std::size_t>(j)];
@@ -126,8 +125,13 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
         if (region_projected.cols() == 0) {
             region_projected.resize(2, static_cast<Eigen::Index>(region_.vertices.size()));
             for (std::size_t r = 0; r < region_.vertices.size(); ++r)
-                region_projected.col(static_cast<Eigen::Index>(r)) = m * position_of(region_.vertices[r]) + camera.translation;
+                region_projected.col(static_cast<Eigen::Index>(r)) = project(position_of(region_.vertices[r]));
         }
+        // The face's horizontal image direction at the fixed point (the projected model x axis).
+        const SurfacePoint& fixed = model_.landmarks[static_cast<std::size_t>(j)];
+        Eigen::Vector3d x = Eigen::Vector3d::Zero();
+        for (int k = 0; k < 3; ++k) x += static_cast<double>(fixed.weights[static_cast<std::size_t>(k)]) * position_of(fixed.vertices[static_cast<std::size_t>(k)]);
+        const Eigen::Vector2d toward_left = (project(Eigen::Vector3d(x + Eigen::Vector3d::UnitX())) - project(x)).normalized();
         const Eigen::Vector2d outward = j < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
         if (const auto hit = jaw_contour_point(region_, region_projected, far, landmarks.col(j), outward))
             result[static_cast<std::size_t>(j)] = hit->point;
@@ -137,10 +141,9 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
     if (fallback.empty()) return result;
 
     // Models without fixed jaw points: the nearest candidate on the landmark's side (eos).
-    const std::vector<int> cand = candidates(camera.rotation);
+    const std::vector<int> cand = candidates(rotation);
     Eigen::Matrix2Xd projected(2, static_cast<Eigen::Index>(cand.size()));
-    for (std::size_t c = 0; c < cand.size(); ++c)
-        projected.col(static_cast<Eigen::Index>(c)) = m * position_of(cand[c]) + camera.translation;
+    for (std::size_t c = 0; c < cand.size(); ++c) projected.col(static_cast<Eigen::Index>(c)) = project(position_of(cand[c]));
     for (int j : fallback) {
         const int wanted_side = j < kChinLandmark ? -1 : 1;
         double best = std::numeric_limits<double>::max();
@@ -160,13 +163,13 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
 std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                                                     const Eigen::Matrix3Xf& vertices,
                                                     const std::vector<int>& jaw_indices) const {
-    return choose(landmarks, camera, jaw_indices,
-                  [&](int id) -> Eigen::Vector3d { return vertices.col(id).cast<double>(); });
+    const Eigen::Matrix<double, 2, 3> m = camera.scale * (model_to_camera_flip() * camera.rotation).topRows<2>();
+    return choose(landmarks, camera.rotation, [&](const Eigen::Vector3d& x) -> Eigen::Vector2d { return m * x + camera.translation; },
+                  jaw_indices, [&](int id) -> Eigen::Vector3d { return vertices.col(id).cast<double>(); });
 }
 
-std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
-                                                    const std::vector<float>& alpha, const std::vector<float>& psi,
-                                                    const std::vector<int>& jaw_indices) const {
+std::function<Eigen::Vector3d(int)> ContourFinder::position_function(const std::vector<float>& alpha,
+                                                                   const std::vector<float>& psi) const {
     const auto& shape = model_.shape;
     const int k = std::min<int>(static_cast<int>(alpha.size()), shape.num_components());
     Eigen::VectorXf scaled_alpha(k);
@@ -179,8 +182,9 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(cons
         scaled_psi.resize(e);
         for (int c = 0; c < e; ++c) scaled_psi[c] = psi[static_cast<std::size_t>(c)] * std::sqrt(expression_pca->eigenvalues[c]);
     }
-    return choose(landmarks, camera, jaw_indices, [&](int id) -> Eigen::Vector3d {
-        Eigen::Vector3f p = shape.mean.segment<3>(3 * id) + shape.basis.block(3 * id, 0, 3, k) * scaled_alpha;
+    return [this, k, scaled_alpha, scaled_psi, expression_pca, blendshapes, psi](int id) -> Eigen::Vector3d {
+        const PcaModel& pca = model_.shape;
+        Eigen::Vector3f p = pca.mean.segment<3>(3 * id) + pca.basis.block(3 * id, 0, 3, k) * scaled_alpha;
         if (expression_pca) {
             p += expression_pca->mean.segment<3>(3 * id) +
                  expression_pca->basis.block(3 * id, 0, 3, scaled_psi.size()) * scaled_psi;
@@ -189,7 +193,31 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(cons
                 p += psi[b] * (*blendshapes)[b].offsets.segment<3>(3 * id);
         }
         return p.cast<double>();
-    });
+    };
+}
+
+namespace {
+Eigen::Matrix<double, 2, 3> affine_rows(const ScaledOrthographic& camera) {
+    return camera.scale * (model_to_camera_flip() * camera.rotation).topRows<2>();
+}
+}  // namespace
+
+std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+                                                    const std::vector<float>& alpha, const std::vector<float>& psi,
+                                                    const std::vector<int>& jaw_indices) const {
+    const Eigen::Matrix<double, 2, 3> m = affine_rows(camera);
+    return choose(landmarks, camera.rotation, [&](const Eigen::Vector3d& x) -> Eigen::Vector2d { return m * x + camera.translation; },
+                  jaw_indices, position_function(alpha, psi));
+}
+
+std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const PinholeView& camera,
+                                                    const std::vector<float>& alpha, const std::vector<float>& psi,
+                                                    const std::vector<int>& jaw_indices) const {
+    const Eigen::Matrix3d m = model_to_camera_flip() * camera.rotation;
+    return choose(landmarks, camera.rotation, [&](const Eigen::Vector3d& x) -> Eigen::Vector2d {
+        const Eigen::Vector3d c = m * x + camera.translation;
+        return Eigen::Vector2d(camera.focal * c.x() / c.z() + camera.cx, camera.focal * c.y() / c.z() + camera.cy);
+    }, jaw_indices, position_function(alpha, psi));
 }
 
 }  // namespace facesynth::fit

@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -24,6 +25,14 @@ struct Edge {
 
 // Unique edges with their adjacent triangles (computed once per model).
 [[nodiscard]] std::vector<Edge> edge_topology(const std::vector<Triangle>& triangles, int num_vertices);
+
+// A pinhole camera for the contour step of the perspective refinement: x_cam = flip · R · X + t,
+// pixel = focal · x_cam.xy / x_cam.z + (cx, cy) (as render's camera and fit/refine.h).
+struct PinholeView {
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+    double focal = 1, cx = 0, cy = 0;
+};
 
 class ContourFinder {
 public:
@@ -44,13 +53,21 @@ public:
                                                        const std::vector<float>& alpha, const std::vector<float>& psi,
                                                        const std::vector<int>& jaw_indices) const;
 
+    // The same under a pinhole camera (the perspective refinement: the same projection synth uses).
+    [[nodiscard]] std::vector<std::optional<SurfacePoint>> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const PinholeView& camera,
+                                                       const std::vector<float>& alpha, const std::vector<float>& psi,
+                                                       const std::vector<int>& jaw_indices) const;
+
     [[nodiscard]] const std::vector<Edge>& edges() const { return edges_; }
 
 private:
     std::vector<int> candidates(const Eigen::Matrix3d& rotation) const;
-    template <class PositionOf>
-    std::vector<std::optional<SurfacePoint>> choose(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
-                            const std::vector<int>& jaw_indices, PositionOf&& position_of) const;
+    template <class Project, class PositionOf>
+    std::vector<std::optional<SurfacePoint>> choose(const Eigen::Matrix2Xd& landmarks, const Eigen::Matrix3d& rotation,
+                                                    Project&& project, const std::vector<int>& jaw_indices,
+                                                    PositionOf&& position_of) const;
+    [[nodiscard]] std::function<Eigen::Vector3d(int)> position_function(const std::vector<float>& alpha,
+                                                                        const std::vector<float>& psi) const;
 
     const MorphableModel& model_;
     std::vector<Edge> edges_;

@@ -105,17 +105,6 @@ private:
     double kappa_;
 };
 
-ScaledOrthographic weak_perspective(const RefineResult& r) {
-    ScaledOrthographic s;
-    const double z = r.pose.translation.z();
-    s.scale = r.intrinsics.fx / z;
-    s.rotation = r.pose.rotation;
-    s.translation = Eigen::Vector2d(r.intrinsics.fx * r.pose.translation.x() / z + r.intrinsics.cx,
-                                    r.intrinsics.fy * r.pose.translation.y() / z + r.intrinsics.cy);
-    s.angles = r.angles;
-    return s;
-}
-
 }  // namespace
 
 RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, const FitResult& initial,
@@ -187,7 +176,9 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
             std::vector<float> a(static_cast<std::size_t>(k_all), 0.0f), p(static_cast<std::size_t>(basis.e()), 0.0f);
             for (int c = 0; c < k; ++c) a[static_cast<std::size_t>(c)] = static_cast<float>(alpha(c));
             for (int c = 0; c < e; ++c) p[static_cast<std::size_t>(c)] = static_cast<float>(psi(c));
-            const auto jaw = fitter.contour().jaw_correspondences(landmarks, weak_perspective(current), a, p, jaw_used);
+            // The same pinhole projection synth's labels use (morph/jaw_contour.h under perspective).
+            const PinholeView view{current.pose.rotation, current.pose.translation, current.intrinsics.fx, cx, cy};
+            const auto jaw = fitter.contour().jaw_correspondences(landmarks, view, a, p, jaw_used);
             for (int id : jaw_used)
                 if (jaw[static_cast<std::size_t>(id)])
                     result.correspondences[static_cast<std::size_t>(id)] = *jaw[static_cast<std::size_t>(id)];
