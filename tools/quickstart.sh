@@ -39,6 +39,8 @@ if [[ -d $real ]]; then
 fi
 
 step "3DMM fitting against rendered ground truth"
-$fs eval fit --model builtin --data "$out/test" --mode fixed --refine --json "$out/eval_fit.json"
+for mode in contour fixed; do
+  $fs eval fit --model builtin --data "$out/test" --mode $mode --refine --json "$out/eval_fit_$mode.json"
+done
 
 printf '\nDone: results in %s\n' "$out"
