@@ -231,15 +231,17 @@ void YawBinnedSummary::add(const FitMetrics& m) {
 std::string YawBinnedSummary::prefix(std::size_t b) const {
     const long low = std::lround(-max_yaw_deg + 15.0 * static_cast<double>(b));
     char text[48];
-    std::snprintf(text, sizeof text, "yaw_%ld_%ld_", low, low + 15);
-    return text;
+    const int length = std::snprintf(text, sizeof text, "yaw_%ld_%ld_", low, low + 15);
+    // An explicit length: GCC 12 misreports -Wrestrict for std::string(const char*) here.
+    return std::string(text, static_cast<std::size_t>(std::clamp(length, 0, static_cast<int>(sizeof text) - 1)));
 }
 
 std::string YawBinnedSummary::label(std::size_t b) const {
     const long low = std::lround(-max_yaw_deg + 15.0 * static_cast<double>(b));
     char text[48];
-    std::snprintf(text, sizeof text, "[%ld,%ld)", low, low + 15);
-    return text;
+    const int length = std::snprintf(text, sizeof text, "[%ld,%ld)", low, low + 15);
+    // An explicit length: GCC 12 misreports -Wrestrict for std::string(const char*) here.
+    return std::string(text, static_cast<std::size_t>(std::clamp(length, 0, static_cast<int>(sizeof text) - 1)));
 }
 
 void YawBinnedSummary::write(nlohmann::json& j) const {
