@@ -44,29 +44,14 @@ ContourFinder::ContourFinder(const MorphableModel& model) : model_(model), regio
         triangle_normals_.col(static_cast<Eigen::Index>(t)) = e1.cross(e2);
     }
 
-    // The region where jaw outline points can lie: the height and depth range spanned by the contour
-    // chains and the fixed jaw landmarks on the mean shape, widened by 5% of the model's size.
-    std::vector<Eigen::Vector3f> anchors;
-    for (const auto* chain : {&model.contour.right, &model.contour.left})
-        for (int id : *chain) anchors.push_back(mean.col(id));
-    for (int j = 0; j < kNumJawLandmarks && j < static_cast<int>(model.landmarks.size()); ++j)
-        anchors.push_back(model.landmarks[static_cast<std::size_t>(j)].position(mean));
-    const Eigen::Vector3f extent = mean.rowwise().maxCoeff() - mean.rowwise().minCoeff();
-    const float margin = 0.05f * extent.maxCoeff();
-    float y_low = std::numeric_limits<float>::max(), y_high = -y_low, z_low = y_low;
-    for (const auto& p : anchors) {
-        y_low = std::min(y_low, p.y());
-        y_high = std::max(y_high, p.y());
-        z_low = std::min(z_low, p.z());
-    }
+    // The fallback's candidate region: the same jaw band as the shared definition (morph/jaw_contour.h).
+    const JawBand band = jaw_band(model);
     side_.resize(static_cast<std::size_t>(v));
     in_face_region_.resize(static_cast<std::size_t>(v));
-    const float midline = 0.01f * extent.x();
     for (int i = 0; i < v; ++i) {
         const Eigen::Vector3f p = mean.col(i);
-        side_[static_cast<std::size_t>(i)] = p.x() < -midline ? -1 : (p.x() > midline ? 1 : 0);
-        in_face_region_[static_cast<std::size_t>(i)] =
-            !anchors.empty() && p.y() >= y_low - margin && p.y() <= y_high + margin && p.z() >= z_low - margin;
+        side_[static_cast<std::size_t>(i)] = band.side(p);
+        in_face_region_[static_cast<std::size_t>(i)] = band.contains(p);
     }
 }
 

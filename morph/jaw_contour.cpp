@@ -8,11 +8,11 @@
 
 namespace facesynth {
 
-JawContourRegion jaw_contour_region(const MorphableModel& model) {
-    JawContourRegion region;
-    if (model.contour.right.empty() || model.contour.left.empty()) return region;
+JawBand jaw_band(const MorphableModel& model) {
+    JawBand band;
     const auto mean = as_points(model.shape.mean);
     const int v = static_cast<int>(mean.cols());
+    if (v == 0) return band;
     std::vector<Eigen::Vector3f> anchors;
     for (const auto* chain : {&model.contour.right, &model.contour.left})
         for (int id : *chain)
@@ -22,16 +22,29 @@ JawContourRegion jaw_contour_region(const MorphableModel& model) {
         for (int id : model.landmarks[static_cast<std::size_t>(j)].vertices) ok = ok && id >= 0 && id < v;
         if (ok) anchors.push_back(model.landmarks[static_cast<std::size_t>(j)].position(mean));
     }
-    if (anchors.empty()) return region;
     const Eigen::Vector3f extent = mean.rowwise().maxCoeff() - mean.rowwise().minCoeff();
-    const float margin = 0.05f * extent.maxCoeff();
-    float y_low = std::numeric_limits<float>::max(), y_high = -y_low, z_low = y_low;
+    band.midline = 0.01f * extent.x();
+    if (anchors.empty()) return band;
+    band.empty = false;
+    band.margin = 0.05f * extent.maxCoeff();
+    band.y_low = band.z_low = std::numeric_limits<float>::max();
+    band.y_high = -band.y_low;
     for (const auto& p : anchors) {
-        y_low = std::min(y_low, p.y());
-        y_high = std::max(y_high, p.y());
-        z_low = std::min(z_low, p.z());
+        band.y_low = std::min(band.y_low, p.y());
+        band.y_high = std::max(band.y_high, p.y());
+        band.z_low = std::min(band.z_low, p.z());
     }
-    const float midline = 0.01f * extent.x();
+    return band;
+}
+
+JawContourRegion jaw_contour_region(const MorphableModel& model) {
+    JawContourRegion region;
+    if (model.contour.right.empty() || model.contour.left.empty()) return region;
+    const auto mean = as_points(model.shape.mean);
+    const int v = static_cast<int>(mean.cols());
+    const JawBand band = jaw_band(model);
+    if (band.empty) return region;
+    const Eigen::Vector3f extent = mean.rowwise().maxCoeff() - mean.rowwise().minCoeff();
     // The fixed jaw line as x(y) on each side (mean shape): the band lies lateral of it, so the nose,
     // mouth and the front of the cheeks never take part. Without fixed jaw points, no lateral limit.
     std::vector<Eigen::Vector2f> jaw_right, jaw_left;  // (x, y), from the top down to the chin
@@ -62,7 +75,7 @@ JawContourRegion jaw_contour_region(const MorphableModel& model) {
     std::vector<int> local(static_cast<std::size_t>(v), -1);
     for (int i = 0; i < v; ++i) {
         const Eigen::Vector3f p = mean.col(i);
-        if (p.y() < y_low - margin || p.y() > y_high + margin || p.z() < z_low - margin) continue;
+        if (!band.contains(p)) continue;
         if (!jaw_right.empty()) {
             const bool right_ok = p.x() <= jaw_x_at(jaw_right, p.y()) + tolerance;
             const bool left_ok = p.x() >= jaw_x_at(jaw_left, p.y()) - tolerance;
@@ -70,7 +83,7 @@ JawContourRegion jaw_contour_region(const MorphableModel& model) {
         }
         local[static_cast<std::size_t>(i)] = static_cast<int>(region.vertices.size());
         region.vertices.push_back(i);
-        region.side.push_back(static_cast<signed char>(p.x() < -midline ? -1 : (p.x() > midline ? 1 : 0)));
+        region.side.push_back(band.side(p));
     }
     std::unordered_map<long long, char> seen;
     for (const auto& t : model.triangles) {

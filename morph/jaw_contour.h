@@ -28,6 +28,24 @@ struct JawContourRegion {
     std::vector<signed char> side;             // per region vertex: -1 subject's right (x < 0), +1 left, 0 midline
 };
 
+// The height and depth band of the mean shape where jaw outline points can lie: spanned by the
+// contour chains and the fixed jaw landmarks, widened by 5% of the model's size. The face region
+// below and the fitter's fallback for models without fixed jaw points both use it.
+struct JawBand {
+    float y_low = 0, y_high = 0, z_low = 0, margin = 0;
+    float midline = 0;  // |x| below this counts as the midline
+    bool empty = true;  // no anchors: nothing is in the band
+
+    [[nodiscard]] bool contains(const Eigen::Vector3f& p) const {
+        return !empty && p.y() >= y_low - margin && p.y() <= y_high + margin && p.z() >= z_low - margin;
+    }
+    // -1 subject's right (x < 0), +1 left, 0 midline.
+    [[nodiscard]] signed char side(const Eigen::Vector3f& p) const {
+        return static_cast<signed char>(p.x() < -midline ? -1 : (p.x() > midline ? 1 : 0));
+    }
+};
+[[nodiscard]] JawBand jaw_band(const MorphableModel& model);
+
 // The face region of a model (computed once per model). Empty when the model has no contour chains.
 [[nodiscard]] JawContourRegion jaw_contour_region(const MorphableModel& model);
 
