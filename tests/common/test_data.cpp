@@ -3,6 +3,7 @@
 #include <array>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <sys/wait.h>
 
 namespace facesynth::testkit {
@@ -40,6 +41,11 @@ int run_command(const std::string& command, std::string* output) {
     const int status = ::pclose(pipe);
     if (output) *output = captured;
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+nlohmann::json read_json(const std::filesystem::path& path) {
+    std::ifstream in(path);
+    return nlohmann::json::parse(in);
 }
 
 }  // namespace facesynth::testkit

@@ -3,6 +3,7 @@
 // FACESYNTH_DATA overrides the folder. With CI=true a missing folder fails the test instead of
 // skipping it.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <optional>
@@ -19,6 +20,8 @@ std::filesystem::path cli_path();
 std::filesystem::path fresh_temp_dir(const std::string& name);
 // Runs a shell command, returns its exit status and captures stdout+stderr into `output`.
 int run_command(const std::string& command, std::string* output = nullptr);
+// Parses a JSON file (throws nlohmann::json::parse_error when it is not JSON).
+nlohmann::json read_json(const std::filesystem::path& path);
 
 }  // namespace facesynth::testkit
 

@@ -18,10 +18,7 @@ using facesynth::testkit::cli_path;
 using facesynth::testkit::fresh_temp_dir;
 using facesynth::testkit::run_command;
 
-nlohmann::json read_json(const fs::path& path) {
-    std::ifstream in(path);
-    return nlohmann::json::parse(in);
-}
+using facesynth::testkit::read_json;
 
 // 60 faces of the built-in model, yaw within ±60°, 128x128, no anti-aliasing (only the labels matter).
 fs::path make_dataset(const fs::path& dir, const std::string& model, int count) {

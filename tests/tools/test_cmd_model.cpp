@@ -21,10 +21,7 @@ int run(const std::string& arguments, std::string* output = nullptr) {
     return testkit::run_command(cli() + " " + arguments, output);
 }
 
-nlohmann::json read_json(const std::filesystem::path& path) {
-    std::ifstream in(path);
-    return nlohmann::json::parse(in);
-}
+using facesynth::testkit::read_json;
 
 std::size_t count_lines(const std::string& text) { return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')); }
 

@@ -16,10 +16,7 @@ using facesynth::testkit::cli_path;
 using facesynth::testkit::fresh_temp_dir;
 using facesynth::testkit::run_command;
 
-nlohmann::json read_json(const fs::path& path) {
-    std::ifstream in(path);
-    return nlohmann::json::parse(in);
-}
+using facesynth::testkit::read_json;
 
 // Near-frontal faces, large in the image, so the Haar detector finds most of them.
 fs::path make_dataset(const fs::path& dir, const std::string& name, int count, int seed) {
