@@ -6,6 +6,7 @@
 
 #include <Eigen/Cholesky>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -13,40 +14,100 @@
 namespace facesynth::fit {
 namespace {
 
-// Regularised weighted linear least squares for the coefficients c of one basis:
-//   min_c Σ_i w_i ‖A (m_i + B_i c) + a − x_i‖² / σ² + λ ‖c‖²   (Eq. 2 in docs/fit.md),
-// optionally with c >= 0 (projected Gauss-Seidel on the normal equations, exact for this convex QP).
-Eigen::VectorXd nonnegative_solve(Eigen::MatrixXd h, const Eigen::VectorXd& g, const Eigen::VectorXd& start);
-
-// Scalar: float in the alternation (twice the SIMD width; the system is regularised), double where
-// exactness matters (fit_identity_for_camera).
-template <class Scalar>
-Eigen::VectorXd solve_coefficients(const Eigen::Matrix<double, 2, 3>& a3, const Eigen::Vector2d& a,
-                                   const Eigen::Matrix3Xd& fixed_part,
-                                   const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>& bt,
-                                   const Eigen::Matrix2Xd& observed, const Eigen::VectorXd& weights, double sigma,
-                                   double lambda, bool non_negative, const Eigen::VectorXd& start) {
-    // bt: the basis rows transposed (K x 3n), so each point's three rows are contiguous columns.
-    using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
-    using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
-    const Eigen::Index n = observed.cols(), k = bt.rows();
-    Matrix jt(k, 2 * n);  // Jᵀ
-    Vector b(2 * n);
-    for (Eigen::Index i = 0; i < n; ++i) {
-        const double sw = std::sqrt(weights(i)) / sigma;
-        const Eigen::Matrix<double, 2, 3> m = sw * a3;
-        for (int r = 0; r < 2; ++r)
-            jt.col(2 * i + r) = Scalar(m(r, 0)) * bt.col(3 * i) + Scalar(m(r, 1)) * bt.col(3 * i + 1) + Scalar(m(r, 2)) * bt.col(3 * i + 2);
-        b.template segment<2>(2 * i) = (sw * (observed.col(i) - a - a3 * fixed_part.col(i))).cast<Scalar>();
+// Weighted Gram blocks of a basis restricted to landmark points, G_ab = Σ_i w_i B_i[a]ᵀ B_i[b] for the
+// rows a, b ∈ {x, y, z} of each point's 3 × K block B_i. For any affine camera matrix M (2 × 3),
+//   Σ_i w_i B_iᵀ MᵀM B_i = Σ_ab (MᵀM)_ab G_ab,
+// so the normal matrix of Eq. 2 costs six K × K additions per camera instead of a 2n-row rank update,
+// and the blocks of the model's fixed landmarks are computed once per Fitter.
+class BasisGram {
+public:
+    BasisGram() = default;
+    explicit BasisGram(Eigen::Index k) {
+        for (auto& block : blocks_) block.setZero(k, k);
     }
-    Matrix h = Matrix::Identity(k, k) * Scalar(lambda);
-    h.template selfadjointView<Eigen::Lower>().rankUpdate(jt);
-    const Vector g = jt * b;
-    if (!non_negative) return h.template selfadjointView<Eigen::Lower>().ldlt().solve(g).template cast<double>();
-    return nonnegative_solve(h.template cast<double>(), g.template cast<double>(), start);
-}
+    // rows: 3n × K (point i in rows 3i..3i+2); weights: n, any sign (a negative weight removes a point).
+    void add(const Eigen::MatrixXd& rows, const Eigen::VectorXd& weights) {
+        const Eigen::Index n = weights.size();
+        if (n == 0) return;
+        std::array<Eigen::MatrixXd, 3> axis, weighted;
+        for (int a = 0; a < 3; ++a) {
+            axis[a] = rows(Eigen::seqN(a, n, 3), Eigen::all);
+            weighted[a] = weights.asDiagonal() * axis[a];
+        }
+        for (int a = 0; a < 3; ++a) blocks_[a].triangularView<Eigen::Lower>() += axis[a].transpose() * weighted[a];
+        constexpr std::array<std::array<int, 2>, 3> kPairs{{{0, 1}, {0, 2}, {1, 2}}};
+        for (int p = 0; p < 3; ++p) {
+            const auto [a, b] = kPairs[static_cast<std::size_t>(p)];
+            blocks_[3 + p].triangularView<Eigen::Lower>() += axis[a].transpose() * weighted[b];
+            blocks_[3 + p].triangularView<Eigen::Lower>() += axis[b].transpose() * weighted[a];
+        }
+    }
+    BasisGram& operator+=(const BasisGram& other) {
+        for (std::size_t b = 0; b < blocks_.size(); ++b) blocks_[b] += other.blocks_[b];
+        return *this;
+    }
+    [[nodiscard]] BasisGram top_left(Eigen::Index k) const {
+        BasisGram out;
+        for (std::size_t b = 0; b < blocks_.size(); ++b) out.blocks_[b] = blocks_[b].topLeftCorner(k, k);
+        return out;
+    }
+    // Lower triangle of the top-left k × k block of Σ_ab q_ab G_ab (q symmetric; the upper part is left 0).
+    Eigen::MatrixXd quadratic(const Eigen::Matrix3d& q, Eigen::Index k) const {
+        const std::array<double, 6> factors{q(0, 0), q(1, 1), q(2, 2), q(0, 1), q(0, 2), q(1, 2)};
+        Eigen::MatrixXd h = Eigen::MatrixXd::Zero(k, k);
+        for (Eigen::Index j = 0; j < k; ++j) {
+            auto column = h.col(j).tail(k - j);
+            for (std::size_t b = 0; b < blocks_.size(); ++b) column += factors[b] * blocks_[b].col(j).segment(j, k - j);
+        }
+        return h;
+    }
+
+private:
+    std::array<Eigen::MatrixXd, 6> blocks_;  // xx, yy, zz, then xy + yx, xz + zx, yz + zy; lower triangles
+};
 
 // min ½ cᵀHc − gᵀc subject to c >= 0 (H's lower triangle holds the matrix).
+Eigen::VectorXd nonnegative_solve(Eigen::MatrixXd h, const Eigen::VectorXd& g, const Eigen::VectorXd& start);
+
+// Regularised weighted linear least squares for the coefficients c of one basis:
+//   min_c Σ_i w_i ‖M (f_i + B_i c) + a − x_i‖² / σ² + λ ‖c‖²   (Eq. 2 in docs/fit.md),
+// optionally with c >= 0 (projected Gauss-Seidel on the normal equations, exact for this convex QP).
+// `gram` holds the weighted Gram blocks of `rows` (3n × K) for these weights, except for the points
+// listed in `outside_gram`, which are added directly.
+// Scalar: the precision of the factorisation; float in the alternation (twice the SIMD width; the
+// system is regularised), double where exactness matters (fit_identity_for_camera).
+template <class Scalar>
+Eigen::VectorXd solve_coefficients(const Eigen::Matrix<double, 2, 3>& m, const Eigen::Vector2d& a,
+                                   const Eigen::Matrix3Xd& fixed_part, const Eigen::MatrixXd& rows, const BasisGram& gram,
+                                   std::span<const Eigen::Index> outside_gram, const Eigen::Matrix2Xd& observed,
+                                   const Eigen::VectorXd& weights, double sigma, double lambda, bool non_negative,
+                                   const Eigen::VectorXd& start) {
+    const Eigen::Index n = observed.cols(), k = rows.cols();
+    const double inv_var = 1.0 / (sigma * sigma);
+    // u_i = w_i Mᵀ (x_i − a − M f_i) / σ², stacked; the gradient is Bᵀu.
+    Eigen::VectorXd u(3 * n);
+    for (Eigen::Index i = 0; i < n; ++i)
+        u.segment<3>(3 * i) = (weights(i) * inv_var) * (m.transpose() * (observed.col(i) - a - m * fixed_part.col(i)));
+    const Eigen::VectorXd g = rows.transpose() * u;
+    Eigen::MatrixXd h = gram.quadratic(inv_var * (m.transpose() * m), k);
+    if (!outside_gram.empty()) {  // points whose correspondences move (contour mode): a rank update
+        Eigen::MatrixXd jt(k, 2 * static_cast<Eigen::Index>(outside_gram.size()));
+        for (std::size_t j = 0; j < outside_gram.size(); ++j) {
+            const Eigen::Index i = outside_gram[j];
+            jt.middleCols<2>(2 * static_cast<Eigen::Index>(j)) =
+                (std::sqrt(weights(i) * inv_var) * (m * rows.middleRows<3>(3 * i))).transpose();
+        }
+        h.selfadjointView<Eigen::Lower>().rankUpdate(jt);
+    }
+    h.diagonal().array() += lambda;
+    if (non_negative) return nonnegative_solve(std::move(h), g, start);
+    using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
+    const Matrix hs = h.cast<Scalar>();
+    // λ > 0 makes the matrix positive definite: Cholesky, about half the work of LDLT.
+    if (lambda > 0) return hs.template selfadjointView<Eigen::Lower>().llt().solve(g.cast<Scalar>()).template cast<double>();
+    return hs.template selfadjointView<Eigen::Lower>().ldlt().solve(g.cast<Scalar>()).template cast<double>();
+}
+
 Eigen::VectorXd nonnegative_solve(Eigen::MatrixXd h, const Eigen::VectorXd& g, const Eigen::VectorXd& start) {
     const Eigen::Index k = h.rows();
     h.triangularView<Eigen::StrictlyUpper>() = h.transpose();
@@ -127,17 +188,54 @@ std::vector<float> fit_identity_for_camera(const MorphableModel& model, const Af
         fixed += Eigen::Map<const Eigen::Matrix3Xd>(ex.data(), 3, n);
     }
     const double sigma = options.landmark_sigma_px > 0 ? options.landmark_sigma_px : decompose(camera).scale;
+    BasisGram gram(k);
+    gram.add(lin.rows().identity, weights);
     const Eigen::VectorXd alpha = solve_coefficients<double>(camera.matrix.topLeftCorner<2, 3>(), camera.matrix.block<2, 1>(0, 3), fixed,
-                                                     Eigen::MatrixXd(lin.rows().identity.transpose()), observed, weights, sigma, options.lambda, false, {});
+                                                             lin.rows().identity, gram, {}, observed, weights, sigma, options.lambda, false, {});
     std::vector<float> out(static_cast<std::size_t>(k_all), 0.0f);
     for (int c = 0; c < k; ++c) out[static_cast<std::size_t>(c)] = static_cast<float>(alpha(c));
     return out;
 }
 
-Fitter::Fitter(const MorphableModel& model) : model_(model), contour_(model) {}
+// The model's 68 fixed landmark correspondences with all identity components, and the unit-weight
+// Gram blocks of their identity rows: the jaw points that contour mode re-chooses (all but the chin)
+// apart from the rest, so a fit only adds what differs from these.
+struct Fitter::LinearCache {
+    explicit LinearCache(const MorphableModel& model)
+        : basis(model, model.num_shape_components()), core(basis.k()), jaw(basis.k()) {
+        basis.resize(kNumIbugLandmarks);
+        std::vector<int> core_ids, jaw_ids;
+        for (int i = 0; i < kNumIbugLandmarks; ++i) {
+            const SurfacePoint& p = model.landmarks.size() == kNumIbugLandmarks ? model.landmarks[static_cast<std::size_t>(i)] : SurfacePoint{};
+            has_point[static_cast<std::size_t>(i)] = defined(p);
+            basis.set_point(i, p);
+            if (!defined(p)) continue;
+            (rechosen_in_contour_mode(i) ? jaw_ids : core_ids).push_back(i);
+        }
+        core.add(identity_rows(core_ids), Eigen::VectorXd::Ones(static_cast<Eigen::Index>(core_ids.size())));
+        jaw.add(identity_rows(jaw_ids), Eigen::VectorXd::Ones(static_cast<Eigen::Index>(jaw_ids.size())));
+        all = core;
+        all += jaw;
+    }
+    static bool rechosen_in_contour_mode(int id) { return id < kNumJawLandmarks && id != kChinLandmark; }
+    Eigen::MatrixXd identity_rows(const std::vector<int>& ids) const {
+        Eigen::MatrixXd rows(3 * static_cast<Eigen::Index>(ids.size()), basis.k());
+        for (std::size_t j = 0; j < ids.size(); ++j)
+            rows.middleRows(3 * static_cast<Eigen::Index>(j), 3) = basis.rows().identity.middleRows(3 * ids[j], 3);
+        return rows;
+    }
+
+    LandmarkBasis basis;
+    std::array<bool, kNumIbugLandmarks> has_point{};
+    BasisGram core, jaw, all;  // all = core + jaw
+};
+
+Fitter::Fitter(const MorphableModel& model)
+    : model_(model), contour_(model), linear_(std::make_shared<const LinearCache>(model)) {}
 
 FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& options) const {
     const bool contour_mode = options.jaw == JawMode::kContour && !model_.contour.right.empty() && !model_.contour.left.empty();
+    const LinearCache& cache = *linear_;
     FitResult result;
     result.correspondences = model_.landmarks;
     std::vector<int> jaw_used;
@@ -151,14 +249,54 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
     lin.resize(n);
     Eigen::Matrix2Xd observed(2, n);
     Eigen::VectorXd given_weights(n), weights(n);  // weights: 0 while a point has no model correspondence
+    std::array<double, kNumIbugLandmarks> weight_of{};
+    std::vector<Eigen::Index> rechosen;  // positions (in `used`) of the jaw points contour mode re-chooses
     for (Eigen::Index i = 0; i < n; ++i) {
         const int id = result.used[static_cast<std::size_t>(i)];
         observed.col(i) = landmarks.col(id);
         given_weights(i) = options.weights.size() ? options.weights(id) : 1.0;
-        const SurfacePoint& p = result.correspondences[static_cast<std::size_t>(id)];
-        weights(i) = defined(p) ? given_weights(i) : 0.0;
-        lin.set_point(i, p);
+        weights(i) = cache.has_point[static_cast<std::size_t>(id)] ? given_weights(i) : 0.0;
+        weight_of[static_cast<std::size_t>(id)] = weights(i);
+        lin.copy_point(i, cache.basis, id);
+        if (contour_mode && LinearCache::rechosen_in_contour_mode(id)) rechosen.push_back(i);
     }
+
+    // Identity Gram of the points whose correspondences stay fixed: the cached unit-weight blocks plus
+    // the difference this call's subset and weights make (or, when most points differ, from scratch).
+    std::vector<int> changed_ids, fixed_ids;
+    std::vector<double> changed_weights, fixed_weights;
+    for (int id = 0; id < kNumIbugLandmarks; ++id) {
+        if (contour_mode && LinearCache::rechosen_in_contour_mode(id)) continue;
+        const double w = weight_of[static_cast<std::size_t>(id)];
+        const double cached = cache.has_point[static_cast<std::size_t>(id)] ? 1.0 : 0.0;
+        if (w != cached) {
+            changed_ids.push_back(id);
+            changed_weights.push_back(w - cached);
+        }
+        if (w != 0) {
+            fixed_ids.push_back(id);
+            fixed_weights.push_back(w);
+        }
+    }
+    const BasisGram& cached_gram = contour_mode ? cache.core : cache.all;
+    BasisGram adjusted;
+    const BasisGram* fixed_gram = &cached_gram;
+    if (!changed_ids.empty() || k != k_all) {
+        const bool from_scratch = changed_ids.size() >= fixed_ids.size();
+        adjusted = from_scratch ? BasisGram(k_all) : cached_gram;
+        const auto& ids = from_scratch ? fixed_ids : changed_ids;
+        const auto& ws = from_scratch ? fixed_weights : changed_weights;
+        adjusted.add(cache.identity_rows(ids), Eigen::Map<const Eigen::VectorXd>(ws.data(), static_cast<Eigen::Index>(ws.size())));
+        adjusted = adjusted.top_left(k);
+        fixed_gram = &adjusted;
+    }
+    BasisGram expression_gram;
+    auto refresh_expression_gram = [&]() {
+        if (e == 0) return;
+        expression_gram = BasisGram(e);
+        expression_gram.add(lin.rows().expression, weights);
+    };
+    refresh_expression_gram();
 
     Eigen::VectorXd alpha = Eigen::VectorXd::Zero(k), psi = Eigen::VectorXd::Zero(lin.e());
     auto to_floats = [](const Eigen::VectorXd& v, std::size_t size) {
@@ -181,28 +319,20 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
         return std::sqrt((r.colwise().squaredNorm().transpose().cwiseProduct(weights)).sum() / weights.sum());
     };
 
-    // Float, transposed copies of the basis rows for the solves; refreshed when correspondences change.
-    Eigen::MatrixXf identity_t, expression_t;
-    auto refresh_transposed = [&]() {
-        identity_t = lin.rows().identity.transpose().cast<float>();
-        expression_t = lin.rows().expression.transpose().cast<float>();
-    };
-    refresh_transposed();
-
     double previous = std::numeric_limits<double>::max();
     for (int it = 0; it < options.iterations; ++it) {
         estimate_camera();
         if (!jaw_used.empty()) {
             const auto jaw = contour_.jaw_correspondences(landmarks, result.pose, to_floats(alpha, k_all),
                                                           to_floats(psi, static_cast<std::size_t>(lin.e())), jaw_used);
-            for (Eigen::Index i = 0; i < n; ++i) {
+            for (Eigen::Index i : rechosen) {
                 const int id = result.used[static_cast<std::size_t>(i)];
-                if (id >= kNumJawLandmarks || !jaw[static_cast<std::size_t>(id)]) continue;
+                if (!jaw[static_cast<std::size_t>(id)]) continue;
                 result.correspondences[static_cast<std::size_t>(id)] = *jaw[static_cast<std::size_t>(id)];
                 lin.set_point(i, result.correspondences[static_cast<std::size_t>(id)]);
                 weights(i) = given_weights(i);
             }
-            refresh_transposed();
+            refresh_expression_gram();
             estimate_camera();
         }
         const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (model_to_camera_flip() * result.pose.rotation).topRows<2>();
@@ -214,14 +344,14 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
                 const Eigen::VectorXd ex = rows.expression * psi;
                 fixed += Eigen::Map<const Eigen::Matrix3Xd>(ex.data(), 3, n);
             }
-            alpha = solve_coefficients<float>(a3, result.pose.translation, fixed, identity_t, observed, weights, sigma,
-                                       options.lambda, false, {});
+            alpha = solve_coefficients<float>(a3, result.pose.translation, fixed, rows.identity, *fixed_gram, rechosen, observed, weights,
+                                              sigma, options.lambda, false, {});
         }
         if (e > 0) {
             const Eigen::VectorXd id_part = rows.identity * alpha;
             const Eigen::Matrix3Xd fixed = rows.mean + Eigen::Map<const Eigen::Matrix3Xd>(id_part.data(), 3, n);
-            psi = solve_coefficients<float>(a3, result.pose.translation, fixed, expression_t, observed, weights, sigma,
-                                     options.expression_lambda, lin.has_blendshapes(), psi);
+            psi = solve_coefficients<float>(a3, result.pose.translation, fixed, rows.expression, expression_gram, {}, observed, weights,
+                                            sigma, options.expression_lambda, lin.has_blendshapes(), psi);
         }
         result.iterations = it + 1;
         const double now = rms();
@@ -237,7 +367,10 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
     // Projections of all 68 correspondences (NaN where the model has none).
     LandmarkBasis all(model_, k);
     all.resize(kNumIbugLandmarks);
-    for (int i = 0; i < kNumIbugLandmarks; ++i) all.set_point(i, result.correspondences[static_cast<std::size_t>(i)]);
+    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+        if (contour_mode && LinearCache::rechosen_in_contour_mode(i)) all.set_point(i, result.correspondences[static_cast<std::size_t>(i)]);
+        else all.copy_point(i, cache.basis, i);
+    }
     const Eigen::Matrix3Xd points = all.positions(alpha, psi);
     result.projected.resize(2, kNumIbugLandmarks);
     for (int i = 0; i < kNumIbugLandmarks; ++i)

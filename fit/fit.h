@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -44,8 +45,8 @@ struct FitResult {
     int iterations = 0;
 };
 
-// Holds what depends on the model only (edge topology, mean-shape normals), so repeated fits with
-// the same model are cheap. The model must outlive the Fitter.
+// Holds what depends on the model only (edge topology, mean-shape normals, the landmark basis and
+// its Gram blocks), so repeated fits with the same model are cheap. The model must outlive the Fitter.
 class Fitter {
 public:
     explicit Fitter(const MorphableModel& model);
@@ -58,9 +59,12 @@ public:
     [[nodiscard]] const MorphableModel& model() const { return model_; }
     [[nodiscard]] const ContourFinder& contour() const { return contour_; }
 
+    struct LinearCache;  // fit.cpp
+
 private:
     const MorphableModel& model_;
     ContourFinder contour_;
+    std::shared_ptr<const LinearCache> linear_;
 };
 
 // One-off convenience: Fitter(model).fit(landmarks, options).

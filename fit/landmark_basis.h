@@ -67,6 +67,12 @@ public:
             }
         }
     }
+    // Point i takes point j of `from` (a basis of the same model with at least k() components).
+    void copy_point(Eigen::Index i, const LandmarkBasis& from, Eigen::Index j) {
+        rows_.mean.col(i) = from.rows_.mean.col(j);
+        rows_.identity.middleRows(3 * i, 3) = from.rows_.identity.block(3 * j, 0, 3, k_);
+        rows_.expression.middleRows(3 * i, 3) = from.rows_.expression.middleRows(3 * j, 3);
+    }
     const LandmarkRows& rows() const { return rows_; }
 
     Eigen::Matrix3Xd positions(const Eigen::VectorXd& alpha, const Eigen::VectorXd& psi) const {

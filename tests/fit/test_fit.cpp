@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <limits>
 
 namespace facesynth::fit {
@@ -140,6 +141,46 @@ TEST(Fit, SubsetsAndMaskedPointsUseOnlyWhatIsGiven) {
     const FitResult r = fit_landmarks(m, lm, o);
     EXPECT_EQ(r.used.size(), 67u);
     EXPECT_LT(r.reprojection_rms_px, 0.5);
+}
+
+// The Fitter caches the landmark basis's Gram blocks for the model's own correspondences and adds only
+// what a call's subset, weights or component count change (or starts from scratch when most points
+// change). Each of those paths must give the fit of a model in which the excluded points simply do
+// not exist.
+TEST(Fit, CachedNormalEquationsMatchAModelWithoutTheExcludedPoints) {
+    const MorphableModel m = spread_landmark_model(10);
+    Rng rng(7, 0);
+    const std::vector<float> alpha = sample_coefficients(rng, 10, 2.0);
+    const ScaledOrthographic camera{2.5, rotation_from_euler({25, -10, 5}), {250, 230}, {}};
+    Eigen::Matrix2Xd lm = project_landmarks(m, camera, alpha);
+    for (int i = 0; i < 68; ++i) lm.col(i) += Eigen::Vector2d(rng.normal(), rng.normal()) * 0.5;  // so weighting matters
+    const auto compare = [&](const FitOptions& options, const std::vector<int>& kept, const char* what) {
+        MorphableModel reduced = m;
+        for (int i = 0; i < 68; ++i)
+            if (std::find(kept.begin(), kept.end(), i) == kept.end()) reduced.landmarks[static_cast<std::size_t>(i)] = SurfacePoint{{}, {0.0f, 0.0f, 0.0f}};  // undefined
+        FitOptions plain;
+        plain.shape_components = options.shape_components;
+        plain.lambda = options.lambda;
+        const FitResult expected = fit_landmarks(reduced, lm, plain);
+        const FitResult got = fit_landmarks(m, lm, options);
+        ASSERT_EQ(got.used.size(), kept.size()) << what;
+        for (std::size_t c = 0; c < expected.alpha.size(); ++c) EXPECT_NEAR(got.alpha[c], expected.alpha[c], 1e-3) << what << ", α" << c;
+        EXPECT_NEAR(got.pose.angles.yaw, expected.pose.angles.yaw, 1e-3) << what;
+    };
+    std::vector<int> most, few;
+    for (int i = 0; i < 68; ++i) (i % 9 == 4 ? few : most).push_back(i);
+    FitOptions subset;
+    subset.lambda = 0.1;  // data-dominated, so each point's weight shows in α
+    subset.subset = most;  // 8 points removed: the cached blocks minus those points
+    compare(subset, most, "small change");
+    FitOptions masked;
+    masked.lambda = 0.1;
+    masked.weights = Eigen::VectorXd::Zero(68);
+    for (int i : few) masked.weights(i) = 1;  // 60 points removed: built from scratch
+    compare(masked, few, "large change");
+    FitOptions truncated = subset;
+    truncated.shape_components = 4;  // the top-left block of the cached matrices
+    compare(truncated, most, "first 4 components");
 }
 
 TEST(Fit, BadInputsThrowClearErrors) {
