@@ -211,8 +211,41 @@ struct EvalArgs {
     std::string data;
     std::filesystem::path json;
     std::filesystem::path ced;
+    std::filesystem::path nme_csv;
     bool quiet = false;
 };
+
+// RFC 4180: a field with a comma, quote or line break is quoted, its quotes doubled.
+std::string csv_field(const std::string& text) {
+    if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+    std::string quoted = "\"";
+    for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return quoted + "\"";
+}
+
+// One row per face: its key, true yaw (empty when unknown), whether the detector found it, and the
+// NME of each regressor in --regressor order (inf for a miss). The report draws CED curves from it.
+std::string per_face_nme_csv(const Evaluation& evaluation) {
+    std::string csv = "key,yaw_deg,detected";
+    for (std::size_t r = 0; r < evaluation.regressors.size(); ++r) csv += ",regressor" + std::to_string(r + 1);
+    csv += "\n";
+    char number[32];
+    for (std::size_t f = 0; f < evaluation.faces.size(); ++f) {
+        const auto& face = evaluation.faces[f];
+        csv += csv_field(face.key) + ",";
+        if (face.yaw_deg) {
+            std::snprintf(number, sizeof number, "%.3f", *face.yaw_deg);
+            csv += number;
+        }
+        csv += face.detected ? ",1" : ",0";
+        for (const auto& reg : evaluation.regressors) {
+            std::snprintf(number, sizeof number, "%.6g", reg.nmes[f]);
+            csv += std::string(",") + (std::isfinite(reg.nmes[f]) ? number : "inf");
+        }
+        csv += "\n";
+    }
+    return csv;
+}
 
 void run_eval_landmarks(const EvalArgs& args) {
     const auto images = list_labelled_images(split_folder_list(args.data));
@@ -277,6 +310,7 @@ void run_eval_landmarks(const EvalArgs& args) {
         const bool png = args.ced.extension() == ".png";
         write_file_atomically(args.ced, png ? ced_png(curves) : ced_svg(curves));
     }
+    if (!args.nme_csv.empty()) write_file_atomically(args.nme_csv, per_face_nme_csv(evaluation));
 }
 
 }  // namespace
@@ -328,6 +362,7 @@ void register_train_commands(CLI::App& app) {
         cmd->add_option("--data", args->data, "Folders with images and .pts, comma-separated")->required();
         cmd->add_option("--json", args->json, "Write flat JSON results here");
         cmd->add_option("--ced", args->ced, "Write the CED curves (NME 0-0.08) here: .svg, or .png");
+        cmd->add_option("--nme-csv", args->nme_csv, "Write every face's NME per regressor here (key,yaw_deg,detected,regressor1,...)");
         cmd->add_flag("--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_eval_landmarks(*args); });
     }

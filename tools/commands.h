@@ -11,5 +11,6 @@ void register_train_commands(CLI::App& app);  // cmd_train.cpp: train, detect, e
 void register_fit_commands(CLI::App& app);    // cmd_fit.cpp: fit, fit-lambda
 void register_model_commands(CLI::App& app);  // cmd_model.cpp: model info, export, convert, build
 void register_render_commands(CLI::App& app);  // cmd_render.cpp: render, bench render
+void register_report_commands(CLI::App& app);  // cmd_report.cpp: report
 
 }  // namespace facesynth::cli

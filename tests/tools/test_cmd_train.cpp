@@ -45,7 +45,8 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     const auto eval_json = dir / "eval.json";
     const std::string eval_cmd = cli_path().string() + " eval landmarks --regressor " + model.string() +
                                  " --regressor mean:" + model.string() + " --data " + test.string() +
-                                 " --quiet --json " + eval_json.string() + " --ced " + (dir / "ced.svg").string();
+                                 " --quiet --json " + eval_json.string() + " --ced " + (dir / "ced.svg").string() +
+                                 " --nme-csv " + (dir / "nme.csv").string();
     ASSERT_EQ(run_command(eval_cmd, &out), 0) << out;
     const auto j = read_json(eval_json);
     for (const char* key : {"nme_mean", "nme_median", "auc_008", "failure_rate_008", "ms_per_face", "detector_misses",
@@ -56,6 +57,14 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     // The cascade must improve on its own starting point (the mean shape in the same boxes).
     EXPECT_LT(j["nme_mean"].get<double>(), j["regressor2_nme_mean"].get<double>());
     EXPECT_TRUE(fs::exists(dir / "ced.svg"));
+    // --nme-csv: a header naming the regressors by position, then one row per face.
+    std::ifstream nme_csv(dir / "nme.csv");
+    std::string line;
+    ASSERT_TRUE(std::getline(nme_csv, line));
+    EXPECT_EQ(line, "key,yaw_deg,detected,regressor1,regressor2");
+    int rows = 0;
+    while (std::getline(nme_csv, line)) ++rows;
+    EXPECT_EQ(rows, 30);
 
     // detect: one unreadable file in the batch gives a per-image error, the rest continue, exit 1.
     const auto images = test / "images";
