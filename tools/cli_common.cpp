@@ -1,6 +1,9 @@
 #include "cli_common.h"
 
 #include "morph/atomic_file.h"
+#include "morph/error.h"
+
+#include <opencv2/imgcodecs.hpp>
 
 #include <cstdio>
 #include <unistd.h>
@@ -60,8 +63,21 @@ CLI::App& bench_group(CLI::App& app) {
     return *bench;
 }
 
+CLI::App& eval_group(CLI::App& app) {
+    for (CLI::App* sub : app.get_subcommands([](CLI::App* s) { return s->get_name() == "eval"; })) return *sub;
+    CLI::App* eval = app.add_subcommand("eval", "Evaluate against ground truth");
+    eval->require_subcommand(1);
+    return *eval;
+}
+
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value) {
     write_file_atomically(path, value.dump(2) + "\n");
+}
+
+void write_png_file(const std::filesystem::path& path, const cv::Mat& image) {
+    std::vector<unsigned char> bytes;
+    if (!cv::imencode(".png", image, bytes)) throw file_error(path.string(), "PNG encoding failed");
+    write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 }  // namespace facesynth::cli

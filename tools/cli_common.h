@@ -2,6 +2,7 @@
 // Shared CLI plumbing: progress reporting, JSON result files, model loading from --model.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include <chrono>
 #include <cstddef>
@@ -38,8 +39,13 @@ private:
 // The "bench" command group, created on first use, so that every tools/cmd_*.cpp can add its
 // benchmark to it whatever the registration order.
 CLI::App& bench_group(CLI::App& app);
+// The "eval" command group, the same way.
+CLI::App& eval_group(CLI::App& app);
 
 // Writes a flat JSON object atomically to `path` (pretty-printed, trailing newline).
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value);
+
+// Encodes an OpenCV image (B G R [A] or grey, 8-bit) as PNG and writes it atomically.
+void write_png_file(const std::filesystem::path& path, const cv::Mat& image);
 
 }  // namespace facesynth::cli

@@ -396,14 +396,7 @@ void register_fit_commands(CLI::App& app) {
     lam->add_flag("--quiet", lambda_args->quiet, "No progress output");
     lam->callback([lambda_args] { run_lambda(*lambda_args); });
 
-    // `eval` is shared with other command groups: reuse it when one made it already.
-    CLI::App* eval = nullptr;
-    try {
-        eval = app.get_subcommand("eval");
-    } catch (const CLI::OptionNotFound&) {
-        eval = app.add_subcommand("eval", "Evaluate against ground truth");
-        eval->require_subcommand(1);
-    }
+    CLI::App* eval = &eval_group(app);
     auto eval_args = std::make_shared<EvalArgs>();
     auto* ev = eval->add_subcommand("fit", "Fit accuracy against ground truth: on a `synth` dataset (--data) or on cases generated in code");
     ev->add_option("--model", eval_args->model, "Model: builtin, a model file, or a folder (must be the dataset's model)")->capture_default_str();

@@ -30,17 +30,6 @@ using namespace facesynth::train;
 
 int default_threads() { return static_cast<int>(std::max(1u, std::thread::hardware_concurrency())); }
 
-// The `eval` group is shared with other modules: reuse it when another command group made it.
-CLI::App* eval_group(CLI::App& app) {
-    try {
-        return app.get_subcommand("eval");
-    } catch (const CLI::OptionNotFound&) {
-        auto* eval = app.add_subcommand("eval", "Evaluate against ground truth");
-        eval->require_subcommand(1);
-        return eval;
-    }
-}
-
 double json_number(double value) { return std::isfinite(value) ? value : -1.0; }
 
 struct TrainArgs {
@@ -355,7 +344,7 @@ void register_train_commands(CLI::App& app) {
     }
     {
         auto args = std::make_shared<EvalArgs>();
-        auto* cmd = eval_group(app)->add_subcommand("landmarks", "Landmark NME on labelled images (inter-ocular)");
+        auto* cmd = eval_group(app).add_subcommand("landmarks", "Landmark NME on labelled images (inter-ocular)");
         cmd->add_option("--regressor", args->regressors,
                         "MODEL (SDM file), mean:MODEL (its mean shape only), dlib, dlib:FILE, ert:FILE or lbf:FILE; repeat to compare on the same boxes")
             ->required();

@@ -12,5 +12,6 @@ void register_fit_commands(CLI::App& app);    // cmd_fit.cpp: fit, fit-lambda
 void register_model_commands(CLI::App& app);  // cmd_model.cpp: model info, export, convert, build
 void register_render_commands(CLI::App& app);  // cmd_render.cpp: render, bench render
 void register_report_commands(CLI::App& app);  // cmd_report.cpp: report
+void register_frontal_commands(CLI::App& app);  // cmd_frontal.cpp: frontalise, eval frontalise, bench frontalise
 
 }  // namespace facesynth::cli

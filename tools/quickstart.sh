@@ -2,8 +2,9 @@
 # README's first command: installs what is missing, builds (Release), and runs the main job on the
 # built-in model — a small synthetic dataset, a small landmark regressor trained on it, the fitting
 # benchmark on rendered ground truth, landmark evaluation (also on real photographs when
-# ../shared/data/real is there), and an HTML report of all of it. Everything lands in $FACESYNTH_OUT
-# (default out/quickstart).
+# ../shared/data/real is there), frontalisation of posed renders and of any photographs given as
+# arguments (tools/quickstart.sh [PHOTO...]), and an HTML report of all of it. Everything lands in
+# $FACESYNTH_OUT (default out/quickstart).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
@@ -47,6 +48,18 @@ done
 if command -v python3 > /dev/null; then
   step "fitting error against landmark count (7/13/49/68) and noise (0-4 px), linear fits"
   python3 tools/fit_sweep.py "$fs" builtin "$out/fit_sweep" --count 100 > /dev/null
+fi
+
+step "frontalisation: posed renders (yaw within ±60°), then photographs"
+$fs synth "${synth_opts[@]}" --out "$out/posed" --count 8 --seed 3
+$fs frontalise --landmarks pts "$out/posed/images" --out "$out/frontalised" --mirror-fill --json "$out/frontalise.json"
+$fs eval frontalise --count 3 --json "$out/eval_frontalise.json" --plot "$out/eval_frontalise.svg"
+if [[ -d $real/lfpw_superviseddescent ]]; then
+  $fs frontalise --model ../shared/data/sfm --landmarks pts "$real"/lfpw_superviseddescent/image_000{1,2,3}.png \
+    --out "$out/frontalised_real" --mirror-fill
+fi
+if (($# > 0)); then  # photographs passed to this script: Haar boxes + dlib's landmarks
+  $fs frontalise --landmarks dlib "$@" --out "$out/frontalised_yours" --mirror-fill || true
 fi
 
 step "HTML report (file names in docs/report.md)"

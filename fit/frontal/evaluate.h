@@ -1,0 +1,74 @@
+#pragma once
+// The ground-truth frontalisation benchmark (docs/frontalise.md): a face with a known texture is
+// rendered at yaw 0 and at other yaws under the same lighting, the posed renders are frontalised from
+// their landmarks, and the output is compared with the true frontal render inside the face mask; the
+// isomap is compared with the true texture in uv space. `facesynth eval frontalise` loops over this.
+#include "fit/frontal/frontalise.h"
+#include "fit/frontal/image_metrics.h"
+#include "morph/jaw_contour.h"
+#include "render/lighting.h"
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+
+namespace facesynth::frontal {
+
+// A face with a known appearance: shape and either per-vertex colours (mesh.colours) or a uv texture.
+struct TexturedFace {
+    Mesh mesh;                 // model instance; colours used when texture is empty
+    cv::Mat texture;           // optional 8-bit BGR uv texture (display values), size = the isomap size
+    cv::Mat true_isomap;       // 8-bit BGR: the appearance in uv space as the renderer shows it unlit
+};
+
+// Identity `index` of the set `seed`: random identity (σ-unit normal), neutral expression, and the
+// model's random albedo; a model without an albedo model gets a procedural texture instead (smooth
+// colour noise plus a fine grid of dots, mirror-symmetric in u), drawn per identity.
+[[nodiscard]] TexturedFace make_textured_face(const MorphableModel& model, Frontaliser& frontaliser, std::uint64_t seed,
+                                              std::uint64_t index, int isomap_size);
+
+struct SyntheticView {
+    cv::Mat image;                 // 8-bit BGR, face over `background`
+    cv::Mat mask;                  // 8-bit, 255 on the face
+    Eigen::Matrix2Xd landmarks;    // 68, contour jaw mode (as 300-W annotators mark them)
+    Eigen::Matrix2Xd fixed_landmarks;
+    double yaw_deg = 0;
+};
+
+struct ViewOptions {
+    int size = 384;
+    double fov_deg = 8;  // a long lens (about 1.4 m away): the affine fit has little perspective to absorb
+    render::Lighting lighting;        // the same for every yaw; default unlit()
+    cv::Vec3b background{70, 70, 70};
+    ViewOptions();
+};
+
+// `face` rendered with a perspective camera at yaw `yaw_deg` (pitch = roll = 0), the mean face's
+// landmark box filling about two thirds of the image.
+[[nodiscard]] SyntheticView render_view(render::Renderer& renderer, const MorphableModel& model, const TexturedFace& face,
+                                        double yaw_deg, const ViewOptions& options = {},
+                                        const JawContourRegion* contour_region = nullptr);
+
+// The true frontal render: `face` with the frontaliser's frontal camera under `lighting`, and the face
+// mask (render coverage inside the convex hull of the projected 68 landmarks).
+struct TrueFrontal {
+    FrontalImage render;
+    cv::Mat face_mask;
+};
+[[nodiscard]] TrueFrontal render_true_frontal(Frontaliser& frontaliser, const TexturedFace& face, int size,
+                                              const render::Lighting& lighting);
+
+// The isomap's error against the truth over its texels with alpha >= min_alpha (default: seen within
+// 60° of the surface normal, where the colour does not hinge on the fitted silhouette): mean absolute
+// difference in 8-bit levels and PSNR; and the fraction of the layout's texels with alpha > 0.
+struct IsomapComparison {
+    double l1 = 0, psnr_db = 0, coverage = 0;
+    int compared = 0;
+};
+[[nodiscard]] IsomapComparison compare_isomap(const cv::Mat& isomap, const cv::Mat& true_isomap, const cv::Mat& layout,
+                                              int min_alpha = 128);
+
+}  // namespace facesynth::frontal

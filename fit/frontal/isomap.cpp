@@ -1,0 +1,297 @@
+#include "fit/frontal/isomap.h"
+
+#include "morph/error.h"
+#include "morph/pose.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace facesynth::frontal {
+
+UvRaster rasterise_uv(const MorphableModel& model, int size, render::Renderer& renderer) {
+    if (model.uv.cols() != model.num_vertices() || model.num_vertices() == 0)
+        throw Error("isomap: model '" + model.name + "' has no per-vertex uv coordinates");
+    if (size < 8 || size > 8192) throw Error("isomap: size " + std::to_string(size) + " is out of range (8..8192)");
+    // The uv layout as a flat mesh: vertex (u, -v, 0) lands on pixel (u·S - 0.5, v·S - 0.5) under an
+    // orthographic camera with focal S and principal point -0.5, so pixel centres are texel centres.
+    Mesh flat;
+    flat.vertices.resize(3, model.num_vertices());
+    flat.vertices.row(0) = model.uv.row(0);
+    flat.vertices.row(1) = -model.uv.row(1);
+    flat.vertices.row(2).setZero();
+    std::vector<int> original;  // flat triangle -> model triangle
+    for (std::size_t t = 0; t < model.triangles.size(); ++t) {
+        const Triangle& tri = model.triangles[t];
+        Eigen::Vector2f low = model.uv.col(tri[0]), high = low;
+        for (int corner : tri) {
+            low = low.cwiseMin(model.uv.col(corner));
+            high = high.cwiseMax(model.uv.col(corner));
+        }
+        if ((high - low).maxCoeff() > 0.5f) continue;
+        flat.triangles.push_back(tri);
+        original.push_back(static_cast<int>(t));
+    }
+    if (flat.triangles.empty()) throw Error("isomap: model '" + model.name + "' has no usable uv triangles");
+    render::Camera camera;
+    camera.projection = render::Projection::kOrthographic;
+    camera.intrinsics = {static_cast<double>(size), static_cast<double>(size), -0.5, -0.5, size, size};
+    camera.pose.translation = Eigen::Vector3d(0, 0, 10);
+    render::RenderSettings settings;
+    settings.msaa_samples = 0;
+    settings.geometry = true;
+    settings.barycentrics = true;
+    settings.cull_back_faces = false;
+    const render::Frame frame = renderer.render(flat, camera, settings);
+
+    UvRaster raster;
+    raster.size = size;
+    for (int r = 0; r < size; ++r) {
+        const int* ids = frame.triangle_ids.ptr<int>(r);
+        const cv::Vec3f* weights = frame.barycentrics.ptr<cv::Vec3f>(r);
+        for (int c = 0; c < size; ++c) {
+            if (ids[c] < 0) continue;
+            UvRaster::Texel texel;
+            texel.index = r * size + c;
+            texel.vertices = model.triangles[static_cast<std::size_t>(original[static_cast<std::size_t>(ids[c])])];
+            const float sum = weights[c][0] + weights[c][1] + weights[c][2];
+            for (int k = 0; k < 3; ++k) texel.weights[static_cast<std::size_t>(k)] = weights[c][k] / (sum > 0 ? sum : 1.0f);
+            raster.texels.push_back(texel);
+        }
+    }
+    for (int r = 0; r < size; ++r)
+        for (int c = 0; c < size; ++c) {
+            if (frame.triangle_ids.at<int>(r, c) >= 0) continue;
+            UvRaster::Padding pad;
+            pad.index = r * size + c;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int y = r + dy, x = c + dx;
+                    if ((dx || dy) && y >= 0 && x >= 0 && y < size && x < size && frame.triangle_ids.at<int>(y, x) >= 0)
+                        pad.neighbours[static_cast<std::size_t>(pad.count++)] = y * size + x;
+                }
+            if (pad.count > 0) raster.padding.push_back(pad);
+        }
+    return raster;
+}
+
+namespace {
+
+template <typename Vertices>
+Eigen::Vector3f interpolate(const Vertices& values, const UvRaster::Texel& t) {
+    return t.weights[0] * values.col(t.vertices[0]) + t.weights[1] * values.col(t.vertices[1]) +
+           t.weights[2] * values.col(t.vertices[2]);
+}
+
+cv::Mat as_bgr8(const cv::Mat& image) {
+    if (image.empty()) throw Error("isomap: the image is empty");
+    if (image.depth() != CV_8U) throw Error("isomap: expected an 8-bit image");
+    if (image.channels() == 3) return image;
+    cv::Mat bgr;
+    if (image.channels() == 1) cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
+    else if (image.channels() == 4) cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
+    else throw Error("isomap: expected 1, 3 or 4 channels, the image has " + std::to_string(image.channels()));
+    return bgr;
+}
+
+// Bilinear BGR sample at a 0-based pixel position inside [0, cols-1] x [0, rows-1].
+cv::Vec3f sample_bilinear(const cv::Mat& bgr, float x, float y) {
+    const int x0 = std::min(static_cast<int>(x), bgr.cols - 2 < 0 ? 0 : bgr.cols - 2);
+    const int y0 = std::min(static_cast<int>(y), bgr.rows - 2 < 0 ? 0 : bgr.rows - 2);
+    const int x1 = std::min(x0 + 1, bgr.cols - 1), y1 = std::min(y0 + 1, bgr.rows - 1);
+    const float fx = x - static_cast<float>(x0), fy = y - static_cast<float>(y0);
+    const cv::Vec3b* row0 = bgr.ptr<cv::Vec3b>(y0);
+    const cv::Vec3b* row1 = bgr.ptr<cv::Vec3b>(y1);
+    cv::Vec3f out;
+    for (int k = 0; k < 3; ++k) {
+        const float top = (1 - fx) * row0[x0][k] + fx * row0[x1][k];
+        const float bottom = (1 - fx) * row1[x0][k] + fx * row1[x1][k];
+        out[k] = (1 - fy) * top + fy * bottom;
+    }
+    return out;
+}
+
+// Values here are never negative and stay in range: plain rounding (std::lround is slow in this loop).
+std::uint8_t to_byte(float value) { return static_cast<std::uint8_t>(std::min(255.0f, std::max(0.0f, value) + 0.5f)); }
+
+}  // namespace
+
+cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, const std::vector<Triangle>& triangles,
+                       const ImageCamera& camera, const UvRaster& raster, render::Renderer& renderer,
+                       const IsomapOptions& options, IsomapStats* stats) {
+    if (raster.size != options.size)
+        throw Error("isomap: the uv raster is " + std::to_string(raster.size) + " texels, the options ask for " + std::to_string(options.size));
+    if (!(camera.pose.scale > 0) || !std::isfinite(camera.pose.scale)) throw Error("isomap: the fitted camera has no valid scale");
+    const cv::Mat bgr = as_bgr8(image);
+    const int n = static_cast<int>(vertices.cols());
+    const Eigen::Matrix3Xf normals = vertex_normals(vertices, triangles);
+
+    // Per vertex: image position (affine camera), position and depth in the z-buffer pass (scaled
+    // orthographic camera, OpenCV camera z grows away from the viewer) and the normal in view space.
+    const Eigen::Matrix3f rotation = camera.pose.rotation.cast<float>();
+    const Eigen::Matrix3f to_camera = model_to_camera_flip().cast<float>() * rotation;
+    const Eigen::Matrix<float, 2, 3> affine = camera.affine.matrix.topLeftCorner<2, 3>().cast<float>();
+    const Eigen::Vector2f affine_offset = camera.affine.matrix.block<2, 1>(0, 3).cast<float>();
+    Eigen::Matrix3Xf image_xyz(3, n);  // x, y in the photograph; z unused
+    Eigen::Matrix3Xf camera_xyz = to_camera * vertices;
+    image_xyz.topRows<2>() = (affine * vertices).colwise() + affine_offset;
+    image_xyz.row(2).setZero();
+    const Eigen::Matrix3Xf view_normals = rotation * normals;  // +z toward the viewer
+
+    // The z-buffer pass: the face's bounding box in the orthographic view, at most max_depth_side.
+    const float scale = static_cast<float>(camera.pose.scale);
+    const Eigen::Vector2f t = camera.pose.translation.cast<float>();
+    const Eigen::Vector2f low = (scale * camera_xyz.topRows<2>()).rowwise().minCoeff() + t;
+    const Eigen::Vector2f high = (scale * camera_xyz.topRows<2>()).rowwise().maxCoeff() + t;
+    const float extent = std::max(high.x() - low.x(), high.y() - low.y());
+    if (!std::isfinite(extent) || extent <= 0) throw Error("isomap: the fitted mesh projects to nothing");
+    const float shrink = std::min(1.0f, static_cast<float>(options.max_depth_side) / extent);
+    const Eigen::Vector2f origin = low.array() - 1.0f;
+    render::Camera depth_camera;
+    depth_camera.projection = render::Projection::kOrthographic;
+    depth_camera.pose.rotation = camera.pose.rotation;
+    constexpr double kDistanceMm = 1000;  // any positive distance: the projection is orthographic
+    depth_camera.pose.translation = Eigen::Vector3d(0, 0, kDistanceMm);
+    const double focal = static_cast<double>(scale) * shrink;
+    depth_camera.intrinsics = {focal,
+                               focal,
+                               static_cast<double>((t.x() - origin.x()) * shrink),
+                               static_cast<double>((t.y() - origin.y()) * shrink),
+                               static_cast<int>(std::ceil((high.x() - origin.x()) * shrink)) + 2,
+                               static_cast<int>(std::ceil((high.y() - origin.y()) * shrink)) + 2};
+    render::RenderSettings settings;
+    settings.msaa_samples = 0;
+    settings.geometry = true;
+    Mesh mesh;
+    mesh.vertices = vertices;
+    mesh.triangles = triangles;
+    const render::Frame frame = renderer.render(mesh, depth_camera, settings);
+    const cv::Mat& depth = frame.depth;
+
+    const float depth_pixel_mm = 1.0f / static_cast<float>(focal);
+    const float min_cosine = std::max(1e-3f, static_cast<float>(options.min_cosine));
+    // Pixels at least outline_margin_px inside the fitted outline (the image border counts as outline).
+    cv::Mat inside = depth > 0;
+    if (options.outline_margin_px > 0) {
+        const int k = 2 * options.outline_margin_px + 1;
+        cv::erode(inside, inside, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)), cv::Point(-1, -1), 1,
+                  cv::BORDER_CONSTANT, cv::Scalar(0));
+    }
+    const float cx = static_cast<float>(depth_camera.intrinsics.cx), cy = static_cast<float>(depth_camera.intrinsics.cy);
+    const float focal_f = static_cast<float>(focal);
+    const float tolerance = static_cast<float>(options.depth_tolerance_mm);
+    const float max_x = static_cast<float>(bgr.cols - 1), max_y = static_cast<float>(bgr.rows - 1);
+    cv::Mat isomap(raster.size, raster.size, CV_8UC4, cv::Scalar::all(0));
+    auto* out = isomap.ptr<cv::Vec4b>();
+    int visible = 0;
+    for (const UvRaster::Texel& texel : raster.texels) {
+        const Eigen::Vector3f normal = interpolate(view_normals, texel);
+        const float norm = normal.norm();
+        if (!(norm > 0)) continue;
+        const float cosine = normal.z() / norm;
+        if (cosine < min_cosine) continue;
+        const Eigen::Vector3f position = interpolate(camera_xyz, texel);
+        // +1 before truncating: rounds correctly for coordinates down to -1 (outside anyway).
+        const int px = static_cast<int>(position.x() * focal_f + cx + 1.5f) - 1;
+        const int py = static_cast<int>(position.y() * focal_f + cy + 1.5f) - 1;
+        if (px < 0 || py < 0 || px >= depth.cols || py >= depth.rows || !inside.at<std::uint8_t>(py, px)) continue;
+        const float buffer = depth.at<float>(py, px);
+        const float slope = std::min(10.0f, std::sqrt(1 - cosine * cosine) / cosine);
+        if (position.z() + static_cast<float>(kDistanceMm) > buffer + tolerance + depth_pixel_mm * slope) continue;
+        const Eigen::Vector3f at = interpolate(image_xyz, texel);
+        if (!(at.x() >= 0 && at.y() >= 0 && at.x() <= max_x && at.y() <= max_y)) continue;
+        const cv::Vec3f colour = sample_bilinear(bgr, at.x(), at.y());
+        out[texel.index] = cv::Vec4b(to_byte(colour[0]), to_byte(colour[1]), to_byte(colour[2]), std::max<std::uint8_t>(1, to_byte(255 * cosine)));
+        ++visible;
+    }
+    if (stats) {
+        stats->covered_texels = static_cast<int>(raster.texels.size());
+        stats->visible_texels = visible;
+        stats->depth_width = depth.cols;
+        stats->depth_height = depth.rows;
+    }
+    return isomap;
+}
+
+Eigen::Matrix2Xf mirror_positions(const MorphableModel& model, const UvRaster& raster) {
+    if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
+        throw Error("mirror fill: model '" + model.name + "' has no symmetry map (a mirror vertex per vertex)");
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    Eigen::Matrix2Xf positions(2, static_cast<Eigen::Index>(raster.texels.size()));
+    const float size = static_cast<float>(raster.size);
+    for (std::size_t i = 0; i < raster.texels.size(); ++i) {
+        const UvRaster::Texel& texel = raster.texels[i];
+        Eigen::Vector2f uv = Eigen::Vector2f::Zero();
+        bool known = true;
+        for (int k = 0; k < 3; ++k) {
+            const int mirror = model.symmetry[static_cast<std::size_t>(texel.vertices[static_cast<std::size_t>(k)])];
+            if (mirror < 0 || mirror >= model.num_vertices()) {
+                known = false;
+                break;
+            }
+            uv += texel.weights[static_cast<std::size_t>(k)] * model.uv.col(mirror);
+        }
+        positions.col(static_cast<Eigen::Index>(i)) = known ? Eigen::Vector2f(uv.x() * size - 0.5f, uv.y() * size - 0.5f)
+                                                            : Eigen::Vector2f(nan, nan);
+    }
+    return positions;
+}
+
+int mirror_fill(cv::Mat& isomap, const UvRaster& raster, const Eigen::Matrix2Xf& mirror) {
+    if (isomap.type() != CV_8UC4 || isomap.rows != raster.size || isomap.cols != raster.size)
+        throw Error("mirror fill: the isomap is not a " + std::to_string(raster.size) + "² BGRA image");
+    if (mirror.cols() != static_cast<Eigen::Index>(raster.texels.size()))
+        throw Error("mirror fill: the mirror positions belong to another uv raster");
+    const cv::Mat source = isomap.clone();
+    auto* out = isomap.ptr<cv::Vec4b>();
+    const int size = raster.size;
+    int filled = 0;
+    for (std::size_t i = 0; i < raster.texels.size(); ++i) {
+        const UvRaster::Texel& texel = raster.texels[i];
+        if (out[texel.index][3] != 0) continue;
+        const float x = mirror(0, static_cast<Eigen::Index>(i)), y = mirror(1, static_cast<Eigen::Index>(i));
+        if (!std::isfinite(x) || !std::isfinite(y)) continue;
+        const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+        const float fx = x - static_cast<float>(x0), fy = y - static_cast<float>(y0);
+        cv::Vec4f sum(0, 0, 0, 0);
+        float weight = 0;
+        for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) {
+                const int cx = x0 + dx, cy = y0 + dy;
+                if (cx < 0 || cy < 0 || cx >= size || cy >= size) continue;
+                const cv::Vec4b& s = source.at<cv::Vec4b>(cy, cx);
+                if (s[3] == 0) continue;
+                const float w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
+                for (int k = 0; k < 4; ++k) sum[k] += w * s[k];
+                weight += w;
+            }
+        if (weight <= 1e-3f) continue;
+        out[texel.index] = cv::Vec4b(to_byte(sum[0] / weight), to_byte(sum[1] / weight), to_byte(sum[2] / weight),
+                                     std::max<std::uint8_t>(1, to_byte(sum[3] / weight)));
+        ++filled;
+    }
+    return filled;
+}
+
+cv::Mat vertex_colour_isomap(const Eigen::Matrix3Xf& colours, const UvRaster& raster, float gamma) {
+    cv::Mat out(raster.size, raster.size, CV_8UC3, cv::Scalar::all(0));
+    auto* pixels = out.ptr<cv::Vec3b>();
+    const float inverse_gamma = 1.0f / gamma;
+    for (const UvRaster::Texel& texel : raster.texels) {
+        const Eigen::Vector3f rgb = interpolate(colours, texel).cwiseMax(0.0f).cwiseMin(1.0f);
+        pixels[texel.index] = cv::Vec3b(to_byte(255 * std::pow(rgb.z(), inverse_gamma)), to_byte(255 * std::pow(rgb.y(), inverse_gamma)),
+                                        to_byte(255 * std::pow(rgb.x(), inverse_gamma)));
+    }
+    return out;
+}
+
+cv::Mat layout_mask(const UvRaster& raster) {
+    cv::Mat mask(raster.size, raster.size, CV_8UC1, cv::Scalar::all(0));
+    for (const UvRaster::Texel& texel : raster.texels) mask.ptr<std::uint8_t>()[texel.index] = 255;
+    return mask;
+}
+
+}  // namespace facesynth::frontal
