@@ -307,9 +307,11 @@ struct EvalSums {
         isomap_l1_mirror += s.isomap_l1_mirror, isomap_coverage_mirror += s.isomap_coverage_mirror;
         cpu_ms += s.cpu_ms;
     }
+    // Empty bins (every detection missed) have only their count.
     void write(nlohmann::json& j, const std::string& prefix) const {
-        const double n = std::max(count, 1);
         j[prefix + "count"] = count;
+        if (count == 0) return;
+        const double n = count;
         j[prefix + "psnr"] = psnr / n;
         j[prefix + "ssim"] = ssim / n;
         j[prefix + "l1"] = l1 / n;
@@ -362,12 +364,13 @@ EvalSums score_view(frontal::Frontaliser& frontaliser, const frontal::TexturedFa
     return s;
 }
 
-// PSNR per yaw bin as an SVG line plot (one line per series).
+// PSNR per yaw bin as an SVG line plot (one line per series; NaN = empty bin, left out).
 std::string psnr_plot_svg(const std::vector<std::pair<std::string, std::array<double, kYawBins>>>& series) {
     constexpr double width = 520, height = 320, left = 60, right = 150, top = 20, bottom = 50;
     double low = 1e9, high = -1e9;
     for (const auto& [name, values] : series)
-        for (double v : values) low = std::min(low, v), high = std::max(high, v);
+        for (double v : values)
+            if (std::isfinite(v)) low = std::min(low, v), high = std::max(high, v);
     low = std::floor(low / 2) * 2 - 2;
     high = std::ceil(high / 2) * 2 + 2;
     auto x = [&](int b) { return left + (width - left - right) * (b + 0.5) / kYawBins; };
@@ -387,7 +390,8 @@ std::string psnr_plot_svg(const std::vector<std::pair<std::string, std::array<do
     for (std::size_t k = 0; k < series.size(); ++k) {
         const auto& [name, values] = series[k];
         svg << "<polyline fill='none' stroke-width='2' stroke='" << colours[k % 4] << "' points='";
-        for (int b = 0; b < kYawBins; ++b) svg << x(b) << "," << y(values[static_cast<std::size_t>(b)]) << " ";
+        for (int b = 0; b < kYawBins; ++b)
+            if (std::isfinite(values[static_cast<std::size_t>(b)])) svg << x(b) << "," << y(values[static_cast<std::size_t>(b)]) << " ";
         svg << "'/>\n<text x='" << width - right + 10 << "' y='" << top + 16 + 18 * static_cast<double>(k) << "' fill='" << colours[k % 4] << "'>"
             << name << "</text>\n";
     }
@@ -483,7 +487,11 @@ void run_eval_frontalise(const EvalArgs& a) {
             std::printf("%s\n%-8s %4s %7s %6s %6s %7s %6s %6s %8s %8s %8s %8s\n", title, "|yaw|", "n", "psnr", "ssim", "l1", "psnr_m", "ssim_m",
                         "l1_m", "iso_l1", "iso_cov", "iso_l1_m", "iso_cov_m");
             auto row = [](const std::string& label, const EvalSums& s) {
-                const double n = std::max(s.count, 1);
+                if (s.count == 0) {
+                    std::printf("%-8s %4d %7s\n", label.c_str(), 0, "-");
+                    return;
+                }
+                const double n = s.count;
                 std::printf("%-8s %4d %7.2f %6.3f %6.2f %7.2f %6.3f %6.2f %8.2f %8.3f %8.2f %8.3f\n", label.c_str(), s.count, s.psnr / n, s.ssim / n,
                             s.l1 / n, s.psnr_mirror / n, s.ssim_mirror / n, s.l1_mirror / n, s.isomap_l1 / n, s.isomap_coverage / n,
                             s.isomap_l1_mirror / n, s.isomap_coverage_mirror / n);
@@ -504,7 +512,7 @@ void run_eval_frontalise(const EvalArgs& a) {
             std::array<double, kYawBins> v{};
             for (int b = 0; b < kYawBins; ++b) {
                 const EvalSums& s = bins[static_cast<std::size_t>(b)];
-                v[static_cast<std::size_t>(b)] = (mirror ? s.psnr_mirror : s.psnr) / std::max(s.count, 1);
+                v[static_cast<std::size_t>(b)] = s.count > 0 ? (mirror ? s.psnr_mirror : s.psnr) / s.count : std::nan("");
             }
             return v;
         };

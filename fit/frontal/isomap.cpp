@@ -241,6 +241,9 @@ Eigen::Matrix2Xf mirror_positions(const MorphableModel& model, const UvRaster& r
 }
 
 int mirror_fill(cv::Mat& isomap, const UvRaster& raster, const Eigen::Matrix2Xf& mirror) {
+    // Texels seen at grazing angles (cos θ < 0.25) often carry the photograph's background where the
+    // fitted outline is a pixel off: a mirror point seen at least twice as squarely replaces them.
+    constexpr int kMirrorReplacesBelowAlpha = 64;
     if (isomap.type() != CV_8UC4 || isomap.rows != raster.size || isomap.cols != raster.size)
         throw Error("mirror fill: the isomap is not a " + std::to_string(raster.size) + "² BGRA image");
     if (mirror.cols() != static_cast<Eigen::Index>(raster.texels.size()))
@@ -251,7 +254,8 @@ int mirror_fill(cv::Mat& isomap, const UvRaster& raster, const Eigen::Matrix2Xf&
     int filled = 0;
     for (std::size_t i = 0; i < raster.texels.size(); ++i) {
         const UvRaster::Texel& texel = raster.texels[i];
-        if (out[texel.index][3] != 0) continue;
+        const int own_alpha = out[texel.index][3];
+        if (own_alpha >= kMirrorReplacesBelowAlpha) continue;
         const float x = mirror(0, static_cast<Eigen::Index>(i)), y = mirror(1, static_cast<Eigen::Index>(i));
         if (!std::isfinite(x) || !std::isfinite(y)) continue;
         const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
@@ -268,10 +272,33 @@ int mirror_fill(cv::Mat& isomap, const UvRaster& raster, const Eigen::Matrix2Xf&
                 for (int k = 0; k < 4; ++k) sum[k] += w * s[k];
                 weight += w;
             }
-        if (weight <= 1e-3f) continue;
+        if (weight <= 1e-3f || sum[3] / weight < 2.0f * static_cast<float>(own_alpha)) continue;
         out[texel.index] = cv::Vec4b(to_byte(sum[0] / weight), to_byte(sum[1] / weight), to_byte(sum[2] / weight),
                                      std::max<std::uint8_t>(1, to_byte(sum[3] / weight)));
         ++filled;
+    }
+    // Texels on the midline are their own mirror: close the seams a texel or two wide that the fitted
+    // outline leaves there (a hole texel with at least 3 textured 8-neighbours takes their mean).
+    for (int pass = 0; pass < 2; ++pass) {
+        const cv::Mat before = isomap.clone();
+        const auto* in = before.ptr<cv::Vec4b>();
+        for (const UvRaster::Texel& texel : raster.texels) {
+            if (in[texel.index][3] != 0) continue;
+            const int r = texel.index / size, c = texel.index % size;
+            if (r == 0 || c == 0 || r == size - 1 || c == size - 1) continue;
+            int sum[4] = {0, 0, 0, 0}, count = 0;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const cv::Vec4b& n = in[texel.index + dy * size + dx];
+                    if (n[3] == 0) continue;
+                    for (int k = 0; k < 4; ++k) sum[k] += n[k];
+                    ++count;
+                }
+            if (count < 3) continue;
+            out[texel.index] = cv::Vec4b(static_cast<std::uint8_t>(sum[0] / count), static_cast<std::uint8_t>(sum[1] / count),
+                                         static_cast<std::uint8_t>(sum[2] / count), static_cast<std::uint8_t>(std::max(1, sum[3] / count)));
+            ++filled;
+        }
     }
     return filled;
 }

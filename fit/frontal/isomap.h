@@ -90,7 +90,10 @@ struct IsomapStats {
 
 // Fills texels with alpha 0 inside the uv layout from their mirror position when that is visible
 // (bilinear over the visible neighbours); a filled texel takes the mirror side's colour and alpha.
-// Returns the number of texels filled. `mirror` comes from mirror_positions for the same raster.
+// Texels seen at grazing angles (alpha < 64, cos θ < 0.25) are replaced too when the mirror point's
+// alpha is at least twice theirs.
+// Then closes seams along the midline (whose texels are their own mirror): two passes in which a hole
+// texel with at least 3 textured 8-neighbours takes their mean. Returns the number of texels filled. `mirror` comes from mirror_positions for the same raster.
 int mirror_fill(cv::Mat& isomap, const UvRaster& raster, const Eigen::Matrix2Xf& mirror);
 
 // Per-vertex linear colours (3 x V, [0, 1]) rasterised into uv space and display-encoded with `gamma`

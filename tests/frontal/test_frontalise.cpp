@@ -93,7 +93,7 @@ TEST_F(FrontaliseTest, FrontalRenderOfAFrontalInputReproducesTheTruth) {
     std::printf("frontal from yaw 0: SSIM %.3f, PSNR %.2f dB, L1 %.2f\n", c.ssim, c.psnr_db, c.l1);
     EXPECT_GT(c.pixels, 256 * 256 / 5);
     // Measured: SSIM 0.86, PSNR 18.7 dB; the loss is at the outline, where the fitted face is narrower
-    // than the true one (docs/frontalise.md). A mirrored or misframed output scores far lower.
+    // than the true one (docs/frontalise.md).
     EXPECT_GT(c.ssim, 0.83);
     EXPECT_GT(c.psnr_db, 18.0);
 }

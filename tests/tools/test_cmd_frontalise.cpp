@@ -103,4 +103,39 @@ TEST(CmdFrontalise, BadLandmarksAndUsageErrors) {
     EXPECT_EQ(run_command(cli_path().string() + " frontalise --help", &log), 0) << log;
 }
 
+TEST(CmdFrontalise, RealPhotographWithTheSurreyModel) {
+    FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
+    FACESYNTH_REQUIRE_SHARED_DATA(photos, "real/lfpw_superviseddescent");
+    const auto dir = fresh_temp_dir("cmd_frontalise_real");
+    std::string log;
+    const std::string cmd = cli_path().string() + " frontalise --model " + sfm.string() + " --pts " + (photos / "image_0001.pts").string() + " " +
+                            (photos / "image_0001.png").string() + " --out " + dir.string() + " --mirror-fill --quiet";
+    ASSERT_EQ(run_command(cmd, &log), 0) << log;
+    const auto face = read_json(dir / "image_0001.json");
+    EXPECT_LT(face["reprojection_rms_px"].get<double>(), 10.0);
+    // The Surrey layout is the face only: most of it is seen in a near-frontal photograph.
+    EXPECT_GT(face["visible_texels"].get<double>(), 0.5 * face["covered_texels"].get<double>());
+    const cv::Mat frontal = cv::imread((dir / "image_0001.frontal.png").string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(frontal.empty());
+    EXPECT_GT(cv::mean(frontal(cv::Rect(96, 96, 64, 64)))[2], 60) << "skin in the middle of the frontal view";
+}
+
+TEST(CmdFrontalise, EvalWritesFlatKeysAndMirrorFillHelpsAtLargeYaw) {
+    const auto dir = fresh_temp_dir("cmd_frontalise_eval");
+    std::string log;
+    const std::string cmd = cli_path().string() + " eval frontalise --count 1 --isomap-size 256 --size 128 --image-size 256 --quiet --json " +
+                            (dir / "eval.json").string() + " --plot " + (dir / "plot.svg").string();
+    ASSERT_EQ(run_command(cmd, &log), 0) << log;
+    const auto j = read_json(dir / "eval.json");
+    for (const char* key : {"yaw_0_10_psnr", "yaw_0_10_ssim", "yaw_0_10_l1", "yaw_0_10_psnr_mirror", "yaw_60_70_psnr", "yaw_60_70_psnr_mirror",
+                            "yaw_30_40_isomap_l1", "yaw_30_40_isomap_coverage", "all_psnr", "all_cpu_ms_per_face", "texture"})
+        EXPECT_TRUE(j.contains(key)) << key;
+    EXPECT_EQ(j["all_count"], 7);
+    // At 60-70° half the face is hidden: black without filling, the mirror side with it.
+    EXPECT_GT(j["yaw_60_70_psnr_mirror"].get<double>(), j["yaw_60_70_psnr"].get<double>() + 5);
+    EXPECT_GT(j["yaw_0_10_ssim_mirror"].get<double>(), 0.7);
+    EXPECT_LT(j["yaw_0_10_isomap_l1"].get<double>(), 6.0);
+    EXPECT_TRUE(fs::exists(dir / "plot.svg"));
+}
+
 }  // namespace
