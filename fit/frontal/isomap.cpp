@@ -216,9 +216,47 @@ cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, c
     return isomap;
 }
 
-Eigen::Matrix2Xf mirror_positions(const MorphableModel& model, const UvRaster& raster) {
-    if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
+std::vector<int> completed_symmetry(const MorphableModel& model) {
+    const int n = model.num_vertices();
+    if (model.symmetry.size() != static_cast<std::size_t>(n))
         throw Error("mirror fill: model '" + model.name + "' has no symmetry map (a mirror vertex per vertex)");
+    std::vector<int> mirror = model.symmetry;
+    // A symmetry map is an involution: a pair listed one way holds the other way too.
+    for (int v = 0; v < n; ++v) {
+        const int m = mirror[static_cast<std::size_t>(v)];
+        if (m >= 0 && m < n && mirror[static_cast<std::size_t>(m)] < 0) mirror[static_cast<std::size_t>(m)] = v;
+    }
+    std::vector<int> missing;
+    double plane = 0;
+    int on_plane = 0;
+    const Eigen::Map<const Eigen::Matrix3Xf> mean(model.shape.mean.data(), 3, n);
+    for (int v = 0; v < n; ++v) {
+        const int m = mirror[static_cast<std::size_t>(v)];
+        if (m < 0 || m >= n) missing.push_back(v);
+        else if (m != v) plane += 0.5 * (mean(0, v) + mean(0, m)), ++on_plane;
+    }
+    plane = on_plane > 0 ? plane / on_plane : 0.0;
+    // The rest (Surrey lists mirrors for its first 845 vertices only): the mean-shape vertex nearest to
+    // the vertex mirrored in the plane of the known pairs. Brute force, bounded so that a huge model
+    // with a sparse map does not stall; beyond the bound those vertices stay without a mirror.
+    constexpr double kMaxPairTests = 1e8;
+    if (!missing.empty() && static_cast<double>(missing.size()) * n <= kMaxPairTests) {
+        for (int v : missing) {
+            const Eigen::Vector3f target(static_cast<float>(2 * plane) - mean(0, v), mean(1, v), mean(2, v));
+            int best = -1;
+            float best_distance = std::numeric_limits<float>::max();
+            for (int u = 0; u < n; ++u) {
+                const float d = (mean.col(u) - target).squaredNorm();
+                if (d < best_distance) best_distance = d, best = u;
+            }
+            mirror[static_cast<std::size_t>(v)] = best;
+        }
+    }
+    return mirror;
+}
+
+Eigen::Matrix2Xf mirror_positions(const MorphableModel& model, const UvRaster& raster) {
+    const std::vector<int> symmetry = completed_symmetry(model);
     const float nan = std::numeric_limits<float>::quiet_NaN();
     Eigen::Matrix2Xf positions(2, static_cast<Eigen::Index>(raster.texels.size()));
     const float size = static_cast<float>(raster.size);
@@ -227,7 +265,7 @@ Eigen::Matrix2Xf mirror_positions(const MorphableModel& model, const UvRaster& r
         Eigen::Vector2f uv = Eigen::Vector2f::Zero();
         bool known = true;
         for (int k = 0; k < 3; ++k) {
-            const int mirror = model.symmetry[static_cast<std::size_t>(texel.vertices[static_cast<std::size_t>(k)])];
+            const int mirror = symmetry[static_cast<std::size_t>(texel.vertices[static_cast<std::size_t>(k)])];
             if (mirror < 0 || mirror >= model.num_vertices()) {
                 known = false;
                 break;

@@ -83,9 +83,15 @@ struct IsomapStats {
                                      const UvRaster& raster, render::Renderer& renderer,
                                      const IsomapOptions& options = {}, IsomapStats* stats = nullptr);
 
+// The model's symmetry map completed: made an involution (a pair listed one way holds the other way),
+// and vertices still without a mirror get the mean-shape vertex nearest to their reflection in the
+// plane of the known pairs (when vertices without a mirror x all vertices <= 1e8). Throws
+// facesynth::Error when the model has no symmetry map at all.
+[[nodiscard]] std::vector<int> completed_symmetry(const MorphableModel& model);
+
 // For each covered texel, the isomap position (in texels, continuous) of its mirror surface point:
-// the same barycentric weights on the mirror vertices of its triangle's corners (model.symmetry), so it
-// works for any model with a symmetry map, whatever its uv layout. NaN where a corner has no mirror.
+// the same barycentric weights on the mirror vertices of its triangle's corners (completed_symmetry),
+// so it works for any model with a symmetry map, whatever its uv layout. NaN where a corner has none.
 [[nodiscard]] Eigen::Matrix2Xf mirror_positions(const MorphableModel& model, const UvRaster& raster);
 
 // Fills texels with alpha 0 inside the uv layout from their mirror position when that is visible

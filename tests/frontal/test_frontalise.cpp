@@ -146,6 +146,23 @@ TEST_F(FrontaliseTest, MirrorFillWithoutASymmetryMapSaysSo) {
     }
 }
 
+TEST_F(FrontaliseTest, PartialSymmetryMapIsCompletedLikeSurreys) {
+    // Keep each pair one way only, and drop both directions for every third pair: the involution and the
+    // nearest mirrored vertex must give back the built-in model's exact map.
+    MorphableModel partial = *model_;
+    int dropped = 0;
+    for (int v = 0; v < partial.num_vertices(); ++v) {
+        const int m = model_->symmetry[static_cast<std::size_t>(v)];
+        if (m > v) partial.symmetry[static_cast<std::size_t>(m)] = -1;
+        if (m > v && v % 3 == 0) partial.symmetry[static_cast<std::size_t>(v)] = -1, ++dropped;
+    }
+    ASSERT_GT(dropped, 500);
+    const std::vector<int> completed = completed_symmetry(partial);
+    int same = 0;
+    for (std::size_t v = 0; v < completed.size(); ++v) same += completed[v] == model_->symmetry[v];
+    EXPECT_GT(same, 0.99 * static_cast<double>(completed.size()));
+}
+
 TEST(ImageMetrics, IdenticalImagesAreAPerfectMatchAndNoiseLowersEveryScore) {
     cv::Mat a(64, 64, CV_8UC3);
     cv::randu(a, 0, 255);
