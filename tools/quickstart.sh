@@ -52,14 +52,14 @@ fi
 
 step "frontalisation: posed renders (yaw within ±60°), then photographs"
 $fs synth "${synth_opts[@]}" --out "$out/posed" --count 8 --seed 3
-$fs frontalise --landmarks pts "$out/posed/images" --out "$out/frontalised" --mirror-fill --json "$out/frontalise.json"
+$fs frontalise --landmarks pts "$out/posed/images" --out "$out/frontalise" --mirror-fill --json "$out/frontalise.json"
 $fs eval frontalise --count 3 --json "$out/eval_frontalise.json" --plot "$out/eval_frontalise.svg"
 if [[ -d $real/lfpw_superviseddescent ]]; then
   $fs frontalise --model ../shared/data/sfm --landmarks pts "$real"/lfpw_superviseddescent/image_000{1,2,3}.png \
-    --out "$out/frontalised_real" --mirror-fill
+    --out "$out/frontalise" --mirror-fill  # beside the renders: the report shows both
 fi
 if (($# > 0)); then  # photographs passed to this script: Haar boxes + dlib's landmarks
-  $fs frontalise --landmarks dlib "$@" --out "$out/frontalised_yours" --mirror-fill || true
+  $fs frontalise --landmarks dlib "$@" --out "$out/frontalise" --mirror-fill || echo "(some photographs failed: see the lines above)"
 fi
 
 step "HTML report (file names in docs/report.md)"
