@@ -443,59 +443,75 @@ cv::Mat landmarks_overlay(const cv::Mat& image, const json& landmarks, const fs:
     return overlay;
 }
 
+// Strips of input | landmarks | isomap | frontal for the faces `facesynth frontalise` wrote into `dir`.
+// Returns whether any strip was shown.
+bool frontalised_strips(const fs::path& dir, Context& context) {
+    HtmlPage& page = context.page;
+    const auto frontals = files_matching(dir, "", ".frontal.png");
+    constexpr std::size_t kMaxExamples = 8;
+    constexpr int kSide = 260;  // twice the displayed size, for sharp thumbnails on dense screens
+    std::size_t count = 0;
+    page.subheading("Frontalised: " + dir.filename().string());
+    page.raw("<div class=\"strips\">\n");
+    for (const auto& frontal_path : frontals) {
+        if (count == kMaxExamples) break;
+        const std::string stem = name_between(frontal_path, "", ".frontal.png");
+        const fs::path json_path = dir / (stem + ".json");
+        try {
+            json record;
+            try {
+                record = json::parse(read_file(json_path));
+            } catch (const json::exception& e) {
+                throw file_error(json_path.string(), std::string("invalid JSON: ") + e.what());
+            }
+            // The input's path as frontalise was given it; relative paths may be relative to another folder.
+            fs::path input_path = record.at("image").get<std::string>();
+            if (!fs::exists(input_path) && fs::exists(dir / input_path.filename())) input_path = dir / input_path.filename();
+            const cv::Mat input = read_image(input_path);
+            const cv::Mat overlay = landmarks_overlay(input, record.at("landmarks"), json_path);
+            const cv::Mat isomap = read_image(dir / (stem + ".isomap.png"), cv::IMREAD_UNCHANGED);
+            const cv::Mat frontal = read_image(frontal_path);
+            std::string strip = "<div class=\"strip\">";
+            strip += img_tag(thumbnail(input, kSide), ImageCoding::kJpeg, stem + " input");
+            strip += img_tag(thumbnail(overlay, kSide), ImageCoding::kJpeg, stem + " landmarks");
+            strip += img_tag(thumbnail(isomap, kSide), ImageCoding::kPng, stem + " isomap");
+            strip += img_tag(thumbnail(frontal, kSide), ImageCoding::kJpeg, stem + " frontal");
+            std::string caption = input_path.filename().string();
+            if (record.contains("yaw_deg")) caption += ", fitted yaw " + fixed(number_at(record, "yaw_deg"), 1) + "°";
+            if (record.contains("landmarks_source")) caption += ", landmarks: " + text_at(record, "landmarks_source");
+            strip += "<div class=\"caption\">" + xml_escape(caption) + "</div></div>\n";
+            page.raw(strip);
+            ++count;
+        } catch (const json::exception& e) {
+            context.warn(json_path.string() + ": " + e.what());
+        } catch (const Error& e) {
+            context.warn(e.what());
+        }
+    }
+    page.raw("</div>\n");
+    if (frontals.size() > count) page.note(std::to_string(frontals.size() - count) + " more in " + dir.string());
+    return count > 0;
+}
+
 void frontalise_section(const fs::path& evals, Context& context) {
     HtmlPage& page = context.page;
     page.section("frontalise", "Frontalisation");
     bool shown = false;
-    const fs::path dir = evals.empty() ? fs::path() : evals / layout::kFrontaliseDir;
-    const auto frontals = files_matching(dir, "", ".frontal.png");
-    if (frontals.empty()) {
-        page.missing("frontalised faces (" + std::string(layout::kFrontaliseDir) + "/ in the results folder)",
-                     "facesynth frontalise --model builtin --pts FACE.pts FACE.jpg --out EVALS/" + std::string(layout::kFrontaliseDir));
+    // Every folder of the results with frontalise outputs (the quickstart writes frontalised/ for
+    // posed renders and frontalised_real/ for photographs).
+    std::vector<fs::path> folders;
+    std::error_code error;
+    if (!evals.empty())
+        for (const auto& entry : fs::directory_iterator(evals, error))
+            if (entry.is_directory() && !files_matching(entry.path(), "", ".frontal.png").empty()) folders.push_back(entry.path());
+    std::sort(folders.begin(), folders.end());
+    if (folders.empty()) {
+        page.missing("frontalised faces (a folder of the results with <stem>.frontal.png, .isomap.png and .json files)",
+                     "facesynth frontalise --landmarks pts FACE.png --out EVALS/frontalised");
     } else {
         page.paragraph("Each strip: the input, its 68 landmarks, the texture extracted into the model's uv layout (isomap; transparent "
                        "where the surface was hidden or seen edge-on), and the fitted face rendered frontally with that texture.");
-        constexpr std::size_t kMaxExamples = 12;
-        constexpr int kSide = 260;  // twice the displayed size, for sharp thumbnails on dense screens
-        std::size_t count = 0;
-        page.raw("<div class=\"strips\">\n");
-        for (const auto& frontal_path : frontals) {
-            if (count == kMaxExamples) {
-                page.note(std::to_string(frontals.size() - kMaxExamples) + " more in " + dir.string());
-                break;
-            }
-            const std::string stem = name_between(frontal_path, "", ".frontal.png");
-            try {
-                const fs::path json_path = dir / (stem + ".json");
-                json record;
-                try {
-                    record = json::parse(read_file(json_path));
-                } catch (const json::exception& e) {
-                    throw file_error(json_path.string(), std::string("invalid JSON: ") + e.what());
-                }
-                const fs::path input_path = record.at("image").get<std::string>();
-                const cv::Mat input = read_image(input_path);
-                const cv::Mat overlay = landmarks_overlay(input, record.at("landmarks"), json_path);
-                const cv::Mat isomap = read_image(dir / (stem + ".isomap.png"), cv::IMREAD_UNCHANGED);
-                const cv::Mat frontal = read_image(frontal_path);
-                std::string strip = "<div class=\"strip\">";
-                strip += img_tag(thumbnail(input, kSide), ImageCoding::kJpeg, stem + " input");
-                strip += img_tag(thumbnail(overlay, kSide), ImageCoding::kJpeg, stem + " landmarks");
-                strip += img_tag(thumbnail(isomap, kSide), ImageCoding::kPng, stem + " isomap");
-                strip += img_tag(thumbnail(frontal, kSide), ImageCoding::kJpeg, stem + " frontal");
-                std::string caption = stem + " — " + input_path.filename().string();
-                if (record.contains("yaw_deg")) caption += ", fitted yaw " + fixed(number_at(record, "yaw_deg"), 1) + "°";
-                strip += "<div class=\"caption\">" + xml_escape(caption) + "</div></div>\n";
-                page.raw(strip);
-                ++count;
-                shown = true;
-            } catch (const json::exception& e) {
-                context.warn((dir / (stem + ".json")).string() + ": " + e.what());
-            } catch (const Error& e) {
-                context.warn(e.what());
-            }
-        }
-        page.raw("</div>\n");
+        for (const auto& folder : folders) shown |= frontalised_strips(folder, context);
     }
 
     page.subheading("Ground-truth benchmark (synthetic)");
@@ -638,6 +654,15 @@ void recognition_section(const fs::path& evals, Context& context) {
                      "facesynth eval recognition … --det-csv EVALS/" + std::string(layout::kRecognitionDet));
     }
     page.figures(plots);
+    const fs::path photos_path = evals / layout::kRecognitionPhotos;
+    if (fs::exists(photos_path))
+        if (const auto p = load_json(photos_path, context)) {
+            page.subheading("Photographs of the same people (" + text_at(*p, "photos") + ")");
+            page.table({"photos", "identities", "genuine pairs", "impostor pairs", "FRR org", "FRR LM", "AUC org", "AUC LM"},
+                       {{text_at(*p, "photos_images"), text_at(*p, "photos_identities"), text_at(*p, "photos_genuine"), text_at(*p, "photos_impostor"),
+                         percent(number_at(*p, "photos_frr_org")), percent(number_at(*p, "photos_frr_lm")), fixed(number_at(*p, "photos_auc_org"), 3),
+                         fixed(number_at(*p, "photos_auc_lm"), 3)}});
+        }
     context.report.sections_shown.push_back("recognition");
 }
 

@@ -34,10 +34,10 @@ inline constexpr const char* kFitPrefix = "eval_fit_";              // eval_fit_
 inline constexpr const char* kFitSweepDir = "fit_sweep";            // tools/fit_sweep.py output
 inline constexpr const char* kLandmarksPrefix = "eval_landmarks_";  // eval_landmarks_<name>.json (+ .nme.csv)
 inline constexpr const char* kNmeCsvSuffix = ".nme.csv";
-inline constexpr const char* kFrontaliseDir = "frontalise";         // facesynth frontalise --out
 inline constexpr const char* kFrontaliseEval = "eval_frontalise.json";
 inline constexpr const char* kRecognitionEval = "eval_recognition.json";
 inline constexpr const char* kRecognitionDet = "eval_recognition.det.csv";
+inline constexpr const char* kRecognitionPhotos = "eval_recognition_photos.json";  // eval recognition --photos
 }  // namespace evals_layout
 
 }  // namespace facesynth::report

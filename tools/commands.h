@@ -13,5 +13,6 @@ void register_model_commands(CLI::App& app);  // cmd_model.cpp: model info, expo
 void register_render_commands(CLI::App& app);  // cmd_render.cpp: render, bench render
 void register_report_commands(CLI::App& app);  // cmd_report.cpp: report
 void register_frontal_commands(CLI::App& app);  // cmd_frontal.cpp: frontalise, eval frontalise, bench frontalise
+void register_recognition_commands(CLI::App& app);  // cmd_recognition.cpp: eval recognition
 
 }  // namespace facesynth::cli

@@ -62,6 +62,13 @@ if (($# > 0)); then  # photographs passed to this script: Haar boxes + dlib's la
   $fs frontalise --landmarks dlib "$@" --out "$out/frontalise" --mirror-fill || echo "(some photographs failed: see the lines above)"
 fi
 
+step "pose-invariant recognition: 40 synthetic identities, eye-aligned crops vs frontal renderings (LBPH)"
+$fs eval recognition --model builtin -n 40 --json "$out/eval_recognition.json" --det-csv "$out/eval_recognition.det.csv" \
+  --examples "$out/recognition_examples.png"
+if [[ -d $real/identity_multipose && -d ../shared/data/sfm ]]; then  # 21 photographs of 8 people
+  $fs eval recognition --model ../shared/data/sfm --photos "$real/identity_multipose" --json "$out/eval_recognition_photos.json"
+fi
+
 step "HTML report (file names in docs/report.md)"
 $fs report --out "$out/report.html" --dataset "$out/train" --evals "$out"
 

@@ -33,7 +33,16 @@ void expect_self_contained(const std::string& html) {
         EXPECT_EQ((*it)[1].str().rfind("data:image/", 0), 0u) << (*it)[1];
     EXPECT_EQ(count_occurrences(html, "<svg"), count_occurrences(html, "</svg>"));
     EXPECT_EQ(count_occurrences(html, "<section"), count_occurrences(html, "</section>"));
-    EXPECT_EQ(html.find("nan"), std::string::npos);
+    // No NaN or infinity printed into plots or tables (image data aside).
+    std::string text;
+    for (std::size_t at = 0; at < html.size();) {
+        const std::size_t data = html.find("base64,", at);
+        text += html.substr(at, data == std::string::npos ? std::string::npos : data - at);
+        if (data == std::string::npos) break;
+        at = html.find('"', data);  // the data URI ends with the attribute
+    }
+    EXPECT_EQ(text.find("nan"), std::string::npos);
+    EXPECT_EQ(text.find("inf\""), std::string::npos);
 }
 
 TEST(CmdReport, SelfContainedPageFromDatasetAndResults) {
@@ -74,6 +83,11 @@ TEST(CmdReport, SelfContainedPageFromDatasetAndResults) {
         << "gallery_deg,probe_yaw_low,probe_yaw_high,method,far,frr\n0,0,10,org,0.001,0.5\n0,0,10,org,0.01,0.1\n0,0,10,org,1,0\n"
            "0,0,10,lm,0.001,0.2\n0,0,10,lm,0.01,0.05\n0,0,10,lm,1,0\n";
     std::ofstream(evals / "eval_fit_broken.json") << "{ not json";
+    ASSERT_EQ(run_command(fs_cli + " frontalise --quiet --landmarks pts " + (data / "images" / "s00000000.png").string() + " --out " +
+                              (evals / "frontalised").string(),
+                          &out),
+              0)
+        << out;
 
     const fs::path html_path = dir / "report.html";
     ASSERT_EQ(run_command(fs_cli + " report --out " + html_path.string() + " --dataset " + data.string() + " --evals " + evals.string(), &out), 0)
@@ -89,7 +103,9 @@ TEST(CmdReport, SelfContainedPageFromDatasetAndResults) {
     EXPECT_NE(html.find("DET, gallery at 0"), std::string::npos);
     EXPECT_NE(html.find("7 landmarks"), std::string::npos);
     EXPECT_NE(html.find("eval_fit_broken.json"), std::string::npos);
-    EXPECT_NE(html.find("Missing:</b> frontalised faces"), std::string::npos);  // no frontalise/ folder
+    EXPECT_NE(html.find("Frontalised: frontalised"), std::string::npos);
+    EXPECT_NE(html.find("alt=\"s00000000 isomap\" src=\"data:image/png;base64,"), std::string::npos);
+    EXPECT_NE(html.find("Missing:</b> the frontalisation benchmark"), std::string::npos);  // no eval_frontalise.json
     EXPECT_GE(count_occurrences(html, "<svg"), 6u);
 }
 
