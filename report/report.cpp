@@ -448,7 +448,7 @@ cv::Mat landmarks_overlay(const cv::Mat& image, const json& landmarks, const fs:
 bool frontalised_strips(const fs::path& dir, Context& context) {
     HtmlPage& page = context.page;
     const auto frontals = files_matching(dir, "", ".frontal.png");
-    constexpr std::size_t kMaxExamples = 8;
+    constexpr std::size_t kMaxExamples = 12;
     constexpr int kSide = 260;  // twice the displayed size, for sharp thumbnails on dense screens
     std::size_t count = 0;
     page.subheading("Frontalised: " + dir.filename().string());
@@ -497,8 +497,7 @@ void frontalise_section(const fs::path& evals, Context& context) {
     HtmlPage& page = context.page;
     page.section("frontalise", "Frontalisation");
     bool shown = false;
-    // Every folder of the results with frontalise outputs (the quickstart writes frontalised/ for
-    // posed renders and frontalised_real/ for photographs).
+    // Every folder of the results with frontalise outputs (the quickstart writes frontalise/).
     std::vector<fs::path> folders;
     std::error_code error;
     if (!evals.empty())
