@@ -577,8 +577,16 @@ void recognition_det_plots(const fs::path& csv_path, Context& context, std::vect
             if (pick < bins.size() && std::find(chosen.begin(), chosen.end(), bins[pick]) == chosen.end()) chosen.push_back(bins[pick]);
         LinePlot plot;
         plot.title = "DET, gallery at " + std::to_string(gallery) + "° yaw";
-        plot.x = share_axis("false accept rate", 1e-3, 1, true);
-        plot.y = share_axis("false reject rate", 1e-3, 1, true);
+        // Log axes from the decade of the smallest positive rate (at most down to 0.01 %).
+        double far_min = 1, frr_min = 1;
+        for (const auto& [key, series] : by_curve)
+            for (std::size_t k = 0; k < series.x.size(); ++k) {
+                if (series.x[k] > 0) far_min = std::min(far_min, series.x[k]);
+                if (series.y[k] > 0) frr_min = std::min(frr_min, series.y[k]);
+            }
+        const auto decade_below = [](double v) { return std::max(1e-4, std::min(1e-2, std::pow(10.0, std::floor(std::log10(v) + 1e-9)))); };
+        plot.x = share_axis("false accept rate", decade_below(far_min), 1, true);
+        plot.y = share_axis("false reject rate", decade_below(frr_min), 1, true);
         for (std::size_t b = 0; b < chosen.size(); ++b)
             for (const auto& [key, series] : by_curve) {
                 if (key.first != chosen[b]) continue;
