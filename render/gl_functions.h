@@ -27,6 +27,7 @@ namespace facesynth::render::detail {
     X(PFNGLREADPIXELSPROC, ReadPixels)                                  \
     X(PFNGLPIXELSTOREIPROC, PixelStorei)                                \
     X(PFNGLFINISHPROC, Finish)                                          \
+    X(PFNGLPROVOKINGVERTEXPROC, ProvokingVertex)                        \
     X(PFNGLGENBUFFERSPROC, GenBuffers)                                  \
     X(PFNGLDELETEBUFFERSPROC, DeleteBuffers)                            \
     X(PFNGLBINDBUFFERPROC, BindBuffer)                                  \
@@ -59,6 +60,7 @@ namespace facesynth::render::detail {
     X(PFNGLUNIFORM1IPROC, Uniform1i)                                    \
     X(PFNGLUNIFORM1FPROC, Uniform1f)                                    \
     X(PFNGLUNIFORM3FVPROC, Uniform3fv)                                  \
+    X(PFNGLUNIFORM4FVPROC, Uniform4fv)                                  \
     X(PFNGLUNIFORMMATRIX3FVPROC, UniformMatrix3fv)                      \
     X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv)                      \
     X(PFNGLGENFRAMEBUFFERSPROC, GenFramebuffers)                        \

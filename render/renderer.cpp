@@ -56,7 +56,7 @@ namespace {
 using detail::GlFunctions;
 
 // Names of vertex attribute locations (shaders.h).
-enum Attribute : GLuint { kPosition = 0, kNormal = 1, kAlbedo = 2, kUv = 3, kLabel = 4 };
+enum Attribute : GLuint { kPosition = 0, kNormal = 1, kAlbedo = 2, kUv = 3, kTriangle = 4, kNumAttributes = 5 };
 
 constexpr float kDefaultAlbedo = 0.7f;
 
@@ -103,15 +103,22 @@ GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& sou
     return shader;
 }
 
-// Shader variants: bit flags compiled in with #define.
-enum Variant : unsigned { kWithBarycentrics = 1, kWithTexture = 2, kWithLights = 4, kNumVariants = 8 };
+// Shader variants: bit flags compiled in with #define (shaders.h).
+enum Variant : unsigned {
+    kWithColour = 1, kWithNormals = 2, kWithIds = 4, kWithBarycentrics = 8, kWithTexture = 16, kWithLights = 32,
+    kTwoSided = 64, kNumVariants = 128
+};
 
 GLuint link_program(const GlFunctions& gl, unsigned variant) {
     const bool with_barycentrics = (variant & kWithBarycentrics) != 0;
     std::string header = "#version 330 core\n";
-    if (with_barycentrics) header += "#define WITH_BARYCENTRICS\n";
-    if (variant & kWithTexture) header += "#define WITH_TEXTURE\n";
-    if (variant & kWithLights) header += "#define WITH_LIGHTS\n";
+    const std::pair<Variant, const char*> defines[] = {
+        {kWithColour, "WITH_COLOUR"}, {kWithNormals, "WITH_NORMALS"}, {kWithIds, "WITH_IDS"},
+        {kWithBarycentrics, "WITH_BARYCENTRICS"}, {kWithTexture, "WITH_TEXTURE"}, {kWithLights, "WITH_LIGHTS"},
+        {kTwoSided, "TWO_SIDED"}};
+    for (const auto& [bit, name] : defines)
+        if (variant & bit) header += std::string("#define ") + name + "\n";
+    header += detail::kCommonHeader;
     std::vector<GLuint> shaders{compile_shader(gl, GL_VERTEX_SHADER, header + detail::kVertexShader),
                                 compile_shader(gl, GL_FRAGMENT_SHADER, header + detail::kFragmentShader)};
     if (with_barycentrics) shaders.push_back(compile_shader(gl, GL_GEOMETRY_SHADER, header + detail::kGeometryShader));
@@ -130,11 +137,65 @@ GLuint link_program(const GlFunctions& gl, unsigned variant) {
     return program;
 }
 
+// The mesh's triangle list re-indexed so that every triangle has a provoking vertex of its own
+// (OpenGL's last-vertex convention): its flat `triangle` attribute then names the triangle without
+// gl_PrimitiveID, which makes Mesa's draw module assemble primitives one by one. A triangle's last
+// vertex serves when no earlier triangle took it; otherwise a copy of that vertex is appended, so
+// positions (and rasterisation) are unchanged. Built once per distinct triangle list.
+struct ProvokingTopology {
+    std::vector<Triangle> source;        // the mesh's triangles it was built from
+    int source_vertices = 0;
+    std::vector<GLuint> indices;         // 3 per triangle, same order and corner order as `source`
+    std::vector<int> copied_from;        // for vertex slot source_vertices + i: the vertex it copies
+    std::vector<GLuint> triangle_of_slot;  // id + 1 of the triangle a slot provokes, 0 if none
+
+    [[nodiscard]] bool matches(const Mesh& mesh) const {
+        return source_vertices == mesh.num_vertices() && source == mesh.triangles;
+    }
+    [[nodiscard]] int slots() const { return source_vertices + static_cast<int>(copied_from.size()); }
+
+    void build(const Mesh& mesh) {
+        const int v = mesh.num_vertices();
+        for (const Triangle& t : mesh.triangles)
+            for (int i : t)
+                if (i < 0 || i >= v) throw Error("render: triangle vertex index " + std::to_string(i) + " out of range");
+        source = mesh.triangles;
+        source_vertices = v;
+        indices.clear();
+        indices.reserve(3 * source.size());
+        copied_from.clear();
+        triangle_of_slot.assign(static_cast<std::size_t>(v), 0u);
+        for (std::size_t t = 0; t < source.size(); ++t) {
+            const Triangle& tri = source[t];
+            GLuint provoking = static_cast<GLuint>(tri[2]);
+            if (triangle_of_slot[provoking] != 0) {
+                provoking = static_cast<GLuint>(triangle_of_slot.size());
+                copied_from.push_back(tri[2]);
+                triangle_of_slot.push_back(0u);
+            }
+            triangle_of_slot[provoking] = static_cast<GLuint>(t + 1);
+            indices.insert(indices.end(), {static_cast<GLuint>(tri[0]), static_cast<GLuint>(tri[1]), provoking});
+        }
+    }
+
+    // Per-vertex columns of `values` (rows x source_vertices, column-major) extended to every slot.
+    void expand(const float* values, int rows, std::vector<float>& out) const {
+        const std::size_t n = static_cast<std::size_t>(rows) * static_cast<std::size_t>(source_vertices);
+        out.resize(static_cast<std::size_t>(rows) * static_cast<std::size_t>(slots()));
+        std::copy(values, values + n, out.begin());
+        float* copy = out.data() + n;
+        for (int from : copied_from) {
+            const float* src = values + static_cast<std::ptrdiff_t>(rows) * from;
+            copy = std::copy(src, src + rows, copy);
+        }
+    }
+};
+
 struct Program {
     GLuint id = 0;
     GLint model_to_clip = -1, model_to_camera = -1, sh = -1, ambient = -1, light_count = -1, light_direction = -1,
           light_colour = -1, specular = -1, shininess = -1, inverse_gamma = -1, perspective = -1,
-          albedo_texture = -1;
+          window_to_ray = -1, albedo_texture = -1;
 
     void locate(const GlFunctions& gl) {
         auto at = [&](const char* name) { return gl.GetUniformLocation(id, name); };
@@ -149,6 +210,7 @@ struct Program {
         shininess = at("shininess");
         inverse_gamma = at("inverse_gamma");
         perspective = at("perspective");
+        window_to_ray = at("window_to_ray");
         albedo_texture = at("albedo_texture");
     }
 };
@@ -158,25 +220,33 @@ constexpr std::array<float, 9> kShBandScale{1.0f, 2.0f / 3.0f, 2.0f / 3.0f, 2.0f
 
 }  // namespace
 
+// Single-sample colour attachments by shader output location, then the depth attachment.
+enum Target : std::size_t { kColourTarget = 0, kNormalTarget = 1, kIdTarget = 2, kBarycentricTarget = 3, kDepthTarget = 4 };
+
 struct Renderer::Impl {
     std::unique_ptr<detail::GlContext> context;
     GlFunctions gl;
     std::string renderer_string;
     std::array<Program, kNumVariants> programs{};  // linked on first use
     GLuint vao = 0;
-    std::array<GLuint, 5> vertex_buffers{};  // by Attribute
+    std::array<GLuint, kNumAttributes> vertex_buffers{};
+    std::array<std::size_t, kNumAttributes> buffer_bytes{};  // allocated size of each vertex buffer
     GLuint index_buffer = 0;
     GLuint texture = 0;
-    // Single-sample targets: colour, geometry (z + normal), ids (triangle + 1, label), barycentrics, depth.
     GLuint fbo = 0;
-    std::array<GLuint, 5> targets{};
+    std::array<GLuint, 5> targets{};  // by Target
     // Multisampled colour pass.
     GLuint msaa_fbo = 0;
     std::array<GLuint, 2> msaa_targets{};
     int width = 0, height = 0, samples = 0, max_samples = 0;
+    ProvokingTopology topology;
     Eigen::Matrix3Xf normals;
-    std::vector<float> stacked_triangles_unused;
-    cv::Mat rgba, geometry, ids;
+    std::vector<float> expanded;  // one attribute extended to every vertex slot
+    std::vector<std::uint8_t> triangle_labels;
+    cv::Mat rgba;                 // 8-bit colour + coverage read-back
+    cv::Mat vectors;              // RGBA float read-back (normals, barycentrics)
+    double near_plane = 0, far_plane = 0;
+    bool perspective = true;
 
     explicit Impl(const RendererOptions& options) {
         std::string failures;
@@ -202,7 +272,7 @@ struct Renderer::Impl {
         renderer_string = std::string(reinterpret_cast<const char*>(gl.GetString(GL_RENDERER))) + " | " +
                           reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
         gl.GetIntegerv(GL_MAX_SAMPLES, &max_samples);
-        (void)program(0);
+        (void)program(kWithColour | kWithIds);
         gl.GenVertexArrays(1, &vao);
         gl.GenBuffers(static_cast<GLsizei>(vertex_buffers.size()), vertex_buffers.data());
         gl.GenBuffers(1, &index_buffer);
@@ -217,6 +287,7 @@ struct Renderer::Impl {
         // counter-clockwise front faces arrive clockwise.
         gl.FrontFace(GL_CW);
         gl.CullFace(GL_BACK);
+        gl.ProvokingVertex(GL_LAST_VERTEX_CONVENTION);  // ProvokingTopology relies on it
         gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
         gl.PixelStorei(GL_UNPACK_ALIGNMENT, 1);
         check("initialisation");
@@ -286,14 +357,15 @@ struct Renderer::Impl {
         width = w;
         height = h;
         samples = sample_count;
-        const std::array<GLenum, 4> colour_formats{GL_RGBA8, GL_RGBA32F, GL_RG32UI, GL_RGBA32F};
+        const std::array<GLenum, 4> colour_formats{GL_RGBA8, GL_RGBA32F, GL_R32UI, GL_RGBA32F};  // by Target
         gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
         for (std::size_t i = 0; i < colour_formats.size(); ++i) {
             targets[i] = storage(colour_formats[i], 0);
             gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0 + static_cast<GLenum>(i), GL_RENDERBUFFER, targets[i]);
         }
-        targets[4] = storage(GL_DEPTH_COMPONENT32F, 0);
-        gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, targets[4]);
+        // 32-bit float depth: camera z is recovered from it to ~1e-5 mm (read_depth).
+        targets[kDepthTarget] = storage(GL_DEPTH_COMPONENT32F, 0);
+        gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, targets[kDepthTarget]);
         if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
             throw Error("render: framebuffer incomplete at " + std::to_string(w) + "x" + std::to_string(h));
         if (samples > 1) {
@@ -308,43 +380,46 @@ struct Renderer::Impl {
         check("creating render targets");
     }
 
+    // Vertex buffers keep their storage between renders; data of the same size is replaced in place.
     void upload(Attribute attribute, const void* data, std::size_t bytes, GLint components, GLenum type) {
         gl.BindBuffer(GL_ARRAY_BUFFER, vertex_buffers[attribute]);
-        gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(bytes), data, GL_STREAM_DRAW);
-        if (type == GL_UNSIGNED_BYTE)
+        if (buffer_bytes[attribute] == bytes) {
+            gl.BufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(bytes), data);
+        } else {
+            gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(bytes), data, GL_DYNAMIC_DRAW);
+            buffer_bytes[attribute] = bytes;
+        }
+        if (type == GL_UNSIGNED_INT)
             gl.VertexAttribIPointer(attribute, components, type, 0, nullptr);
         else
             gl.VertexAttribPointer(attribute, components, type, GL_FALSE, 0, nullptr);
         gl.EnableVertexAttribArray(attribute);
     }
 
-    void upload_mesh(const Mesh& mesh, const MeshExtras& extras) {
-        const int v = mesh.num_vertices();
-        upload(kPosition, mesh.vertices.data(), sizeof(float) * 3 * static_cast<std::size_t>(v), 3, GL_FLOAT);
+    void upload_expanded(Attribute attribute, const float* values, int rows) {
+        topology.expand(values, rows, expanded);
+        upload(attribute, expanded.data(), sizeof(float) * expanded.size(), rows, GL_FLOAT);
+    }
+
+    void upload_mesh(const Mesh& mesh, const MeshExtras& extras, bool with_texture) {
+        if (!topology.matches(mesh)) {
+            topology.build(mesh);
+            gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sizeof(GLuint) * topology.indices.size()),
+                          topology.indices.data(), GL_STATIC_DRAW);
+            upload(kTriangle, topology.triangle_of_slot.data(), sizeof(GLuint) * topology.triangle_of_slot.size(), 1,
+                   GL_UNSIGNED_INT);
+        }
+        upload_expanded(kPosition, mesh.vertices.data(), 3);
         normals = vertex_normals(mesh.vertices, mesh.triangles);
-        upload(kNormal, normals.data(), sizeof(float) * 3 * static_cast<std::size_t>(v), 3, GL_FLOAT);
-        if (mesh.colours.cols() == v) {
-            upload(kAlbedo, mesh.colours.data(), sizeof(float) * 3 * static_cast<std::size_t>(v), 3, GL_FLOAT);
+        upload_expanded(kNormal, normals.data(), 3);
+        if (mesh.colours.cols() == mesh.num_vertices()) {
+            upload_expanded(kAlbedo, mesh.colours.data(), 3);
         } else {
             gl.DisableVertexAttribArray(kAlbedo);
             gl.VertexAttrib3f(kAlbedo, kDefaultAlbedo, kDefaultAlbedo, kDefaultAlbedo);
         }
-        if (mesh.uv.cols() == v) {
-            upload(kUv, mesh.uv.data(), sizeof(float) * 2 * static_cast<std::size_t>(v), 2, GL_FLOAT);
-        } else {
-            gl.DisableVertexAttribArray(kUv);
-            gl.VertexAttrib2f(kUv, 0.0f, 0.0f);
-        }
-        if (!extras.vertex_labels.empty()) {
-            upload(kLabel, extras.vertex_labels.data(), extras.vertex_labels.size(), 1, GL_UNSIGNED_BYTE);
-        } else {
-            gl.DisableVertexAttribArray(kLabel);
-            gl.VertexAttribI1ui(kLabel, static_cast<GLuint>(Region::kSkin));
-        }
-        static_assert(sizeof(Triangle) == 3 * sizeof(GLuint));
-        gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sizeof(Triangle) * mesh.triangles.size()),
-                      mesh.triangles.data(), GL_STREAM_DRAW);
-        if (extras.texture != nullptr) {
+        if (with_texture) {
+            upload_expanded(kUv, mesh.uv.data(), 2);
             const cv::Mat& t = *extras.texture;
             const cv::Mat continuous = t.isContinuous() ? t : t.clone();
             gl.ActiveTexture(GL_TEXTURE0);
@@ -354,7 +429,30 @@ struct Renderer::Impl {
             gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
             gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
             gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        } else {
+            gl.DisableVertexAttribArray(kUv);
+            gl.VertexAttrib2f(kUv, 0.0f, 0.0f);
         }
+        // Labels are flat per triangle, from its provoking (last) vertex: looked up from the ids.
+        triangle_labels.resize(mesh.triangles.size());
+        for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+            triangle_labels[t] = extras.vertex_labels.empty() ? static_cast<std::uint8_t>(Region::kSkin)
+                                                              : extras.vertex_labels[static_cast<std::size_t>(mesh.triangles[t][2])];
+    }
+
+    // Near and far planes from the mesh's bounding sphere, with a margin.
+    void choose_depth_range(const Mesh& mesh, const Camera& camera, const Eigen::Matrix3d& rotation) {
+        const Eigen::Vector3f low = mesh.vertices.rowwise().minCoeff(), high = mesh.vertices.rowwise().maxCoeff();
+        const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
+        const double radius = 0.5 * (high - low).cast<double>().norm();
+        const double centre_z = (rotation * centre + camera.pose.translation).z();
+        const double margin = 1.0 + 0.01 * radius;
+        double far = centre_z + radius + margin, near = centre_z - radius - margin;
+        perspective = camera.projection == Projection::kPerspective;
+        if (perspective) near = std::max(near, std::max(1e-3, far * 1e-4));
+        if (far <= near) far = near + 1.0;
+        near_plane = near;
+        far_plane = far;
     }
 
     void set_uniforms(const Program& program, const Mesh& mesh, const Camera& camera, const Lighting& lighting) {
@@ -362,16 +460,8 @@ struct Renderer::Impl {
         Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
         model_to_camera.topLeftCorner<3, 3>() = rotation;
         model_to_camera.topRightCorner<3, 1>() = camera.pose.translation;
-        // Near and far planes from the mesh's bounding sphere, with a margin.
-        const Eigen::Vector3f low = mesh.vertices.rowwise().minCoeff(), high = mesh.vertices.rowwise().maxCoeff();
-        const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
-        const double radius = 0.5 * (high - low).cast<double>().norm();
-        const double centre_z = (rotation * centre + camera.pose.translation).z();
-        const double margin = 1.0 + 0.01 * radius;
-        double far = centre_z + radius + margin, near = centre_z - radius - margin;
-        if (camera.projection == Projection::kPerspective) near = std::max(near, std::max(1e-3, far * 1e-4));
-        if (far <= near) far = near + 1.0;
-        const Eigen::Matrix4f model_to_clip = (clip_from_camera(camera, near, far) * model_to_camera).cast<float>();
+        choose_depth_range(mesh, camera, rotation);
+        const Eigen::Matrix4f model_to_clip = (clip_from_camera(camera, near_plane, far_plane) * model_to_camera).cast<float>();
         const Eigen::Matrix4f model_to_camera_f = model_to_camera.cast<float>();
         gl.UseProgram(program.id);
         gl.UniformMatrix4fv(program.model_to_clip, 1, GL_FALSE, model_to_clip.data());
@@ -401,12 +491,16 @@ struct Renderer::Impl {
         gl.Uniform1f(program.shininess, lighting.shininess);
         if (!(lighting.gamma > 0)) throw Error("render: gamma must be positive");
         gl.Uniform1f(program.inverse_gamma, 1.0f / lighting.gamma);
-        gl.Uniform1i(program.perspective, camera.projection == Projection::kPerspective ? 1 : 0);
+        gl.Uniform1i(program.perspective, perspective ? 1 : 0);
+        const Intrinsics& k = camera.intrinsics;
+        const std::array<float, 4> window_to_ray{static_cast<float>(1.0 / k.fx), static_cast<float>(1.0 / k.fy),
+                                                 static_cast<float>(k.cx + 0.5), static_cast<float>(k.cy + 0.5)};
+        gl.Uniform4fv(program.window_to_ray, 1, window_to_ray.data());
         gl.Uniform1i(program.albedo_texture, 0);
     }
 
-    void draw(const Mesh& mesh) {
-        gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(3 * mesh.triangles.size()), GL_UNSIGNED_INT, nullptr);
+    void draw() {
+        gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(topology.indices.size()), GL_UNSIGNED_INT, nullptr);
     }
 
     void render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
@@ -416,44 +510,50 @@ struct Renderer::Impl {
         const int w = camera.intrinsics.width, h = camera.intrinsics.height;
         ensure_targets(w, h, settings.msaa_samples);
         gl.BindVertexArray(vao);
-        upload_mesh(mesh, extras);
-        const unsigned variant = (settings.barycentrics ? kWithBarycentrics : 0u) |
-                                 (extras.texture != nullptr ? kWithTexture : 0u) |
-                                 (settings.lighting.lights.empty() ? 0u : kWithLights);
-        set_uniforms(program(variant), mesh, camera, settings.lighting);
+        const bool with_texture = extras.texture != nullptr;
+        upload_mesh(mesh, extras, with_texture);
         if (settings.cull_back_faces)
             gl.Enable(GL_CULL_FACE);
         else
             gl.Disable(GL_CULL_FACE);
         gl.Viewport(0, 0, w, h);
+        const unsigned shading = (with_texture ? kWithTexture : 0u) | (settings.lighting.lights.empty() ? 0u : kWithLights) |
+                                 (settings.cull_back_faces ? 0u : kTwoSided);
         const bool multisampled = samples > 1;
-        const bool geometry_pass = !multisampled || settings.geometry || settings.barycentrics;
+        const bool with_normals = settings.geometry && settings.normals;
+        const bool with_ids = settings.geometry || settings.barycentrics;
+        // Pass 1, single-sampled at pixel centres: depth, normals, ids, barycentrics, and colour
+        // unless a multisampled pass makes it.
+        const unsigned geometry_outputs = (with_normals ? kWithNormals : 0u) | (with_ids ? kWithIds : 0u) |
+                                          (settings.barycentrics ? kWithBarycentrics : 0u);
+        const bool single_sample_pass = !multisampled || geometry_outputs != 0;
         const float zeros[4] = {0, 0, 0, 0};
         const GLuint zero_ids[4] = {0, 0, 0, 0};
         const float far_depth = 1.0f;
-        if (geometry_pass) {
+        if (single_sample_pass) {
+            const unsigned variant = geometry_outputs | (multisampled ? 0u : kWithColour | shading);
+            set_uniforms(program(variant), mesh, camera, settings.lighting);
             gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
             const GLenum buffers[4] = {multisampled ? GLenum(GL_NONE) : GLenum(GL_COLOR_ATTACHMENT0),
-                                       settings.geometry ? GLenum(GL_COLOR_ATTACHMENT1) : GLenum(GL_NONE),
-                                       settings.geometry ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE),
+                                       with_normals ? GLenum(GL_COLOR_ATTACHMENT1) : GLenum(GL_NONE),
+                                       with_ids ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE),
                                        settings.barycentrics ? GLenum(GL_COLOR_ATTACHMENT3) : GLenum(GL_NONE)};
             gl.DrawBuffers(4, buffers);
-            if (!multisampled) gl.ClearBufferfv(GL_COLOR, 0, zeros);
-            if (settings.geometry) {
-                gl.ClearBufferfv(GL_COLOR, 1, zeros);
-                gl.ClearBufferuiv(GL_COLOR, 2, zero_ids);
-            }
-            if (settings.barycentrics) gl.ClearBufferfv(GL_COLOR, 3, zeros);
+            if (!multisampled) gl.ClearBufferfv(GL_COLOR, kColourTarget, zeros);
+            if (with_normals) gl.ClearBufferfv(GL_COLOR, kNormalTarget, zeros);
+            if (with_ids) gl.ClearBufferuiv(GL_COLOR, kIdTarget, zero_ids);
+            if (settings.barycentrics) gl.ClearBufferfv(GL_COLOR, kBarycentricTarget, zeros);
             gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
-            draw(mesh);
+            draw();
         }
         if (multisampled) {
+            set_uniforms(program(kWithColour | shading), mesh, camera, settings.lighting);
             gl.BindFramebuffer(GL_FRAMEBUFFER, msaa_fbo);
             const GLenum buffer = GL_COLOR_ATTACHMENT0;
             gl.DrawBuffers(1, &buffer);
             gl.ClearBufferfv(GL_COLOR, 0, zeros);
             gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
-            draw(mesh);
+            draw();
             gl.BindFramebuffer(GL_READ_FRAMEBUFFER, msaa_fbo);
             gl.BindFramebuffer(GL_DRAW_FRAMEBUFFER, fbo);
             gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
@@ -461,61 +561,78 @@ struct Renderer::Impl {
             gl.BlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
         }
         gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
-        read_back(settings, frame);
+        read_back(settings, with_normals, with_ids, frame);
         check("rendering");
     }
 
-    void read_back(const RenderSettings& settings, Frame& frame) {
-        const int w = width, h = height;
-        rgba.create(h, w, CV_8UC4);
-        gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
-        gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
-        frame.rgb.create(h, w, CV_8UC3);
-        frame.mask.create(h, w, CV_8UC1);
+    // Camera-space z from the depth buffer's window depth d in [0, 1]: the inverse of the
+    // projection's z row (clip_from_camera); background (d = 1) becomes 0.
+    void read_depth(cv::Mat& depth) {
+        depth.create(height, width, CV_32FC1);
+        gl.ReadPixels(0, 0, width, height, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data);
+        const double n = near_plane, f = far_plane;
+        const auto fn = static_cast<float>(f * n), f_ = static_cast<float>(f), range = static_cast<float>(f - n),
+                   n_ = static_cast<float>(n);
+        for (int y = 0; y < height; ++y) {
+            float* row = depth.ptr<float>(y);
+            if (perspective)
+                for (int x = 0; x < width; ++x) row[x] = row[x] >= 1.0f ? 0.0f : fn / (f_ - range * row[x]);
+            else
+                for (int x = 0; x < width; ++x) row[x] = row[x] >= 1.0f ? 0.0f : n_ + range * row[x];
+        }
+    }
+
+    // Triangle ids (written + 1, 0 = background) and the labels of their triangles.
+    void read_ids(cv::Mat& triangle_ids, cv::Mat& labels) {
+        triangle_ids.create(height, width, CV_32SC1);
+        labels.create(height, width, CV_8UC1);
+        gl.ReadBuffer(GL_COLOR_ATTACHMENT0 + kIdTarget);
+        gl.ReadPixels(0, 0, width, height, GL_RED_INTEGER, GL_UNSIGNED_INT, triangle_ids.data);
+        const std::uint8_t* label_of = triangle_labels.data();
+        for (int y = 0; y < height; ++y) {
+            int* id = triangle_ids.ptr<int>(y);
+            std::uint8_t* label = labels.ptr<std::uint8_t>(y);
+            for (int x = 0; x < width; ++x) {
+                const int triangle = id[x] - 1;
+                id[x] = triangle;
+                label[x] = triangle < 0 ? static_cast<std::uint8_t>(Region::kBackground) : label_of[triangle];
+            }
+        }
+    }
+
+    // The first three channels of an RGBA float target.
+    void read_vectors(Target target, cv::Mat& out) {
+        vectors.create(height, width, CV_32FC4);
+        gl.ReadBuffer(GL_COLOR_ATTACHMENT0 + static_cast<GLenum>(target));
+        gl.ReadPixels(0, 0, width, height, GL_RGBA, GL_FLOAT, vectors.data);
+        out.create(height, width, CV_32FC3);
+        const int pairs[] = {0, 0, 1, 1, 2, 2};
+        cv::mixChannels(&vectors, 1, &out, 1, pairs, 3);
+    }
+
+    void read_back(const RenderSettings& settings, bool with_normals, bool with_ids, Frame& frame) {
+        rgba.create(height, width, CV_8UC4);
+        gl.ReadBuffer(GL_COLOR_ATTACHMENT0 + kColourTarget);
+        gl.ReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
+        frame.rgb.create(height, width, CV_8UC3);
+        frame.mask.create(height, width, CV_8UC1);
         {
             cv::Mat outputs[] = {frame.rgb, frame.mask};
             const int pairs[] = {0, 0, 1, 1, 2, 2, 3, 3};
             cv::mixChannels(&rgba, 1, outputs, 2, pairs, 4);
         }
-        if (settings.geometry) {
-            geometry.create(h, w, CV_32FC4);
-            gl.ReadBuffer(GL_COLOR_ATTACHMENT1);
-            gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, geometry.data);
-            frame.depth.create(h, w, CV_32FC1);
-            frame.normals.create(h, w, CV_32FC3);
-            cv::Mat outputs[] = {frame.depth, frame.normals};
-            const int pairs[] = {0, 0, 1, 1, 2, 2, 3, 3};
-            cv::mixChannels(&geometry, 1, outputs, 2, pairs, 4);
-            ids.create(h, w, CV_32SC2);
-            gl.ReadBuffer(GL_COLOR_ATTACHMENT2);
-            gl.ReadPixels(0, 0, w, h, GL_RG_INTEGER, GL_UNSIGNED_INT, ids.data);
-            frame.triangle_ids.create(h, w, CV_32SC1);
-            frame.labels.create(h, w, CV_8UC1);
-            for (int y = 0; y < h; ++y) {
-                const cv::Vec2i* in = ids.ptr<cv::Vec2i>(y);
-                int* triangle = frame.triangle_ids.ptr<int>(y);
-                std::uint8_t* label = frame.labels.ptr<std::uint8_t>(y);
-                for (int x = 0; x < w; ++x) {
-                    triangle[x] = in[x][0] - 1;
-                    label[x] = static_cast<std::uint8_t>(in[x][1]);
-                }
-            }
+        if (settings.geometry) read_depth(frame.depth);
+        else frame.depth.release();
+        if (with_ids) {
+            read_ids(frame.triangle_ids, frame.labels);
         } else {
-            frame.depth.release();
-            frame.normals.release();
             frame.triangle_ids.release();
             frame.labels.release();
         }
-        if (settings.barycentrics) {
-            geometry.create(h, w, CV_32FC4);
-            gl.ReadBuffer(GL_COLOR_ATTACHMENT3);
-            gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, geometry.data);
-            frame.barycentrics.create(h, w, CV_32FC3);
-            const int pairs[] = {0, 0, 1, 1, 2, 2};
-            cv::mixChannels(&geometry, 1, &frame.barycentrics, 1, pairs, 3);
-        } else {
-            frame.barycentrics.release();
-        }
+        if (with_normals) read_vectors(kNormalTarget, frame.normals);
+        else frame.normals.release();
+        if (settings.barycentrics) read_vectors(kBarycentricTarget, frame.barycentrics);
+        else frame.barycentrics.release();
     }
 
     static void validate(const Mesh& mesh, const Camera& camera, const MeshExtras& extras) {
@@ -535,10 +652,7 @@ struct Renderer::Impl {
                 throw Error("render: the texture must be a non-empty 8-bit RGB image");
             if (mesh.uv.cols() != mesh.num_vertices()) throw Error("render: a texture needs per-vertex uv coordinates");
         }
-        const int v = mesh.num_vertices();
-        for (const Triangle& t : mesh.triangles)
-            for (int i : t)
-                if (i < 0 || i >= v) throw Error("render: triangle vertex index " + std::to_string(i) + " out of range");
+        // Triangle indices are checked when the provoking topology is built (once per triangle list).
     }
 };
 

@@ -52,8 +52,9 @@ struct MeshExtras {
 
 struct RenderSettings {
     int msaa_samples = 4;          // colour/mask anti-aliasing; 0 or 1 = none
-    bool geometry = true;          // depth, normals, triangle ids and labels
-    bool barycentrics = false;     // per-pixel barycentrics (a slower geometry-shader pass)
+    bool geometry = true;          // depth, triangle ids and labels (and normals when `normals`)
+    bool normals = true;           // with geometry: camera-space normals (an extra float target)
+    bool barycentrics = false;     // per-pixel barycentrics and triangle ids (a slower geometry-shader pass)
     bool cull_back_faces = true;
     Lighting lighting;
 };

@@ -1,62 +1,93 @@
 #pragma once
 // Internal: GLSL 3.30 core sources of the renderer's program. Optional parts are compiled in by
-// #define (WITH_BARYCENTRICS, WITH_TEXTURE, WITH_LIGHTS) rather than branched on at run time:
-// llvmpipe runs both sides of a branch across a SIMD quad, so an unused texture fetch costs.
+// #define rather than branched on at run time: llvmpipe runs both sides of a branch across a SIMD
+// quad, and every varying costs setup work per triangle and interpolation per pixel.
+//   WITH_COLOUR        shade and write out_colour (location 0)
+//   WITH_NORMALS       write the camera-space normal (location 1)
+//   WITH_IDS           write triangle id + 1 (location 2), from a flat per-vertex attribute
+//   WITH_BARYCENTRICS  geometry-shader pass writing barycentrics (location 3)
+//   WITH_TEXTURE       albedo from a texture sampled with uv instead of per-vertex albedo
+//   WITH_LIGHTS        directional lights with Blinn-Phong specular (per pixel)
+//   TWO_SIDED          back faces are drawn: SH irradiance per pixel on the flipped normal;
+//                      otherwise it is evaluated per vertex (a quadratic in n: interpolating it
+//                      differs from per-pixel evaluation by far less than one 8-bit level)
+// Camera-space position and depth are not varyings: depth comes from the depth buffer and the
+// view ray from gl_FragCoord.
 namespace facesynth::render::detail {
+
+// Derived switches, shared by every stage.
+inline constexpr const char* kCommonHeader = R"(
+#if defined(WITH_COLOUR) && !defined(TWO_SIDED)
+#define SH_PER_VERTEX
+#endif
+#if defined(WITH_NORMALS) || defined(WITH_LIGHTS) || (defined(WITH_COLOUR) && defined(TWO_SIDED))
+#define NEEDS_NORMAL
+#endif
+#if defined(WITH_COLOUR) && defined(WITH_TEXTURE)
+#define NEEDS_UV
+#endif
+#if defined(WITH_COLOUR) && !defined(WITH_TEXTURE)
+#define NEEDS_ALBEDO
+#endif
+// Members a variant does not use are never written nor read, so the linker drops them.
+#define VARYINGS vec3 camera_normal; vec3 albedo; vec2 uv; vec3 irradiance; flat uint triangle;
+uniform vec3 sh[9];            // L_lm · Â_l / π: the sum over Y_lm(n) is irradiance / π
+uniform vec3 ambient;
+vec3 sh_irradiance_over_pi(vec3 n) {   // n in view space (x right, y up, z toward the camera)
+    return sh[0] * 0.282095
+         + sh[1] * (0.488603 * n.y) + sh[2] * (0.488603 * n.z) + sh[3] * (0.488603 * n.x)
+         + sh[4] * (1.092548 * n.x * n.y) + sh[5] * (1.092548 * n.y * n.z)
+         + sh[6] * (0.315392 * (3.0 * n.z * n.z - 1.0))
+         + sh[7] * (1.092548 * n.x * n.z) + sh[8] * (0.546274 * (n.x * n.x - n.y * n.y));
+}
+// Camera axes (x right, y down, z forward) to view axes (x right, y up, z toward the camera).
+vec3 view_from_camera(vec3 n) { return vec3(n.x, -n.y, -n.z); }
+)";
 
 inline constexpr const char* kVertexShader = R"(
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 normal;
 layout(location = 2) in vec3 albedo;
 layout(location = 3) in vec2 uv;
-layout(location = 4) in uint label;
+layout(location = 4) in uint triangle;  // id + 1 of the triangle this vertex provokes, 0 if none
 uniform mat4 model_to_clip;
 uniform mat4 model_to_camera;
-out Varyings {
-    vec3 camera_position;
-    vec3 camera_normal;
-    vec3 albedo;
-    vec2 uv;
-    flat uint label;
-} vs_out;
+out Varyings { VARYINGS } vs_out;
 void main() {
-    vec4 p = vec4(position, 1.0);
-    gl_Position = model_to_clip * p;
-    vs_out.camera_position = (model_to_camera * p).xyz;
-    vs_out.camera_normal = mat3(model_to_camera) * normal;
+    gl_Position = model_to_clip * vec4(position, 1.0);
+    vec3 camera_normal = mat3(model_to_camera) * normal;
+#ifdef NEEDS_NORMAL
+    vs_out.camera_normal = camera_normal;
+#endif
+#ifdef NEEDS_ALBEDO
     vs_out.albedo = albedo;
+#endif
+#ifdef NEEDS_UV
     vs_out.uv = uv;
-    vs_out.label = label;
+#endif
+#ifdef SH_PER_VERTEX
+    vs_out.irradiance = ambient + max(sh_irradiance_over_pi(view_from_camera(normalize(camera_normal))), vec3(0.0));
+#endif
+#ifdef WITH_IDS
+    vs_out.triangle = triangle;
+#endif
 }
 )";
 
 inline constexpr const char* kGeometryShader = R"(
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 3) out;
-in Varyings {
-    vec3 camera_position;
-    vec3 camera_normal;
-    vec3 albedo;
-    vec2 uv;
-    flat uint label;
-} gs_in[];
-out Varyings {
-    vec3 camera_position;
-    vec3 camera_normal;
-    vec3 albedo;
-    vec2 uv;
-    flat uint label;
-} gs_out;
+in Varyings { VARYINGS } gs_in[];
+out Varyings { VARYINGS } gs_out;
 out vec3 barycentric;  // perspective-correct: the surface weights of the triangle's corners
 void main() {
     for (int i = 0; i < 3; ++i) {
         gl_Position = gl_in[i].gl_Position;
-        gl_PrimitiveID = gl_PrimitiveIDIn;
-        gs_out.camera_position = gs_in[i].camera_position;
         gs_out.camera_normal = gs_in[i].camera_normal;
         gs_out.albedo = gs_in[i].albedo;
         gs_out.uv = gs_in[i].uv;
-        gs_out.label = gs_in[i].label;
+        gs_out.irradiance = gs_in[i].irradiance;
+        gs_out.triangle = gs_in[i].triangle;
         barycentric = vec3(i == 0, i == 1, i == 2);
         EmitVertex();
     }
@@ -65,18 +96,10 @@ void main() {
 )";
 
 inline constexpr const char* kFragmentShader = R"(
-in Varyings {
-    vec3 camera_position;
-    vec3 camera_normal;
-    vec3 albedo;
-    vec2 uv;
-    flat uint label;
-} fs_in;
+in Varyings { VARYINGS } fs_in;
 #ifdef WITH_BARYCENTRICS
 in vec3 barycentric;
 #endif
-uniform vec3 sh[9];            // L_lm · Â_l / π: the sum over Y_lm(n) is irradiance / π
-uniform vec3 ambient;
 uniform int light_count;
 uniform vec3 light_direction[4];  // camera space, unit, toward the light
 uniform vec3 light_colour[4];
@@ -84,33 +107,42 @@ uniform float specular;
 uniform float shininess;
 uniform float inverse_gamma;
 uniform int perspective;
+uniform vec4 window_to_ray;       // (1/fx, 1/fy, cx + 0.5, cy + 0.5): camera ray through a window point
 uniform sampler2D albedo_texture;
+#ifdef WITH_COLOUR
 layout(location = 0) out vec4 out_colour;
-layout(location = 1) out vec4 out_geometry;   // camera z, camera-space normal
-layout(location = 2) out uvec2 out_ids;       // triangle id + 1, region label
+#endif
+#ifdef WITH_NORMALS
+layout(location = 1) out vec4 out_normal;
+#endif
+#ifdef WITH_IDS
+layout(location = 2) out uint out_triangle;
+#endif
+#ifdef WITH_BARYCENTRICS
 layout(location = 3) out vec4 out_barycentric;
-
-vec3 sh_irradiance_over_pi(vec3 n) {   // n in view space (x right, y up, z toward the camera)
-    return sh[0] * 0.282095
-         + sh[1] * (0.488603 * n.y) + sh[2] * (0.488603 * n.z) + sh[3] * (0.488603 * n.x)
-         + sh[4] * (1.092548 * n.x * n.y) + sh[5] * (1.092548 * n.y * n.z)
-         + sh[6] * (0.315392 * (3.0 * n.z * n.z - 1.0))
-         + sh[7] * (1.092548 * n.x * n.z) + sh[8] * (0.546274 * (n.x * n.x - n.y * n.y));
-}
+#endif
 
 void main() {
+#ifdef NEEDS_NORMAL
     vec3 n = normalize(fs_in.camera_normal);
     if (!gl_FrontFacing) n = -n;
+#endif
+#ifdef WITH_COLOUR
 #ifdef WITH_TEXTURE
     vec3 albedo = texture(albedo_texture, fs_in.uv).rgb;
 #else
     vec3 albedo = fs_in.albedo;
 #endif
-    vec3 view_normal = vec3(n.x, -n.y, -n.z);
-    vec3 diffuse = ambient + max(sh_irradiance_over_pi(view_normal), vec3(0.0));
+#ifdef SH_PER_VERTEX
+    vec3 diffuse = fs_in.irradiance;
+#else
+    vec3 diffuse = ambient + max(sh_irradiance_over_pi(view_from_camera(n)), vec3(0.0));
+#endif
     vec3 highlight = vec3(0.0);
 #ifdef WITH_LIGHTS
-    vec3 to_eye = perspective != 0 ? normalize(-fs_in.camera_position) : vec3(0.0, 0.0, -1.0);
+    vec3 to_eye = perspective != 0
+        ? -normalize(vec3((gl_FragCoord.xy - window_to_ray.zw) * window_to_ray.xy, 1.0))
+        : vec3(0.0, 0.0, -1.0);
     for (int i = 0; i < light_count; ++i) {
         float n_dot_l = dot(n, light_direction[i]);
         if (n_dot_l <= 0.0) continue;
@@ -121,12 +153,15 @@ void main() {
 #endif
     vec3 linear_rgb = clamp(albedo * diffuse + highlight, 0.0, 1.0);
     out_colour = vec4(pow(linear_rgb, vec3(inverse_gamma)), 1.0);
-    out_geometry = vec4(fs_in.camera_position.z, n);
-    out_ids = uvec2(uint(gl_PrimitiveID) + 1u, fs_in.label);
+#endif
+#ifdef WITH_NORMALS
+    out_normal = vec4(n, 0.0);
+#endif
+#ifdef WITH_IDS
+    out_triangle = fs_in.triangle;
+#endif
 #ifdef WITH_BARYCENTRICS
     out_barycentric = vec4(barycentric, 1.0);
-#else
-    out_barycentric = vec4(0.0);
 #endif
 }
 )";

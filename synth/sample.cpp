@@ -218,6 +218,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     render::RenderSettings settings;
     settings.lighting = s.spec.lighting.lighting;
     settings.geometry = true;  // depth for landmark visibility
+    settings.normals = config_.output.normals;  // an extra float target: only when written
     settings.msaa_samples = config_.render.msaa_samples;
     renderer_.render(mesh, camera, settings, frame_);
     local.render = seconds_since(clock);

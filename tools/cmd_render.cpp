@@ -56,6 +56,7 @@ struct BenchArgs {
     int threads = 1;
     bool barycentrics = false;
     bool colour_only = false;
+    bool no_normals = false;
     std::string json;
     bool quiet = false;
 };
@@ -261,6 +262,7 @@ void run_bench(const BenchArgs& b) {
     render::RenderSettings settings;
     settings.msaa_samples = b.view.msaa;
     settings.geometry = !b.colour_only;
+    settings.normals = !b.no_normals;
     settings.barycentrics = b.barycentrics;
     Progress progress("bench render", static_cast<std::size_t>(per_thread) * static_cast<std::size_t>(threads), b.quiet);
     std::mutex progress_mutex;
@@ -327,6 +329,7 @@ void run_bench(const BenchArgs& b) {
     j["msaa"] = b.view.msaa;
     j["barycentrics"] = b.barycentrics;
     j["geometry"] = !b.colour_only;
+    j["normals"] = !b.colour_only && !b.no_normals;
     j["lp_num_threads"] = lp_threads ? lp_threads : "";
     if (!b.json.empty()) write_json_file(b.json, j);
     std::printf("bench render: %s (%d vertices) %dx%d, %d thread(s), msaa %d: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
@@ -355,6 +358,7 @@ void register_render_commands(CLI::App& app) {
     bench->add_option("--threads,-t", bench_args->threads, "worker threads, one renderer each")->check(CLI::Range(1, 256))->capture_default_str();
     bench->add_flag("--barycentrics", bench_args->barycentrics, "also render and read back barycentrics");
     bench->add_flag("--colour-only", bench_args->colour_only, "RGB and mask only (no depth, normals, ids, labels)");
+    bench->add_flag("--no-normals", bench_args->no_normals, "everything but normals (what synth renders by default)");
     bench->add_option("--json", bench_args->json, "write the result (renders_per_s, ms_per_render, backend, renderer, ...) here");
     bench->add_flag("--quiet,-q", bench_args->quiet, "no progress output");
     bench->callback([bench_args] { run_bench(*bench_args); });
