@@ -25,7 +25,9 @@ namespace fs = std::filesystem;
 
 const fs::path& toy_model_file() {
     static const fs::path path = [] {
-        const auto dir = testkit::fresh_temp_dir("synth_toy_model");
+        // One folder per test process: ctest runs the cases of this file in parallel processes,
+        // and a shared folder would be wiped by one while another reads its model.
+        const auto dir = testkit::fresh_temp_dir("synth_toy_model_" + std::to_string(::getpid()));
         write_model(testkit::make_toy_model(), dir / "toy.fsm");
         return dir / "toy.fsm";
     }();
