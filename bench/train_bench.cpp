@@ -1,7 +1,7 @@
 // Landmark regression speed, single thread, face detector excluded: the SDM cascade (HOG features +
 // linear stages, crop included) and the HOG descriptor alone. The cascade is trained here on cartoon
 // faces (tests/train/cartoon_faces.h) with the default settings, so its cost is that of a real model
-// of the same shape (68 points, 4 stages, 3x3 HOG cells).
+// of the same shape (68 points, 4 stages, 2x2 or 3x3 HOG cells, full or reduced update rank).
 #include "train/face_box.h"
 #include "train/hog.h"
 #include "train/regressor.h"
@@ -12,6 +12,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include <map>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -29,51 +31,64 @@ std::vector<TrainingFace> faces(int count) {
     return out;
 }
 
-// Trained once per HOG cell count (2 or 3 cells per patch side).
-const SdmModel& model(int hog_cells = 3) {
-    static const auto train = [](int cells) {
+// Trained once per (HOG cells per patch side, update rank); λ fixed, no validation split.
+const SdmModel& model(int hog_cells = 3, int rank = 136) {
+    static std::map<std::pair<int, int>, SdmModel> trained;
+    auto& m = trained[{hog_cells, rank}];
+    if (m.stages.empty()) {
         SdmTrainOptions options;
         options.augment = 2;
-        options.hog_cells = cells;
-        return train_sdm(faces(30), BoxStatistics{}, options);
-    };
-    static const SdmModel two = train(2), three = train(3);
-    return hog_cells == 2 ? two : three;
+        options.hog_cells = hog_cells;
+        options.ranks = {rank};
+        options.lambda_factors = {3.0};
+        options.validation_share = 0;
+        m = train_sdm(faces(30), BoxStatistics{}, options);
+    }
+    return m;
 }
 
 void BM_SdmDetectPerFace(benchmark::State& state) {
     const auto cartoon = facesynth::testkit::make_cartoon_face(12, 0, 400);
     const Eigen::Vector2d low = cartoon.landmarks.rowwise().minCoeff(), high = cartoon.landmarks.rowwise().maxCoeff();
     const FaceBox box{(low + high) / 2, (high - low).maxCoeff()};
-    const SdmModel& m = model(static_cast<int>(state.range(0)));
+    const SdmModel& m = model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
     for (auto _ : state) benchmark::DoNotOptimize(sdm_detect(m, cartoon.gray, box));
-    state.SetLabel("68 points, 4 stages, crop + HOG + regression; arg = HOG cells per side");
+    state.SetLabel("68 points, 4 stages, crop + HOG + regression; args = HOG cells per side, update rank");
 }
-BENCHMARK(BM_SdmDetectPerFace)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SdmDetectPerFace)
+    ->Args({2, 136})
+    ->Args({2, 32})
+    ->Args({2, 16})
+    ->Args({3, 136})
+    ->Args({3, 32})
+    ->Unit(benchmark::kMillisecond);
 
 // The two parts of the cascade separately: features for all 4 stages, and the 4 linear updates.
 void BM_SdmFeaturesAllStages(benchmark::State& state) {
-    const SdmModel& m = model();
+    const SdmModel& m = model(static_cast<int>(state.range(0)));
     const auto face = faces(1)[0];
-    Eigen::VectorXf features(m.feature_dims());
-    for (auto _ : state)
-        for (const auto& stage : m.stages)
-            sdm_features(face.crop, m.mean_shape, m.hog_cells, stage.settings,
-                         {features.data(), static_cast<std::size_t>(features.size())});
-}
-BENCHMARK(BM_SdmFeaturesAllStages)->Unit(benchmark::kMillisecond);
-
-void BM_SdmRegressionAllStages(benchmark::State& state) {
-    const SdmModel& m = model();
-    const Eigen::VectorXf features = Eigen::VectorXf::Random(m.feature_dims());
-    Eigen::VectorXf delta;
+    Eigen::VectorXf features;
     for (auto _ : state)
         for (const auto& stage : m.stages) {
-            delta.noalias() = stage.weights * features;
+            features.resize(m.feature_dims(stage.settings));
+            sdm_features(face.crop, m.mean_shape, m.hog_cells, stage.settings,
+                         {features.data(), static_cast<std::size_t>(features.size())});
+        }
+}
+BENCHMARK(BM_SdmFeaturesAllStages)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond);
+
+void BM_SdmRegressionAllStages(benchmark::State& state) {
+    const SdmModel& m = model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+    const Eigen::VectorXf features = Eigen::VectorXf::Random(m.feature_dims(SdmStageSettings{}));
+    Eigen::VectorXf reduced, delta;
+    for (auto _ : state)
+        for (const auto& stage : m.stages) {
+            reduced.noalias() = stage.weights * features.head(stage.weights.cols());
+            delta.noalias() = stage.basis * reduced;
             benchmark::DoNotOptimize(delta.data());
         }
 }
-BENCHMARK(BM_SdmRegressionAllStages)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SdmRegressionAllStages)->Args({2, 136})->Args({2, 32})->Args({3, 136})->Unit(benchmark::kMillisecond);
 
 void BM_HogPatch(benchmark::State& state) {
     const int cells = 3, cell_size = static_cast<int>(state.range(0));

@@ -41,7 +41,10 @@ struct TrainArgs {
     int threads = default_threads();
     std::uint64_t seed = 1;
     int hog_cells = 3;
-    double lambda_factor = 1.5;
+    std::vector<double> lambda_factors = SdmTrainOptions{}.lambda_factors;
+    double validation_share = SdmTrainOptions{}.validation_share;
+    std::vector<int> ranks = SdmTrainOptions{}.ranks;
+    int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
     std::filesystem::path json;
     bool quiet = false;
 };
@@ -83,7 +86,10 @@ void run_train(const TrainArgs& args) {
         options.threads = args.threads;
         options.seed = args.seed;
         options.hog_cells = args.hog_cells;
-        options.lambda_factor = args.lambda_factor;
+        options.lambda_factors = args.lambda_factors;
+        options.validation_share = args.validation_share;
+        options.ranks = args.ranks;
+        options.jaw_features_from = args.jaw_features_from;
         std::unique_ptr<Progress> progress;
         std::size_t reported = 0;
         options.on_progress = [&](std::size_t done, std::size_t total) {
@@ -96,9 +102,16 @@ void run_train(const TrainArgs& args) {
             if (r.stage == 1) first_nme = r.nme_before;
             last_nme = r.nme_after;
             if (!args.quiet)
-                std::fprintf(stderr, "\nstage %d/%d: training NME %.4f -> %.4f (lambda %.4g, %.1f s)\n", r.stage,
-                             args.stages, r.nme_before, r.nme_after, r.lambda, r.seconds);
-            report["stage" + std::to_string(r.stage) + "_nme"] = r.nme_after;
+                std::fprintf(stderr,
+                             "\nstage %d/%d: training NME %.4f -> %.4f, validation NME %.4f -> %.4f (lambda factor %g, "
+                             "lambda %.4g, rank %d, %.1f s)\n",
+                             r.stage, args.stages, r.nme_before, r.nme_after, r.validation_nme_before,
+                             r.validation_nme_after, r.lambda_factor, r.lambda, r.rank, r.seconds);
+            const std::string stage = "stage" + std::to_string(r.stage);
+            report[stage + "_nme"] = r.nme_after;
+            report[stage + "_validation_nme"] = r.validation_nme_after;
+            report[stage + "_lambda_factor"] = r.lambda_factor;
+            report[stage + "_rank"] = r.rank;
         };
         SdmModel model = train_sdm(prepared.faces, boxes, options);
         if (progress) progress->finish();
@@ -237,13 +250,13 @@ std::string per_face_nme_csv(const Evaluation& evaluation) {
 }
 
 void run_eval_landmarks(const EvalArgs& args) {
-    const auto images = list_labelled_images(split_folder_list(args.data));
     std::vector<std::unique_ptr<LandmarkRegressor>> owned;
     std::vector<const LandmarkRegressor*> regressors;
     for (const auto& spec : args.regressors) {
         owned.push_back(open_regressor(spec));
         regressors.push_back(owned.back().get());
     }
+    const auto images = list_labelled_images(split_folder_list(args.data));
     Evaluation evaluation;
     {
         Progress progress("faces", images.size(), args.quiet);
@@ -325,8 +338,25 @@ void register_train_commands(CLI::App& app) {
         cmd->add_option("--hog-cells", args->hog_cells, "SDM: HOG cells per patch side")
             ->check(CLI::Range(1, 8))
             ->capture_default_str();
-        cmd->add_option("--lambda-factor", args->lambda_factor, "SDM: ridge lambda = factor * ||A'A||_F / N")
+        cmd->add_option("--lambda-factors", args->lambda_factors,
+                        "SDM: ridge lambda = factor * ||A'A||_F / N; with several (comma-separated), each stage keeps "
+                        "the one with the lowest validation NME")
+            ->delimiter(',')
             ->check(CLI::PositiveNumber)
+            ->capture_default_str();
+        cmd->add_option("--validation-share", args->validation_share,
+                        "SDM: share of faces held out to choose lambda (every k-th face; 0 = none, needs one factor)")
+            ->check(CLI::Range(0.0, 0.5))
+            ->capture_default_str();
+        cmd->add_option("--jaw-features-from", args->jaw_features_from,
+                        "SDM: first stage (1-based) whose features include the 17 jaw points' HOG")
+            ->check(CLI::Range(1, 9))
+            ->capture_default_str();
+        cmd->add_option("--ranks", args->ranks,
+                        "SDM: candidate ranks of each stage's update (1-136, comma-separated); validation keeps the "
+                        "smallest within 1% of the best NME")
+            ->delimiter(',')
+            ->check(CLI::Range(1, 136))
             ->capture_default_str();
         cmd->add_option("--json", args->json, "Write a JSON summary here");
         cmd->add_flag("--quiet", args->quiet, "No progress output");
@@ -335,7 +365,7 @@ void register_train_commands(CLI::App& app) {
     {
         auto args = std::make_shared<DetectArgs>();
         auto* cmd = app.add_subcommand("detect", "Find faces (Haar cascade) and their 68 landmarks in images");
-        cmd->add_option("--regressor", args->regressor, "MODEL (SDM file), dlib, dlib:FILE, ert:FILE or lbf:FILE")
+        cmd->add_option("--regressor", args->regressor, "MODEL (SDM file), sdm@K:MODEL, mean:MODEL, dlib, dlib:FILE, ert:FILE or lbf:FILE")
             ->required();
         cmd->add_option("images", args->images, "Images")->required();
         cmd->add_option("--out", args->out, "Output folder: <stem>_<k>.pts, <stem>_overlay.png, <stem>.json")->required();
@@ -346,7 +376,8 @@ void register_train_commands(CLI::App& app) {
         auto args = std::make_shared<EvalArgs>();
         auto* cmd = eval_group(app).add_subcommand("landmarks", "Landmark NME on labelled images (inter-ocular)");
         cmd->add_option("--regressor", args->regressors,
-                        "MODEL (SDM file), mean:MODEL (its mean shape only), dlib, dlib:FILE, ert:FILE or lbf:FILE; repeat to compare on the same boxes")
+                        "MODEL (SDM file), mean:MODEL (its mean shape only), sdm@K:MODEL (its first K stages), dlib, dlib:FILE, ert:FILE "
+                        "or lbf:FILE; repeat to compare on the same boxes")
             ->required();
         cmd->add_option("--data", args->data, "Folders with images and .pts, comma-separated")->required();
         cmd->add_option("--json", args->json, "Write flat JSON results here");

@@ -35,7 +35,6 @@ void read_doubles(ByteReader& r, double* values, std::size_t count, const char* 
 
 void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
     const int outputs = 2 * model.num_landmarks;
-    const int dims = model.feature_dims();
     ByteWriter payload;
     write_doubles(payload, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()));
     const BoxStatistics& b = model.boxes;
@@ -46,10 +45,16 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
                             b.init_rotation_std_deg};
     write_doubles(payload, stats, std::size(stats));
     for (const auto& stage : model.stages) {
-        if (stage.weights.rows() != outputs || stage.weights.cols() != dims || stage.bias.size() != outputs)
+        const int dims = model.feature_dims(stage.settings);
+        const auto rank = stage.basis.cols();
+        if (stage.basis.rows() != outputs || rank < 1 || rank > outputs || stage.weights.rows() != rank ||
+            stage.weights.cols() != dims || stage.bias.size() != outputs)
             throw file_error(path.string(), "cannot write a model whose stage matrices do not match its header");
         payload.write(stage.settings.patch_relative);
         payload.write(static_cast<std::int32_t>(stage.settings.cell_size));
+        payload.write(static_cast<std::int32_t>(stage.settings.jaw_features ? 1 : 0));
+        payload.write(static_cast<std::int32_t>(rank));
+        payload.write_floats(stage.basis);
         payload.write_floats(stage.weights);
         payload.write_floats(stage.bias);
     }
@@ -81,8 +86,8 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
         throw file_error(path.string(), "not a facesynth SDM model (bad magic)");
     r.skip(sizeof(kMagic), "magic");
     const auto version = r.read<std::uint32_t>("version");
-    if (version != kSdmModelVersion)
-        throw file_error(path.string(), "unsupported SDM model version " + std::to_string(version) + " (this build reads " +
+    if (version != 1 && version != kSdmModelVersion)
+        throw file_error(path.string(), "unsupported SDM model version " + std::to_string(version) + " (this build reads 1 to " +
                                             std::to_string(kSdmModelVersion) + ")");
     SdmModel model;
     model.num_landmarks = static_cast<int>(r.read<std::uint32_t>("landmark count"));
@@ -111,7 +116,6 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
         throw file_error(path.string(), "payload checksum mismatch (corrupt file)");
 
     const int outputs = 2 * model.num_landmarks;
-    const int dims = model.feature_dims();
     model.mean_shape.resize(2, model.num_landmarks);
     read_doubles(r, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()), "mean shape");
     BoxStatistics& b = model.boxes;
@@ -132,7 +136,22 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
         stage.settings.cell_size = r.read<std::int32_t>("stage cell size");
         if (!(stage.settings.patch_relative > 0) || stage.settings.cell_size < 1 || stage.settings.cell_size > 64)
             throw r.error("stage " + std::to_string(k + 1) + " has invalid patch settings");
-        stage.weights.resize(outputs, dims);
+        if (version >= 2) {
+            const auto jaw = r.read<std::int32_t>("stage jaw features flag");
+            if (jaw != 0 && jaw != 1) throw r.error("stage " + std::to_string(k + 1) + " has an invalid jaw features flag");
+            stage.settings.jaw_features = jaw == 1;
+        }
+        const int dims = model.feature_dims(stage.settings);
+        // Version 1 stored full-rank stages (2L x D weights, no basis).
+        const int rank = version == 1 ? outputs : r.read<std::int32_t>("stage rank");
+        if (rank < 1 || rank > outputs) throw r.error("stage " + std::to_string(k + 1) + " has invalid rank " + std::to_string(rank));
+        if (version == 1) {
+            stage.basis = Eigen::MatrixXf::Identity(outputs, outputs);
+        } else {
+            stage.basis.resize(outputs, rank);
+            r.read_floats(stage.basis, "stage basis");
+        }
+        stage.weights.resize(rank, dims);
         r.read_floats(stage.weights, "stage weights");
         stage.bias.resize(outputs);
         r.read_floats(stage.bias, "stage bias");

@@ -9,7 +9,7 @@
 
 namespace facesynth::train {
 
-inline constexpr std::uint32_t kSdmModelVersion = 1;
+inline constexpr std::uint32_t kSdmModelVersion = 2;  // 2: reduced-rank stages (version 1 files are still read)
 
 // Atomic write; throws facesynth::Error naming the file.
 void write_sdm_model(const std::filesystem::path& path, const SdmModel& model);

@@ -5,15 +5,20 @@
 #include "train/model_file.h"
 #include "train/sdm.h"
 
+#include "morph/error.h"
+
 namespace facesynth::train {
 namespace {
 
 class SdmRegressor final : public LandmarkRegressor {
 public:
-    // mean_only: the model's mean shape placed in the box, no stages (the initialisation baseline).
-    SdmRegressor(const std::string& path, bool mean_only)
-        : LandmarkRegressor((mean_only ? "mean:" : "sdm:") + path), model_(read_sdm_model(path)) {
-        if (mean_only) model_.stages.clear();
+    // Keeps the first `stages` stages (all when negative); 0 is the mean shape placed in the box.
+    SdmRegressor(std::string label, const std::string& path, int stages)
+        : LandmarkRegressor(std::move(label)), model_(read_sdm_model(path)) {
+        if (stages > static_cast<int>(model_.stages.size()))
+            throw file_error(path, "has " + std::to_string(model_.stages.size()) + " stages, asked for " +
+                                       std::to_string(stages));
+        if (stages >= 0) model_.stages.resize(static_cast<std::size_t>(stages));
     }
     Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override { return sdm_detect(model_, gray, box); }
 
@@ -64,9 +69,19 @@ std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec) {
     if (spec.rfind("dlib:", 0) == 0) return std::make_unique<DlibRegressor>(spec, spec.substr(5));
     if (spec.rfind("ert:", 0) == 0) return std::make_unique<ErtRegressor>(spec.substr(4));
     if (spec.rfind("lbf:", 0) == 0) return std::make_unique<LbfRegressor>(spec.substr(4));
-    if (spec.rfind("sdm:", 0) == 0) return std::make_unique<SdmRegressor>(spec.substr(4), false);
-    if (spec.rfind("mean:", 0) == 0) return std::make_unique<SdmRegressor>(spec.substr(5), true);
-    return std::make_unique<SdmRegressor>(spec, false);
+    if (spec.rfind("sdm:", 0) == 0) return std::make_unique<SdmRegressor>(spec, spec.substr(4), -1);
+    if (spec.rfind("mean:", 0) == 0) return std::make_unique<SdmRegressor>(spec, spec.substr(5), 0);
+    if (spec.rfind("sdm@", 0) == 0) {
+        const auto colon = spec.find(':');
+        int stages = -1;
+        try {
+            if (colon != std::string::npos) stages = std::stoi(spec.substr(4, colon - 4));
+        } catch (const std::exception&) {
+        }
+        if (stages < 0) throw Error("regressor spec '" + spec + "': expected sdm@K:FILE with K >= 0 stages");
+        return std::make_unique<SdmRegressor>(spec, spec.substr(colon + 1), stages);
+    }
+    return std::make_unique<SdmRegressor>("sdm:" + spec, spec, -1);
 }
 
 }  // namespace facesynth::train

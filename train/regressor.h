@@ -5,6 +5,7 @@
 //   dlib:PATH     any dlib shape predictor file, run the same way
 //   ert:PATH      a dlib ERT model from `facesynth train --method ert` (runs on our canonical crop)
 //   mean:PATH     the SDM model's mean shape placed in the box, no stages (initialisation baseline)
+//   sdm@K:PATH    the SDM cascade cut after its first K stages (per-stage diagnosis)
 //   lbf:PATH      an OpenCV LBF model from `facesynth train --method lbf` (runs on our canonical crop)
 #include "train/face_box.h"
 

@@ -8,8 +8,11 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <numbers>
 
@@ -64,36 +67,46 @@ void apply_update(Eigen::Matrix2Xd& shape, const float* delta) {
 
 }  // namespace
 
-std::vector<SdmStageSettings> default_stage_settings(int stages) {
+std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_features_from) {
     static constexpr double kRelative[] = {1.0, 0.7, 0.4, 0.25, 0.2, 0.15, 0.12, 0.1};
     static constexpr int kCells[] = {8, 7, 6, 5, 5, 5, 5, 5};
     if (stages < 1 || stages > 8) throw Error("SDM: stages must be between 1 and 8, got " + std::to_string(stages));
     std::vector<SdmStageSettings> settings;
-    for (int k = 0; k < stages; ++k) settings.push_back({kRelative[k], kCells[k]});
+    for (int k = 0; k < stages; ++k) settings.push_back({kRelative[k], kCells[k], k + 1 >= jaw_features_from});
     return settings;
 }
 
-int SdmModel::feature_dims() const { return num_landmarks * hog_dims(hog_cells); }
+int feature_landmark_count(const SdmStageSettings& stage) {
+    return stage.jaw_features ? kNumIbugLandmarks : kNumIbugLandmarks - kNumJawLandmarks;
+}
+
+int SdmModel::feature_dims(const SdmStageSettings& stage) const {
+    return feature_landmark_count(stage) * hog_dims(hog_cells);
+}
 
 void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
                   std::span<float> out) {
     const int per_landmark = hog_dims(hog_cells);
+    const Eigen::Index first = stage.jaw_features ? 0 : kNumJawLandmarks;  // the jaw points are iBUG 1-17
+    if (out.size() != static_cast<std::size_t>((shape.cols() - first) * per_landmark))
+        throw Error("sdm_features: output size mismatch");
     const double side = stage.patch_relative * inter_eye_centre_distance(shape);
     cv::Mat patch;
-    for (Eigen::Index i = 0; i < shape.cols(); ++i) {
+    for (Eigen::Index i = first; i < shape.cols(); ++i) {
         extract_patch(crop, shape.col(i), side, hog_cells, stage.cell_size, patch);
         compute_hog(patch, hog_cells, stage.cell_size,
-                    out.subspan(static_cast<std::size_t>(i) * per_landmark, static_cast<std::size_t>(per_landmark)));
+                    out.subspan(static_cast<std::size_t>(i - first) * per_landmark, static_cast<std::size_t>(per_landmark)));
     }
 }
 
 Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
                             std::vector<Eigen::Matrix2Xd>* after_each_stage) {
-    Eigen::VectorXf features(model.feature_dims());
-    Eigen::VectorXf delta;
+    Eigen::VectorXf features, reduced, delta;
     for (const auto& stage : model.stages) {
+        features.resize(model.feature_dims(stage.settings));
         sdm_features(crop, shape, model.hog_cells, stage.settings, {features.data(), static_cast<std::size_t>(features.size())});
-        delta.noalias() = stage.weights * features;
+        reduced.noalias() = stage.weights * features;
+        delta.noalias() = stage.basis * reduced;
         delta += stage.bias;
         apply_update(shape, delta.data());
         if (after_each_stage) after_each_stage->push_back(shape);
@@ -111,11 +124,34 @@ double landmark_nme(const Eigen::Matrix2Xd& predicted, const Eigen::Matrix2Xd& t
 }
 
 SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, const SdmTrainOptions& options) {
-    if (faces.size() < 2) throw Error("SDM training needs at least 2 faces, got " + std::to_string(faces.size()));
     for (const auto& f : faces)
         if (f.truth.cols() != kNumIbugLandmarks) throw Error("SDM training needs 68-point landmarks");
     if (options.augment < 1) throw Error("SDM training: --augment must be at least 1");
-    const auto settings = options.stage_settings.empty() ? default_stage_settings(options.stages) : options.stage_settings;
+    if (options.lambda_factors.empty()) throw Error("SDM training: no λ factor given");
+    for (double f : options.lambda_factors)
+        if (!(f > 0) || !std::isfinite(f)) throw Error("SDM training: λ factors must be positive");
+    if (options.ranks.empty()) throw Error("SDM training: no rank candidate given");
+    for (int r : options.ranks)
+        if (r < 1 || r > 2 * kNumIbugLandmarks)
+            throw Error("SDM training: ranks must be between 1 and " + std::to_string(2 * kNumIbugLandmarks));
+    if (options.validation_share < 0 || options.validation_share >= 1)
+        throw Error("SDM training: the validation share must be in [0, 1)");
+    const auto settings = options.stage_settings.empty() ? default_stage_settings(options.stages, options.jaw_features_from)
+                                                         : options.stage_settings;
+
+    // Held-out validation faces: every k-th one.
+    std::vector<std::size_t> train_faces, validation_faces;
+    const std::size_t stride =
+        options.validation_share > 0 ? static_cast<std::size_t>(std::max(2.0, std::round(1 / options.validation_share))) : 0;
+    for (std::size_t f = 0; f < faces.size(); ++f)
+        (stride && f % stride == stride - 1 ? validation_faces : train_faces).push_back(f);
+    if (train_faces.size() < 2)
+        throw Error("SDM training needs at least 2 training faces, got " + std::to_string(train_faces.size()));
+    const bool choose = options.lambda_factors.size() > 1 || options.ranks.size() > 1;
+    if (choose && validation_faces.empty())
+        throw Error("SDM training: choosing among " + std::to_string(options.lambda_factors.size()) + " λ factors and " +
+                    std::to_string(options.ranks.size()) +
+                    " ranks needs validation faces (more faces or a larger validation share)");
 
     SdmModel model;
     model.num_landmarks = kNumIbugLandmarks;
@@ -123,23 +159,25 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
     model.training_faces = static_cast<std::uint32_t>(faces.size());
     model.augment = static_cast<std::uint32_t>(options.augment);
 
-    // The mean shape in the box frame is the learned box-to-shape alignment: averaged over the faces
-    // whose box came from the detector (all faces if there are none).
+    // The mean shape in the box frame is the learned box-to-shape alignment: averaged over the training
+    // faces whose box came from the detector (all training faces if there are none).
     model.mean_shape = Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks);
     int used = 0;
-    const bool have_detector_faces = boxes.detector_matched > 0;
-    for (const auto& f : faces) {
-        if (have_detector_faces && !f.box_from_detector) continue;
-        model.mean_shape += f.truth;
+    const bool have_detector_faces =
+        std::any_of(train_faces.begin(), train_faces.end(), [&](std::size_t f) { return faces[f].box_from_detector; });
+    const auto shapes_the_mean = [&](std::size_t f) { return !have_detector_faces || faces[f].box_from_detector; };
+    for (std::size_t f : train_faces) {
+        if (!shapes_the_mean(f)) continue;
+        model.mean_shape += faces[f].truth;
         ++used;
     }
     model.mean_shape /= used;
 
     // Spread of the true shapes around the mean (detector faces only): the initialisation noise.
     std::vector<double> dx, dy, scales, rotations;
-    for (const auto& f : faces) {
-        if (have_detector_faces && !f.box_from_detector) continue;
-        const Similarity s = fit_similarity(model.mean_shape, f.truth);
+    for (std::size_t f : train_faces) {
+        if (!shapes_the_mean(f)) continue;
+        const Similarity s = fit_similarity(model.mean_shape, faces[f].truth);
         dx.push_back(s.translation.x() / kCanonicalBoxWidth);
         dy.push_back(s.translation.y() / kCanonicalBoxWidth);
         scales.push_back(s.scale);
@@ -152,29 +190,36 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
     }
     model.boxes = boxes;
 
+    // Rows: `augment` perturbed starts per face, training faces first, then validation faces. A start
+    // depends only on (seed, face index, augmentation index).
     const std::size_t augment = static_cast<std::size_t>(options.augment);
-    const std::size_t rows = faces.size() * augment;
+    const std::size_t train_rows = train_faces.size() * augment;
+    const std::size_t validation_rows = validation_faces.size() * augment;
+    const std::size_t rows = train_rows + validation_rows;
+    std::vector<std::size_t> row_face(rows);
+    for (std::size_t r = 0; r < rows; ++r)
+        row_face[r] = r < train_rows ? train_faces[r / augment] : validation_faces[(r - train_rows) / augment];
     std::vector<Eigen::Matrix2Xd> shapes(rows);
-    for (std::size_t f = 0; f < faces.size(); ++f) {
-        for (std::size_t a = 0; a < augment; ++a) {
-            Rng rng(options.seed, f, kInitStreamBase + a);
-            Similarity s;
-            s.scale = 1 + boxes.init_scale_std * rng.normal();
-            s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
-            s.translation = Eigen::Vector2d(rng.normal(), rng.normal()) * boxes.init_translation_std * kCanonicalBoxWidth;
-            shapes[f * augment + a] = apply_similarity(model.mean_shape, s);
-        }
+    for (std::size_t r = 0; r < rows; ++r) {
+        Rng rng(options.seed, row_face[r], kInitStreamBase + r % augment);
+        Similarity s;
+        s.scale = 1 + boxes.init_scale_std * rng.normal();
+        s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
+        s.translation = Eigen::Vector2d(rng.normal(), rng.normal()) * boxes.init_translation_std * kCanonicalBoxWidth;
+        shapes[r] = apply_similarity(model.mean_shape, s);
     }
-    const auto face_of = [&](std::size_t row) -> const TrainingFace& { return faces[row / augment]; };
-    const auto mean_nme = [&] {
+    const auto face_of = [&](std::size_t row) -> const TrainingFace& { return faces[row_face[row]]; };
+    const auto mean_nme = [&](std::size_t first, std::size_t count) {
         double sum = 0;
-        for (std::size_t r = 0; r < rows; ++r) sum += landmark_nme(shapes[r], face_of(r).truth);
-        return sum / static_cast<double>(rows);
+        for (std::size_t r = first; r < first + count; ++r) sum += landmark_nme(shapes[r], face_of(r).truth);
+        return count ? sum / static_cast<double>(count) : 0.0;
     };
 
     const int outputs = 2 * kNumIbugLandmarks;
-    const int dims = model.feature_dims();
-    const std::size_t total_feature_rows = rows * settings.size() * (rows < static_cast<std::size_t>(dims) ? 1 : 2);
+    int dims = 0;  // of the current stage
+    std::size_t total_feature_rows = 0;
+    for (const auto& stage : settings)
+        total_feature_rows += train_rows * (train_rows < static_cast<std::size_t>(model.feature_dims(stage)) ? 1 : 2) + validation_rows;
     std::size_t feature_rows_done = 0;
     const auto extract_rows = [&](std::size_t first, std::size_t count, const SdmStageSettings& stage, RowMatrixXf& out) {
         out.resize(static_cast<Eigen::Index>(count), dims);
@@ -194,45 +239,71 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
         }
         return y;
     };
+    // Applies a stage to rows [first, first + features.rows()) of `shapes`.
+    const auto update_rows = [&](std::size_t first, const RowMatrixXf& features, const SdmStage& stage) {
+        const RowMatrixXf delta =
+            ((features * stage.weights.transpose()) * stage.basis.transpose()).rowwise() + stage.bias.transpose();
+        for (Eigen::Index i = 0; i < delta.rows(); ++i) apply_update(shapes[first + static_cast<std::size_t>(i)], delta.row(i).data());
+    };
 
     for (std::size_t k = 0; k < settings.size(); ++k) {
         const auto start = std::chrono::steady_clock::now();
-        SdmStage stage;
-        stage.settings = settings[k];
+        dims = model.feature_dims(settings[k]);
+        const bool dual = train_rows < static_cast<std::size_t>(dims);
         SdmStageReport report;
         report.stage = static_cast<int>(k + 1);
-        report.nme_before = mean_nme();
-        const double n = static_cast<double>(rows);
+        report.nme_before = mean_nme(0, train_rows);
+        report.validation_nme_before = mean_nme(train_rows, validation_rows);
+        const double n = static_cast<double>(train_rows);
 
-        if (rows < static_cast<std::size_t>(dims)) {
+        RowMatrixXf validation_features;
+        if (validation_rows) extract_rows(train_rows, validation_rows, settings[k], validation_features);
+
+        // The full-rank ridge solution for one λ factor: W (2L x D) and b.
+        struct FullSolution {
+            Eigen::MatrixXf weights;
+            Eigen::VectorXf bias;
+        };
+        std::function<FullSolution(double factor, double& lambda)> solve;
+        RowMatrixXf a;  // dual form: the centred training features, kept for the update
+        Eigen::RowVectorXf mean_x_dual;
+        Eigen::MatrixXd gram_dual, y_centred;
+        Eigen::MatrixXd centred, xty;
+        Eigen::VectorXd mean_x;
+        Eigen::RowVectorXd mean_y;
+        Eigen::MatrixXd target_scatter;  // centred Yᵀ Y of the training rows, 2L x 2L
+        Eigen::RowVectorXf shift;
+        if (dual) {
             // Dual form: W = A_cᵀ (A_c A_cᵀ + λI)⁻¹ Y_c, cheaper when there are fewer rows than features.
-            RowMatrixXf a;
-            extract_rows(0, rows, stage.settings, a);
-            const Eigen::MatrixXd y = targets(0, rows);
-            const Eigen::RowVectorXf mean_x = a.colwise().mean();
-            const Eigen::RowVectorXd mean_y = y.colwise().mean();
-            a.rowwise() -= mean_x;
-            const Eigen::MatrixXd gram = (a * a.transpose()).cast<double>();
-            report.lambda = options.lambda_factor * gram.norm() / n;
-            Eigen::MatrixXd regularised = gram;
-            regularised.diagonal().array() += report.lambda;
-            const Eigen::MatrixXd alpha = regularised.llt().solve(y.rowwise() - mean_y);
-            stage.weights = (a.transpose() * alpha.cast<float>()).transpose();
-            stage.bias = mean_y.transpose().cast<float>() - stage.weights * mean_x.transpose();
-            const RowMatrixXf delta = (a * stage.weights.transpose()).rowwise() + mean_y.cast<float>();
-            for (std::size_t r = 0; r < rows; ++r) apply_update(shapes[r], delta.row(static_cast<Eigen::Index>(r)).data());
+            extract_rows(0, train_rows, settings[k], a);
+            const Eigen::MatrixXd y = targets(0, train_rows);
+            mean_x_dual = a.colwise().mean();
+            mean_y = y.colwise().mean();
+            a.rowwise() -= mean_x_dual;
+            gram_dual = (a * a.transpose()).cast<double>();
+            y_centred = y.rowwise() - mean_y;
+            target_scatter = y_centred.transpose() * y_centred;
+            solve = [&](double factor, double& lambda) {
+                lambda = factor * gram_dual.norm() / n;
+                Eigen::MatrixXd regularised = gram_dual;
+                regularised.diagonal().array() += lambda;
+                const Eigen::MatrixXd alpha = regularised.llt().solve(y_centred);
+                FullSolution full;
+                full.weights = (a.transpose() * alpha.cast<float>()).transpose();
+                full.bias = mean_y.transpose().cast<float>() - full.weights * mean_x_dual.transpose();
+                return full;
+            };
         } else {
             // Primal form, streamed in chunks: (A_cᵀA_c + λI) W = A_cᵀ Y_c. Features are shifted by the
             // first chunk's mean before accumulating so that float sums keep their precision.
             Eigen::MatrixXf gram = Eigen::MatrixXf::Zero(dims, dims);
             Eigen::VectorXd sum_x = Eigen::VectorXd::Zero(dims);
-            Eigen::MatrixXd xty = Eigen::MatrixXd::Zero(dims, outputs);
+            xty = Eigen::MatrixXd::Zero(dims, outputs);
             Eigen::RowVectorXd sum_y = Eigen::RowVectorXd::Zero(outputs);
-            Eigen::RowVectorXf shift;
-            RowMatrixXf a;
-            for (std::size_t first = 0; first < rows; first += kChunkRows) {
-                const std::size_t count = std::min(kChunkRows, rows - first);
-                extract_rows(first, count, stage.settings, a);
+            target_scatter = Eigen::MatrixXd::Zero(outputs, outputs);
+            for (std::size_t first = 0; first < train_rows; first += kChunkRows) {
+                const std::size_t count = std::min(kChunkRows, train_rows - first);
+                extract_rows(first, count, settings[k], a);
                 if (first == 0) shift = a.colwise().mean();
                 a.rowwise() -= shift;
                 const Eigen::MatrixXd y = targets(first, count);
@@ -240,29 +311,104 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
                 sum_x += a.colwise().sum().transpose().cast<double>();
                 xty.noalias() += a.transpose().cast<double>() * y;
                 sum_y += y.colwise().sum();
+                target_scatter.noalias() += y.transpose() * y;
             }
-            const Eigen::VectorXd mean_x = sum_x / n;
-            const Eigen::RowVectorXd mean_y = sum_y / n;
-            Eigen::MatrixXd centred = gram.cast<double>().selfadjointView<Eigen::Lower>();
+            mean_x = sum_x / n;
+            mean_y = sum_y / n;
+            target_scatter.noalias() -= n * mean_y.transpose() * mean_y;
+            centred = gram.cast<double>().selfadjointView<Eigen::Lower>();
             gram.resize(0, 0);
             centred.noalias() -= n * mean_x * mean_x.transpose();
             xty.noalias() -= n * mean_x * mean_y;
-            report.lambda = options.lambda_factor * centred.norm() / n;
-            centred.diagonal().array() += report.lambda;
-            const Eigen::MatrixXd w = centred.llt().solve(xty);
-            stage.weights = w.transpose().cast<float>();
-            stage.bias = (mean_y.transpose() - w.transpose() * (mean_x + shift.transpose().cast<double>())).cast<float>();
-            for (std::size_t first = 0; first < rows; first += kChunkRows) {
-                const std::size_t count = std::min(kChunkRows, rows - first);
-                extract_rows(first, count, stage.settings, a);
-                const RowMatrixXf delta = (a * stage.weights.transpose()).rowwise() + stage.bias.transpose();
-                for (std::size_t i = 0; i < count; ++i)
-                    apply_update(shapes[first + i], delta.row(static_cast<Eigen::Index>(i)).data());
+            solve = [&](double factor, double& lambda) {
+                lambda = factor * centred.norm() / n;
+                Eigen::MatrixXd regularised = centred;
+                regularised.diagonal().array() += lambda;
+                const Eigen::MatrixXd w = regularised.llt().solve(xty);
+                FullSolution full;
+                full.weights = w.transpose().cast<float>();
+                full.bias = (mean_y.transpose() - w.transpose() * (mean_x + shift.transpose().cast<double>())).cast<float>();
+                return full;
+            };
+        }
+        // Principal directions of the targets, largest variance first.
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(target_scatter);
+        const Eigen::MatrixXf principal = eigen.eigenvectors().rowwise().reverse().cast<float>();
+        const Eigen::RowVectorXf target_mean = mean_y.cast<float>();
+        const auto reduce = [&](const FullSolution& full, int rank) {
+            SdmStage stage;
+            stage.settings = settings[k];
+            stage.basis = principal.leftCols(rank);
+            stage.weights = stage.basis.transpose() * full.weights;
+            // b_r = ȳ − P Pᵀ (ȳ − b), so that b_r + W_r x = ȳ + P Pᵀ (W x + b − ȳ).
+            stage.bias = target_mean.transpose() - stage.basis * (stage.basis.transpose() * (target_mean.transpose() - full.bias));
+            return stage;
+        };
+        // Held-out NME after applying the (centred, projected) predictions to the validation starts.
+        const auto validation_nme = [&](const RowMatrixXf& delta) {
+            double sum = 0;
+            for (std::size_t i = 0; i < validation_rows; ++i) {
+                Eigen::Matrix2Xd shape = shapes[train_rows + i];
+                apply_update(shape, delta.row(static_cast<Eigen::Index>(i)).data());
+                sum += landmark_nme(shape, face_of(train_rows + i).truth);
+            }
+            return sum / static_cast<double>(validation_rows);
+        };
+
+        struct Candidate {
+            double nme;
+            std::size_t factor_index;
+            int rank;
+        };
+        std::vector<Candidate> candidates;
+        std::vector<FullSolution> solutions;
+        std::vector<double> lambdas;
+        for (std::size_t f = 0; f < options.lambda_factors.size(); ++f) {
+            double lambda = 0;
+            solutions.push_back(solve(options.lambda_factors[f], lambda));
+            lambdas.push_back(lambda);
+            const FullSolution& full = solutions.back();
+            if (!full.weights.allFinite() || !full.bias.allFinite()) continue;
+            if (!choose) {
+                candidates.push_back({0.0, f, options.ranks.front()});
+                continue;
+            }
+            const RowMatrixXf predicted =
+                ((validation_features * full.weights.transpose()).rowwise() + full.bias.transpose()).rowwise() - target_mean;
+            for (int rank : options.ranks) {
+                const auto p = principal.leftCols(rank);
+                const RowMatrixXf delta = ((predicted * p) * p.transpose()).rowwise() + target_mean;
+                candidates.push_back({validation_nme(delta), f, rank});
             }
         }
-        if (!stage.weights.allFinite() || !stage.bias.allFinite())
+        if (candidates.empty())
             throw Error("SDM training: stage " + std::to_string(k + 1) + " produced non-finite weights");
-        report.nme_after = mean_nme();
+        double best = std::numeric_limits<double>::infinity();
+        for (const auto& c : candidates) best = std::min(best, c.nme);
+        const Candidate* chosen = nullptr;
+        for (const auto& c : candidates) {
+            if (c.nme > best * (1 + options.rank_tolerance)) continue;
+            if (!chosen || c.rank < chosen->rank || (c.rank == chosen->rank && c.nme < chosen->nme)) chosen = &c;
+        }
+        SdmStage stage = reduce(solutions[chosen->factor_index], chosen->rank);
+        report.lambda_factor = options.lambda_factors[chosen->factor_index];
+        report.lambda = lambdas[chosen->factor_index];
+        report.rank = chosen->rank;
+        solutions.clear();
+
+        if (dual) {
+            a.rowwise() += mean_x_dual;  // the features themselves again
+            update_rows(0, a, stage);
+        } else {
+            for (std::size_t first = 0; first < train_rows; first += kChunkRows) {
+                const std::size_t count = std::min(kChunkRows, train_rows - first);
+                extract_rows(first, count, settings[k], a);
+                update_rows(first, a, stage);
+            }
+        }
+        if (validation_rows) update_rows(train_rows, validation_features, stage);
+        report.nme_after = mean_nme(0, train_rows);
+        report.validation_nme_after = mean_nme(train_rows, validation_rows);
         report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         model.stages.push_back(std::move(stage));
         if (options.on_stage) options.on_stage(report);

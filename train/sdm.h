@@ -21,14 +21,26 @@ namespace facesynth::train {
 struct SdmStageSettings {
     double patch_relative = 1.0;  // patch side / inter-eye-centre distance
     int cell_size = 8;            // pixels per HOG cell after resampling the patch
+    // Whether the 17 jaw points' HOG enters the features. Renders have no neck, ears or hair, so the
+    // jaw line is a clean face/background edge there and not in photographs: early, coarse stages
+    // can leave it out and move the jaw points from the inner features alone (docs/train.md).
+    bool jaw_features = true;
 };
 
-// 1.0, 0.7, 0.4, 0.25 (extended by 0.2, 0.15, ... for more stages) with cells 8, 7, 6, 5, 5, ...
-[[nodiscard]] std::vector<SdmStageSettings> default_stage_settings(int stages);
+// Landmarks whose HOG a stage uses: all 68, or the 51 non-jaw ones (iBUG 18-68).
+[[nodiscard]] int feature_landmark_count(const SdmStageSettings& stage);
 
+// 1.0, 0.7, 0.4, 0.25 (extended by 0.2, 0.15, ... for more stages) with cells 8, 7, 6, 5, 5, ...;
+// jaw features from stage `jaw_features_from` (1-based) on.
+[[nodiscard]] std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_features_from = 1);
+
+// One linear stage of reduced rank r: update = basis · (weights · φ) + bias. The basis columns are the
+// leading principal directions of the training targets (orthonormal), so updates stay in the span of
+// the displacements seen in training and the cost per face is r·(D + 2L) instead of 2L·D.
 struct SdmStage {
     SdmStageSettings settings;
-    Eigen::MatrixXf weights;  // 2L x D
+    Eigen::MatrixXf basis;    // 2L x r
+    Eigen::MatrixXf weights;  // r x D
     Eigen::VectorXf bias;     // 2L, as (x0, y0, x1, y1, ...)
 };
 
@@ -54,10 +66,10 @@ struct SdmModel {
     std::uint32_t training_faces = 0;
     std::uint32_t augment = 0;
 
-    [[nodiscard]] int feature_dims() const;
+    [[nodiscard]] int feature_dims(const SdmStageSettings& stage) const;
 };
 
-// Features of one shape for one stage: num_landmarks · hog_dims(hog_cells) floats.
+// Features of one shape for one stage: feature_landmark_count(stage) · hog_dims(hog_cells) floats.
 void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
                   std::span<float> out);
 
@@ -80,6 +92,10 @@ struct SdmStageReport {
     int stage = 0;           // 1-based
     double nme_before = 0;   // mean training NME (inter-ocular) before and after this stage
     double nme_after = 0;
+    double validation_nme_before = 0;  // the same on the held-out validation faces (0 without any)
+    double validation_nme_after = 0;
+    double lambda_factor = 0;          // the candidates chosen (by validation when there are several)
+    int rank = 0;
     double lambda = 0;
     double seconds = 0;
 };
@@ -90,8 +106,19 @@ struct SdmTrainOptions {
     int threads = 1;
     std::uint64_t seed = 1;
     int hog_cells = 3;
-    double lambda_factor = 1.5;  // λ = factor · ‖A_cᵀA_c‖_F / N (A_c: centred features)
-    std::vector<SdmStageSettings> stage_settings;  // empty: default_stage_settings(stages)
+    // Ridge λ = factor · ‖A_cᵀA_c‖_F / N (A_c: centred features). With several candidates each stage
+    // keeps the one with the lowest NME on the validation faces after the update.
+    std::vector<double> lambda_factors = {3.0, 10.0, 30.0, 100.0};
+    // Every round(1 / share)-th face (indices k-1, 2k-1, ...) is held out: it never enters a regression
+    // or the mean shape and only chooses λ and reports validation NME. 0: no validation (needs a
+    // single λ candidate).
+    double validation_share = 0.1;
+    // Candidate ranks of each stage's update (at most 2L = 136), chosen with λ on the validation faces:
+    // the smallest rank whose validation NME is within `rank_tolerance` (relative) of the best pair.
+    std::vector<int> ranks = {8, 16, 24, 32, 48, 136};
+    double rank_tolerance = 0.01;
+    int jaw_features_from = 3;  // first stage (1-based) whose features include the jaw points
+    std::vector<SdmStageSettings> stage_settings;  // empty: default_stage_settings(stages, jaw_features_from)
     std::function<void(const SdmStageReport&)> on_stage;
     std::function<void(std::size_t rows_done, std::size_t rows_total)> on_progress;  // feature extraction
 };
@@ -99,7 +126,8 @@ struct SdmTrainOptions {
 // Trains the cascade. `boxes` carries the detector statistics measured while preparing the faces;
 // the perturbation spreads are measured here from the faces whose box came from the detector.
 // Deterministic for a given seed whatever the thread count. Throws facesynth::Error for fewer than
-// 2 faces or landmark counts other than 68.
+// 2 training faces, landmark counts other than 68, or several λ or rank candidates without validation
+// faces.
 [[nodiscard]] SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes,
                                  const SdmTrainOptions& options);
 

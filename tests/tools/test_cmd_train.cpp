@@ -41,16 +41,20 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
                                   " --stages 3 --augment 3 --hog-cells 2 --quiet --json " + (dir / "train.json").string();
     ASSERT_EQ(run_command(train_cmd, &out), 0) << out;
     ASSERT_TRUE(fs::exists(model));
+    const auto train_report = read_json(dir / "train.json");
+    for (const char* key : {"stage1_nme", "stage1_validation_nme", "stage1_lambda_factor", "stage1_rank", "stage3_rank"})
+        EXPECT_TRUE(train_report.contains(key)) << key;
 
     const auto eval_json = dir / "eval.json";
     const std::string eval_cmd = cli_path().string() + " eval landmarks --regressor " + model.string() +
-                                 " --regressor mean:" + model.string() + " --data " + test.string() +
+                                 " --regressor mean:" + model.string() + " --regressor sdm@1:" + model.string() +
+                                 " --data " + test.string() +
                                  " --quiet --json " + eval_json.string() + " --ced " + (dir / "ced.svg").string() +
                                  " --nme-csv " + (dir / "nme.csv").string();
     ASSERT_EQ(run_command(eval_cmd, &out), 0) << out;
     const auto j = read_json(eval_json);
     for (const char* key : {"nme_mean", "nme_median", "auc_008", "failure_rate_008", "ms_per_face", "detector_misses",
-                            "count", "regressor1", "regressor2", "regressor2_nme_mean"})
+                            "count", "regressor1", "regressor2", "regressor2_nme_mean", "regressor3_nme_mean"})
         EXPECT_TRUE(j.contains(key)) << key;
     EXPECT_EQ(j["count"].get<int>(), 30);
     EXPECT_LT(j["detector_misses"].get<int>(), 30);
@@ -61,7 +65,7 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     std::ifstream nme_csv(dir / "nme.csv");
     std::string line;
     ASSERT_TRUE(std::getline(nme_csv, line));
-    EXPECT_EQ(line, "key,yaw_deg,detected,regressor1,regressor2");
+    EXPECT_EQ(line, "key,yaw_deg,detected,regressor1,regressor2,regressor3");
     int rows = 0;
     while (std::getline(nme_csv, line)) ++rows;
     EXPECT_EQ(rows, 30);
@@ -90,6 +94,12 @@ TEST(CmdTrain, BadRegressorFileAndUsageErrors) {
         << out;
     EXPECT_NE(out.find("bad.sdm"), std::string::npos) << out;
     EXPECT_EQ(run_command(cli_path().string() + " train --out " + (dir / "m.sdm").string(), &out), 2) << out;
+    EXPECT_EQ(run_command(cli_path().string() + " eval landmarks --regressor sdm@x:" + (dir / "bad.sdm").string() +
+                              " --data " + dir.string(),
+                          &out),
+              1)
+        << out;
+    EXPECT_NE(out.find("sdm@x"), std::string::npos) << out;
     EXPECT_EQ(run_command(cli_path().string() + " eval landmarks --data " + dir.string(), &out), 2) << out;
 }
 

@@ -1,3 +1,4 @@
+#include "train/hog.h"
 #include "train/model_file.h"
 #include "train/sdm.h"
 
@@ -70,9 +71,10 @@ TEST(Sdm, PrimalFormReducesErrorAndIsThreadIndependent) {
     const auto train = cartoon_training_faces(3, 40);
     const auto test = cartoon_training_faces(4, 15);
     SdmTrainOptions options;
-    options.augment = 30;   // 1200 rows > 68·16 = 1088 features: the streamed primal solve
+    options.augment = 32;   // 36 training faces (4 held out) x 32 = 1152 rows > 68·16 = 1088 features: the streamed primal solve
     options.hog_cells = 1;
     options.stages = 3;
+    options.lambda_factors = {0.3, 3.0};
     options.threads = 1;
     std::vector<SdmStageReport> reports;
     options.on_stage = [&](const SdmStageReport& r) { reports.push_back(r); };
@@ -95,12 +97,76 @@ TEST(Sdm, RejectsTooFewFaces) {
     EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, SdmTrainOptions{}), Error);
 }
 
+TEST(Sdm, SeveralLambdaCandidatesNeedValidationFaces) {
+    const auto train = cartoon_training_faces(1, 8);
+    SdmTrainOptions options;
+    options.validation_share = 0;
+    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, options), Error);
+    options.lambda_factors = {1.0};
+    options.stages = 1;
+    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, options), Error);  // still several ranks
+    options.ranks = {136};
+    EXPECT_NO_THROW((void)train_sdm(train, BoxStatistics{}, options));
+}
+
+TEST(Sdm, ReducedRankStagesHaveOrthonormalBasesAndStillGeneralise) {
+    const auto train = cartoon_training_faces(7, 50);
+    const auto test = cartoon_training_faces(8, 15);
+    SdmTrainOptions options;
+    options.augment = 3;
+    options.stages = 2;
+    options.hog_cells = 2;
+    options.ranks = {4};
+    options.lambda_factors = {1.0};
+    const SdmModel model = train_sdm(train, BoxStatistics{}, options);
+    for (const auto& stage : model.stages) {
+        ASSERT_EQ(stage.basis.rows(), 136);
+        ASSERT_EQ(stage.basis.cols(), 4);
+        ASSERT_EQ(stage.weights.rows(), 4);
+        EXPECT_TRUE((stage.basis.transpose() * stage.basis).isIdentity(1e-4f));
+    }
+    const HeldOutErrors e = held_out_errors(model, test);
+    EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+}
+
+TEST(Sdm, ValidationChoosesTheLambdaWithTheLowestHeldOutError) {
+    const auto faces = cartoon_training_faces(6, 50);
+    SdmTrainOptions options;
+    options.augment = 3;
+    options.stages = 1;
+    options.hog_cells = 2;
+    options.validation_share = 0.2;  // faces 4, 9, 14, ... are held out
+    options.ranks = {136};
+    const auto stage_one = [&](std::vector<double> factors) {
+        options.lambda_factors = std::move(factors);
+        SdmStageReport report;
+        options.on_stage = [&](const SdmStageReport& r) { report = r; };
+        (void)train_sdm(faces, BoxStatistics{}, options);
+        return report;
+    };
+    const std::vector<double> grid = {0.001, 0.1, 30.0};
+    const SdmStageReport chosen = stage_one(grid);
+    EXPECT_LT(chosen.validation_nme_after, chosen.validation_nme_before);
+    bool differ = false;
+    for (double factor : grid) {
+        const SdmStageReport single = stage_one({factor});
+        EXPECT_EQ(single.validation_nme_before, chosen.validation_nme_before);
+        EXPECT_LE(chosen.validation_nme_after, single.validation_nme_after) << "factor " << factor;
+        if (factor == chosen.lambda_factor) {
+            EXPECT_EQ(chosen.validation_nme_after, single.validation_nme_after);
+        }
+        differ |= single.validation_nme_after > chosen.validation_nme_after + 1e-6;
+    }
+    EXPECT_TRUE(differ) << "the candidates should not all give the same held-out error";
+}
+
 SdmModel small_model() {
     const auto train = cartoon_training_faces(5, 12);
     SdmTrainOptions options;
     options.augment = 2;
     options.stages = 2;
     options.hog_cells = 2;
+    options.jaw_features_from = 2;  // stage 1 without the jaw points' HOG
     SdmModel model = train_sdm(train, BoxStatistics{}, options);
     model.training_checksum = 0x1234'5678'9abc'def0ULL;
     return model;
@@ -108,6 +174,10 @@ SdmModel small_model() {
 
 TEST(SdmModelFile, RoundTripsExactly) {
     const SdmModel model = small_model();
+    ASSERT_FALSE(model.stages[0].settings.jaw_features);
+    ASSERT_TRUE(model.stages[1].settings.jaw_features);
+    EXPECT_EQ(model.stages[0].weights.cols(), 51 * hog_dims(2));
+    EXPECT_EQ(model.stages[1].weights.cols(), 68 * hog_dims(2));
     const auto dir = testkit::fresh_temp_dir("sdm_model_round_trip");
     const auto path = dir / "model.sdm";
     write_sdm_model(path, model);
@@ -123,6 +193,9 @@ TEST(SdmModelFile, RoundTripsExactly) {
     for (std::size_t k = 0; k < model.stages.size(); ++k) {
         EXPECT_EQ(back.stages[k].settings.patch_relative, model.stages[k].settings.patch_relative);
         EXPECT_EQ(back.stages[k].settings.cell_size, model.stages[k].settings.cell_size);
+        EXPECT_EQ(back.stages[k].settings.jaw_features, model.stages[k].settings.jaw_features);
+        EXPECT_EQ(back.stages[k].weights.cols(), model.feature_dims(model.stages[k].settings));
+        EXPECT_TRUE(back.stages[k].basis == model.stages[k].basis);
         EXPECT_TRUE(back.stages[k].weights == model.stages[k].weights);
         EXPECT_TRUE(back.stages[k].bias == model.stages[k].bias);
     }
