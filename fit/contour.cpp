@@ -44,6 +44,28 @@ ContourFinder::ContourFinder(const MorphableModel& model) : model_(model), regio
         triangle_normals_.col(static_cast<Eigen::Index>(t)) = e1.cross(e2);
     }
 
+    // The region's rows of the shape and expression models (a PCA expression's mean is an offset).
+    const auto rows = static_cast<Eigen::Index>(3 * region_.vertices.size());
+    const Eigen::MatrixXf shape_basis = model.shape.rescaled_basis();
+    region_mean_.resize(rows);
+    region_shape_basis_.resize(rows, shape_basis.cols());
+    const PcaModel* expression_pca = model.expression ? std::get_if<PcaModel>(&*model.expression) : nullptr;
+    const auto* blendshapes = model.expression ? std::get_if<std::vector<Blendshape>>(&*model.expression) : nullptr;
+    Eigen::MatrixXf expression_basis;
+    if (expression_pca) expression_basis = expression_pca->rescaled_basis();
+    if (blendshapes) {
+        expression_basis.resize(3 * v, static_cast<Eigen::Index>(blendshapes->size()));
+        for (std::size_t b = 0; b < blendshapes->size(); ++b) expression_basis.col(static_cast<Eigen::Index>(b)) = (*blendshapes)[b].offsets;
+    }
+    region_expression_basis_.resize(rows, expression_basis.cols());
+    for (std::size_t r = 0; r < region_.vertices.size(); ++r) {
+        const Eigen::Index from = 3 * region_.vertices[r], to = static_cast<Eigen::Index>(3 * r);
+        region_mean_.segment<3>(to) = model.shape.mean.segment<3>(from);
+        if (expression_pca) region_mean_.segment<3>(to) += expression_pca->mean.segment<3>(from);
+        region_shape_basis_.middleRows<3>(to) = shape_basis.middleRows<3>(from);
+        if (expression_basis.cols() > 0) region_expression_basis_.middleRows<3>(to) = expression_basis.middleRows<3>(from);
+    }
+
     // The fallback's candidate region: the same jaw band as the shared definition (morph/jaw_contour.h).
     const JawBand band = jaw_band(model);
     side_.resize(static_cast<std::size_t>(v));
@@ -83,7 +105,8 @@ std::vector<int> ContourFinder::candidates(const Eigen::Matrix3d& rotation) cons
 template <class Project, class PositionOf>
 std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matrix2Xd& landmarks, const Eigen::Matrix3d& rotation,
                                                                Project&& project, const std::vector<int>& jaw_indices,
-                                                               PositionOf&& position_of) const {
+                                                               PositionOf&& position_of,
+                                                               const Eigen::Matrix3Xf* region_positions) const {
     std::vector<std::optional<SurfacePoint>> result(kNumJawLandmarks);
     const int far = far_side(rotation);
     auto fixed_defined = [&](int j) {
@@ -110,7 +133,9 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
         if (region_projected.cols() == 0) {
             region_projected.resize(2, static_cast<Eigen::Index>(region_.vertices.size()));
             for (std::size_t r = 0; r < region_.vertices.size(); ++r)
-                region_projected.col(static_cast<Eigen::Index>(r)) = project(position_of(region_.vertices[r]));
+                region_projected.col(static_cast<Eigen::Index>(r)) =
+                    project(region_positions ? Eigen::Vector3d(region_positions->col(static_cast<Eigen::Index>(r)).cast<double>())
+                                             : position_of(region_.vertices[r]));
         }
         // The face's horizontal image direction at the fixed point (the projected model x axis).
         const SurfacePoint& fixed = model_.landmarks[static_cast<std::size_t>(j)];
@@ -118,7 +143,7 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
         for (int k = 0; k < 3; ++k) x += static_cast<double>(fixed.weights[static_cast<std::size_t>(k)]) * position_of(fixed.vertices[static_cast<std::size_t>(k)]);
         const Eigen::Vector2d toward_left = (project(Eigen::Vector3d(x + Eigen::Vector3d::UnitX())) - project(x)).normalized();
         const Eigen::Vector2d outward = j < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
-        if (const auto hit = jaw_contour_point(region_, region_projected, far, landmarks.col(j), outward))
+        if (const auto hit = jaw_contour_point(region_, region_projected, landmarks.col(j), outward))
             result[static_cast<std::size_t>(j)] = hit->point;
         else
             result[static_cast<std::size_t>(j)] = model_.landmarks[static_cast<std::size_t>(j)];
@@ -181,6 +206,15 @@ std::function<Eigen::Vector3d(int)> ContourFinder::position_function(const std::
     };
 }
 
+Eigen::Matrix3Xf ContourFinder::region_positions(const std::vector<float>& alpha, const std::vector<float>& psi) const {
+    Eigen::VectorXf stacked = region_mean_;
+    const auto k = std::min<Eigen::Index>(static_cast<Eigen::Index>(alpha.size()), region_shape_basis_.cols());
+    if (k > 0) stacked.noalias() += region_shape_basis_.leftCols(k) * Eigen::Map<const Eigen::VectorXf>(alpha.data(), k);
+    const auto e = std::min<Eigen::Index>(static_cast<Eigen::Index>(psi.size()), region_expression_basis_.cols());
+    if (e > 0) stacked.noalias() += region_expression_basis_.leftCols(e) * Eigen::Map<const Eigen::VectorXf>(psi.data(), e);
+    return Eigen::Map<const Eigen::Matrix3Xf>(stacked.data(), 3, stacked.size() / 3);
+}
+
 namespace {
 Eigen::Matrix<double, 2, 3> affine_rows(const ScaledOrthographic& camera) {
     return camera.scale * (model_to_camera_flip() * camera.rotation).topRows<2>();
@@ -191,18 +225,20 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(cons
                                                     const std::vector<float>& alpha, const std::vector<float>& psi,
                                                     const std::vector<int>& jaw_indices) const {
     const Eigen::Matrix<double, 2, 3> m = affine_rows(camera);
+    const Eigen::Matrix3Xf region = region_positions(alpha, psi);
     return choose(landmarks, camera.rotation, [&](const Eigen::Vector3d& x) -> Eigen::Vector2d { return m * x + camera.translation; },
-                  jaw_indices, position_function(alpha, psi));
+                  jaw_indices, position_function(alpha, psi), &region);
 }
 
 std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const PinholeView& camera,
                                                     const std::vector<float>& alpha, const std::vector<float>& psi,
                                                     const std::vector<int>& jaw_indices) const {
     const Eigen::Matrix3d m = model_to_camera_flip() * camera.rotation;
+    const Eigen::Matrix3Xf region = region_positions(alpha, psi);
     return choose(landmarks, camera.rotation, [&](const Eigen::Vector3d& x) -> Eigen::Vector2d {
         const Eigen::Vector3d c = m * x + camera.translation;
         return Eigen::Vector2d(camera.focal * c.x() / c.z() + camera.cx, camera.focal * c.y() / c.z() + camera.cy);
-    }, jaw_indices, position_function(alpha, psi));
+    }, jaw_indices, position_function(alpha, psi), &region);
 }
 
 }  // namespace facesynth::fit

@@ -65,7 +65,10 @@ private:
     template <class Project, class PositionOf>
     std::vector<std::optional<SurfacePoint>> choose(const Eigen::Matrix2Xd& landmarks, const Eigen::Matrix3d& rotation,
                                                     Project&& project, const std::vector<int>& jaw_indices,
-                                                    PositionOf&& position_of) const;
+                                                    PositionOf&& position_of,
+                                                    const Eigen::Matrix3Xf* region_positions = nullptr) const;
+    // The face region's vertices for coefficients alpha, psi (3 x region size), as one matrix product.
+    [[nodiscard]] Eigen::Matrix3Xf region_positions(const std::vector<float>& alpha, const std::vector<float>& psi) const;
     [[nodiscard]] std::function<Eigen::Vector3d(int)> position_function(const std::vector<float>& alpha,
                                                                         const std::vector<float>& psi) const;
 
@@ -75,6 +78,11 @@ private:
     std::vector<signed char> side_;       // per vertex: -1 subject's right (x < 0), +1 left, 0 midline
     std::vector<char> in_face_region_;    // per vertex: front half and at jaw height (mean shape)
     JawContourRegion region_;             // the shared definition's face region
+    // The shape and expression models restricted to the region's vertices (3R rows), so that the
+    // contour step reconstructs them with one matrix-vector product per round.
+    Eigen::VectorXf region_mean_;
+    Eigen::MatrixXf region_shape_basis_;       // rescaled: columns × sqrt(eigenvalue)
+    Eigen::MatrixXf region_expression_basis_;  // rescaled PCA columns, or blendshape offsets
 };
 
 }  // namespace facesynth::fit

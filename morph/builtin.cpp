@@ -1,5 +1,7 @@
 #include "morph/builtin.h"
 
+#include "morph/regions.h"
+
 #include "morph/error.h"
 #include "morph/landmarks.h"
 #include "morph/mesh.h"
@@ -225,6 +227,32 @@ public:
     }
 
     [[nodiscard]] const Layout& layout() const { return l_; }
+
+    // Per vertex of `points` (this builder's surface): whether the ear flap or the nose field lifts
+    // it by more than `threshold` mm, i.e. whether it is part of the ear or of the nose.
+    struct FeatureMasks {
+        std::vector<char> ears, nose;
+    };
+    [[nodiscard]] FeatureMasks feature_masks(const Eigen::Matrix3Xf& points, double threshold) const {
+        FeatureMasks m{std::vector<char>(kNumVertices, 0), std::vector<char>(kNumVertices, 0)};
+        const auto row_y = regular_rows();
+        constexpr int kEarRow = kRowBelowEye + 2;
+        const auto ear_columns = column_points(section_at(kEarRow, row_y[kEarRow]));
+        for (int r = 0; r < kRows; ++r) {
+            const Section section = section_at(r, row_y[static_cast<std::size_t>(r)]);
+            for (int c = 0; c < kColumns; ++c) {
+                const int id = vertex_id(r, c);
+                const Eigen::Vector3d p = points.col(id).cast<double>();
+                const int side_column = c >= kMidColumn ? c : kColumns - 1 - c;
+                const Eigen::Vector3d mirrored(std::abs(p.x()), p.y(), p.z());
+                if (!section.under_chin &&
+                    ear_offset(ear_columns[static_cast<std::size_t>(side_column - kMidColumn)].second, mirrored, section.centre).norm() > threshold)
+                    m.ears[static_cast<std::size_t>(id)] = 1;
+                if (p.z() > 0 && nose_height(p.x(), p.y()) > threshold) m.nose[static_cast<std::size_t>(id)] = 1;
+            }
+        }
+        return m;
+    }
 
     [[nodiscard]] Eigen::Matrix3Xf build() const {
         Eigen::Matrix3Xf points(3, kNumVertices);
@@ -872,6 +900,32 @@ ColourRegions colour_regions(const Eigen::Matrix3Xf& v, const Layout& l) {
     return g;
 }
 
+// Semantic region of each vertex (morph/regions.h), from the construction: the painted colour
+// regions (eyes, lips, mouth line, brows, scalp hair), the nose and ear displacement fields, and
+// the row under the chin and the back below the ears as neck. Computed once on the mean face.
+std::vector<std::uint8_t> region_labels(const Eigen::Matrix3Xf& v, const Layout& l, const ColourRegions& g,
+                                        const FaceBuilder::FeatureMasks& features) {
+    std::vector<std::uint8_t> labels(kNumVertices, static_cast<std::uint8_t>(Region::kSkin));
+    for (int r = 0; r < kRows; ++r)
+        for (int c = 0; c < kColumns; ++c) {
+            const int id = vertex_id(r, c);
+            const auto i = static_cast<std::size_t>(id);
+            Region region = Region::kSkin;
+            if (r == kRows - 1 || (v(2, id) < -5.0 && v(1, id) < l.y_sn - 8.0)) region = Region::kNeck;
+            if (g.hair[i] > 0.5f) region = Region::kHair;
+            if (features.ears[i]) region = Region::kEars;
+            if (features.nose[i]) region = Region::kNose;
+            if (g.brows[i] > 0.5f) region = Region::kBrows;
+            if (g.lips[i] > 0.3f) region = Region::kLips;  // the vermilion border (where the lip landmarks lie) too
+            // The eye opening: the rows between the lid margins and the margins themselves, inside the canthi.
+            const double t = (std::abs(v(0, id)) - l.x_ec) / l.eye_half;
+            if (v(2, id) > 0 && std::abs(r - kRowEye) <= kFissureRows && std::abs(t) <= 1.0) region = Region::kEyes;
+            if (g.mouth[i] > 0.5f) region = Region::kMouthInterior;
+            labels[i] = static_cast<std::uint8_t>(region);
+        }
+    return labels;
+}
+
 Eigen::Vector3d lerp_vec(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double t) { return a + (b - a) * t; }
 
 Eigen::Vector3d srgb_to_linear(const Eigen::Vector3d& srgb) {
@@ -983,6 +1037,7 @@ MorphableModel builtin_model() {
         colourings.push_back(stacked(random_colouring(rng, regions)));
     }
     model.albedo = build_pca(colourings, {.max_components = kAlbedoComponents});
+    model.vertex_labels = region_labels(mean_points, layout, regions, FaceBuilder(average, {}).feature_masks(mean_points, 1.0));
 
     model.validate("builtin model");
     return model;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <initializer_list>
 #include <unordered_map>
 
 namespace facesynth {
@@ -37,53 +38,131 @@ JawBand jaw_band(const MorphableModel& model) {
     return band;
 }
 
+namespace {
+
+// The fixed jaw line of one side as (x, y, z) of the mean shape, from iBUG 1 (or 17) down to the chin.
+std::vector<Eigen::Vector3f> fixed_jaw_line(const MorphableModel& model, const Eigen::Matrix3Xf& mean, int side) {
+    std::vector<Eigen::Vector3f> line;
+    for (int k = 0; k <= kChinLandmark; ++k) {
+        const int j = side < 0 ? k : kNumJawLandmarks - 1 - k;
+        line.push_back(model.landmarks[static_cast<std::size_t>(j)].position(mean));
+    }
+    return line;
+}
+
+// The jaw line's point at height y: linear between the two fixed points that bracket y, searched
+// from the top; above the top point its x and z; nullopt below the chin.
+std::optional<Eigen::Vector3f> jaw_line_at(const std::vector<Eigen::Vector3f>& line, float y) {
+    if (y >= line.front().y()) return line.front();
+    for (std::size_t k = 0; k + 1 < line.size(); ++k) {
+        const Eigen::Vector3f& a = line[k];
+        const Eigen::Vector3f& b = line[k + 1];
+        if ((y <= a.y() && y >= b.y()) || (y >= a.y() && y <= b.y())) {
+            const float t = a.y() == b.y() ? 0.0f : (y - a.y()) / (b.y() - a.y());
+            return a + t * (b - a);
+        }
+    }
+    return std::nullopt;
+}
+
+bool has_fixed_jaw_points(const MorphableModel& model) {
+    if (static_cast<int>(model.landmarks.size()) < kNumJawLandmarks) return false;
+    for (int j = 0; j < kNumJawLandmarks; ++j) {
+        const SurfacePoint& p = model.landmarks[static_cast<std::size_t>(j)];
+        for (int id : p.vertices)
+            if (id < 0 || id >= model.num_vertices()) return false;
+        if (p.weights[0] + p.weights[1] + p.weights[2] < 0.5f) return false;
+    }
+    return true;
+}
+
+// Distance from p to segment ab (2D).
+float segment_distance(const Eigen::Vector2f& p, const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
+    const Eigen::Vector2f ab = b - a;
+    const float t = ab.squaredNorm() > 0 ? std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0f, 1.0f) : 0.0f;
+    return (p - (a + t * ab)).norm();
+}
+
+// Even-odd point-in-polygon test.
+bool inside_polygon(const Eigen::Vector2f& p, const std::vector<Eigen::Vector2f>& polygon) {
+    bool in = false;
+    for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+        const Eigen::Vector2f& a = polygon[i];
+        const Eigen::Vector2f& b = polygon[j];
+        if ((a.y() > p.y()) != (b.y() > p.y()) && p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) in = !in;
+    }
+    return in;
+}
+
+// A polygon through the given landmarks of the mean shape (frontal x, y), scaled about its centroid.
+std::vector<Eigen::Vector2f> landmark_polygon(const MorphableModel& model, const Eigen::Matrix3Xf& mean,
+                                              std::initializer_list<int> ids, float scale_x, float scale_y) {
+    std::vector<Eigen::Vector2f> polygon;
+    Eigen::Vector2f centroid = Eigen::Vector2f::Zero();
+    for (int id : ids) {
+        polygon.push_back(model.landmarks[static_cast<std::size_t>(id)].position(mean).head<2>());
+        centroid += polygon.back();
+    }
+    centroid /= static_cast<float>(polygon.size());
+    for (auto& p : polygon) p = centroid + Eigen::Vector2f(scale_x * (p.x() - centroid.x()), scale_y * (p.y() - centroid.y()));
+    return polygon;
+}
+
+}  // namespace
+
 JawContourRegion jaw_contour_region(const MorphableModel& model) {
     JawContourRegion region;
-    if (model.contour.right.empty() || model.contour.left.empty()) return region;
+    if (!has_fixed_jaw_points(model)) return region;
     const auto mean = as_points(model.shape.mean);
     const int v = static_cast<int>(mean.cols());
+    const Eigen::Matrix3Xf mean_points = mean;
+    const auto right = fixed_jaw_line(model, mean_points, -1), left = fixed_jaw_line(model, mean_points, 1);
     const JawBand band = jaw_band(model);
-    if (band.empty) return region;
     const Eigen::Vector3f extent = mean.rowwise().maxCoeff() - mean.rowwise().minCoeff();
-    // The fixed jaw line as x(y) on each side (mean shape): the band lies lateral of it, so the nose,
-    // mouth and the front of the cheeks never take part. Without fixed jaw points, no lateral limit.
-    std::vector<Eigen::Vector2f> jaw_right, jaw_left;  // (x, y), from the top down to the chin
-    if (static_cast<int>(model.landmarks.size()) >= kNumJawLandmarks) {
-        bool ok = true;
-        for (int j = 0; j < kNumJawLandmarks; ++j)
-            for (int id : model.landmarks[static_cast<std::size_t>(j)].vertices) ok = ok && id >= 0 && id < v;
-        if (ok)
-            for (int j = 0; j <= kChinLandmark; ++j) {
-                const Eigen::Vector3f r = model.landmarks[static_cast<std::size_t>(j)].position(mean);
-                const Eigen::Vector3f l = model.landmarks[static_cast<std::size_t>(kNumJawLandmarks - 1 - j)].position(mean);
-                jaw_right.emplace_back(r.x(), r.y());
-                jaw_left.emplace_back(l.x(), l.y());
-            }
-    }
-    auto jaw_x_at = [](const std::vector<Eigen::Vector2f>& line, float y) {
-        if (y >= line.front().y()) return line.front().x();
-        for (std::size_t k = 0; k + 1 < line.size(); ++k) {
-            const Eigen::Vector2f a = line[k], b = line[k + 1];
-            if ((y <= a.y() && y >= b.y()) || (y >= a.y() && y <= b.y())) {
-                const float t = a.y() == b.y() ? 0.0f : (y - a.y()) / (b.y() - a.y());
-                return a.x() + t * (b.x() - a.x());
-            }
+    // The outline seen from the front: up the right jaw line from the chin, across at the region's
+    // top, down the left one. Vertices within `tolerance` of a jaw segment count as inside, so the
+    // fixed points and the mesh edges through them belong to the region.
+    const float top = std::max({band.y_high + band.margin, right.front().y(), left.front().y()});
+    std::vector<Eigen::Vector2f> outline;
+    for (auto it = right.rbegin(); it != right.rend(); ++it) outline.emplace_back(it->x(), it->y());
+    outline.emplace_back(right.front().x(), top);
+    outline.emplace_back(left.front().x(), top);
+    for (const auto& p : left) outline.emplace_back(p.x(), p.y());
+    const float tolerance = 0.006f * extent.maxCoeff();
+    // Behind the jaw line at the same height lie the ears, the neck and the underside of the chin.
+    const float depth_tolerance = 0.01f * extent.maxCoeff();
+    // The vertices the fixed jaw points are made of belong to the region, so that its border passes
+    // through the fixed points where the jaw line bulges past the polygon between them.
+    std::vector<char> on_jaw(static_cast<std::size_t>(v), 0);
+    for (int j = 0; j < kNumJawLandmarks; ++j)
+        for (int k = 0; k < 3; ++k) {
+            const SurfacePoint& point = model.landmarks[static_cast<std::size_t>(j)];
+            if (point.weights[static_cast<std::size_t>(k)] != 0.0f) on_jaw[static_cast<std::size_t>(point.vertices[static_cast<std::size_t>(k)])] = 1;
         }
-        return line.back().x();
-    };
-    const float tolerance = 0.02f * extent.maxCoeff();
+    // The nose and the lips stand out of the face, but an annotator never puts the jaw outline on
+    // them: their vertices (inside the landmark polygons, widened to the alae and the lip borders)
+    // are left out. 0-based iBUG ids: nose 27 (bridge top), 31-35 (base); outer lips 48-59.
+    std::vector<std::vector<Eigen::Vector2f>> features;
+    if (static_cast<int>(model.landmarks.size()) >= kNumIbugLandmarks) {
+        features.push_back(landmark_polygon(model, mean_points, {27, 31, 32, 33, 34, 35}, 1.5f, 1.15f));
+        features.push_back(landmark_polygon(model, mean_points, {48, 49, 50, 51, 52, 53, 54, 55, 56, 57, 58, 59}, 1.1f, 1.25f));
+    }
     std::vector<int> local(static_cast<std::size_t>(v), -1);
     for (int i = 0; i < v; ++i) {
         const Eigen::Vector3f p = mean.col(i);
-        if (!band.contains(p)) continue;
-        if (!jaw_right.empty()) {
-            const bool right_ok = p.x() <= jaw_x_at(jaw_right, p.y()) + tolerance;
-            const bool left_ok = p.x() >= jaw_x_at(jaw_left, p.y()) - tolerance;
-            if (!right_ok && !left_ok) continue;
-        }
+        if (p.y() > top && !on_jaw[static_cast<std::size_t>(i)]) continue;
+        const Eigen::Vector2f q(p.x(), p.y());
+        bool in = on_jaw[static_cast<std::size_t>(i)] || inside_polygon(q, outline);
+        for (const auto* line : {&right, &left})
+            for (std::size_t k = 0; !in && k + 1 < line->size(); ++k)
+                in = segment_distance(q, (*line)[k].head<2>(), (*line)[k + 1].head<2>()) <= tolerance;
+        for (const auto& feature : features) in = in && !inside_polygon(q, feature);
+        if (!in) continue;
+        const auto r = jaw_line_at(right, p.y()), l = jaw_line_at(left, p.y());
+        const float jaw_z = std::min(r ? r->z() : right.back().z(), l ? l->z() : left.back().z());
+        if (p.z() < jaw_z - depth_tolerance && !on_jaw[static_cast<std::size_t>(i)]) continue;
         local[static_cast<std::size_t>(i)] = static_cast<int>(region.vertices.size());
         region.vertices.push_back(i);
-        region.side.push_back(band.side(p));
     }
     std::unordered_map<long long, char> seen;
     for (const auto& t : model.triangles) {
@@ -107,15 +186,13 @@ int far_side(const Eigen::Matrix3d& rotation) {
     return z < 0 ? 1 : (z > 0 ? -1 : 0);
 }
 
-std::optional<JawContourHit> jaw_contour_point(const JawContourRegion& region, const Eigen::Matrix2Xd& projected, int side,
+std::optional<JawContourHit> jaw_contour_point(const JawContourRegion& region, const Eigen::Matrix2Xd& projected,
                                                const Eigen::Vector2d& fixed_pixel, const Eigen::Vector2d& outward) {
     const Eigen::Vector2d u = outward.normalized();
     const Eigen::Vector2d w(-u.y(), u.x());  // across the line
     std::optional<JawContourHit> best;
     double best_out = -std::numeric_limits<double>::max();
     for (const auto& e : region.edges) {
-        const int sa = region.side[static_cast<std::size_t>(e[0])], sb = region.side[static_cast<std::size_t>(e[1])];
-        if (sa == -side || sb == -side) continue;  // the other half of the face
         const Eigen::Vector2d pa = projected.col(e[0]), pb = projected.col(e[1]);
         const double da = (pa - fixed_pixel).dot(w), db = (pb - fixed_pixel).dot(w);
         if ((da > 0 && db > 0) || (da < 0 && db < 0) || da == db) continue;

@@ -9,10 +9,13 @@
 // Definition: for a jaw point j on the far side, draw the line through its projected fixed point
 // along the face's horizontal image direction (the projected model x axis). The contour point is the
 // intersection of that line with an edge of the face region's triangles that lies furthest out in
-// the far direction. The face region (jaw_contour_region) is the part of the mean shape within the
-// height range and in front of the depth spanned by the contour chains and the fixed jaw points
-// (widened by 5% of the model size): cheeks and jaw, not ears, the back of the head, hair or neck.
-// On that line the outermost projected point of the region lies on the region's occluding contour.
+// the far direction: a point of the face region's projected outline, i.e. of its true occluding
+// contour (where the surface normal is perpendicular to the view) or of the region's border.
+// The face region (jaw_contour_region) is the part of the mean shape inside the fixed jaw line:
+// between the left and right jaw lines at each height, above the chin, in front of the jaw points
+// and no higher than the contour chains' top (plus 5% of the model's size). Its border is the fixed
+// jaw line itself, so at frontal pose the contour points are the fixed points, and ears, neck, the
+// back of the head and the hair never take part. A model without the 17 fixed jaw points has none.
 #include "morph/model.h"
 
 #include <Eigen/Core>
@@ -25,7 +28,6 @@ namespace facesynth {
 struct JawContourRegion {
     std::vector<int> vertices;                 // face-region vertex ids (global)
     std::vector<std::array<int, 2>> edges;     // unique edges of face-region triangles, as indices into `vertices`
-    std::vector<signed char> side;             // per region vertex: -1 subject's right (x < 0), +1 left, 0 midline
 };
 
 // The height and depth band of the mean shape where jaw outline points can lie: spanned by the
@@ -46,7 +48,7 @@ struct JawBand {
 };
 [[nodiscard]] JawBand jaw_band(const MorphableModel& model);
 
-// The face region of a model (computed once per model). Empty when the model has no contour chains.
+// The face region of a model (computed once per model). Empty when the model lacks fixed jaw points.
 [[nodiscard]] JawContourRegion jaw_contour_region(const MorphableModel& model);
 
 // The side turned away from the camera for a rotation R (pose.h convention, viewer at +z before the
@@ -61,15 +63,15 @@ struct JawBand {
 
 // The contour point of a far-side jaw point: `projected` holds the image positions of
 // region.vertices (2 × region.vertices.size()), `fixed_pixel` the projected fixed jaw point and
-// `outward` the image direction pointing away from the face on that side. Only region vertices on
-// `side` (or the midline) take part. Returns the surface point on the chosen edge (two vertices with
-// weights) and its image position; nullopt when the line meets no region edge.
+// `outward` the image direction pointing away from the face on that side. Returns the surface point
+// on the chosen edge (two vertices with weights) and its image position; nullopt when the line meets
+// no region edge.
 struct JawContourHit {
     SurfacePoint point;
     Eigen::Vector2d pixel;
 };
 [[nodiscard]] std::optional<JawContourHit> jaw_contour_point(const JawContourRegion& region, const Eigen::Matrix2Xd& projected,
-                                                             int side, const Eigen::Vector2d& fixed_pixel,
+                                                             const Eigen::Vector2d& fixed_pixel,
                                                              const Eigen::Vector2d& outward);
 
 }  // namespace facesynth

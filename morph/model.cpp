@@ -1,6 +1,7 @@
 #include "morph/model.h"
 
 #include "morph/error.h"
+#include "morph/regions.h"
 
 #include <cmath>
 #include <cstdio>
@@ -157,6 +158,13 @@ void MorphableModel::validate(const std::string& context) const {
                     std::to_string(v) + " vertices");
     for (int id : symmetry)
         if (id < -1 || id >= v) throw Error(context + ": symmetry map refers to vertex " + std::to_string(id));
+    if (!vertex_labels.empty() && static_cast<int>(vertex_labels.size()) != v)
+        throw Error(context + ": " + std::to_string(vertex_labels.size()) + " vertex labels for " + std::to_string(v) +
+                    " vertices");
+    for (std::size_t i = 0; i < vertex_labels.size(); ++i)
+        if (vertex_labels[i] >= kNumRegions)
+            throw Error(context + ": vertex " + std::to_string(i) + " has region label " + std::to_string(vertex_labels[i]) +
+                        " (ids are 0-" + std::to_string(kNumRegions - 1) + ")");
 }
 
 std::string MorphableModel::checksum() const {

@@ -68,6 +68,7 @@ struct MorphableModel {
     std::vector<SurfacePoint> landmarks;  // iBUG 68 in order (0-based index = iBUG id - 1)
     ContourChains contour;
     std::vector<int> symmetry;          // mirror vertex of each vertex, -1 where unknown; may be empty
+    std::vector<std::uint8_t> vertex_labels;  // Region (morph/regions.h) of each vertex; may be empty
 
     [[nodiscard]] int num_vertices() const { return shape.num_vertices(); }
     [[nodiscard]] int num_shape_components() const { return shape.num_components(); }
@@ -91,7 +92,9 @@ struct MorphableModel {
     // or values are not finite.
     void validate(const std::string& context) const;
 
-    // Stable checksum over every field (FNV-1a 64 over the serialised content), as 16 hex digits.
+    // Stable checksum over every field but vertex_labels (FNV-1a 64 over the serialised content), as
+    // 16 hex digits. The labels are left out so that .fsm readers that predate them (and skip their
+    // section) still verify newer files, and checksums recorded before labels existed still hold.
     [[nodiscard]] std::string checksum() const;
 };
 

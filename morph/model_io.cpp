@@ -33,7 +33,8 @@ constexpr std::uint32_t tag(const char (&name)[5]) {
 }
 constexpr std::uint32_t kName = tag("NAME"), kShape = tag("SHAP"), kExpressionPca = tag("EXPP"),
                         kBlendshapes = tag("EXPB"), kAlbedo = tag("ALBD"), kTriangles = tag("TRIS"),
-                        kUv = tag("UVCO"), kLandmarks = tag("LMKS"), kContour = tag("CONT"), kSymmetry = tag("SYMM");
+                        kUv = tag("UVCO"), kLandmarks = tag("LMKS"), kContour = tag("CONT"), kSymmetry = tag("SYMM"),
+                        kLabels = tag("LABL");
 
 std::string tag_name(std::uint32_t t) {
     std::string s(4, ' ');
@@ -168,6 +169,12 @@ std::string serialise(const MorphableModel& model) {
         write_ints(s, model.symmetry);
         add_section(file, kSymmetry, s, sections);
     }
+    if (!model.vertex_labels.empty()) {
+        ByteWriter s;
+        s.write(static_cast<std::uint32_t>(model.vertex_labels.size()));
+        s.write_bytes(model.vertex_labels.data(), model.vertex_labels.size());
+        add_section(file, kLabels, s, sections);
+    }
     std::memcpy(file.bytes().data() + count_offset, &sections, sizeof sections);
     file.write(fnv1a(file.bytes()));
     return std::move(file.bytes());
@@ -212,6 +219,11 @@ void read_section(MorphableModel& model, std::uint32_t section_tag, ByteReader& 
         model.contour.left = read_ints<int>(in, "left contour");
     } else if (section_tag == kSymmetry) {
         model.symmetry = read_ints<int>(in, "symmetry");
+    } else if (section_tag == kLabels) {
+        const auto count = in.read<std::uint32_t>("label count");
+        in.check_fits(count, 1, "labels");
+        model.vertex_labels.resize(count);
+        in.read_bytes(model.vertex_labels.data(), count, "labels");
     } else {
         in.skip(in.remaining(), "unknown section");  // a later minor addition: ignored by this reader
         return;

@@ -124,7 +124,7 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
         const Eigen::Vector2d toward_left = (project_point(camera, x + Eigen::Vector3d::UnitX()) - out.pixels.col(i)).normalized();
         // Points 0-7 are on the subject's right (model -x), 9-16 on the left.
         const Eigen::Vector2d outward = i < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
-        const auto hit = jaw_contour_point(region, projected, side, out.pixels.col(i), outward);
+        const auto hit = jaw_contour_point(region, projected, out.pixels.col(i), outward);
         if (!hit) continue;
         const std::size_t s = static_cast<std::size_t>(i);
         const Eigen::Vector3d p = hit->point.position(mesh.vertices).cast<double>();

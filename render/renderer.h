@@ -7,6 +7,7 @@
 // project_points(camera, X) lands on the rendered surface point X to a small fraction of a pixel.
 #include "morph/camera.h"
 #include "morph/mesh.h"
+#include "morph/regions.h"
 #include "render/lighting.h"
 
 #include <opencv2/core.hpp>
@@ -38,11 +39,8 @@ struct Camera {
 [[nodiscard]] Eigen::Matrix2Xd project_points(const Camera& camera, const Eigen::Matrix3Xf& model_points);
 [[nodiscard]] Eigen::Vector2d project_point(const Camera& camera, const Eigen::Vector3d& model_point);
 
-// Semantic region ids for the per-vertex label input and the label image (0 = background).
-enum class Region : std::uint8_t {
-    kBackground = 0, kSkin = 1, kBrows = 2, kEyes = 3, kLips = 4, kNose = 5, kMouthInterior = 6,
-    kHair = 7, kEars = 8, kNeck = 9,
-};
+// Semantic region ids for the per-vertex label input and the label image (morph/regions.h).
+using facesynth::Region;
 
 // What the mesh carries beyond morph::Mesh. Spans must outlive the render call.
 struct MeshExtras {

@@ -158,6 +158,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"expression.truncation", &c.expression.truncation, "PCA expression models: coefficients truncated at ±k σ"});
     f.push_back({"albedo.truncation", &c.albedo.truncation, "colour coefficients truncated at ±k σ (models without a colour model get a random uniform skin tone)"});
     f.push_back({"albedo.scale", &c.albedo.scale, "multiplier on the colour coefficients (0 = mean colour)"});
+    f.push_back({"albedo.texture_folder", &c.albedo.texture_folder,
+                 "folder of UV texture maps (images, sampled with the model's uv); each sample renders with one, chosen from (seed, index); empty = off"});
     add_angle(f, "yaw", c.pose.yaw);
     add_angle(f, "pitch", c.pose.pitch);
     add_angle(f, "roll", c.pose.roll);
@@ -207,6 +209,7 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"output.depth", &c.output.depth, "write depth/ (EXR, camera-space mm)"});
     f.push_back({"output.mask", &c.output.mask, "write mask/ (PNG, 255 = face)"});
     f.push_back({"output.normals", &c.output.normals, "write normals/ (PNG)"});
+    f.push_back({"output.labels", &c.output.labels, "write labels/ (PNG, 8-bit region ids: 0 background, 1 skin, 2 brows, 3 eyes, 4 lips, 5 nose, 6 mouth interior, 7 hair, 8 ears, 9 neck)"});
     f.push_back({"output.wds_shard_size", &c.output.wds_shard_size, "samples per WebDataset tar"});
     f.push_back({"output.wds_prefix", &c.output.wds_prefix, "WebDataset tar name prefix ({prefix}-000000.tar)"});
     return f;

@@ -39,6 +39,7 @@ struct ExpressionConfig {
 struct AlbedoConfig {
     double truncation = 2.0;  // colour coefficients truncated at ±truncation σ
     double scale = 1.0;
+    std::string texture_folder;  // folder of UV texture maps; each sample renders with one of them
 };
 
 struct PoseConfig {
@@ -116,6 +117,7 @@ struct OutputConfig {
     bool depth = false;    // depth/ (EXR, camera-space mm)
     bool mask = false;     // mask/ (PNG, 255 = face)
     bool normals = false;  // normals/ (PNG, camera-space normal (n + 1) / 2)
+    bool labels = false;   // labels/ (PNG, 8-bit region ids of morph/regions.h, 0 = background)
     int wds_shard_size = 1000;  // samples per WebDataset tar
     std::string wds_prefix = "shard";
 };

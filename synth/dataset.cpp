@@ -53,6 +53,7 @@ std::vector<SampleFile> sample_files(const SynthConfig& config) {
     if (config.output.depth) files.push_back({"depth", ".exr", ".depth.exr"});
     if (config.output.mask) files.push_back({"mask", ".png", ".mask.png"});
     if (config.output.normals) files.push_back({"normals", ".png", ".normals.png"});
+    if (config.output.labels) files.push_back({"labels", ".png", ".labels.png"});
     files.push_back({"meta", ".json", ".json"});
     return files;
 }
@@ -149,7 +150,7 @@ nlohmann::json dataset_json(const SynthConfig& config, const MorphableModel& mod
 }
 
 void remove_dataset_outputs(const fs::path& out) {
-    for (const char* folder : {"images", "landmarks", "meta", "depth", "mask", "normals", kStagingFolder}) fs::remove_all(out / folder);
+    for (const char* folder : {"images", "landmarks", "meta", "depth", "mask", "normals", "labels", kStagingFolder}) fs::remove_all(out / folder);
     for (const auto& entry : fs::directory_iterator(out)) {
         const std::string name = entry.path().filename().string();
         if (name.ends_with(".tar") || name.starts_with("manifest") || name.starts_with("coco") || name.starts_with("dataset.json"))
@@ -329,6 +330,7 @@ nlohmann::json sample_meta(const Sample& sample, const SynthConfig& config, cons
         {"psi", s.psi},
         {"beta", s.beta},
         {"skin_tone", s.skin_tone ? vector_json(*s.skin_tone) : nlohmann::json(nullptr)},
+        {"texture", sample.texture.empty() ? nlohmann::json(nullptr) : nlohmann::json(sample.texture)},
         {"rotation", rotation},
         {"yaw", s.angles.yaw},
         {"pitch", s.angles.pitch},
@@ -447,8 +449,13 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                 ++result.tars_written;
             }
 
-    BackgroundLibrary backgrounds;
-    if (config.background.type == "images") backgrounds = BackgroundLibrary(config.background.folder);
+    ImageLibrary backgrounds, textures;
+    if (config.background.type == "images") backgrounds = ImageLibrary(config.background.folder, "background");
+    if (!config.albedo.texture_folder.empty()) {
+        if (model.uv.cols() != model.num_vertices())
+            throw Error("albedo.texture_folder: model '" + model.name + "' has no uv coordinates to map a texture with");
+        textures = ImageLibrary(config.albedo.texture_folder, "texture");
+    }
 
     std::atomic<std::size_t> next{0};
     std::atomic<bool> failed{false};
@@ -461,7 +468,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
 
     const auto worker = [&](int worker_index) {
         try {
-            SampleGenerator generator(config, model, backgrounds, options.renderer);
+            SampleGenerator generator(config, model, backgrounds, textures, options.renderer);
             if (worker_index == 0) {
                 std::lock_guard lock(mutex);
                 renderer_name = generator.renderer_description();
@@ -483,6 +490,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                         else if (file.folder == "depth") contents.push_back(encode_depth_exr(sample.depth, key));
                         else if (file.folder == "mask") contents.push_back(encode_png(sample.mask, config.output.png_compression, key));
                         else if (file.folder == "normals") contents.push_back(encode_normals(sample.normals, config.output.png_compression, key));
+                        else if (file.folder == "labels") contents.push_back(encode_png(sample.regions, config.output.png_compression, key));
                         else contents.push_back(sample_meta(sample, config, model, checksum).dump() + "\n");
                     }
                     const auto encoded = Clock::now();

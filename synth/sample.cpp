@@ -65,7 +65,7 @@ void procedural(cv::Mat& out, const BackgroundSpec& b) {
     cv::GaussianBlur(out, out, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
 }
 
-void image_crop(cv::Mat& out, const BackgroundSpec& b, const BackgroundLibrary& library) {
+void image_crop(cv::Mat& out, const BackgroundSpec& b, const ImageLibrary& library) {
     Rng rng(b.pattern_seed, 0, 0);
     const cv::Mat& source = library.image(rng.next_u64());
     // A random crop of the output's aspect ratio covering 30-100% of the image's shorter side.
@@ -80,7 +80,7 @@ void image_crop(cv::Mat& out, const BackgroundSpec& b, const BackgroundLibrary& 
     if (rng.uniform() < 0.5) cv::flip(out, out, 1);
 }
 
-cv::Mat make_background(const cv::Size& size, const BackgroundSpec& b, const BackgroundLibrary& library) {
+cv::Mat make_background(const cv::Size& size, const BackgroundSpec& b, const ImageLibrary& library) {
     cv::Mat out(size, CV_8UC3);
     if (b.type == "solid") out.setTo(to_scalar(b.colour));
     else if (b.type == "images") image_crop(out, b, library);
@@ -175,9 +175,9 @@ StageTimes& StageTimes::operator+=(const StageTimes& o) {
     return *this;
 }
 
-BackgroundLibrary::BackgroundLibrary(const std::filesystem::path& folder) {
+ImageLibrary::ImageLibrary(const std::filesystem::path& folder, const std::string& kind) {
     std::error_code error;
-    if (!std::filesystem::is_directory(folder, error)) throw file_error(folder.string(), "background folder not found");
+    if (!std::filesystem::is_directory(folder, error)) throw file_error(folder.string(), kind + " folder not found");
     std::vector<std::filesystem::path> files;
     for (const auto& entry : std::filesystem::directory_iterator(folder))
         if (entry.is_regular_file()) files.push_back(entry.path());
@@ -191,16 +191,19 @@ BackgroundLibrary::BackgroundLibrary(const std::filesystem::path& folder) {
         cv::Mat rgb;
         cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
         images_.push_back(std::move(rgb));
+        names_.push_back(file.filename().string());
     }
-    if (images_.empty()) throw file_error(folder.string(), "no readable background images");
+    if (images_.empty()) throw file_error(folder.string(), "no readable " + kind + " images");
 }
 
-SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel& model, const BackgroundLibrary& backgrounds,
-                                 const render::RendererOptions& renderer_options)
-    : config_(config), model_(model), backgrounds_(backgrounds),
+SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel& model, const ImageLibrary& backgrounds,
+                                 const ImageLibrary& textures, const render::RendererOptions& renderer_options)
+    : config_(config), model_(model), backgrounds_(backgrounds), textures_(textures),
       contour_region_(jaw_contour_region(model)), renderer_(renderer_options) {
     if (config.background.type == "images" && backgrounds.empty())
         throw Error("background.type = \"images\" needs a background folder with readable images");
+    if (!config.albedo.texture_folder.empty() && textures.empty())
+        throw Error("albedo.texture_folder needs a folder with readable texture images");
 }
 
 std::string SampleGenerator::renderer_description() const { return renderer_.backend() + " | " + renderer_.renderer_string(); }
@@ -220,7 +223,13 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     settings.geometry = true;  // depth for landmark visibility
     settings.normals = config_.output.normals;  // an extra float target: only when written
     settings.msaa_samples = config_.render.msaa_samples;
-    renderer_.render(mesh, camera, settings, frame_);
+    render::MeshExtras extras;
+    extras.vertex_labels = model_.vertex_labels;
+    if (s.spec.texture_choice) {
+        extras.texture = &textures_.image(*s.spec.texture_choice);
+        s.texture = textures_.name(*s.spec.texture_choice);
+    }
+    renderer_.render(mesh, camera, settings, frame_, extras);
     local.render = seconds_since(clock);
 
     // Landmarks in both jaw modes with self-occlusion from the depth buffer (render/landmarks.h).
@@ -243,6 +252,10 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     degrade(s.image, s.spec.degradation, s.spec.seed, index);
     if (config_.output.depth) s.depth = frame_.depth.clone();
     if (config_.output.normals) s.normals = frame_.normals.clone();
+    if (config_.output.labels) {
+        s.regions = frame_.labels.clone();
+        if (!occluder_coverage.empty()) s.regions.setTo(0, occluder_coverage);
+    }
     local.composite = seconds_since(clock);
     if (times) *times += local;
     return s;

@@ -34,6 +34,8 @@ struct Sample {
     cv::Mat mask;     // CV_8UC1, visible face coverage (occluders removed)
     cv::Mat depth;    // CV_32FC1, camera-space mm, 0 = background
     cv::Mat normals;  // CV_32FC3, camera axes
+    cv::Mat regions;  // CV_8UC1, Region id per pixel (morph/regions.h), 0 = background or occluder
+    std::string texture;  // file name of the UV texture map used; empty without albedo.texture_folder
 };
 
 // Where time goes, summed over samples (seconds).
@@ -46,32 +48,37 @@ struct StageTimes {
     StageTimes& operator+=(const StageTimes& other);
 };
 
-// Background images for background.type = "images", read once and shared read-only between threads.
-// Unreadable files are skipped with a warning on stderr; none usable is an error.
-class BackgroundLibrary {
+// A folder of images read once and shared read-only between threads: backgrounds for
+// background.type = "images", UV texture maps for albedo.texture_folder. Files are taken in name
+// order; unreadable ones are skipped with a warning on stderr naming them; none usable is an error
+// naming the folder and `kind` ("background", "texture").
+class ImageLibrary {
 public:
-    BackgroundLibrary() = default;
-    explicit BackgroundLibrary(const std::filesystem::path& folder);
+    ImageLibrary() = default;
+    ImageLibrary(const std::filesystem::path& folder, const std::string& kind);
     [[nodiscard]] bool empty() const { return images_.empty(); }
     [[nodiscard]] const cv::Mat& image(std::uint64_t choice) const { return images_[choice % images_.size()]; }
+    [[nodiscard]] const std::string& name(std::uint64_t choice) const { return names_[choice % names_.size()]; }
     [[nodiscard]] std::size_t size() const { return images_.size(); }
 
 private:
     std::vector<cv::Mat> images_;  // CV_8UC3 RGB
+    std::vector<std::string> names_;  // file names
 };
 
 // One per worker thread: owns its Renderer (GL context), created once.
 class SampleGenerator {
 public:
-    SampleGenerator(const SynthConfig& config, const MorphableModel& model, const BackgroundLibrary& backgrounds,
-                    const render::RendererOptions& renderer_options);
+    SampleGenerator(const SynthConfig& config, const MorphableModel& model, const ImageLibrary& backgrounds,
+                    const ImageLibrary& textures, const render::RendererOptions& renderer_options);
     [[nodiscard]] Sample generate(std::int64_t index, StageTimes* times = nullptr);
     [[nodiscard]] std::string renderer_description() const;
 
 private:
     const SynthConfig& config_;
     const MorphableModel& model_;
-    const BackgroundLibrary& backgrounds_;
+    const ImageLibrary& backgrounds_;
+    const ImageLibrary& textures_;
     JawContourRegion contour_region_;  // the face region of the jaw contour definition
     render::Renderer renderer_;
     render::Frame frame_;

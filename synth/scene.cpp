@@ -212,6 +212,10 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
         Rng rng = make_rng(config.seed, i, RandomStream::kAlbedo);
         s.skin_tone = sample_skin_tone(rng);
     }
+    if (!config.albedo.texture_folder.empty()) {
+        Rng rng = make_rng(config.seed, i, RandomStream::kTexture);
+        s.texture_choice = rng.next_u64();
+    }
     {
         Rng rng = make_rng(config.seed, i, RandomStream::kPose);
         s.angles.yaw = sample_angle(rng, config.pose.yaw);

@@ -59,6 +59,8 @@ struct SampleSpec {
     std::vector<float> alpha, psi, beta;
     // Uniform skin colour (linear RGB) for models without a colour model; empty otherwise.
     std::optional<Eigen::Vector3d> skin_tone;
+    // With albedo.texture_folder: which texture map (a draw taken modulo the number of maps).
+    std::optional<std::uint64_t> texture_choice;
     EulerAngles angles;
     CameraPose pose;
     Intrinsics intrinsics;

@@ -7,6 +7,7 @@
 #include "morph/error.h"
 #include "morph/model_io.h"
 #include "morph/random.h"
+#include "morph/regions.h"
 #include "morph/sampling.h"
 #include "render/landmarks.h"
 #include "render/renderer.h"
@@ -126,6 +127,17 @@ cv::Mat normals_picture(const cv::Mat& normals, const cv::Mat& mask) {
     return bgr;
 }
 
+// Region labels as a picture (morph/regions.h colours), for a person to check at a glance.
+cv::Mat labels_picture(const cv::Mat& labels) {
+    cv::Mat bgr(labels.size(), CV_8UC3);
+    for (int y = 0; y < labels.rows; ++y)
+        for (int x = 0; x < labels.cols; ++x) {
+            const RegionColour c = region_colour(static_cast<Region>(labels.at<std::uint8_t>(y, x)));
+            bgr.at<cv::Vec3b>(y, x) = cv::Vec3b(c.b, c.g, c.r);
+        }
+    return bgr;
+}
+
 // The render, enlarged for legibility, with fixed landmarks (green visible, red hidden, with their
 // 1-based number) and contour jaw points (yellow) drawn on it.
 cv::Mat overlay_picture(const cv::Mat& rgb, const render::ProjectedLandmarks& lm) {
@@ -189,7 +201,9 @@ void run_render(const RenderArgs& a) {
     }
     const JawContourRegion contour_region = jaw_contour_region(model);
     render::Renderer renderer({render::parse_backend(a.view.backend), true});
-    const render::Frame frame = renderer.render(mesh, camera, settings);
+    render::MeshExtras extras;
+    extras.vertex_labels = model.vertex_labels;
+    const render::Frame frame = renderer.render(mesh, camera, settings, extras);
     const render::ProjectedLandmarks lm = render::project_landmarks(model.landmarks, mesh, camera, frame, {}, &contour_region);
 
     const std::filesystem::path out(a.out);
@@ -202,6 +216,7 @@ void run_render(const RenderArgs& a) {
     write_file_atomically(out / "depth.exr", exr);
     write_png(out / "normals.png", normals_picture(frame.normals, frame.mask));
     write_png(out / "labels.png", frame.labels);
+    write_png(out / "labels_colour.png", labels_picture(frame.labels));
     write_png(out / "overlay.png", overlay_picture(frame.rgb, lm));
 
     nlohmann::json j;

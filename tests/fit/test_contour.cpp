@@ -2,6 +2,7 @@
 #include "fit/fit.h"
 
 #include "common/toy_model.h"
+#include "morph/jaw_contour.h"
 #include "morph/landmarks.h"
 
 #include <gtest/gtest.h>
@@ -40,7 +41,8 @@ TEST(Contour, OccludingVerticesOfAFrontalEllipsoidLieOnItsOutline) {
 }
 
 // Jaw landmarks placed on the silhouette of a turned head, as annotators mark them: for each jaw point,
-// the outermost projected front-region vertex at the image height of the fixed jaw landmark.
+// the outermost projected face-region vertex (morph/jaw_contour.h) at the image height of the fixed
+// jaw landmark.
 Eigen::Matrix2Xd silhouette_landmarks(const MorphableModel& m, const ScaledOrthographic& camera) {
     const Eigen::Matrix3Xf shape = m.shape_instance({});
     const AffineCamera a = camera.to_affine();
@@ -50,11 +52,13 @@ Eigen::Matrix2Xd silhouette_landmarks(const MorphableModel& m, const ScaledOrtho
     for (Eigen::Index v = 0; v < shape.cols(); ++v) all.col(v) = a.project(shape.col(v).cast<double>());
     // Only the side turned away from the camera (yaw > 0: the subject's left, iBUG 10-17) moves; the
     // near side stays on the fixed jaw line (morph/jaw_contour.h).
+    std::vector<char> in_region(static_cast<std::size_t>(shape.cols()), 0);
+    for (int v : jaw_contour_region(m).vertices) in_region[static_cast<std::size_t>(v)] = 1;
     for (int j = kChinLandmark + 1; j < kNumJawLandmarks; ++j) {
         const double y = lm(1, j);
         double best = j < kChinLandmark ? std::numeric_limits<double>::max() : -std::numeric_limits<double>::max();
         for (Eigen::Index v = 0; v < shape.cols(); ++v) {
-            if (shape(2, v) < 0 || std::abs(all(1, v) - y) > 2.0) continue;
+            if (!in_region[static_cast<std::size_t>(v)] || std::abs(all(1, v) - y) > 2.0) continue;
             best = j < kChinLandmark ? std::min(best, all(0, v)) : std::max(best, all(0, v));
         }
         lm(0, j) = best;

@@ -1,6 +1,7 @@
 #include "morph/builtin.h"
 #include "morph/landmarks.h"
 #include "morph/mesh.h"
+#include "morph/regions.h"
 
 #include <gtest/gtest.h>
 
@@ -269,6 +270,41 @@ TEST_F(BuiltinModel, ColourModelHasDistinctRegionsAndASkinToneRange) {
             darkest_skin = std::max(darkest_skin, y);
         }
     EXPECT_GT(darkest_skin / std::max(lightest_skin, 1e-4f), 2.5f);
+}
+
+TEST_F(BuiltinModel, RegionLabelsFollowTheFeaturesAndMirror) {
+    const auto& m = model();
+    const auto& labels = m.vertex_labels;
+    ASSERT_EQ(static_cast<int>(labels.size()), m.num_vertices());
+    std::set<int> present(labels.begin(), labels.end());
+    for (int r = 1; r < kNumRegions; ++r) EXPECT_TRUE(present.count(r)) << region_name(static_cast<Region>(r));
+    EXPECT_FALSE(present.count(0));  // no vertex is background
+    for (int v = 0; v < m.num_vertices(); ++v)
+        ASSERT_EQ(labels[static_cast<std::size_t>(v)], labels[static_cast<std::size_t>(m.symmetry[static_cast<std::size_t>(v)])]) << v;
+    // The region under each landmark's dominant vertex (1-based iBUG ids).
+    const auto label_at = [&](int id) {
+        const SurfacePoint& p = m.landmarks[static_cast<std::size_t>(id - 1)];
+        int best = 0;
+        for (int k = 1; k < 3; ++k)
+            if (p.weights[static_cast<std::size_t>(k)] > p.weights[static_cast<std::size_t>(best)]) best = k;
+        return static_cast<Region>(labels[static_cast<std::size_t>(p.vertices[static_cast<std::size_t>(best)])]);
+    };
+    for (int id : {20, 25}) EXPECT_EQ(label_at(id), Region::kBrows) << id;
+    for (int id : {30, 31}) EXPECT_EQ(label_at(id), Region::kNose) << id;
+    for (int id : {38, 39, 44, 45}) EXPECT_EQ(label_at(id), Region::kEyes) << id;
+    // Lip landmarks lie on the vermilion border: one of their vertices is lips.
+    for (int id = 49; id <= 60; ++id) {
+        const SurfacePoint& p = m.landmarks[static_cast<std::size_t>(id - 1)];
+        bool lips = false;
+        for (int k = 0; k < 3; ++k)
+            lips = lips || (p.weights[static_cast<std::size_t>(k)] > 0 &&
+                            labels[static_cast<std::size_t>(p.vertices[static_cast<std::size_t>(k)])] == static_cast<std::uint8_t>(Region::kLips));
+        EXPECT_TRUE(lips) << id;
+    }
+    for (int id : {5, 9, 13}) EXPECT_EQ(label_at(id), Region::kSkin) << id;
+    // Hair on the crown, ears at the sides behind the jaw, neck under the chin.
+    EXPECT_EQ(static_cast<Region>(labels[0]), Region::kHair);
+    EXPECT_EQ(static_cast<Region>(labels[static_cast<std::size_t>(m.num_vertices() - 1 - kBuiltinColumns / 2)]), Region::kNeck);
 }
 
 TEST_F(BuiltinModel, ContourChainsRunDownTheOutlineAndMirror) {

@@ -1,6 +1,7 @@
 // The project's .fsm model format and load_model's dispatch.
 #include "morph/error.h"
 #include "morph/model_io.h"
+#include "morph/regions.h"
 
 #include "common/test_data.h"
 #include "common/toy_model.h"
@@ -69,6 +70,7 @@ void expect_same_model(const MorphableModel& a, const MorphableModel& b) {
     EXPECT_EQ(a.contour.right, b.contour.right);
     EXPECT_EQ(a.contour.left, b.contour.left);
     EXPECT_EQ(a.symmetry, b.symmetry);
+    EXPECT_EQ(a.vertex_labels, b.vertex_labels);
     EXPECT_EQ(a.checksum(), b.checksum());  // covers every field, blendshape names included
 }
 
@@ -79,6 +81,8 @@ TEST(ModelIo, FsmRoundTripsEveryField) {
     MorphableModel toy = testkit::make_toy_model(small_toy());
     toy.name = "toy with blendshapes";
     toy.landmarks[5] = SurfacePoint{{1, 2, 3}, {0.2f, 0.3f, 0.5f}};  // a barycentric landmark
+    toy.vertex_labels.resize(static_cast<std::size_t>(toy.num_vertices()));
+    for (std::size_t i = 0; i < toy.vertex_labels.size(); ++i) toy.vertex_labels[i] = static_cast<std::uint8_t>(i % kNumRegions);
     write_model(toy, dir / "toy.fsm");
     expect_same_model(read_model(dir / "toy.fsm"), toy);
 
@@ -98,6 +102,7 @@ TEST(ModelIo, FsmRoundTripsEveryField) {
     expect_same_model(back, bare);
     EXPECT_FALSE(back.expression.has_value());
     EXPECT_FALSE(back.albedo.has_value());
+    EXPECT_TRUE(back.vertex_labels.empty());
 }
 
 TEST(ModelIo, LoadModelDispatchesByExtensionAndContent) {

@@ -7,13 +7,17 @@
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
 #include "morph/random.h"
+#include "morph/regions.h"
 #include "synth/tar.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
 #include <csignal>
 #include <map>
+#include <set>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -29,6 +33,20 @@ const fs::path& toy_model_file() {
         // and a shared folder would be wiped by one while another reads its model.
         const auto dir = testkit::fresh_temp_dir("synth_toy_model_" + std::to_string(::getpid()));
         write_model(testkit::make_toy_model(), dir / "toy.fsm");
+        return dir / "toy.fsm";
+    }();
+    return path;
+}
+
+// The toy model with region labels: hair above y = 60 mm, the rest skin.
+const fs::path& labelled_toy_model_file() {
+    static const fs::path path = [] {
+        const auto dir = testkit::fresh_temp_dir("synth_labelled_toy_model");
+        MorphableModel toy = testkit::make_toy_model();
+        const auto mean = as_points(toy.shape.mean);
+        for (int v = 0; v < toy.num_vertices(); ++v)
+            toy.vertex_labels.push_back(static_cast<std::uint8_t>(mean(1, v) > 60.0f ? Region::kHair : Region::kSkin));
+        write_model(toy, dir / "toy.fsm");
         return dir / "toy.fsm";
     }();
     return path;
@@ -73,16 +91,18 @@ void expect_same_files(const std::map<std::string, std::string>& a, const std::m
 TEST(SynthCli, OutputsAreIdenticalWhateverThreadsAndShards) {
     const auto dir = testkit::fresh_temp_dir("synth_determinism");
     std::string log;
-    ASSERT_EQ(synth(" -o " + (dir / "one").string() + base_args(12) + " --threads 1", &log), 0) << log;
-    ASSERT_EQ(synth(" -o " + (dir / "two").string() + base_args(12) + " --threads 2", &log), 0) << log;
-    ASSERT_EQ(synth(" -o " + (dir / "sharded").string() + base_args(12) + " --threads 1 --shard 1/2", &log), 0) << log;
-    ASSERT_EQ(synth(" -o " + (dir / "sharded").string() + base_args(12) + " --threads 2 --shard 0/2", &log), 0) << log;
+    const std::string args = base_args(12) + " --set output.labels=true";
+    ASSERT_EQ(synth(" -o " + (dir / "one").string() + args + " --threads 1", &log), 0) << log;
+    ASSERT_EQ(synth(" -o " + (dir / "two").string() + args + " --threads 2", &log), 0) << log;
+    ASSERT_EQ(synth(" -o " + (dir / "sharded").string() + args + " --threads 1 --shard 1/2", &log), 0) << log;
+    ASSERT_EQ(synth(" -o " + (dir / "sharded").string() + args + " --threads 2 --shard 0/2", &log), 0) << log;
     ASSERT_EQ(synth(" merge " + (dir / "sharded").string() + " --quiet", &log), 0) << log;
 
     const auto one = snapshot(dir / "one");
     EXPECT_EQ(one.count("images/s00000011.png"), 1u);
     EXPECT_EQ(one.count("landmarks/s00000011.pts"), 1u);
     EXPECT_EQ(one.count("meta/s00000011.json"), 1u);
+    EXPECT_EQ(one.count("labels/s00000011.png"), 1u);
     EXPECT_EQ(one.count("shard-000002.tar"), 1u);
     EXPECT_EQ(one.count("manifest.jsonl"), 1u);
     EXPECT_EQ(one.count("coco.json"), 1u);
@@ -188,6 +208,81 @@ TEST(SynthCli, WebDatasetTarsHoldEachSampleInOrder) {
     EXPECT_EQ(first[14].name, "s00000004.json");
     for (const auto& entry : first) EXPECT_GT(entry.size, 0u);
     EXPECT_EQ(list_tar(dir / "shard-000001.tar").size(), 6u);
+}
+
+TEST(SynthCli, LabelMapsHoldTheModelsRegionIds) {
+    const auto dir = testkit::fresh_temp_dir("synth_labels");
+    std::string log;
+    const std::string args = " --model " + labelled_toy_model_file().string() +
+                             " -n 4 --size 64 --seed 5 --format folder,wds --set output.labels=true --set output.mask=true"
+                             " --set render.msaa_samples=0 --quiet";
+    ASSERT_EQ(synth(" -o " + dir.string() + args, &log), 0) << log;
+    for (int i = 0; i < 4; ++i) {
+        const std::string key = "s0000000" + std::to_string(i);
+        const cv::Mat labels = cv::imread((dir / "labels" / (key + ".png")).string(), cv::IMREAD_UNCHANGED);
+        const cv::Mat mask = cv::imread((dir / "mask" / (key + ".png")).string(), cv::IMREAD_UNCHANGED);
+        ASSERT_EQ(labels.type(), CV_8UC1) << key;
+        ASSERT_EQ(labels.size(), mask.size()) << key;
+        int skin = 0, hair = 0;
+        for (int y = 0; y < labels.rows; ++y)
+            for (int x = 0; x < labels.cols; ++x) {
+                const int id = labels.at<std::uint8_t>(y, x);
+                ASSERT_TRUE(id == 0 || id == static_cast<int>(Region::kSkin) || id == static_cast<int>(Region::kHair)) << key << " id " << id;
+                EXPECT_EQ(id != 0, mask.at<std::uint8_t>(y, x) != 0) << key << " at " << x << "," << y;  // no MSAA: same coverage
+                skin += id == static_cast<int>(Region::kSkin);
+                hair += id == static_cast<int>(Region::kHair);
+            }
+        EXPECT_GT(skin, 100) << key;
+        EXPECT_GT(hair, 0) << key;  // the top of the toy head shows at every pose
+    }
+    const auto members = list_tar(dir / "shard-000000.tar");
+    EXPECT_TRUE(std::any_of(members.begin(), members.end(), [](const TarEntry& e) { return e.name == "s00000003.labels.png"; }));
+}
+
+TEST(SynthCli, UvTexturesComeFromTheFolderSkippingUnreadableOnes) {
+    const auto dir = testkit::fresh_temp_dir("synth_textures");
+    const fs::path textures = dir / "textures";
+    fs::create_directories(textures);
+    // Pure red, green and blue maps (BGR on disk), and a file that is no image.
+    const std::map<std::string, cv::Scalar> maps = {{"red.png", {0, 0, 255}}, {"green.png", {0, 255, 0}}, {"blue.png", {255, 0, 0}}};
+    for (const auto& [name, bgr] : maps) ASSERT_TRUE(cv::imwrite((textures / name).string(), cv::Mat(32, 32, CV_8UC3, bgr)));
+    write_file_atomically(textures / "broken.png", "not a png");
+    std::string log;
+    const std::string args = base_args(6) + " --format folder --set output.mask=true --set albedo.texture_folder=" + textures.string();
+    ASSERT_EQ(synth(" -o " + (dir / "out").string() + args, &log), 0) << log;
+    EXPECT_NE(log.find("broken.png"), std::string::npos) << log;  // the warning names the skipped file
+    std::set<std::string> used;
+    for (int i = 0; i < 6; ++i) {
+        const std::string key = "s0000000" + std::to_string(i);
+        const auto meta = testkit::read_json(dir / "out" / "meta" / (key + ".json"));
+        ASSERT_TRUE(meta["texture"].is_string()) << key;
+        const std::string name = meta["texture"];
+        ASSERT_TRUE(maps.count(name)) << key << " " << name;
+        used.insert(name);
+        // The face takes the map's colour: its channel dominates the covered pixels.
+        const cv::Mat image = cv::imread((dir / "out" / "images" / (key + ".png")).string(), cv::IMREAD_COLOR);
+        const cv::Mat mask = cv::imread((dir / "out" / "mask" / (key + ".png")).string(), cv::IMREAD_UNCHANGED);
+        const cv::Scalar mean = cv::mean(image, mask == 255);
+        int channel = 0;
+        for (int c = 1; c < 3; ++c)
+            if (mean[c] > mean[channel]) channel = c;
+        const int expected = name == "blue.png" ? 0 : (name == "green.png" ? 1 : 2);
+        EXPECT_EQ(channel, expected) << key << " " << name << " mean BGR " << mean;
+    }
+    EXPECT_GE(used.size(), 2u);  // the choice varies with the index
+    // The same run again picks the same maps (sample i depends only on (seed, i)).
+    ASSERT_EQ(synth(" -o " + (dir / "again").string() + args, &log), 0) << log;
+    for (int i = 0; i < 6; ++i) {
+        const std::string key = "s0000000" + std::to_string(i);
+        EXPECT_EQ(testkit::read_json(dir / "again" / "meta" / (key + ".json"))["texture"],
+                  testkit::read_json(dir / "out" / "meta" / (key + ".json"))["texture"]) << key;
+    }
+    // A folder with no readable image is an error naming it.
+    fs::create_directories(dir / "empty");
+    write_file_atomically(dir / "empty" / "broken.png", "not a png");
+    EXPECT_EQ(synth(" -o " + (dir / "none").string() + base_args(1) + " --set albedo.texture_folder=" + (dir / "empty").string(), &log), 1);
+    EXPECT_NE(log.find((dir / "empty").string()), std::string::npos) << log;
+    EXPECT_NE(log.find("no readable texture images"), std::string::npos) << log;
 }
 
 TEST(SynthCli, CocoKeypointsHaveTheExpectedStructure) {
