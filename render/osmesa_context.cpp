@@ -5,13 +5,27 @@
 #include <GL/osmesa.h>
 
 #include <array>
+#include <cstdlib>
+#include <string_view>
 
 namespace facesynth::render::detail {
 namespace {
 
+// Mesa 22's OSMesa crashes inside OSMesaCreateContextAttribs when GALLIUM_DRIVER names a driver
+// it does not contain, so that case is refused before calling it.
+void check_gallium_driver() {
+    const char* driver = std::getenv("GALLIUM_DRIVER");
+    if (driver == nullptr || *driver == '\0') return;
+    const std::string_view name(driver);
+    if (name != "llvmpipe" && name != "softpipe")
+        throw Error("OSMesa: GALLIUM_DRIVER='" + std::string(name) +
+                    "' is not a software rasteriser OSMesa provides (llvmpipe or softpipe); unset it or choose one");
+}
+
 class OsmesaContext final : public GlContext {
 public:
     OsmesaContext() {
+        check_gallium_driver();
         const int attributes[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0, OSMESA_STENCIL_BITS, 0,
                                   OSMESA_ACCUM_BITS, 0, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                                   OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};

@@ -9,7 +9,9 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <vector>
 
@@ -54,6 +56,14 @@ Eigen::Matrix2Xd project_points(const Camera& camera, const Eigen::Matrix3Xf& mo
 namespace {
 
 using detail::GlFunctions;
+
+// EGL failing and OSMesa taking over is worth one line on stderr per process (not one per
+// renderer or thread): rendering works, only slower or without a hardware device.
+void warn_egl_fallback(const std::string& egl_failure) {
+    static std::atomic<bool> warned{false};
+    if (!warned.exchange(true))
+        std::fprintf(stderr, "facesynth: warning: EGL unavailable (%s); rendering with OSMesa\n", egl_failure.c_str());
+}
 
 // Names of vertex attribute locations (shaders.h).
 enum Attribute : GLuint { kPosition = 0, kNormal = 1, kAlbedo = 2, kUv = 3, kTriangle = 4, kNumAttributes = 5 };
@@ -265,6 +275,7 @@ struct Renderer::Impl {
                 if (options.backend == Backend::kOsmesa) throw;
                 throw Error("render: no OpenGL backend available (" + failures + "; " + e.what() + ")");
             }
+            if (!failures.empty()) warn_egl_fallback(failures);
         }
         context->make_current();
         const detail::GlContext* ctx = context.get();

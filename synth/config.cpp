@@ -114,7 +114,10 @@ void apply_toml_table(const std::vector<ConfigField>& fields, const toml::table&
 }
 
 void apply_json_object(const std::vector<ConfigField>& fields, const nlohmann::json& object, const std::string& prefix) {
-    for (const auto& [name, value] : object.items()) {
+    for (const auto& item : object.items()) {
+        // Not a structured binding: clang 14 (the fuzzing build) cannot capture one in the lambda below.
+        const std::string& name = item.key();
+        const nlohmann::json& value = item.value();
         const std::string key = prefix.empty() ? name : prefix + "." + name;
         if (value.is_object()) {
             apply_json_object(fields, value, key);

@@ -581,27 +581,38 @@ nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::in
         } catch (const nlohmann::json::exception& e) {
             throw file_error(meta_path.string(), std::string("invalid JSON: ") + e.what());
         }
-        const int width = meta.at("image_width"), height = meta.at("image_height");
-        images.push_back({{"id", index + 1}, {"file_name", "images/" + key + extension}, {"width", width}, {"height", height}});
-        nlohmann::json keypoints = nlohmann::json::array();
-        int labelled = 0;
-        const auto& points = meta.at("landmarks");
-        const auto& visibility = meta.at("visibility");
-        const auto& occluded = meta.at("occluded");
-        for (std::size_t p = 0; p < points.size(); ++p) {
-            const double x = points[p][0], y = points[p][1];
-            const bool inside = x >= -0.5 && y >= -0.5 && x < width - 0.5 && y < height - 0.5;
-            int v = 0;
-            if (inside) v = visibility[p].get<int>() && !occluded[p].get<int>() ? 2 : 1;
-            keypoints.push_back(inside ? x : 0.0);
-            keypoints.push_back(inside ? y : 0.0);
-            keypoints.push_back(v);
-            labelled += v > 0;
+        // A meta file edited or damaged by hand: every access is checked (at()), and a wrong key,
+        // type or length is reported against the file.
+        try {
+            const auto side = [&](const char* name) {  // checked as a double: a huge value must not overflow int
+                const double v = meta.at(name).get<double>();
+                if (!(v >= 1 && v <= 1e6)) throw file_error(meta_path.string(), std::string(name) + " out of range");
+                return static_cast<int>(v);
+            };
+            const int width = side("image_width"), height = side("image_height");
+            images.push_back({{"id", index + 1}, {"file_name", "images/" + key + extension}, {"width", width}, {"height", height}});
+            nlohmann::json keypoints = nlohmann::json::array();
+            int labelled = 0;
+            const auto& points = meta.at("landmarks");
+            const auto& visibility = meta.at("visibility");
+            const auto& occluded = meta.at("occluded");
+            for (std::size_t p = 0; p < points.size(); ++p) {
+                const double x = points.at(p).at(0), y = points.at(p).at(1);
+                const bool inside = x >= -0.5 && y >= -0.5 && x < width - 0.5 && y < height - 0.5;
+                int v = 0;
+                if (inside) v = visibility.at(p).get<double>() != 0 && occluded.at(p).get<double>() == 0 ? 2 : 1;
+                keypoints.push_back(inside ? x : 0.0);
+                keypoints.push_back(inside ? y : 0.0);
+                keypoints.push_back(v);
+                labelled += v > 0;
+            }
+            const auto& box = meta.at("bbox");
+            annotations.push_back({{"id", index + 1}, {"image_id", index + 1}, {"category_id", 1}, {"iscrowd", 0},
+                                   {"bbox", box}, {"area", box.at(2).get<double>() * box.at(3).get<double>()},
+                                   {"num_keypoints", labelled}, {"keypoints", keypoints}});
+        } catch (const nlohmann::json::exception& e) {
+            throw file_error(meta_path.string(), std::string("not a facesynth meta file: ") + e.what());
         }
-        const auto& box = meta.at("bbox");
-        annotations.push_back({{"id", index + 1}, {"image_id", index + 1}, {"category_id", 1}, {"iscrowd", 0},
-                               {"bbox", box}, {"area", box[2].get<double>() * box[3].get<double>()},
-                               {"num_keypoints", labelled}, {"keypoints", keypoints}});
     }
     return {{"info", {{"description", "facesynth synthetic faces"}, {"version", "1"}}},
             {"images", images},

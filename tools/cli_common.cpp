@@ -80,4 +80,10 @@ void write_png_file(const std::filesystem::path& path, const cv::Mat& image) {
     write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
+void create_output_folder(const std::filesystem::path& dir) {
+    std::error_code error;
+    std::filesystem::create_directories(dir, error);
+    if (error) throw file_error(dir.string(), "cannot create the output folder: " + error.message());
+}
+
 }  // namespace facesynth::cli

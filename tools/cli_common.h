@@ -42,6 +42,9 @@ CLI::App& bench_group(CLI::App& app);
 // The "eval" command group, the same way.
 CLI::App& eval_group(CLI::App& app);
 
+// Creates an output folder (and its parents); throws facesynth::Error naming it when it cannot.
+void create_output_folder(const std::filesystem::path& dir);
+
 // Writes a flat JSON object atomically to `path` (pretty-printed, trailing newline).
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value);
 

@@ -10,6 +10,7 @@
 #include "fit/refine.h"
 #include "morph/atomic_file.h"
 #include "morph/error.h"
+#include "morph/image_header.h"
 #include "morph/landmarks.h"
 #include "morph/mesh_io.h"
 #include "morph/model_io.h"
@@ -74,6 +75,7 @@ void run_fit(const FitArgs& a) {
         throw file_error(a.landmarks, "has " + std::to_string(landmarks.cols()) + " points, expected 68 (iBUG)");
     cv::Mat image;
     if (!a.image.empty()) {
+        check_image_not_too_large(a.image);
         image = cv::imread(a.image, cv::IMREAD_COLOR);
         if (image.empty()) throw file_error(a.image, "cannot read the image");
     }
@@ -153,7 +155,7 @@ void run_fit(const FitArgs& a) {
         for (int v = 0; v < mesh.num_vertices(); ++v) vertices_px.col(v) = linear.camera.project(mesh.vertices.col(v).cast<double>());
     }
     const std::filesystem::path out(a.out);
-    std::filesystem::create_directories(out);
+    create_output_folder(out);
     write_obj(mesh, out / "mesh.obj");
     write_glb(mesh, out / "mesh.glb");
     if (!image.empty()) write_png(out / "overlay.png", fit::draw_fit_overlay(image, vertices_px, mesh.triangles, landmarks, fitted_landmarks));

@@ -64,9 +64,9 @@ struct BenchArgs {
 
 void add_view_options(CLI::App* cmd, ViewArgs& v) {
     cmd->add_option("--model,-m", v.model, "model: builtin, a model file or a model folder")->capture_default_str();
-    cmd->add_option("--yaw", v.yaw, "degrees; > 0 turns the face toward the image right")->capture_default_str();
-    cmd->add_option("--pitch", v.pitch, "degrees; > 0 looks up")->capture_default_str();
-    cmd->add_option("--roll", v.roll, "degrees; > 0 counter-clockwise in the image")->capture_default_str();
+    cmd->add_option("--yaw", v.yaw, "degrees; > 0 turns the face toward the image right")->check(CLI::Range(-180.0, 180.0))->capture_default_str();
+    cmd->add_option("--pitch", v.pitch, "degrees; > 0 looks up")->check(CLI::Range(-180.0, 180.0))->capture_default_str();
+    cmd->add_option("--roll", v.roll, "degrees; > 0 counter-clockwise in the image")->check(CLI::Range(-180.0, 180.0))->capture_default_str();
     cmd->add_option("--size", v.size, "image width and height in pixels")->check(CLI::Range(1, 16384))->capture_default_str();
     cmd->add_option("--width", v.width, "image width (overrides --size)")->check(CLI::Range(1, 16384));
     cmd->add_option("--height", v.height, "image height (overrides --size)")->check(CLI::Range(1, 16384));
@@ -207,9 +207,7 @@ void run_render(const RenderArgs& a) {
     const render::ProjectedLandmarks lm = render::project_landmarks(model.landmarks, mesh, camera, frame, {}, &contour_region);
 
     const std::filesystem::path out(a.out);
-    std::error_code ec;
-    std::filesystem::create_directories(out, ec);
-    if (ec) throw file_error(out.string(), "cannot create the folder: " + ec.message());
+    create_output_folder(out);
     write_png(out / "image.png", to_bgr(frame.rgb));
     write_png(out / "mask.png", frame.mask);
     const std::string exr = synth::encode_depth_exr(frame.depth, (out / "depth.exr").string());

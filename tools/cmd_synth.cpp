@@ -174,7 +174,7 @@ void register_synth_commands(CLI::App& app) {
     CLI::App* synth_cmd = app.add_subcommand("synth", "Generate a synthetic face dataset (images, .pts, meta JSON, WebDataset, COCO)");
     synth_cmd->add_option("--out,-o", args->out, "output dataset folder");
     synth_cmd->add_option("--config,-c", args->config_file, "TOML config file (keys in docs/synth.md)")->check(CLI::ExistingFile);
-    synth_cmd->add_option("--count,-n", args->count, "number of samples (config key count)");
+    synth_cmd->add_option("--count,-n", args->count, "number of samples (config key count)")->check(CLI::NonNegativeNumber);
     synth_cmd->add_option("--seed", args->seed, "dataset seed (config key seed)")->check(CLI::NonNegativeNumber);
     synth_cmd->add_option("--format", args->formats, "output formats, comma-separated: folder, wds, coco (config key output.formats)");
     synth_cmd->add_option("--shard", args->shard, "K/N (0-based) or auto (JOB_COMPLETION_INDEX or SLURM_ARRAY_TASK_ID)");

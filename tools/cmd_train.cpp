@@ -4,6 +4,7 @@
 
 #include "morph/atomic_file.h"
 #include "morph/error.h"
+#include "morph/image_header.h"
 #include "morph/landmarks.h"
 #include "train/dataset.h"
 #include "train/dlib_baseline.h"
@@ -158,12 +159,13 @@ void write_png(const std::filesystem::path& path, const cv::Mat& image) {
 void run_detect(const DetectArgs& args) {
     const auto regressor = open_regressor(args.regressor);
     const FaceDetector detector;
-    std::filesystem::create_directories(args.out);
+    create_output_folder(args.out);
     int failed = 0, faces_total = 0;
     Progress progress("images", args.images.size(), args.quiet);
     for (const auto& path : args.images) {
         try {
             if (!std::filesystem::is_regular_file(path)) throw file_error(path.string(), "file not found");
+            check_image_not_too_large(path);
             const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
             if (image.empty()) throw file_error(path.string(), "cannot read image");
             const cv::Mat gray = to_gray8(image);
@@ -198,6 +200,9 @@ void run_detect(const DetectArgs& args) {
         } catch (const Error& e) {
             ++failed;
             std::fprintf(stderr, "facesynth: error: %s\n", e.what());
+        } catch (const cv::Exception& e) {  // an OpenCV failure on this image only: the batch goes on
+            ++failed;
+            std::fprintf(stderr, "facesynth: error: %s: %s\n", path.string().c_str(), e.what());
         }
         progress.advance();
     }
@@ -269,7 +274,8 @@ void run_eval_landmarks(const EvalArgs& args) {
     std::printf("%-40s %9s %9s %8s %9s %9s\n", "regressor", "NME mean", "median", "AUC@.08", "fail@.08", "ms/face");
     nlohmann::json report = {{"count", static_cast<int>(images.size())},
                              {"detector_misses", evaluation.detector_misses},
-                             {"detector_ms_per_image", evaluation.detector_ms_per_image}};
+                             {"detector_ms_per_image", evaluation.detector_ms_per_image},
+                             {"unreadable", static_cast<int>(evaluation.warnings.size())}};
     for (std::size_t r = 0; r < evaluation.regressors.size(); ++r) {
         const auto& reg = evaluation.regressors[r];
         const auto& s = reg.summary;
@@ -313,6 +319,10 @@ void run_eval_landmarks(const EvalArgs& args) {
         write_file_atomically(args.ced, png ? ced_png(curves) : ced_svg(curves));
     }
     if (!args.nme_csv.empty()) write_file_atomically(args.nme_csv, per_face_nme_csv(evaluation));
+    // The report counts unreadable items as misses; the exit code still says that some failed.
+    if (!evaluation.warnings.empty())
+        throw Error(std::to_string(evaluation.warnings.size()) + " of " + std::to_string(images.size()) +
+                    " images or landmark files could not be read (counted as misses)");
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include "morph/atomic_file.h"
 #include "morph/error.h"
+#include "morph/image_header.h"
 #include "morph/landmarks.h"
 #include "train/sdm.h"
 
@@ -55,6 +56,7 @@ Evaluation evaluate_landmarks(const std::vector<LabelledImage>& images, std::spa
         try {
             const Eigen::Matrix2Xd truth = read_pts(image.pts);
             if (truth.cols() != kNumIbugLandmarks) throw file_error(image.pts.string(), "expected 68 points");
+            check_image_not_too_large(image.image);
             const cv::Mat loaded = cv::imread(image.image.string(), cv::IMREAD_UNCHANGED);
             if (loaded.empty()) throw file_error(image.image.string(), "cannot read image");
             const cv::Mat gray = to_gray8(loaded);

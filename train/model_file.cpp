@@ -145,6 +145,9 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
         // Version 1 stored full-rank stages (2L x D weights, no basis).
         const int rank = version == 1 ? outputs : r.read<std::int32_t>("stage rank");
         if (rank < 1 || rank > outputs) throw r.error("stage " + std::to_string(k + 1) + " has invalid rank " + std::to_string(rank));
+        // The header's HOG cells and the rank set the matrix sizes: check them against the file before allocating.
+        r.check_fits(static_cast<std::uint64_t>(rank) * static_cast<std::uint64_t>(dims + (version == 1 ? 0 : outputs)), sizeof(float),
+                     "stage weights");
         if (version == 1) {
             stage.basis = Eigen::MatrixXf::Identity(outputs, outputs);
         } else {

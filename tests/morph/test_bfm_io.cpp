@@ -4,6 +4,7 @@
 #include "morph/error.h"
 #include "morph/model_io.h"
 
+#include "common/model_files.h"
 #include "common/test_data.h"
 #include "common/toy_model.h"
 
@@ -15,96 +16,9 @@
 #include <fstream>
 
 using namespace facesynth;
+using namespace facesynth::testkit;
 
 namespace {
-
-struct DatasetSpec {
-    std::vector<hsize_t> dims;
-    std::vector<float> values;  // row-major
-    bool chunked_without_data = false;  // declare dims but store nothing (a lying header)
-};
-
-class H5Writer {
-public:
-    explicit H5Writer(const std::filesystem::path& path)
-        : file_(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT)), links_(H5Pcreate(H5P_LINK_CREATE)) {
-        H5Pset_create_intermediate_group(links_, 1);
-    }
-    ~H5Writer() {
-        H5Pclose(links_);
-        H5Fclose(file_);
-    }
-    H5Writer(const H5Writer&) = delete;
-    H5Writer& operator=(const H5Writer&) = delete;
-
-    void floats(const std::string& name, const DatasetSpec& spec) {
-        const hid_t space = H5Screate_simple(static_cast<int>(spec.dims.size()), spec.dims.data(), nullptr);
-        hid_t create = H5P_DEFAULT;
-        if (spec.chunked_without_data) {
-            create = H5Pcreate(H5P_DATASET_CREATE);
-            std::vector<hsize_t> chunk(spec.dims.size(), 1);
-            H5Pset_chunk(create, static_cast<int>(chunk.size()), chunk.data());
-        }
-        const hid_t set = H5Dcreate2(file_, name.c_str(), H5T_IEEE_F32LE, space, links_, create, H5P_DEFAULT);
-        if (!spec.chunked_without_data) H5Dwrite(set, H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, spec.values.data());
-        if (create != H5P_DEFAULT) H5Pclose(create);
-        H5Dclose(set);
-        H5Sclose(space);
-    }
-
-    void cells(const std::string& name, const std::vector<Triangle>& triangles) {
-        const hsize_t dims[2] = {3, triangles.size()};
-        std::vector<std::uint32_t> values(3 * triangles.size());
-        for (std::size_t t = 0; t < triangles.size(); ++t)
-            for (std::size_t k = 0; k < 3; ++k) values[k * triangles.size() + t] = static_cast<std::uint32_t>(triangles[t][k]);
-        const hid_t space = H5Screate_simple(2, dims, nullptr);
-        const hid_t set = H5Dcreate2(file_, name.c_str(), H5T_STD_U32LE, space, links_, H5P_DEFAULT, H5P_DEFAULT);
-        H5Dwrite(set, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data());
-        H5Dclose(set);
-        H5Sclose(space);
-    }
-
-private:
-    hid_t file_;
-    hid_t links_;
-};
-
-DatasetSpec vector_spec(const Eigen::VectorXf& v) {
-    return {{static_cast<hsize_t>(v.size())}, std::vector<float>(v.data(), v.data() + v.size())};
-}
-
-DatasetSpec matrix_spec(const Eigen::MatrixXf& m) {
-    const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> row_major = m;
-    return {{static_cast<hsize_t>(m.rows()), static_cast<hsize_t>(m.cols())},
-            std::vector<float>(row_major.data(), row_major.data() + row_major.size())};
-}
-
-struct Overrides {
-    std::string skip;                       // dataset left out
-    std::map<std::string, DatasetSpec> replace;  // dataset replaced
-};
-
-// The toy model in statismo layout: /shape, /color, /expression with model/ and representer/.
-void write_statismo(const std::filesystem::path& path, const MorphableModel& m, const Overrides& o = {}) {
-    H5Writer out(path);
-    const auto put = [&](const std::string& name, const DatasetSpec& spec) {
-        if (name == o.skip) return;
-        const auto it = o.replace.find(name);
-        out.floats(name, it != o.replace.end() ? it->second : spec);
-    };
-    const Eigen::MatrixXf points = as_points(m.shape.mean);
-    const auto group = [&](const std::string& g, const PcaModel& pca) {
-        put(g + "/model/mean", vector_spec(pca.mean));
-        put(g + "/model/pcaBasis", matrix_spec(pca.basis));
-        put(g + "/model/pcaVariance", vector_spec(pca.eigenvalues));
-        put(g + "/model/noiseVariance", vector_spec(Eigen::VectorXf::Constant(1, 0.01f)));
-        put(g + "/representer/points", matrix_spec(points));
-        if (g + "/representer/cells" != o.skip) out.cells(g + "/representer/cells", m.triangles);
-    };
-    group("/shape", m.shape);
-    if (m.albedo) group("/color", *m.albedo);
-    if (m.expression) group("/expression", std::get<PcaModel>(*m.expression));
-}
 
 MorphableModel toy_bfm() {
     testkit::ToyModelOptions o;
@@ -208,7 +122,7 @@ TEST(BfmIo, BadFilesFailWithTheFileName) {
         expect_bad("truncated to " + std::to_string(cut));
     }
 
-    const auto bad_variant = [&](const Overrides& o, const std::string& what) {
+    const auto bad_variant = [&](const StatismoOverrides& o, const std::string& what) {
         std::filesystem::remove(path);
         write_statismo(path, m, o);
         expect_bad(what);

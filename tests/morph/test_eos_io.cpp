@@ -6,6 +6,7 @@
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
 
+#include "common/model_files.h"
 #include "common/test_data.h"
 #include "common/toy_model.h"
 
@@ -14,13 +15,9 @@
 #include <fstream>
 
 using namespace facesynth;
+using facesynth::testkit::write_bytes;
 
 namespace {
-
-void write_bytes(const std::filesystem::path& path, const std::string& bytes) {
-    std::ofstream out(path, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
 
 // Expects facesynth::Error whose message names `path`.
 void expect_file_error(const std::function<void()>& call, const std::filesystem::path& path) {
@@ -30,71 +27,6 @@ void expect_file_error(const std::function<void()>& call, const std::filesystem:
     } catch (const Error& e) {
         EXPECT_NE(std::string(e.what()).find(path.filename().string()), std::string::npos) << e.what();
     }
-}
-
-// cereal-style writers for synthetic eos files (the layout in docs/models.md).
-void put_matrix(ByteWriter& out, const Eigen::MatrixXf& m) {
-    out.write(static_cast<std::int32_t>(m.rows()));
-    out.write(static_cast<std::int32_t>(m.cols()));
-    out.write_floats(m);
-}
-
-void put_pca(ByteWriter& out, const PcaModel& pca, const std::vector<Triangle>& triangles) {
-    put_matrix(out, pca.mean);
-    put_matrix(out, pca.basis);
-    put_matrix(out, pca.eigenvalues);
-    out.write(static_cast<std::uint64_t>(triangles.size()));
-    out.write_bytes(triangles.data(), triangles.size() * sizeof(Triangle));
-}
-
-void put_blendshapes(ByteWriter& out, const std::vector<Blendshape>& shapes) {
-    out.write(static_cast<std::uint64_t>(shapes.size()));
-    for (const auto& b : shapes) {
-        out.write_string(b.name);
-        put_matrix(out, b.offsets);
-    }
-}
-
-std::string eos_file(const MorphableModel& m, std::uint32_t version, bool with_landmarks = true) {
-    ByteWriter out;
-    out.write(version);
-    put_pca(out, m.shape, m.triangles);
-    if (m.albedo) put_pca(out, *m.albedo, {});
-    else put_pca(out, PcaModel{Eigen::VectorXf(0), Eigen::MatrixXf(0, 0), Eigen::VectorXf(0)}, {});
-    if (version >= 2) {
-        out.write(static_cast<std::uint8_t>(m.expression ? 0 : 1));  // cereal's optional: 1 = empty
-        if (m.expression) {
-            if (const auto* pca = std::get_if<PcaModel>(&*m.expression)) {
-                out.write(std::int32_t{0});
-                put_pca(out, *pca, m.triangles);
-            } else {
-                out.write(std::int32_t{1});
-                put_blendshapes(out, std::get<std::vector<Blendshape>>(*m.expression));
-            }
-        }
-    }
-    if (version >= 3) {
-        out.write(static_cast<std::uint8_t>(with_landmarks ? 0 : 1));
-        if (with_landmarks) {
-            out.write(static_cast<std::uint64_t>(m.landmarks.size() + 1));
-            for (std::size_t i = 0; i < m.landmarks.size(); ++i) {
-                out.write_string(std::to_string(i + 1));
-                out.write(static_cast<std::int32_t>(m.landmarks[i].vertices[0]));
-            }
-            out.write_string("center.nose.tip");  // a non-iBUG name: ignored
-            out.write(std::int32_t{0});
-        }
-    }
-    out.write(static_cast<std::uint64_t>(m.uv.cols()));
-    for (Eigen::Index i = 0; i < m.uv.cols(); ++i) {
-        out.write(static_cast<double>(m.uv(0, i)));
-        out.write(static_cast<double>(m.uv(1, i)));
-    }
-    if (version >= 4) {
-        out.write(static_cast<std::uint64_t>(m.triangles.size()));
-        out.write_bytes(m.triangles.data(), m.triangles.size() * sizeof(Triangle));
-    }
-    return out.bytes();
 }
 
 testkit::ToyModelOptions small_toy() {
@@ -210,7 +142,7 @@ TEST(EosIo, ReadsVersionsOneToFour) {
     MorphableModel toy = testkit::make_toy_model(small_toy());
     for (std::uint32_t version = 1; version <= 4; ++version) {
         const auto path = dir / ("v" + std::to_string(version) + ".bin");
-        write_bytes(path, eos_file(toy, version));
+        write_bytes(path, testkit::eos_model_bytes(toy, version));
         const EosModelFile file = read_eos_model(path);
         EXPECT_EQ(file.version, static_cast<int>(version));
         EXPECT_EQ(file.model.shape.mean, toy.shape.mean);
@@ -230,7 +162,7 @@ TEST(EosIo, ReadsVersionsOneToFour) {
     // The PCA expression alternative of the variant.
     toy.expression = toy.shape;
     const auto path = dir / "pca_expression.bin";
-    write_bytes(path, eos_file(toy, 2));
+    write_bytes(path, testkit::eos_model_bytes(toy, 2));
     const EosModelFile file = read_eos_model(path);
     ASSERT_TRUE(std::holds_alternative<PcaModel>(*file.model.expression));
     EXPECT_EQ(std::get<PcaModel>(*file.model.expression).basis, toy.shape.basis);
@@ -241,7 +173,7 @@ TEST(EosIo, ReadsVersionsOneToFour) {
 TEST(EosIo, BadModelFilesFailWithTheFileName) {
     const auto dir = testkit::fresh_temp_dir("eos_bad");
     const MorphableModel toy = testkit::make_toy_model(small_toy());
-    const std::string good = eos_file(toy, 3);
+    const std::string good = testkit::eos_model_bytes(toy, 3);
     const auto path = dir / "bad_model.bin";
     const auto expect_bad = [&](const std::string& bytes, const char* what) {
         SCOPED_TRACE(what);
@@ -275,36 +207,35 @@ TEST(EosIo, BadModelFilesFailWithTheFileName) {
     }
     expect_bad(good + "xx", "trailing bytes");
     {
-        // A triangle list count far beyond the file.
-        ByteWriter out;
-        out.write(std::uint32_t{1});
-        put_matrix(out, toy.shape.mean);
-        put_matrix(out, toy.shape.basis);
-        put_matrix(out, toy.shape.eigenvalues);
-        out.write(std::uint64_t{1} << 60);
-        expect_bad(out.bytes(), "huge triangle count");
+        // A triangle list count far beyond the file (the count follows the shape model's three matrices).
+        std::string bytes = good;
+        const std::size_t triangle_count_offset = 4 + 3 * 8 + sizeof(float) * static_cast<std::size_t>(
+            toy.shape.mean.size() + toy.shape.basis.size() + toy.shape.eigenvalues.size());
+        const std::uint64_t huge_count = std::uint64_t{1} << 60;
+        std::memcpy(bytes.data() + triangle_count_offset, &huge_count, 8);
+        expect_bad(bytes, "huge triangle count");
     }
     expect_file_error([&] { (void)read_eos_model(dir / "missing.bin"); }, dir / "missing.bin");
 }
 
 TEST(EosIo, BadBlendshapeFiles) {
     const auto dir = testkit::fresh_temp_dir("eos_bad_blendshapes");
-    ByteWriter good;
-    put_blendshapes(good, {{"smile", Eigen::VectorXf::Ones(30)}, {"frown", Eigen::VectorXf::Ones(30)}});
+    const std::string good =
+        testkit::eos_blendshape_bytes({{"smile", Eigen::VectorXf::Ones(30)}, {"frown", Eigen::VectorXf::Ones(30)}});
     const auto path = dir / "bad_blendshapes.bin";
-    write_bytes(path, good.bytes());
+    write_bytes(path, good);
     EXPECT_EQ(read_eos_blendshapes(path, 30).size(), 2u);
-    for (const std::string& bytes : {std::string(), good.bytes().substr(0, 7), good.bytes().substr(0, 20),
-                                     good.bytes().substr(0, good.bytes().size() - 4), good.bytes() + "z"}) {
+    for (const std::string& bytes : {std::string(), good.substr(0, 7), good.substr(0, 20),
+                                     good.substr(0, good.size() - 4), good + "z"}) {
         write_bytes(path, bytes);
         expect_file_error([&] { (void)read_eos_blendshapes(path); }, path);
     }
-    std::string huge = good.bytes();
+    std::string huge = good;
     const std::uint64_t count = std::uint64_t{1} << 62;
     std::memcpy(huge.data(), &count, 8);
     write_bytes(path, huge);
     expect_file_error([&] { (void)read_eos_blendshapes(path); }, path);
-    std::string nan = good.bytes();
+    std::string nan = good;
     const float value = std::numeric_limits<float>::quiet_NaN();
     std::memcpy(nan.data() + 8 + 8 + 5 + 8 + 4, &value, 4);
     write_bytes(path, nan);

@@ -3,6 +3,7 @@
 #include "morph/model_io.h"
 #include "morph/regions.h"
 
+#include "common/model_files.h"
 #include "common/test_data.h"
 #include "common/toy_model.h"
 
@@ -11,6 +12,7 @@
 #include <fstream>
 
 using namespace facesynth;
+using facesynth::testkit::write_bytes;
 
 namespace {
 
@@ -19,10 +21,6 @@ std::string read_bytes(const std::filesystem::path& path) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-void write_bytes(const std::filesystem::path& path, const std::string& bytes) {
-    std::ofstream out(path, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
 
 // Recomputes the trailing FNV-1a so that a deliberately edited file passes the integrity check
 // and reaches the field checks.

@@ -1,5 +1,6 @@
 // End-to-end tests of `facesynth synth`: byte-identical outputs whatever the threads and shards,
-// resume after SIGKILL, refusing a folder made with another config, WebDataset tars and COCO JSON.
+// resume after 20 SIGKILLs and after a full disk (RLIMIT_FSIZE), refusing a folder made with another
+// config, WebDataset tars and COCO JSON.
 // They run the real CLI on the toy model (written to a .fsm file) at 64x64.
 #include "common/test_data.h"
 #include "common/toy_model.h"
@@ -18,6 +19,7 @@
 #include <csignal>
 #include <map>
 #include <set>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -52,9 +54,9 @@ const fs::path& labelled_toy_model_file() {
     return path;
 }
 
-std::string base_args(int count) {
-    return " --model " + toy_model_file().string() + " -n " + std::to_string(count) +
-           " --size 64 --seed 5 --format folder,wds,coco --set output.wds_shard_size=5 --quiet";
+std::string base_args(int count, int size = 64) {
+    return " --model " + toy_model_file().string() + " -n " + std::to_string(count) + " --size " + std::to_string(size) +
+           " --seed 5 --format folder,wds,coco --set output.wds_shard_size=5 --quiet";
 }
 
 int synth(const std::string& args, std::string* output = nullptr) {
@@ -131,43 +133,113 @@ TEST(SynthCli, MetaCarriesGroundTruthConsistentWithPts) {
     EXPECT_EQ(std::count(manifest.begin(), manifest.end(), '\n'), 3);
 }
 
-TEST(SynthCli, ResumesAfterSigkillWithoutPartialOrDuplicateFiles) {
+// Starts `facesynth<args>` in a child process (output discarded) and returns its pid.
+pid_t spawn_cli(const std::string& args) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        ::execl("/bin/sh", "sh", "-c", ("exec " + testkit::cli_path().string() + args + " >/dev/null 2>&1").c_str(), nullptr);
+        ::_exit(127);
+    }
+    return pid;
+}
+
+void expect_no_temporary_files(const fs::path& dir) {
+    for (const auto& entry : fs::recursive_directory_iterator(dir))
+        EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
+}
+
+TEST(SynthCli, ResumesAfterTwentySigkillsWithoutPartialOrDuplicateFiles) {
     const auto dir = testkit::fresh_temp_dir("synth_resume");
-    const int count = 60;
+    const int count = 80;
     std::string log;
-    ASSERT_EQ(synth(" -o " + (dir / "clean").string() + base_args(count) + " --threads 2", &log), 0) << log;
+    const std::string common = base_args(count, 32) + " --threads 2";
+    ASSERT_EQ(synth(" -o " + (dir / "clean").string() + common, &log), 0) << log;
     const fs::path out = dir / "killed";
-    const std::string args = " synth -o " + out.string() + base_args(count) + " --threads 2";
+    const std::string args = " synth -o " + out.string() + common;
     Rng rng(2024, 0, 0);
-    int killed_mid_run = 0;
-    for (int attempt = 0; attempt < 4; ++attempt) {
-        const pid_t pid = ::fork();
+    int kills = 0, killed_mid_run = 0;
+    for (int attempt = 0; attempt < 60 && kills < 20; ++attempt) {
+        const pid_t pid = spawn_cli(args);
         ASSERT_GE(pid, 0);
-        if (pid == 0) {
-            ::execl("/bin/sh", "sh", "-c", ("exec " + testkit::cli_path().string() + args + " >/dev/null 2>&1").c_str(), nullptr);
-            ::_exit(127);
-        }
-        // Kill once a random number of samples exist (so the kill lands mid-run on any machine
-        // speed), after a further random few milliseconds; the first attempt kills at startup.
-        const int target = attempt == 0 ? 0 : rng.uniform_int(1, count / 2);
+        // Kill once 0-1 more samples exist than before (so the kill lands mid-run on any machine
+        // speed, in startup, cleanup or writing), after a further random 0-4 ms.
+        const int target = count_files(out / "meta") + rng.uniform_int(0, 1);
         int status = 0;
         bool exited = false;
         while (!exited && count_files(out / "meta") < target) {
             exited = ::waitpid(pid, &status, WNOHANG) == pid;
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
         }
-        std::this_thread::sleep_for(std::chrono::milliseconds(rng.uniform_int(0, 8)));
-        if (!exited) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(rng.uniform_int(0, 4)));
+        if (!exited && ::waitpid(pid, &status, WNOHANG) == 0) {
             ::kill(pid, SIGKILL);
             ::waitpid(pid, &status, 0);
+            ++kills;
+            killed_mid_run += count_files(out / "meta") < count;
         }
-        killed_mid_run += count_files(out / "meta") < count;
+        if (count_files(out / "meta") >= count) break;
     }
-    EXPECT_GE(killed_mid_run, 3);
+    EXPECT_GE(kills, 20);
+    EXPECT_GE(killed_mid_run, 15);
     ASSERT_EQ(testkit::run_command(testkit::cli_path().string() + args, &log), 0) << log;
-    for (const auto& entry : fs::recursive_directory_iterator(out))
-        EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
+    expect_no_temporary_files(out);
     expect_same_files(snapshot(dir / "clean"), snapshot(out));
+}
+
+// Runs `facesynth synth<args>` with no file allowed to grow past `limit` bytes (RLIMIT_FSIZE) and
+// SIGXFSZ ignored, so that writes past it fail with EFBIG as they would on a full disk.
+int synth_with_file_size_limit(const std::string& args, rlim_t limit, std::string* output) {
+    const fs::path log = testkit::fresh_temp_dir("synth_fsize_log") / "log.txt";
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        const rlimit fsize{limit, limit};
+        ::setrlimit(RLIMIT_FSIZE, &fsize);
+        ::signal(SIGXFSZ, SIG_IGN);
+        ::execl("/bin/sh", "sh", "-c", ("exec " + testkit::cli_path().string() + " synth" + args + " >" + log.string() + " 2>&1").c_str(), nullptr);
+        ::_exit(127);
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    *output = read_file(log);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+TEST(SynthCli, DiskFullStopsWithAClearErrorKeepsFinishedSamplesAndResumes) {
+    const auto dir = testkit::fresh_temp_dir("synth_disk_full");
+    const int count = 24;
+    // WebDataset tars of 6 samples outgrow the limit while every per-sample file fits, so the
+    // first tar fails after its 6 samples are written.
+    const std::string common = base_args(count, 32) + " --threads 1 --set output.wds_shard_size=6";
+    std::string log;
+    ASSERT_EQ(synth(" -o " + (dir / "clean").string() + common, &log), 0) << log;
+    const auto clean = snapshot(dir / "clean");
+    std::size_t largest_sample_file = 0;
+    for (const auto& [name, contents] : clean)
+        if (!name.ends_with(".tar") && name != "coco.json" && !name.starts_with("manifest"))
+            largest_sample_file = std::max(largest_sample_file, contents.size());
+    const std::size_t tar_size = clean.at("shard-000000.tar").size();
+    const std::size_t limit = std::max(largest_sample_file + 1024, tar_size / 2);
+    ASSERT_LT(limit, tar_size);
+
+    const fs::path out = dir / "full";
+    EXPECT_EQ(synth_with_file_size_limit(" -o " + out.string() + common, limit, &log), 1) << log;
+    EXPECT_NE(log.find("facesynth: error: "), std::string::npos) << log;
+    EXPECT_NE(log.find("shard-000000.tar"), std::string::npos) << log;
+    EXPECT_EQ(log.find("internal error"), std::string::npos) << log;
+    // Every sample the manifest lists is complete and identical to the clean run's.
+    const auto manifest = read_file(out / "manifest.jsonl");
+    const auto finished = std::count(manifest.begin(), manifest.end(), '\n');
+    EXPECT_GT(finished, 0);
+    EXPECT_LT(finished, count);
+    for (const auto& [name, contents] : snapshot(out)) {
+        if (name.ends_with(".tar") || name.starts_with("manifest") || name.find(".tmp.") != std::string::npos) continue;
+        ASSERT_TRUE(clean.count(name)) << name;
+        EXPECT_TRUE(clean.at(name) == contents) << name << " differs from the uninterrupted run";
+    }
+    // Space is back: the run completes, byte-identical to the uninterrupted one.
+    ASSERT_EQ(synth(" -o " + out.string() + common, &log), 0) << log;
+    expect_no_temporary_files(out);
+    expect_same_files(clean, snapshot(out));
 }
 
 TEST(SynthCli, RefusesAFolderMadeWithAnotherConfigUnlessOverwrite) {

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 #include <vector>
 
@@ -253,6 +254,24 @@ TEST(SdmModelFile, WrongTruncatedAndCorruptFilesGiveErrorsNamingTheFile) {
     newer[8] = 99;
     write_all(future, newer);
     expect_error_naming(future, "version");
+}
+
+TEST(SdmModelFile, HugeStageDimensionsAreRefusedBeforeAllocation) {
+    const auto dir = testkit::fresh_temp_dir("sdm_model_huge");
+    const auto good = dir / "good.sdm";
+    write_sdm_model(good, small_model());
+    std::string bytes = read_all(good);
+    // 16 HOG cells per side instead of 2: 150 MB of weights per stage in a file of a few hundred KB.
+    // The payload checksum (FNV-1a at byte 68, over the payload from byte 76) is fixed so that the
+    // size check itself is reached.
+    const std::uint32_t cells = 16;
+    std::memcpy(bytes.data() + 20, &cells, 4);
+    std::uint64_t hash = 0xcbf29ce484222325ULL;
+    for (std::size_t i = 76; i < bytes.size(); ++i) hash = (hash ^ static_cast<unsigned char>(bytes[i])) * 0x100000001b3ULL;
+    std::memcpy(bytes.data() + 68, &hash, 8);
+    const auto huge = dir / "huge.sdm";
+    write_all(huge, bytes);
+    expect_error_naming(huge, "stage weights: size");
 }
 
 }  // namespace
