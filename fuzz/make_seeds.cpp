@@ -86,7 +86,9 @@ int main(int argc, char** argv) {
         bfm.expression = expression;
         fs::create_directories(out / "bfm");
         testkit::write_statismo(out / "bfm" / "toy.h5", bfm);
-        testkit::write_statismo(out / "bfm" / "shape_only.h5", shape_only);
+        MorphableModel bfm_shape_only = shape_only;
+        bfm_shape_only.expression.reset();  // statismo holds a PCA expression model or none
+        testkit::write_statismo(out / "bfm" / "shape_only.h5", bfm_shape_only);
 
         fs::create_directories(out / "pts");
         Eigen::Matrix2Xd points = testkit::ibug68_frontal_template();

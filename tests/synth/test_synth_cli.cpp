@@ -5,10 +5,12 @@
 #include "common/test_data.h"
 #include "common/toy_model.h"
 #include "morph/atomic_file.h"
+#include "morph/error.h"
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
 #include "morph/random.h"
 #include "morph/regions.h"
+#include "synth/dataset.h"
 #include "synth/tar.h"
 
 #include <gtest/gtest.h>
@@ -381,6 +383,23 @@ TEST(SynthCli, CocoKeypointsHaveTheExpectedStructure) {
         EXPECT_TRUE(fs::exists(dir / file)) << file;
     }
     EXPECT_GT(hidden, 0);  // at yaw 60-80 some landmarks are self-occluded
+}
+
+TEST(SynthCli, CocoExportNamesADamagedMetaFile) {
+    const auto dir = testkit::fresh_temp_dir("synth_coco_bad_meta");
+    fs::create_directories(dir / "meta");
+    for (const std::string text : {"[]", R"({"image_width": 1e300, "image_height": 64})",
+                                   R"({"image_width": 64, "image_height": 64, "landmarks": [[1, 2]], "visibility": [],
+                                       "occluded": [], "bbox": [0, 0, 1, 1]})",
+                                   R"({"image_width": 64, "image_height": 64, "landmarks": "x", "visibility": [], "occluded": [], "bbox": []})"}) {
+        write_file_atomically(dir / "meta" / "s00000000.json", text);
+        try {
+            (void)coco_from_meta(dir, {0}, SynthConfig{});
+            ADD_FAILURE() << "accepted " << text;
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("s00000000.json"), std::string::npos) << e.what();
+        }
+    }
 }
 
 }  // namespace

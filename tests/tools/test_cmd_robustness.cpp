@@ -107,7 +107,7 @@ TEST(Robustness, DetectBatchReportsEachBadImageAndGoesOn) {
     const std::vector<std::string> readable = {"image", "gray", "deep16", "cmyk"};
     std::string images = face.string();
     for (const char* name : {"gray.png", "deep16.png", "cmyk.jpg", "tiny.png", "text.png", "empty.jpg", "truncated.png", "huge.png", "missing.png"})
-        images += " " + (dir / name).string();
+        images.append(" ").append((dir / name).string());
     std::string log;
     EXPECT_EQ(run("detect --regressor dlib " + images + " --out " + (dir / "out").string() + " --quiet", &log), 1) << log;
     EXPECT_FALSE(contains(log, "internal error")) << log;
