@@ -107,7 +107,9 @@ int main(int argc, char** argv) {
         train::SdmStage stage;
         stage.settings.patch_relative = 0.5;
         stage.settings.cell_size = 8;
-        stage.weights = Eigen::MatrixXf::Zero(2 * kNumIbugLandmarks, sdm.feature_dims());
+        stage.settings.jaw_features = false;
+        stage.basis = Eigen::MatrixXf::Identity(2 * kNumIbugLandmarks, 2);  // rank 2
+        stage.weights = Eigen::MatrixXf::Zero(2, sdm.feature_dims(stage.settings));
         stage.bias = Eigen::VectorXf::Zero(2 * kNumIbugLandmarks);
         sdm.stages.push_back(stage);
         fs::create_directories(out / "sdm");
