@@ -157,6 +157,11 @@ long resident_kib() {
 }
 
 TEST(Resources, ThousandsOfRendersKeepMemorySteady) {
+#if defined(__SANITIZE_ADDRESS__)
+    // AddressSanitizer holds freed blocks in its quarantine (256 MB by default), so RSS keeps growing
+    // whatever the renderer does; in that build LeakSanitizer checks for leaks at exit instead.
+    GTEST_SKIP() << "RSS is not a leak measure under AddressSanitizer";
+#endif
     const Mesh mesh = toy().instance({});
     render::Renderer& renderer = shared_renderer();
     render::Frame frame;
