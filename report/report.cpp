@@ -10,12 +10,14 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <map>
-#include <regex>
+#include <optional>
 #include <sstream>
+#include <string_view>
 
 namespace facesynth::report {
 namespace {
@@ -163,18 +165,38 @@ struct Bin {
     }
 };
 
+// Takes a decimal integer (with an optional minus sign) off the front of `text`.
+std::optional<int> take_int(std::string_view& text) {
+    int value = 0;
+    const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (error != std::errc() || end == text.data()) return std::nullopt;
+    text.remove_prefix(static_cast<std::size_t>(end - text.data()));
+    return value;
+}
+
+// Takes `literal` off the front of `text` when it is there.
+bool take(std::string_view& text, std::string_view literal) {
+    if (!text.starts_with(literal)) return false;
+    text.remove_prefix(literal.size());
+    return true;
+}
+
 std::vector<Bin> yaw_bins(const json& j, const std::string& prefix = "") {
-    static const std::regex kBinKey("yaw_(-?[0-9]+)_(-?[0-9]+)_(.+)");
     std::map<std::pair<int, int>, Bin> bins;
     for (const auto& [key, value] : j.items()) {
         if (!key.starts_with(prefix) || !value.is_number()) continue;
-        std::smatch m;
-        const std::string rest = key.substr(prefix.size());
-        if (!std::regex_match(rest, m, kBinKey)) continue;
-        Bin& bin = bins[{std::stoi(m[1]), std::stoi(m[2])}];
-        bin.low = std::stoi(m[1]);
-        bin.high = std::stoi(m[2]);
-        bin.metrics[m[3]] = value.get<double>();
+        // yaw_<lo>_<hi>_<metric>
+        std::string_view rest(key);
+        rest.remove_prefix(prefix.size());
+        if (!take(rest, "yaw_")) continue;
+        const auto low = take_int(rest);
+        if (!low || !take(rest, "_")) continue;
+        const auto high = take_int(rest);
+        if (!high || !take(rest, "_") || rest.empty()) continue;
+        Bin& bin = bins[{*low, *high}];
+        bin.low = *low;
+        bin.high = *high;
+        bin.metrics[std::string(rest)] = value.get<double>();
     }
     std::vector<Bin> out;
     for (auto& [range, bin] : bins) out.push_back(std::move(bin));
@@ -290,11 +312,15 @@ void fit_section(const fs::path& evals, Context& context) {
     const fs::path sweep_dir = evals.empty() ? fs::path() : evals / layout::kFitSweepDir;
     std::map<int, std::map<double, json>> sweep;  // landmark count -> noise -> result
     for (const auto& file : files_matching(sweep_dir, "eval_", ".json")) {
-        static const std::regex kName("eval_([0-9]+)_([0-9.]+)\\.json");
-        std::smatch m;
+        // eval_<landmarks>_<noise>.json
         const std::string name = file.filename().string();
-        if (!std::regex_match(name, m, kName)) continue;
-        if (auto j = load_json(file, context)) sweep[std::stoi(m[1])][std::stod(m[2])] = std::move(*j);
+        std::string_view rest(name);
+        if (!take(rest, "eval_")) continue;
+        const auto landmarks = take_int(rest);
+        if (!landmarks || *landmarks < 0 || !take(rest, "_") || !rest.ends_with(".json")) continue;
+        const std::string noise(rest.substr(0, rest.size() - 5));
+        if (noise.empty() || noise.find_first_not_of("0123456789.") != std::string::npos) continue;
+        if (auto j = load_json(file, context)) sweep[*landmarks][std::stod(noise)] = std::move(*j);
     }
     if (sweep.empty()) {
         page.missing("the landmark-count and noise sweep (" + std::string(layout::kFitSweepDir) + "/eval_<landmarks>_<noise>.json)",
@@ -541,12 +567,13 @@ void frontalise_section(const fs::path& evals, Context& context) {
 
 // Recognition keys: gallery<G>_yaw_<lo>_<hi>_<metric>, G = the gallery's yaw in degrees.
 std::map<int, std::vector<Bin>> recognition_bins(const json& j) {
-    static const std::regex kGallery("gallery([0-9]+)_yaw_.*");
     std::map<int, std::vector<Bin>> galleries;
     for (const auto& [key, value] : j.items()) {
-        std::smatch m;
-        if (std::regex_match(key, m, kGallery) && !galleries.contains(std::stoi(m[1])))
-            galleries[std::stoi(m[1])] = yaw_bins(j, "gallery" + std::string(m[1]) + "_");
+        std::string_view rest(key);
+        if (!take(rest, "gallery")) continue;
+        const auto gallery = take_int(rest);
+        if (!gallery || *gallery < 0 || !rest.starts_with("_yaw_") || galleries.contains(*gallery)) continue;
+        galleries[*gallery] = yaw_bins(j, "gallery" + std::to_string(*gallery) + "_");
     }
     return galleries;
 }
