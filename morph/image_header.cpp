@@ -2,9 +2,12 @@
 
 #include "morph/error.h"
 
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <fstream>
 #include <string>
+#include <string_view>
 
 namespace facesynth {
 namespace {
@@ -65,6 +68,14 @@ void check_image_not_too_large(const std::filesystem::path& path, std::int64_t m
         throw file_error(path.string(), "image is " + std::to_string(size->width) + " x " + std::to_string(size->height) +
                                             " pixels, more than the " + std::to_string(max_pixels / 1'000'000) +
                                             " megapixels this tool accepts (resize it first)");
+}
+
+bool is_image_file(const std::filesystem::path& path) {
+    static constexpr std::array<std::string_view, 9> kExtensions{".png", ".jpg", ".jpeg", ".bmp", ".tif",
+                                                                 ".tiff", ".webp", ".ppm", ".pgm"};
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end();
 }
 
 }  // namespace facesynth

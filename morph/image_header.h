@@ -16,6 +16,10 @@ struct ImageDimensions {
 // The dimensions a PNG, JPEG or BMP header declares; nullopt for other or unreadable files.
 [[nodiscard]] std::optional<ImageDimensions> read_image_dimensions(const std::filesystem::path& path);
 
+// Whether the file name has an image extension the tools read (.png .jpg .jpeg .bmp .tif .tiff
+// .webp .ppm .pgm, any case): the one list used when a folder is scanned for images.
+[[nodiscard]] bool is_image_file(const std::filesystem::path& path);
+
 // Largest photograph `detect`, `eval landmarks` and `fit --image` accept (100 megapixels).
 inline constexpr std::int64_t kMaxImagePixels = 100'000'000;
 

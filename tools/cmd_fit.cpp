@@ -45,16 +45,6 @@ struct FitArgs {
     bool quiet = false;
 };
 
-nlohmann::json matrix_json(const Eigen::MatrixXd& m) {
-    nlohmann::json rows = nlohmann::json::array();
-    for (Eigen::Index r = 0; r < m.rows(); ++r) {
-        nlohmann::json row = nlohmann::json::array();
-        for (Eigen::Index c = 0; c < m.cols(); ++c) row.push_back(m(r, c));
-        rows.push_back(row);
-    }
-    return rows;
-}
-
 fit::JawMode parse_jaw(const std::string& s) {
     if (s == "fixed") return fit::JawMode::kFixed;
     if (s == "contour") return fit::JawMode::kContour;

@@ -9,6 +9,7 @@
 #include "fit/frontal/frontalise.h"
 #include "morph/atomic_file.h"
 #include "morph/error.h"
+#include "morph/image_header.h"
 #include "morph/landmarks.h"
 #include "morph/mesh_io.h"
 #include "morph/model_io.h"
@@ -35,16 +36,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-nlohmann::json matrix_rows(const Eigen::MatrixXd& m) {
-    nlohmann::json rows = nlohmann::json::array();
-    for (Eigen::Index r = 0; r < m.rows(); ++r) {
-        nlohmann::json row = nlohmann::json::array();
-        for (Eigen::Index c = 0; c < m.cols(); ++c) row.push_back(m(r, c));
-        rows.push_back(row);
-    }
-    return rows;
-}
-
 std::optional<cv::Vec3b> parse_background(const std::string& text) {
     if (text.empty() || text == "none") return std::nullopt;
     int r = 0, g = 0, b = 0;
@@ -52,14 +43,6 @@ std::optional<cv::Vec3b> parse_background(const std::string& text) {
     if (std::sscanf(text.c_str(), "%d,%d,%d%c", &r, &g, &b, &tail) != 3 || std::min({r, g, b}) < 0 || std::max({r, g, b}) > 255)
         throw Error("--background '" + text + "': expected R,G,B with values 0..255, or none");
     return cv::Vec3b(static_cast<std::uint8_t>(b), static_cast<std::uint8_t>(g), static_cast<std::uint8_t>(r));
-}
-
-bool is_image_file(const fs::path& path) {
-    std::string ext = path.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    for (const char* known : {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm"})
-        if (ext == known) return true;
-    return false;
 }
 
 // Arguments as given: folders expand to their image files (sorted, not recursive); files are kept
@@ -160,10 +143,10 @@ nlohmann::json face_record(const fs::path& image, int face, const std::string& s
     j["yaw_deg"] = r.fit.pose.angles.yaw;
     j["pitch_deg"] = r.fit.pose.angles.pitch;
     j["roll_deg"] = r.fit.pose.angles.roll;
-    j["rotation"] = matrix_rows(r.fit.pose.rotation);
+    j["rotation"] = matrix_json(r.fit.pose.rotation);
     j["scale_px_per_mm"] = r.fit.pose.scale;
     j["translation_px"] = {r.fit.pose.translation.x(), r.fit.pose.translation.y()};
-    j["affine_camera"] = matrix_rows(r.fit.camera.matrix);
+    j["affine_camera"] = matrix_json(r.fit.camera.matrix);
     j["alpha"] = r.fit.alpha;
     j["psi"] = r.fit.psi;
     j["reprojection_rms_px"] = r.fit.reprojection_rms_px;
@@ -223,6 +206,7 @@ void run_frontalise(const FrontaliseArgs& a) {
     for (const fs::path& path : images) {
         try {
             if (!fs::is_regular_file(path)) throw file_error(path.string(), "file not found");
+            check_image_not_too_large(path);
             const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
             if (image.empty()) throw file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
             const auto detect_start = std::chrono::steady_clock::now();

@@ -10,6 +10,7 @@
 #include "train/regressor.h"
 #include "morph/atomic_file.h"
 #include "morph/error.h"
+#include "morph/image_header.h"
 #include "morph/model_io.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -48,13 +49,11 @@ void run_eval_recognition_photos(const RecognitionArgs& a) {
     for (const auto& folder : fs::directory_iterator(a.photos)) {
         if (!folder.is_directory()) continue;
         for (const auto& entry : fs::directory_iterator(folder.path())) {
-            std::string ext = entry.path().extension().string();
-            std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-            if (ext == ".jpg" || ext == ".jpeg" || ext == ".png") files.emplace_back(folder.path().filename().string(), entry.path());
+            if (entry.is_regular_file() && is_image_file(entry.path())) files.emplace_back(folder.path().filename().string(), entry.path());
         }
     }
     std::sort(files.begin(), files.end());
-    if (files.empty()) throw file_error(a.photos.string(), "no <identity>/<image>.{jpg,jpeg,png} files");
+    if (files.empty()) throw file_error(a.photos.string(), "no <identity>/<image> files with an image extension");
 
     const std::unique_ptr<train::LandmarkRegressor> regressor = train::open_regressor(a.regressor);
     const train::FaceDetector detector;

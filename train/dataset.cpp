@@ -1,22 +1,13 @@
 #include "train/dataset.h"
 
 #include "morph/error.h"
+#include "morph/image_header.h"
 
 #include <algorithm>
-#include <array>
-#include <cctype>
 #include <sstream>
 
 namespace facesynth::train {
 namespace {
-
-bool is_image_file(const std::filesystem::path& path) {
-    static constexpr std::array<const char*, 8> kExtensions = {".png", ".jpg", ".jpeg", ".ppm",
-                                                               ".pgm", ".bmp", ".tif", ".tiff"};
-    std::string ext = path.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    return std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end();
-}
 
 void collect(const std::filesystem::path& image_dir, const std::filesystem::path& pts_dir, const std::string& prefix,
              std::vector<LabelledImage>& out) {

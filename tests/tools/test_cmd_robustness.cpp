@@ -159,6 +159,17 @@ TEST(Robustness, FitRefusesUnreadableAndHugeImagesByName) {
     EXPECT_EQ(run(fit + (dir / "tiny.png").string(), &log), 0) << log;
 }
 
+TEST(Robustness, FrontaliseRefusesHugeImagesByName) {
+    const auto dir = fresh_temp_dir("robust_frontalise");
+    const fs::path data = dir / "data";
+    std::string log;
+    ASSERT_EQ(run("synth --model builtin --out " + data.string() + " -n 1 --size 64 --format folder --set render.msaa_samples=0 --quiet", &log), 0) << log;
+    write_bytes(dir / "huge.png", png_header_only(20000, 20000));
+    const std::string pts = (data / "landmarks" / "s00000000.pts").string();
+    EXPECT_EQ(run("frontalise --model builtin --pts " + pts + " --quiet --out " + (dir / "out").string() + " " + (dir / "huge.png").string(), &log), 1) << log;
+    EXPECT_TRUE(contains(log, "huge.png: image is 20000 x 20000 pixels")) << log;
+}
+
 TEST(Robustness, OutOfRangeParametersAreRefusedNamingThem) {
     const auto dir = fresh_temp_dir("robust_ranges");
     std::string log;
