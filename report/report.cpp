@@ -404,28 +404,16 @@ void landmarks_section(const fs::path& evals, Context& context) {
         }
         try {
             const Csv csv = read_csv(csv_path);
-            LinePlot plot;
-            plot.title = "CED, " + name;
-            plot.x = linear_axis("NME (inter-ocular)", 0, 0.08, {0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08});
-            plot.y = share_axis("share of faces");
+            LinePlot plot = ced_plot("CED, " + name);
             for (int r = 1;; ++r) {
                 const int column = csv.column("regressor" + std::to_string(r));
                 if (column < 0) break;
                 std::vector<double> nmes;
                 for (const auto& row : csv.rows) nmes.push_back(parse_number(row[static_cast<std::size_t>(column)], csv_path));
-                std::sort(nmes.begin(), nmes.end());
-                Series s;
-                s.label = r <= static_cast<int>(labels.size()) ? labels[static_cast<std::size_t>(r - 1)] : "regressor" + std::to_string(r);
-                s.steps = true;
+                Series s = cumulative_series(
+                    r <= static_cast<int>(labels.size()) ? labels[static_cast<std::size_t>(r - 1)] : "regressor" + std::to_string(r),
+                    std::move(nmes), plot.x.max);
                 s.dashed = r > 1;
-                s.x.push_back(0);
-                s.y.push_back(0);
-                for (std::size_t i = 0; i < nmes.size() && nmes[i] <= plot.x.max; ++i) {
-                    s.x.push_back(nmes[i]);
-                    s.y.push_back(static_cast<double>(i + 1) / static_cast<double>(nmes.size()));
-                }
-                s.x.push_back(plot.x.max);
-                s.y.push_back(s.y.back());
                 plot.series.push_back(std::move(s));
             }
             if (plot.series.empty()) throw file_error(csv_path.string(), "no regressor1 column");

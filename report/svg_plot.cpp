@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace facesynth::report {
 namespace {
@@ -119,6 +120,33 @@ std::string_view series_colour(std::size_t i) {
     static constexpr std::array<std::string_view, 8> kColours = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
                                                                  "#9467bd", "#8c564b", "#e377c2", "#17becf"};
     return kColours[i % kColours.size()];
+}
+
+Series cumulative_series(std::string label, std::vector<double> values, double x_max) {
+    for (double& v : values)
+        if (std::isnan(v)) v = std::numeric_limits<double>::infinity();
+    std::sort(values.begin(), values.end());
+    Series series;
+    series.label = std::move(label);
+    series.steps = true;
+    series.x.push_back(0);
+    series.y.push_back(0);
+    const double n = static_cast<double>(std::max<std::size_t>(values.size(), 1));
+    for (std::size_t i = 0; i < values.size() && values[i] <= x_max; ++i) {
+        series.x.push_back(values[i]);
+        series.y.push_back(static_cast<double>(i + 1) / n);
+    }
+    series.x.push_back(x_max);
+    series.y.push_back(series.y.back());
+    return series;
+}
+
+LinePlot ced_plot(std::string title, double max_nme) {
+    LinePlot plot;
+    plot.title = std::move(title);
+    plot.x = linear_axis("NME (inter-ocular)", 0, max_nme, linear_ticks(0, max_nme, 8));
+    plot.y = share_axis("share of faces");
+    return plot;
 }
 
 std::string xml_escape(std::string_view text) {

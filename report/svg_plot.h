@@ -43,6 +43,10 @@ struct Series {
     int colour = -1;             // index into series_colour(); -1: the series' position
 };
 
+// The cumulative distribution of `values` on [0, x_max] as a staircase series (a CED curve): the
+// share of all values (non-finite ones included, as failures) that are <= x.
+[[nodiscard]] Series cumulative_series(std::string label, std::vector<double> values, double x_max);
+
 struct LinePlot {
     std::string title;
     Axis x;
@@ -51,6 +55,10 @@ struct LinePlot {
     int width = 560;
     int height = 380;
 };
+
+// An empty CED plot: landmark error (NME, inter-ocular) on [0, max_nme] against the share of faces;
+// add one cumulative_series per method.
+[[nodiscard]] LinePlot ced_plot(std::string title, double max_nme = 0.08);
 
 // Points outside the axis ranges are drawn on the frame; non-finite points (and points <= 0 on a log
 // axis) break the line.

@@ -14,6 +14,7 @@
 #include "morph/mesh_io.h"
 #include "morph/model_io.h"
 #include "morph/random.h"
+#include "report/svg_plot.h"
 #include "train/face_box.h"
 #include "train/regressor.h"
 
@@ -29,7 +30,6 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
-#include <sstream>
 
 namespace facesynth::cli {
 namespace {
@@ -350,37 +350,28 @@ EvalSums score_view(frontal::Frontaliser& frontaliser, const frontal::TexturedFa
 
 // PSNR per yaw bin as an SVG line plot (one line per series; NaN = empty bin, left out).
 std::string psnr_plot_svg(const std::vector<std::pair<std::string, std::array<double, kYawBins>>>& series) {
-    constexpr double width = 520, height = 320, left = 60, right = 150, top = 20, bottom = 50;
+    std::vector<double> ticks;
+    for (int b = 0; b <= kYawBins; ++b) ticks.push_back(10.0 * b);
     double low = 1e9, high = -1e9;
-    for (const auto& [name, values] : series)
-        for (double v : values)
-            if (std::isfinite(v)) low = std::min(low, v), high = std::max(high, v);
-    low = std::floor(low / 2) * 2 - 2;
-    high = std::ceil(high / 2) * 2 + 2;
-    auto x = [&](int b) { return left + (width - left - right) * (b + 0.5) / kYawBins; };
-    auto y = [&](double v) { return top + (height - top - bottom) * (high - v) / (high - low); };
-    std::ostringstream svg;
-    svg << "<svg xmlns='http://www.w3.org/2000/svg' width='" << width << "' height='" << height << "' font-family='sans-serif' font-size='12'>\n"
-        << "<rect width='100%' height='100%' fill='white'/>\n";
-    for (double v = low; v <= high + 1e-9; v += 2)
-        svg << "<line x1='" << left << "' x2='" << width - right << "' y1='" << y(v) << "' y2='" << y(v) << "' stroke='#ddd'/>"
-            << "<text x='" << left - 6 << "' y='" << y(v) + 4 << "' text-anchor='end'>" << v << "</text>\n";
-    for (int b = 0; b < kYawBins; ++b)
-        svg << "<text x='" << x(b) << "' y='" << height - bottom + 18 << "' text-anchor='middle'>" << 10 * b << "-" << 10 * b + 10 << "</text>\n";
-    svg << "<text x='" << (left + width - right) / 2 << "' y='" << height - 8 << "' text-anchor='middle'>|yaw| (degrees)</text>\n"
-        << "<text x='14' y='" << (top + height - bottom) / 2 << "' transform='rotate(-90 14 " << (top + height - bottom) / 2
-        << ")' text-anchor='middle'>PSNR in the face mask (dB)</text>\n";
-    const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd"};
-    for (std::size_t k = 0; k < series.size(); ++k) {
-        const auto& [name, values] = series[k];
-        svg << "<polyline fill='none' stroke-width='2' stroke='" << colours[k % 4] << "' points='";
-        for (int b = 0; b < kYawBins; ++b)
-            if (std::isfinite(values[static_cast<std::size_t>(b)])) svg << x(b) << "," << y(values[static_cast<std::size_t>(b)]) << " ";
-        svg << "'/>\n<text x='" << width - right + 10 << "' y='" << top + 16 + 18 * static_cast<double>(k) << "' fill='" << colours[k % 4] << "'>"
-            << name << "</text>\n";
+    report::LinePlot plot;
+    plot.title = "frontal render PSNR by yaw";
+    plot.x = report::linear_axis("|yaw| (°), points at the 10° bin centres", 0, 10.0 * kYawBins, ticks);
+    for (const auto& [name, values] : series) {
+        report::Series s;
+        s.label = name;
+        s.markers = true;
+        for (int b = 0; b < kYawBins; ++b) {
+            const double v = values[static_cast<std::size_t>(b)];
+            if (!std::isfinite(v)) continue;
+            s.x.push_back(10.0 * b + 5);
+            s.y.push_back(v);
+            low = std::min(low, v), high = std::max(high, v);
+        }
+        plot.series.push_back(std::move(s));
     }
-    svg << "</svg>\n";
-    return svg.str();
+    if (!(low <= high)) low = 0, high = 1;
+    plot.y = report::linear_axis("PSNR in the face mask (dB)", std::floor(low / 2) * 2 - 2, std::ceil(high / 2) * 2 + 2);
+    return report::line_plot_svg(plot);
 }
 
 void run_eval_frontalise(const EvalArgs& a) {

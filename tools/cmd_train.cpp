@@ -6,6 +6,7 @@
 #include "morph/error.h"
 #include "morph/image_header.h"
 #include "morph/landmarks.h"
+#include "report/svg_plot.h"
 #include "train/dataset.h"
 #include "train/dlib_baseline.h"
 #include "train/evaluate.h"
@@ -315,8 +316,16 @@ void run_eval_landmarks(const EvalArgs& args) {
         std::vector<CedCurve> curves;
         for (std::size_t r = 0; r < evaluation.regressors.size(); ++r)
             curves.push_back({args.regressors[r], evaluation.regressors[r].nmes});
-        const bool png = args.ced.extension() == ".png";
-        write_file_atomically(args.ced, png ? ced_png(curves) : ced_svg(curves));
+        if (args.ced.extension() == ".png") {
+            write_file_atomically(args.ced, ced_png(curves));
+        } else {
+            report::LinePlot plot = report::ced_plot("CED");
+            for (std::size_t r = 0; r < curves.size(); ++r) {
+                plot.series.push_back(report::cumulative_series(curves[r].label, curves[r].nmes, plot.x.max));
+                plot.series.back().dashed = r > 0;
+            }
+            write_file_atomically(args.ced, report::line_plot_svg(plot));
+        }
     }
     if (!args.nme_csv.empty()) write_file_atomically(args.nme_csv, per_face_nme_csv(evaluation));
     // The report counts unreadable items as misses; the exit code still says that some failed.

@@ -41,67 +41,6 @@ NmeSummary summarise_nme(std::span<const double> nmes, double threshold) {
     return s;
 }
 
-std::string ced_svg(std::span<const CedCurve> curves, double max_nme) {
-    constexpr double kWidth = 640, kHeight = 480, kLeft = 70, kRight = 20, kTop = 30, kBottom = 60;
-    const double plot_w = kWidth - kLeft - kRight, plot_h = kHeight - kTop - kBottom;
-    const auto px = [&](double nme) { return kLeft + plot_w * nme / max_nme; };
-    const auto py = [&](double share) { return kTop + plot_h * (1 - share); };
-    static constexpr const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b"};
-    std::string svg;
-    char buf[512];
-    std::snprintf(buf, sizeof(buf),
-                  "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%g\" height=\"%g\" font-family=\"sans-serif\" "
-                  "font-size=\"12\">\n<rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>\n",
-                  kWidth, kHeight);
-    svg += buf;
-    for (int i = 0; i <= 8; ++i) {
-        const double x = max_nme * i / 8;
-        std::snprintf(buf, sizeof(buf),
-                      "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>"
-                      "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\">%.2f</text>\n",
-                      px(x), py(0), px(x), py(1), px(x), py(0) + 16, x);
-        svg += buf;
-    }
-    for (int i = 0; i <= 10; ++i) {
-        const double y = i / 10.0;
-        std::snprintf(buf, sizeof(buf),
-                      "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>"
-                      "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\">%.1f</text>\n",
-                      px(0), py(y), px(max_nme), py(y), px(0) - 6, py(y) + 4, y);
-        svg += buf;
-    }
-    std::snprintf(buf, sizeof(buf),
-                  "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\">NME (inter-ocular)</text>\n"
-                  "<text x=\"16\" y=\"%.1f\" text-anchor=\"middle\" transform=\"rotate(-90 16 %.1f)\">share of "
-                  "faces</text>\n",
-                  kLeft + plot_w / 2, kHeight - 20, kTop + plot_h / 2, kTop + plot_h / 2);
-    svg += buf;
-    for (std::size_t c = 0; c < curves.size(); ++c) {
-        std::vector<double> sorted = curves[c].nmes;
-        std::sort(sorted.begin(), sorted.end());
-        const double n = static_cast<double>(std::max<std::size_t>(sorted.size(), 1));
-        std::string points;
-        double share = 0;
-        double last_x = 0;
-        points += std::to_string(px(0)) + "," + std::to_string(py(0)) + " ";
-        for (std::size_t i = 0; i < sorted.size() && sorted[i] <= max_nme; ++i) {
-            points += std::to_string(px(sorted[i])) + "," + std::to_string(py(share)) + " ";
-            share = (i + 1) / n;
-            points += std::to_string(px(sorted[i])) + "," + std::to_string(py(share)) + " ";
-            last_x = sorted[i];
-        }
-        (void)last_x;
-        points += std::to_string(px(max_nme)) + "," + std::to_string(py(share));
-        const char* colour = kColours[c % std::size(kColours)];
-        svg += "<polyline fill=\"none\" stroke-width=\"2\" stroke=\"" + std::string(colour) + "\" points=\"" + points + "\"/>\n";
-        std::snprintf(buf, sizeof(buf), "<text x=\"%.1f\" y=\"%.1f\" fill=\"%s\">%s</text>\n", kLeft + 10,
-                      kTop + 16 + 16.0 * static_cast<double>(c), colour, curves[c].label.c_str());
-        svg += buf;
-    }
-    svg += "</svg>\n";
-    return svg;
-}
-
 std::string ced_png(std::span<const CedCurve> curves, double max_nme) {
     constexpr int kWidth = 640, kHeight = 480, kLeft = 70, kRight = 20, kTop = 30, kBottom = 60;
     const double plot_w = kWidth - kLeft - kRight, plot_h = kHeight - kTop - kBottom;

@@ -21,13 +21,12 @@ struct NmeSummary {
 // Share of faces with NME <= x (the cumulative error distribution).
 [[nodiscard]] double ced_at(std::span<const double> nmes, double x);
 
-// One CED curve per method on [0, max_nme], as an SVG document.
+// One CED curve per method on [0, max_nme], as PNG bytes drawn with OpenCV (the SVG version is
+// report::ced_plot).
 struct CedCurve {
     std::string label;
     std::vector<double> nmes;
 };
-[[nodiscard]] std::string ced_svg(std::span<const CedCurve> curves, double max_nme = 0.08);
-// The same plot as PNG bytes (drawn with OpenCV).
 [[nodiscard]] std::string ced_png(std::span<const CedCurve> curves, double max_nme = 0.08);
 
 }  // namespace facesynth::train

@@ -9,6 +9,8 @@
 #include <opencv2/core.hpp>
 
 #include <cmath>
+#include <limits>
+#include <vector>
 #include <string>
 
 namespace {
@@ -55,6 +57,17 @@ TEST(Report, LinePlotHasOnePolylinePerSeriesAndEscapedLabels) {
     EXPECT_EQ(count_occurrences(svg, "<polyline"), 3u);
     EXPECT_EQ(count_occurrences(svg, "stroke-dasharray"), 2u + 1u);  // b's two runs and its legend line
     EXPECT_EQ(svg.find("nan"), std::string::npos);
+}
+
+TEST(Report, CumulativeSeriesIsAStaircaseCountingMissesInTheTotal) {
+    const double inf = std::numeric_limits<double>::infinity();
+    const Series s = cumulative_series("ours", {0.05, 0.01, inf, std::nan(""), 0.2}, 0.08);
+    EXPECT_TRUE(s.steps);
+    ASSERT_EQ(s.x, (std::vector<double>{0, 0.01, 0.05, 0.08}));
+    ASSERT_EQ(s.y, (std::vector<double>{0, 0.2, 0.4, 0.4}));
+    const LinePlot plot = ced_plot("CED");
+    EXPECT_DOUBLE_EQ(plot.x.max, 0.08);
+    EXPECT_TRUE(plot.y.percent);
 }
 
 TEST(Report, LogAxisDropsNonPositivePointsAndLabelsDecades) {
