@@ -1,6 +1,7 @@
 #include "morph/jaw_contour.h"
 
 #include "morph/landmarks.h"
+#include "morph/polygon.h"
 
 #include <algorithm>
 #include <limits>
@@ -74,24 +75,6 @@ bool has_fixed_jaw_points(const MorphableModel& model) {
         if (p.weights[0] + p.weights[1] + p.weights[2] < 0.5f) return false;
     }
     return true;
-}
-
-// Distance from p to segment ab (2D).
-float segment_distance(const Eigen::Vector2f& p, const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
-    const Eigen::Vector2f ab = b - a;
-    const float t = ab.squaredNorm() > 0 ? std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0f, 1.0f) : 0.0f;
-    return (p - (a + t * ab)).norm();
-}
-
-// Even-odd point-in-polygon test.
-bool inside_polygon(const Eigen::Vector2f& p, const std::vector<Eigen::Vector2f>& polygon) {
-    bool in = false;
-    for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
-        const Eigen::Vector2f& a = polygon[i];
-        const Eigen::Vector2f& b = polygon[j];
-        if ((a.y() > p.y()) != (b.y() > p.y()) && p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) in = !in;
-    }
-    return in;
 }
 
 // A polygon through the given landmarks of the mean shape (frontal x, y), scaled about its centroid.

@@ -7,6 +7,7 @@
 #include "morph/eos_io.h"
 #include "morph/error.h"
 #include "morph/landmarks.h"
+#include "morph/region_labels.h"
 
 #include <algorithm>
 #include <array>
@@ -381,10 +382,18 @@ MorphableModel load_model(const std::string& spec) {
     if (spec == "builtin") return builtin_model();
     const std::filesystem::path path(spec);
     std::error_code ec;
-    if (std::filesystem::is_directory(path, ec)) return load_model_folder(path);
-    if (!std::filesystem::exists(path, ec))
+    MorphableModel model;
+    if (std::filesystem::is_directory(path, ec)) {
+        model = load_model_folder(path);
+    } else if (std::filesystem::exists(path, ec)) {
+        model = load_model_file(path);
+    } else {
         throw file_error(spec, "no such model file or folder (--model takes builtin, a model file or a folder)");
-    return load_model_file(path);
+    }
+    // Every reader's model without labels of its own (eos, Basel, an .fsm without LABL) gets them from
+    // its landmarks, when it has the 68.
+    if (model.vertex_labels.empty()) model.vertex_labels = derive_region_labels(model);
+    return model;
 }
 
 }  // namespace facesynth
