@@ -183,6 +183,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"lighting.intensity_max", &c.lighting.intensity_max, "directional light intensity upper bound"});
     f.push_back({"lighting.colour_temperature_min", &c.lighting.colour_temperature_min, "light colour temperature lower bound, K"});
     f.push_back({"lighting.colour_temperature_max", &c.lighting.colour_temperature_max, "light colour temperature upper bound, K"});
+    f.push_back({"lighting.white_balance", &c.lighting.white_balance,
+                 "share of the environment light's colour cast removed, as a camera's white balance does (0 = none, 1 = all)"});
     f.push_back({"lighting.specular_max", &c.lighting.specular_max, "Blinn-Phong specular weight upper bound"});
     f.push_back({"background.type", &c.background.type, "\"solid\", \"procedural\" or \"images\""});
     f.push_back({"background.folder", &c.background.folder, "folder of background images (type = \"images\")"});
@@ -269,6 +271,7 @@ void validate(const SynthConfig& c) {
     require(c.lighting.intensity_min >= 0 && c.lighting.intensity_min <= c.lighting.intensity_max, "lighting.intensity_min", "must be in [0, lighting.intensity_max]");
     require(c.lighting.colour_temperature_min >= 1000 && c.lighting.colour_temperature_min <= c.lighting.colour_temperature_max,
             "lighting.colour_temperature_min", "must be at least 1000 K and not exceed lighting.colour_temperature_max");
+    require(c.lighting.white_balance >= 0 && c.lighting.white_balance <= 1, "lighting.white_balance", "must lie in [0, 1]");
     require(c.lighting.colour_temperature_max <= 40000, "lighting.colour_temperature_max", "must be at most 40000 K");
     require(c.lighting.specular_max >= 0, "lighting.specular_max", "must not be negative");
     require(c.background.type == "solid" || c.background.type == "procedural" || c.background.type == "images",

@@ -69,6 +69,7 @@ struct LightingConfig {
     double intensity_max = 0.6;
     double colour_temperature_min = 3200;  // K, directional lights and the SH tint
     double colour_temperature_max = 7500;
+    double white_balance = 0.7;  // share of the environment's colour cast that the camera removes
     double specular_max = 0.25;            // Blinn-Phong specular weight uniform in [0, specular_max]
 };
 

@@ -313,6 +313,7 @@ nlohmann::json sample_meta(const Sample& sample, const SynthConfig& config, cons
     lighting["environment_radiance"] = s.lighting.environment_radiance;
     lighting["environment_temperature"] = s.lighting.environment_temperature;
     lighting["light_temperatures"] = s.lighting.light_temperatures;
+    lighting["white_balance_gain"] = s.lighting.white_balance_gain;
     const auto& b = s.background;
     const auto& d = s.degradation;
     nlohmann::json occluders = nlohmann::json::array();

@@ -83,6 +83,21 @@ std::array<float, 3> to_floats(const Eigen::Vector3d& v) {
     return {static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z())};
 }
 
+// A camera's white balance: the environment's colour cast is divided out to the power `share`, with
+// the mean of the environment colour kept, so warm and cool scenes keep a residual tint as in
+// white-balanced photographs rather than the raw illuminant colour.
+void white_balance(LightingSpec& spec, double share) {
+    const Eigen::Vector3d cast = colour_of_temperature(spec.environment_temperature);
+    Eigen::Vector3d gain = cast.array().pow(-share);
+    gain *= cast.mean() / cast.cwiseProduct(gain).mean();
+    const auto scale = [&](std::array<float, 3>& rgb) {
+        for (int k = 0; k < 3; ++k) rgb[static_cast<std::size_t>(k)] *= static_cast<float>(gain[k]);
+    };
+    for (auto& coefficient : spec.lighting.sh) scale(coefficient);
+    for (auto& light : spec.lighting.lights) scale(light.colour);
+    spec.white_balance_gain = {gain[0], gain[1], gain[2]};
+}
+
 LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
     const auto& c = config.lighting;
     Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kLighting);
@@ -109,6 +124,7 @@ LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
         spec.light_temperatures.push_back(temperature);
     }
     l.specular = static_cast<float>(rng.uniform(0.0, c.specular_max));
+    white_balance(spec, c.white_balance);
     return spec;
 }
 

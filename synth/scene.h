@@ -24,6 +24,7 @@ struct LightingSpec {
     double environment_radiance = 0;        // radiance of the SH environment's DC term
     double environment_temperature = 6500;  // K
     std::vector<double> light_temperatures;  // K, one per directional light
+    std::array<double, 3> white_balance_gain{1, 1, 1};  // applied to every light colour above (already in `lighting`)
 };
 
 struct BackgroundSpec {

@@ -169,5 +169,23 @@ TEST(SynthScene, ColourTemperatureIsWhiteAtDaylightAndWarmBelow) {
     EXPECT_GT(warm.y(), warm.z());
 }
 
+TEST(SynthScene, WhiteBalanceRemovesTheEnvironmentCastByTheChosenShare) {
+    const auto model = testkit::make_toy_model();
+    SynthConfig config;
+    config.lighting.colour_temperature_min = config.lighting.colour_temperature_max = 3200;
+    const auto dc_of = [&](double share) {
+        config.lighting.white_balance = share;
+        const LightingSpec spec = sample_scene(config, model, 7).lighting;
+        return Eigen::Vector3d(spec.lighting.sh[0][0], spec.lighting.sh[0][1], spec.lighting.sh[0][2]);
+    };
+    const Eigen::Vector3d raw = dc_of(0), balanced = dc_of(1), partial = dc_of(0.7);
+    const Eigen::Vector3d warm = colour_of_temperature(3200);
+    EXPECT_NEAR(raw.x() / raw.z(), warm.x() / warm.z(), 1e-5);   // the raw illuminant colour
+    EXPECT_NEAR(balanced.x() / balanced.z(), 1.0, 1e-5);          // grey
+    EXPECT_GT(partial.x() / partial.z(), 1.05);                   // still warm
+    EXPECT_LT(partial.x() / partial.z(), raw.x() / raw.z());
+    EXPECT_NEAR(balanced.mean(), raw.mean(), 1e-5 * raw.mean());  // brightness kept
+}
+
 }  // namespace
 }  // namespace facesynth::synth
