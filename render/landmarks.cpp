@@ -25,6 +25,12 @@ void pixel_ray(const Camera& camera, const Eigen::Vector2d& pixel, Eigen::Vector
     }
 }
 
+// Image pixels per mm across the view at camera depth z.
+double pixels_per_mm(const Camera& camera, double z) {
+    const double f = std::sqrt(camera.intrinsics.fx * camera.intrinsics.fy);
+    return camera.projection == Projection::kPerspective ? f / std::max(z, 1e-6) : f;
+}
+
 bool inside_image(const cv::Mat& image, const Eigen::Vector2d& p) {
     return p.x() >= -0.5 && p.y() >= -0.5 && p.x() < image.cols - 0.5 && p.y() < image.rows - 0.5;
 }
@@ -78,6 +84,34 @@ bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_
     return false;
 }
 
+bool is_outline_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z, double pixels_per_mm,
+                        std::span<const char> face_triangles, const LandmarkOptions& options) {
+    if (frame.depth.empty()) throw Error("render: landmark visibility needs the depth buffer (settings.geometry)");
+    if (frame.triangle_ids.empty()) throw Error("render: outline visibility needs the triangle-id buffer (settings.geometry)");
+    if (!inside_image(frame.depth, pixel)) return false;
+    const int cx = static_cast<int>(std::lround(pixel.x())), cy = static_cast<int>(std::lround(pixel.y()));
+    const int n = options.neighbourhood_px;
+    const int m = std::max(n, static_cast<int>(std::ceil(options.outline_tolerance_mm * pixels_per_mm)));
+    const double front_limit = camera_z - options.depth_tolerance_mm;
+    bool on_outline = false;
+    double covering_depth = 0.0;  // the depth of the surface seen least in front, in the small window
+    int covering = -1;
+    for (int y = std::max(0, cy - m); y <= std::min(frame.depth.rows - 1, cy + m); ++y)
+        for (int x = std::max(0, cx - m); x <= std::min(frame.depth.cols - 1, cx + m); ++x) {
+            const float d = frame.depth.at<float>(y, x);
+            const bool close = std::abs(x - cx) <= n && std::abs(y - cy) <= n;
+            if (d <= 0.0f || d >= front_limit) {
+                if (close && d > 0.0f) return true;  // a surface at the point's depth next to it: seen
+                on_outline = true;                   // background or a surface behind: an outline
+            } else if (close && d > covering_depth) {
+                covering_depth = d;
+                covering = frame.triangle_ids.at<int>(y, x);
+            }
+        }
+    return on_outline && covering >= 0 && static_cast<std::size_t>(covering) < face_triangles.size() &&
+           face_triangles[static_cast<std::size_t>(covering)] != 0;
+}
+
 ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, const Mesh& mesh, const Camera& camera,
                                      const Frame& frame, const LandmarkOptions& options,
                                      const JawContourRegion* contour_region) {
@@ -101,22 +135,37 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
         out.pixels.col(i) = project_point(camera, x);
         out.visible[static_cast<std::size_t>(i)] = is_visible(frame, out.pixels.col(i), out.camera_points(2, i), options);
     }
+    const bool jaw = count == kNumIbugLandmarks && contour_region && !contour_region->vertices.empty();
+    std::vector<char> face_triangles;
+    if (jaw) {
+        // The jaw points lie on the face's outline: decided against the face region's own triangles.
+        std::vector<char> in_region(static_cast<std::size_t>(mesh.num_vertices()), 0);
+        for (const int v : contour_region->vertices) {
+            if (v < 0 || v >= mesh.num_vertices()) throw Error("render: contour region refers to a vertex outside the mesh");
+            in_region[static_cast<std::size_t>(v)] = 1;
+        }
+        face_triangles.resize(mesh.triangles.size());
+        for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+            const Triangle& tri = mesh.triangles[t];
+            face_triangles[t] = static_cast<char>(in_region[static_cast<std::size_t>(tri[0])] || in_region[static_cast<std::size_t>(tri[1])] ||
+                                                  in_region[static_cast<std::size_t>(tri[2])]);
+        }
+        for (int i = 0; i < kNumJawLandmarks; ++i) {
+            const double z = out.camera_points(2, i);
+            out.visible[static_cast<std::size_t>(i)] =
+                is_outline_visible(frame, out.pixels.col(i), z, pixels_per_mm(camera, z), face_triangles, options) ? 1 : 0;
+        }
+    }
     out.contour_pixels = out.pixels;
     out.contour_model_points = out.model_points;
     out.contour_visible = out.visible;
-    if (count != kNumIbugLandmarks) return out;
-
-    const int side = contour_region ? far_side(camera.pose.rotation) : 0;
-    if (side == 0 || contour_region->vertices.empty()) return out;  // frontal: the jaw line is the outline
+    const int side = jaw ? far_side(camera.pose.rotation) : 0;
+    if (side == 0) return out;  // frontal: the jaw line is the outline
 
     // The shared definition (morph/jaw_contour.h) on the rendered shape with the render's camera.
     const auto& region = *contour_region;
     Eigen::Matrix3Xf region_points(3, static_cast<Eigen::Index>(region.vertices.size()));
-    for (std::size_t r = 0; r < region.vertices.size(); ++r) {
-        const int v = region.vertices[r];
-        if (v < 0 || v >= mesh.num_vertices()) throw Error("render: contour region refers to a vertex outside the mesh");
-        region_points.col(static_cast<Eigen::Index>(r)) = mesh.vertices.col(v);
-    }
+    for (std::size_t r = 0; r < region.vertices.size(); ++r) region_points.col(static_cast<Eigen::Index>(r)) = mesh.vertices.col(region.vertices[r]);
     const Eigen::Matrix2Xd projected = project_points(camera, region_points);
     for (int i = 0; i < kNumJawLandmarks; ++i) {
         if (!jaw_on_side(i, side)) continue;  // near side and chin: the fixed points
@@ -130,7 +179,9 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
         const Eigen::Vector3d p = hit->point.position(mesh.vertices).cast<double>();
         out.contour_pixels.col(i) = project_point(camera, p);
         out.contour_model_points.col(i) = p;
-        out.contour_visible[s] = is_visible(frame, out.contour_pixels.col(i), to_camera(camera.pose, p).z(), options) ? 1 : 0;
+        const double z = to_camera(camera.pose, p).z();
+        out.contour_visible[s] =
+            is_outline_visible(frame, out.contour_pixels.col(i), z, pixels_per_mm(camera, z), face_triangles, options) ? 1 : 0;
     }
     return out;
 }

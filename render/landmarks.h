@@ -21,6 +21,9 @@ struct LandmarkOptions {
     // this in front everywhere (a window touching the background counts as visible: the outline).
     double depth_tolerance_mm = 2.0;
     int neighbourhood_px = 1;  // half-size of the depth window searched around the landmark's pixel
+    // Jaw points (with a contour region): how much of the face's own outline may cover them, in mm
+    // at the point's depth (see is_outline_visible); a fixed size in the image would change with it.
+    double outline_tolerance_mm = 3.0;
 };
 
 struct ProjectedLandmarks {
@@ -48,6 +51,21 @@ struct ProjectedLandmarks {
 // Whether a camera-space depth `camera_z` at `pixel` is unoccluded in the frame's depth buffer.
 [[nodiscard]] bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z,
                               const LandmarkOptions& options = {});
+
+// Visibility of a point on the face's outline (the jaw points, fixed and contour). At a silhouette the
+// depth buffer cannot decide alone: the surface there is seen at a grazing angle, so a pixel next to
+// an outline point can lie tens of mm in front of it (the Surrey jaw at frontal pose), and the
+// background next to an outline says nothing about whether the nose or the lips stand in front of
+// it (their own outline is there too). So a point is visible when the depth test of is_visible
+// without its background rule passes, or when
+//   - within options.outline_tolerance_mm of it (times `pixels_per_mm` at its depth, at least
+//     options.neighbourhood_px) there is background or a surface behind it (it lies on an outline), and
+//   - the surface seen least in front of it in the 3x3 window belongs to the face itself
+//     (`face_triangles[t]` != 0 for the triangle ids of frame.triangle_ids): it is hidden by at most
+//     that much of its own outline, not by the nose, the lips, the ears or the hair.
+[[nodiscard]] bool is_outline_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z,
+                                      double pixels_per_mm, std::span<const char> face_triangles,
+                                      const LandmarkOptions& options = {});
 
 // Barycentric weights of the camera ray through `pixel` on triangle `triangle` (may lie outside
 // [0, 1] when the ray misses it); nullopt when the ray is parallel to the triangle's plane.

@@ -139,7 +139,7 @@ cv::Mat labels_picture(const cv::Mat& labels) {
 }
 
 // The render, enlarged for legibility, with fixed landmarks (green visible, red hidden, with their
-// 1-based number) and contour jaw points (yellow) drawn on it.
+// 1-based number) and contour jaw points (crosses: yellow visible, magenta hidden) drawn on it.
 cv::Mat overlay_picture(const cv::Mat& rgb, const render::ProjectedLandmarks& lm) {
     const int scale = std::max(1, static_cast<int>(std::ceil(768.0 / std::max(rgb.cols, rgb.rows))));
     cv::Mat big;
@@ -149,7 +149,7 @@ cv::Mat overlay_picture(const cv::Mat& rgb, const render::ProjectedLandmarks& lm
         return cv::Point(static_cast<int>(std::lround(16.0 * (scale * (p.x() + 0.5) - 0.5))),
                          static_cast<int>(std::lround(16.0 * (scale * (p.y() + 0.5) - 0.5))));
     };
-    const cv::Scalar green(60, 220, 60), red(40, 40, 255), yellow(0, 230, 255);
+    const cv::Scalar green(60, 220, 60), red(40, 40, 255), yellow(0, 230, 255), magenta(255, 40, 255);
     for (Eigen::Index i = 0; i < lm.pixels.cols(); ++i) {
         const bool visible = lm.visible[static_cast<std::size_t>(i)] != 0;
         cv::circle(big, at(lm.pixels.col(i)), 3 * 16, visible ? green : red, visible ? cv::FILLED : 2, cv::LINE_AA, 4);
@@ -159,8 +159,9 @@ cv::Mat overlay_picture(const cv::Mat& rgb, const render::ProjectedLandmarks& lm
     for (Eigen::Index i = 0; i < std::min<Eigen::Index>(17, lm.contour_pixels.cols()); ++i) {
         if (lm.contour_pixels.col(i) == lm.pixels.col(i)) continue;
         const cv::Point p = at(lm.contour_pixels.col(i));
-        cv::drawMarker(big, p / 16, yellow, cv::MARKER_TILTED_CROSS, 9, 2, cv::LINE_AA);
-        cv::line(big, at(lm.pixels.col(i)), p, yellow, 1, cv::LINE_AA, 4);
+        const cv::Scalar colour = lm.contour_visible[static_cast<std::size_t>(i)] != 0 ? yellow : magenta;
+        cv::drawMarker(big, p / 16, colour, cv::MARKER_TILTED_CROSS, 9, 2, cv::LINE_AA);
+        cv::line(big, at(lm.pixels.col(i)), p, colour, 1, cv::LINE_AA, 4);
     }
     return big;
 }
