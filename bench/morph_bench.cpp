@@ -1,6 +1,7 @@
 // Benchmarks of morph/: model loading (eos, .fsm) and mesh export. Run: build/bench/bench_morph.
 #include "morph/mesh_io.h"
 #include "morph/model_io.h"
+#include "morph/region_labels.h"
 
 #include <benchmark/benchmark.h>
 
@@ -32,6 +33,13 @@ void BM_LoadSurreyBin(benchmark::State& state) {
     for (auto _ : state) benchmark::DoNotOptimize(facesynth::load_model(path));
 }
 BENCHMARK(BM_LoadSurreyBin)->Unit(benchmark::kMillisecond);
+
+void BM_DeriveRegionLabelsSurrey(benchmark::State& state) {
+    if (!std::filesystem::exists(sfm_dir())) return state.SkipWithError("no ../shared/data/sfm (set FACESYNTH_DATA)");
+    const facesynth::MorphableModel model = facesynth::load_model(sfm_dir().string());
+    for (auto _ : state) benchmark::DoNotOptimize(facesynth::derive_region_labels(model));
+}
+BENCHMARK(BM_DeriveRegionLabelsSurrey)->Unit(benchmark::kMillisecond);
 
 void BM_ReadSurreyFsm(benchmark::State& state) {
     if (!std::filesystem::exists(sfm_dir())) return state.SkipWithError("no ../shared/data/sfm (set FACESYNTH_DATA)");

@@ -2,6 +2,7 @@
 // The CPU column is the figure to trust on a shared machine.
 #include "morph/model_io.h"
 #include "morph/pose.h"
+#include "render/landmarks.h"
 #include "render/renderer.h"
 
 #include <benchmark/benchmark.h>
@@ -59,5 +60,20 @@ void BM_Builtin(benchmark::State& state) {
     run(state, mesh, static_cast<int>(state.range(0)), state.range(1) != 0, static_cast<int>(state.range(2)));
 }
 BENCHMARK(BM_Builtin)->Args({256, 1, 0})->Args({256, 1, 4})->Unit(benchmark::kMillisecond);
+
+// Landmarks of one render (68 points, both jaw modes, outline visibility) at yaw 60, without the render.
+void BM_ProjectLandmarksSurrey(benchmark::State& state) {
+    if (!std::filesystem::exists(sfm_dir())) return state.SkipWithError("no ../shared/data/sfm (set FACESYNTH_DATA)");
+    const MorphableModel model = load_model(sfm_dir().string());
+    const Mesh mesh = model.instance({});
+    const JawContourRegion region = jaw_contour_region(model);
+    render::Renderer renderer({render::Backend::kAuto, false});
+    render::RenderSettings settings;
+    settings.msaa_samples = 0;
+    const render::Camera camera = camera_for(256, 60.0);
+    const render::Frame frame = renderer.render(mesh, camera, settings);
+    for (auto _ : state) benchmark::DoNotOptimize(render::project_landmarks(model.landmarks, mesh, camera, frame, {}, &region));
+}
+BENCHMARK(BM_ProjectLandmarksSurrey)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
