@@ -20,6 +20,7 @@ namespace facesynth::render::detail {
     X(PFNGLFRONTFACEPROC, FrontFace)                                    \
     X(PFNGLDEPTHFUNCPROC, DepthFunc)                                    \
     X(PFNGLVIEWPORTPROC, Viewport)                                      \
+    X(PFNGLSCISSORPROC, Scissor)                                        \
     X(PFNGLCLEARBUFFERFVPROC, ClearBufferfv)                            \
     X(PFNGLCLEARBUFFERUIVPROC, ClearBufferuiv)                          \
     X(PFNGLDRAWELEMENTSPROC, DrawElements)                              \
@@ -81,6 +82,7 @@ namespace facesynth::render::detail {
     X(PFNGLBINDTEXTUREPROC, BindTexture)                                \
     X(PFNGLACTIVETEXTUREPROC, ActiveTexture)                            \
     X(PFNGLTEXIMAGE2DPROC, TexImage2D)                                  \
+    X(PFNGLTEXSUBIMAGE2DPROC, TexSubImage2D)                            \
     X(PFNGLTEXPARAMETERIPROC, TexParameteri)                            \
     X(PFNGLFRAMEBUFFERTEXTURE2DPROC, FramebufferTexture2D)
 

@@ -243,12 +243,14 @@ struct Renderer::Impl {
     std::array<std::size_t, kNumAttributes> buffer_bytes{};  // allocated size of each vertex buffer
     GLuint index_buffer = 0;
     GLuint texture = 0;
+    int texture_width = 0, texture_height = 0;
     GLuint fbo = 0;
     std::array<GLuint, 5> targets{};  // by Target
     // Multisampled colour pass.
     GLuint msaa_fbo = 0;
     std::array<GLuint, 2> msaa_targets{};
-    int width = 0, height = 0, samples = 0, max_samples = 0;
+    int width = 0, height = 0;  // this render's image: the bottom-left corner of the targets
+    int target_width = 0, target_height = 0, samples = 0, max_samples = 0;
     ProvokingTopology topology;
     Eigen::Matrix3Xf normals;
     std::vector<float> expanded;  // one attribute extended to every vertex slot
@@ -293,6 +295,7 @@ struct Renderer::Impl {
         gl.BindVertexArray(vao);
         gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, index_buffer);
         gl.Enable(GL_DEPTH_TEST);
+        gl.Enable(GL_SCISSOR_TEST);  // clears and blits stay inside the image (ensure_targets)
         gl.DepthFunc(GL_LESS);
         // Image rows run down the GL rows (clip_from_camera), which mirrors the winding: the
         // counter-clockwise front faces arrive clockwise.
@@ -355,18 +358,25 @@ struct Renderer::Impl {
         gl.GenRenderbuffers(1, &rb);
         gl.BindRenderbuffer(GL_RENDERBUFFER, rb);
         if (sample_count > 1)
-            gl.RenderbufferStorageMultisample(GL_RENDERBUFFER, sample_count, format, width, height);
+            gl.RenderbufferStorageMultisample(GL_RENDERBUFFER, sample_count, format, target_width, target_height);
         else
-            gl.RenderbufferStorage(GL_RENDERBUFFER, format, width, height);
+            gl.RenderbufferStorage(GL_RENDERBUFFER, format, target_width, target_height);
         return rb;
     }
 
+    // At one sample count, targets only grow: an image smaller than them is drawn into their corner
+    // (viewport and scissor), so that renders of varying sizes (a visibility pass per face, then a
+    // frontal view) allocate nothing. A new sample count starts again at the image's size.
     void ensure_targets(int w, int h, int sample_count) {
         sample_count = std::min(sample_count <= 1 ? 0 : sample_count, max_samples);
-        if (w == width && h == height && sample_count == samples && targets[0]) return;
-        release_targets();
         width = w;
         height = h;
+        gl.Scissor(0, 0, w, h);
+        if (w <= target_width && h <= target_height && sample_count == samples && targets[0]) return;
+        const bool grow = sample_count == samples && targets[0];
+        release_targets();
+        target_width = grow ? std::max(w, target_width) : w;
+        target_height = grow ? std::max(h, target_height) : h;
         samples = sample_count;
         const std::array<GLenum, 4> colour_formats{GL_RGBA8, GL_RGBA32F, GL_R32UI, GL_RGBA32F};  // by Target
         gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
@@ -378,7 +388,7 @@ struct Renderer::Impl {
         targets[kDepthTarget] = storage(GL_DEPTH_COMPONENT32F, 0);
         gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, targets[kDepthTarget]);
         if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw Error("render: framebuffer incomplete at " + std::to_string(w) + "x" + std::to_string(h));
+            throw Error("render: framebuffer incomplete at " + std::to_string(target_width) + "x" + std::to_string(target_height));
         if (samples > 1) {
             gl.BindFramebuffer(GL_FRAMEBUFFER, msaa_fbo);
             msaa_targets[0] = storage(GL_RGBA8, samples);
@@ -412,7 +422,7 @@ struct Renderer::Impl {
         upload(attribute, expanded.data(), sizeof(float) * expanded.size(), rows, GL_FLOAT);
     }
 
-    void upload_mesh(const Mesh& mesh, const MeshExtras& extras, bool with_texture) {
+    void upload_positions(const Mesh& mesh) {
         if (!topology.matches(mesh)) {
             topology.build(mesh);
             gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sizeof(GLuint) * topology.indices.size()),
@@ -421,6 +431,16 @@ struct Renderer::Impl {
                    GL_UNSIGNED_INT);
         }
         upload_expanded(kPosition, mesh.vertices.data(), 3);
+    }
+
+    // A depth-only pass reads positions only; the other arrays are switched off so that no stale buffer
+    // of another mesh is fetched from (the next full render uploads and enables them again).
+    void disable_surface_attributes() {
+        for (Attribute attribute : {kNormal, kAlbedo, kUv}) gl.DisableVertexAttribArray(attribute);
+    }
+
+    void upload_mesh(const Mesh& mesh, const MeshExtras& extras, bool with_texture) {
+        upload_positions(mesh);
         normals = vertex_normals(mesh.vertices, mesh.triangles);
         upload_expanded(kNormal, normals.data(), 3);
         if (mesh.colours.cols() == mesh.num_vertices()) {
@@ -435,7 +455,14 @@ struct Renderer::Impl {
             const cv::Mat continuous = t.isContinuous() ? t : t.clone();
             gl.ActiveTexture(GL_TEXTURE0);
             gl.BindTexture(GL_TEXTURE_2D, texture);
-            gl.TexImage2D(GL_TEXTURE_2D, 0, GL_SRGB8, t.cols, t.rows, 0, GL_RGB, GL_UNSIGNED_BYTE, continuous.data);
+            // A texture of the same size replaces the texels in place (no new storage per frame).
+            if (t.cols == texture_width && t.rows == texture_height) {
+                gl.TexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, t.cols, t.rows, GL_RGB, GL_UNSIGNED_BYTE, continuous.data);
+            } else {
+                gl.TexImage2D(GL_TEXTURE_2D, 0, GL_SRGB8, t.cols, t.rows, 0, GL_RGB, GL_UNSIGNED_BYTE, continuous.data);
+                texture_width = t.cols;
+                texture_height = t.rows;
+            }
             gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
             gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
             gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -518,6 +545,10 @@ struct Renderer::Impl {
                 const MeshExtras& extras) {
         validate(mesh, camera, extras);
         context->make_current();
+        if (settings.depth_only) {
+            render_depth(mesh, camera, settings, frame);
+            return;
+        }
         const int w = camera.intrinsics.width, h = camera.intrinsics.height;
         ensure_targets(w, h, settings.msaa_samples);
         gl.BindVertexArray(vao);
@@ -574,6 +605,31 @@ struct Renderer::Impl {
         gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
         read_back(settings, with_normals, with_ids, frame);
         check("rendering");
+    }
+
+    // The nearest surface only: the fragment stage writes nothing, and only the depth buffer is read.
+    void render_depth(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame) {
+        const int w = camera.intrinsics.width, h = camera.intrinsics.height;
+        ensure_targets(w, h, 0);
+        gl.BindVertexArray(vao);
+        upload_positions(mesh);
+        disable_surface_attributes();
+        if (settings.cull_back_faces)
+            gl.Enable(GL_CULL_FACE);
+        else
+            gl.Disable(GL_CULL_FACE);
+        gl.Viewport(0, 0, w, h);
+        set_uniforms(program(0), mesh, camera, settings.lighting);
+        gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+        const GLenum none[4] = {GL_NONE, GL_NONE, GL_NONE, GL_NONE};
+        gl.DrawBuffers(4, none);
+        const float far_depth = 1.0f;
+        gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
+        draw();
+        read_depth(frame.depth);
+        for (cv::Mat* unused : {&frame.rgb, &frame.mask, &frame.normals, &frame.triangle_ids, &frame.labels, &frame.barycentrics})
+            unused->release();
+        check("depth rendering");
     }
 
     // Camera-space z from the depth buffer's window depth d in [0, 1]: the inverse of the

@@ -54,6 +54,9 @@ struct RenderSettings {
     bool normals = true;           // with geometry: camera-space normals (an extra float target)
     bool barycentrics = false;     // per-pixel barycentrics and triangle ids (a slower geometry-shader pass)
     bool cull_back_faces = true;
+    // Only the z-buffer (frame.depth; every other map is left empty): no shading, no colour, id or
+    // normal targets, no MSAA. For visibility passes, which need the nearest surface and nothing else.
+    bool depth_only = false;
     Lighting lighting;
 };
 

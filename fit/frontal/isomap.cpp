@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <string>
 
 namespace facesynth::frontal {
@@ -23,7 +24,6 @@ UvRaster rasterise_uv(const MorphableModel& model, int size, render::Renderer& r
     flat.vertices.row(0) = model.uv.row(0);
     flat.vertices.row(1) = -model.uv.row(1);
     flat.vertices.row(2).setZero();
-    std::vector<int> original;  // flat triangle -> model triangle
     for (std::size_t t = 0; t < model.triangles.size(); ++t) {
         const Triangle& tri = model.triangles[t];
         Eigen::Vector2f low = model.uv.col(tri[0]), high = low;
@@ -33,7 +33,6 @@ UvRaster rasterise_uv(const MorphableModel& model, int size, render::Renderer& r
         }
         if ((high - low).maxCoeff() > 0.5f) continue;
         flat.triangles.push_back(tri);
-        original.push_back(static_cast<int>(t));
     }
     if (flat.triangles.empty()) throw Error("isomap: model '" + model.name + "' has no usable uv triangles");
     render::Camera camera;
@@ -49,17 +48,30 @@ UvRaster rasterise_uv(const MorphableModel& model, int size, render::Renderer& r
 
     UvRaster raster;
     raster.size = size;
+    // Grouped by triangle (a counting sort on the ids), so that extraction loads a triangle's corners
+    // once and skips a triangle turned away from the camera as a whole.
+    std::vector<int> first(flat.triangles.size() + 1, 0);
+    for (int r = 0; r < size; ++r) {
+        const int* ids = frame.triangle_ids.ptr<int>(r);
+        for (int c = 0; c < size; ++c)
+            if (ids[c] >= 0) ++first[static_cast<std::size_t>(ids[c]) + 1];
+    }
+    for (std::size_t t = 0; t < flat.triangles.size(); ++t) {
+        if (first[t + 1] > 0) raster.triangles.push_back({flat.triangles[t], first[t], first[t + 1]});
+        first[t + 1] += first[t];
+    }
+    raster.texels.resize(static_cast<std::size_t>(first.back()));
+    std::vector<int> next(first.begin(), first.end() - 1);
     for (int r = 0; r < size; ++r) {
         const int* ids = frame.triangle_ids.ptr<int>(r);
         const cv::Vec3f* weights = frame.barycentrics.ptr<cv::Vec3f>(r);
         for (int c = 0; c < size; ++c) {
             if (ids[c] < 0) continue;
-            UvRaster::Texel texel;
+            UvRaster::Texel& texel = raster.texels[static_cast<std::size_t>(next[static_cast<std::size_t>(ids[c])]++)];
             texel.index = r * size + c;
-            texel.vertices = model.triangles[static_cast<std::size_t>(original[static_cast<std::size_t>(ids[c])])];
+            texel.vertices = flat.triangles[static_cast<std::size_t>(ids[c])];
             const float sum = weights[c][0] + weights[c][1] + weights[c][2];
             for (int k = 0; k < 3; ++k) texel.weights[static_cast<std::size_t>(k)] = weights[c][k] / (sum > 0 ? sum : 1.0f);
-            raster.texels.push_back(texel);
         }
     }
     for (int r = 0; r < size; ++r)
@@ -135,10 +147,8 @@ cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, c
     const Eigen::Matrix3f to_camera = model_to_camera_flip().cast<float>() * rotation;
     const Eigen::Matrix<float, 2, 3> affine = camera.affine.matrix.topLeftCorner<2, 3>().cast<float>();
     const Eigen::Vector2f affine_offset = camera.affine.matrix.block<2, 1>(0, 3).cast<float>();
-    Eigen::Matrix3Xf image_xyz(3, n);  // x, y in the photograph; z unused
-    Eigen::Matrix3Xf camera_xyz = to_camera * vertices;
-    image_xyz.topRows<2>() = (affine * vertices).colwise() + affine_offset;
-    image_xyz.row(2).setZero();
+    const Eigen::Matrix3Xf camera_xyz = to_camera * vertices;
+    const Eigen::Matrix2Xf image_xyz = (affine * vertices).colwise() + affine_offset;  // x, y in the photograph
     const Eigen::Matrix3Xf view_normals = rotation * normals;  // +z toward the viewer
 
     // The z-buffer pass: the face's bounding box in the orthographic view, at most max_depth_side.
@@ -163,8 +173,7 @@ cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, c
                                static_cast<int>(std::ceil((high.x() - origin.x()) * shrink)) + 2,
                                static_cast<int>(std::ceil((high.y() - origin.y()) * shrink)) + 2};
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
-    settings.geometry = true;
+    settings.depth_only = true;
     Mesh mesh;
     mesh.vertices = vertices;
     mesh.triangles = triangles;
@@ -173,39 +182,74 @@ cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, c
 
     const float depth_pixel_mm = 1.0f / static_cast<float>(focal);
     const float min_cosine = std::max(1e-3f, static_cast<float>(options.min_cosine));
-    // Pixels at least outline_margin_px inside the fitted outline (the image border counts as outline).
+    // The z-buffer with every pixel closer than outline_margin_px to the fitted outline (the image
+    // border counts as outline) set to -inf, so that one look-up tests both depth and outline.
     cv::Mat inside = depth > 0;
     if (options.outline_margin_px > 0) {
         const int k = 2 * options.outline_margin_px + 1;
         cv::erode(inside, inside, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)), cv::Point(-1, -1), 1,
                   cv::BORDER_CONSTANT, cv::Scalar(0));
     }
+    cv::Mat nearest = depth.clone();
+    nearest.setTo(-std::numeric_limits<float>::infinity(), inside == 0);
+
+    // What the texel loop interpolates, one 32-byte record per vertex (one cache line per corner).
+    struct VertexSample {
+        float x, y, z;     // pixel in the z-buffer pass and camera depth there (mm)
+        float nx, ny, nz;  // view-space normal (not unit)
+        float u, v;        // position in the photograph
+    };
+    std::vector<VertexSample> samples(static_cast<std::size_t>(n));
     const float cx = static_cast<float>(depth_camera.intrinsics.cx), cy = static_cast<float>(depth_camera.intrinsics.cy);
     const float focal_f = static_cast<float>(focal);
+    for (int i = 0; i < n; ++i) {
+        const auto p = camera_xyz.col(i);
+        const auto normal = view_normals.col(i);
+        samples[static_cast<std::size_t>(i)] = {p.x() * focal_f + cx, p.y() * focal_f + cy, p.z() + static_cast<float>(kDistanceMm),
+                                                normal.x(), normal.y(), normal.z(), image_xyz(0, i), image_xyz(1, i)};
+    }
+
     const float tolerance = static_cast<float>(options.depth_tolerance_mm);
+    const float min_cosine_squared = min_cosine * min_cosine;
     const float max_x = static_cast<float>(bgr.cols - 1), max_y = static_cast<float>(bgr.rows - 1);
+    const int depth_cols = nearest.cols, depth_rows = nearest.rows;
+    const float* buffer = nearest.ptr<float>();
     cv::Mat isomap(raster.size, raster.size, CV_8UC4, cv::Scalar::all(0));
     auto* out = isomap.ptr<cv::Vec4b>();
     int visible = 0;
-    for (const UvRaster::Texel& texel : raster.texels) {
-        const Eigen::Vector3f normal = interpolate(view_normals, texel);
-        const float norm = normal.norm();
-        if (!(norm > 0)) continue;
-        const float cosine = normal.z() / norm;
-        if (cosine < min_cosine) continue;
-        const Eigen::Vector3f position = interpolate(camera_xyz, texel);
-        // +1 before truncating: rounds correctly for coordinates down to -1 (outside anyway).
-        const int px = static_cast<int>(position.x() * focal_f + cx + 1.5f) - 1;
-        const int py = static_cast<int>(position.y() * focal_f + cy + 1.5f) - 1;
-        if (px < 0 || py < 0 || px >= depth.cols || py >= depth.rows || !inside.at<std::uint8_t>(py, px)) continue;
-        const float buffer = depth.at<float>(py, px);
-        const float slope = std::min(10.0f, std::sqrt(1 - cosine * cosine) / cosine);
-        if (position.z() + static_cast<float>(kDistanceMm) > buffer + tolerance + depth_pixel_mm * slope) continue;
-        const Eigen::Vector3f at = interpolate(image_xyz, texel);
-        if (!(at.x() >= 0 && at.y() >= 0 && at.x() <= max_x && at.y() <= max_y)) continue;
-        const cv::Vec3f colour = sample_bilinear(bgr, at.x(), at.y());
-        out[texel.index] = cv::Vec4b(to_byte(colour[0]), to_byte(colour[1]), to_byte(colour[2]), std::max<std::uint8_t>(1, to_byte(255 * cosine)));
-        ++visible;
+    constexpr float kMaxSlope = 10;
+    for (const UvRaster::TriangleTexels& triangle : raster.triangles) {
+        const VertexSample& a = samples[static_cast<std::size_t>(triangle.vertices[0])];
+        const VertexSample& b = samples[static_cast<std::size_t>(triangle.vertices[1])];
+        const VertexSample& c = samples[static_cast<std::size_t>(triangle.vertices[2])];
+        // Weights are never negative: no texel of a triangle whose corners all face away is seen.
+        if (!(a.nz > 0) && !(b.nz > 0) && !(c.nz > 0)) continue;
+        const auto texels = std::span(raster.texels).subspan(static_cast<std::size_t>(triangle.first), static_cast<std::size_t>(triangle.count));
+        for (const UvRaster::Texel& texel : texels) {
+            const float wa = texel.weights[0], wb = texel.weights[1], wc = texel.weights[2];
+            // cos θ = nz / |n| >= min_cosine, tested without a square root.
+            const float nz = wa * a.nz + wb * b.nz + wc * c.nz;
+            if (!(nz > 0)) continue;
+            const float nx = wa * a.nx + wb * b.nx + wc * c.nx, ny = wa * a.ny + wb * b.ny + wc * c.ny;
+            const float norm_squared = nx * nx + ny * ny + nz * nz;
+            if (nz * nz < min_cosine_squared * norm_squared) continue;
+            // +1 before truncating: rounds correctly for coordinates down to -1 (outside anyway).
+            const int px = static_cast<int>(wa * a.x + wb * b.x + wc * c.x + 1.5f) - 1;
+            const int py = static_cast<int>(wa * a.y + wb * b.y + wc * c.y + 1.5f) - 1;
+            if (px < 0 || py < 0 || px >= depth_cols || py >= depth_rows) continue;
+            // Hidden when deeper than the z-buffer + tolerance + one pixel's worth of slope (tan θ, at
+            // most kMaxSlope); the slope is only worked out for texels between the two bounds.
+            const float z = wa * a.z + wb * b.z + wc * c.z;
+            const float allowed = buffer[py * depth_cols + px] + tolerance;
+            if (z > allowed + depth_pixel_mm * kMaxSlope) continue;
+            const float cosine = nz / std::sqrt(norm_squared);
+            if (z > allowed && z > allowed + depth_pixel_mm * std::min(kMaxSlope, std::sqrt(1 - cosine * cosine) / cosine)) continue;
+            const float u = wa * a.u + wb * b.u + wc * c.u, v = wa * a.v + wb * b.v + wc * c.v;
+            if (!(u >= 0 && v >= 0 && u <= max_x && v <= max_y)) continue;
+            const cv::Vec3f colour = sample_bilinear(bgr, u, v);
+            out[texel.index] = cv::Vec4b(to_byte(colour[0]), to_byte(colour[1]), to_byte(colour[2]), std::max<std::uint8_t>(1, to_byte(255 * cosine)));
+            ++visible;
+        }
     }
     if (stats) {
         stats->covered_texels = static_cast<int>(raster.texels.size());

@@ -36,9 +36,15 @@ struct UvRaster {
         std::array<int, 8> neighbours{};
         int count = 0;
     };
+    // The texels of one uv triangle: texels[first, first + count).
+    struct TriangleTexels {
+        std::array<int, 3> vertices{};
+        int first = 0, count = 0;
+    };
     int size = 0;
-    std::vector<Texel> texels;     // covered texels, row-major order
-    std::vector<Padding> padding;  // uncovered texels next to covered ones
+    std::vector<Texel> texels;               // covered texels, grouped by triangle, row-major within one
+    std::vector<TriangleTexels> triangles;   // the groups, in the model's triangle order
+    std::vector<Padding> padding;            // uncovered texels next to covered ones
 };
 
 // Rasterises `model`'s uv triangles at size x size texels with `renderer` (triangle ids and

@@ -5,9 +5,14 @@
 #include "common/test_data.h"
 #include "morph/builtin.h"
 #include "morph/error.h"
+#include "morph/pose.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
 
 #include <cstdlib>
 #include <memory>
@@ -123,6 +128,98 @@ TEST_F(FrontaliseTest, FarCheekIsOccludedAtYaw60AndMirrorFillRestoresIt) {
     const cv::Vec4b got = filled.isomap.at<cv::Vec4b>(cheek);
     const cv::Vec3b want = face_->true_isomap.at<cv::Vec3b>(cheek);
     for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(got[ch], want[ch], 20) << "channel " << ch;
+}
+
+// The isomap as first written (docs/frontalise.md, before the speed work): a full render (colour, ids,
+// normals, depth) as the z-buffer pass, and every texel interpolated straight from the vertices in
+// row-major order. extract_isomap must give the same texels.
+cv::Mat reference_isomap(const cv::Mat& bgr, const MorphableModel& model, const Eigen::Matrix3Xf& vertices, const ImageCamera& camera,
+                         const UvRaster& raster, render::Renderer& renderer, const IsomapOptions& options) {
+    const Eigen::Matrix3Xf normals = vertex_normals(vertices, model.triangles);
+    const Eigen::Matrix3f rotation = camera.pose.rotation.cast<float>();
+    const Eigen::Matrix3Xf camera_xyz = model_to_camera_flip().cast<float>() * rotation * vertices;
+    const Eigen::Matrix2Xf image_xy = (camera.affine.matrix.topLeftCorner<2, 3>().cast<float>() * vertices).colwise() +
+                                      camera.affine.matrix.block<2, 1>(0, 3).cast<float>();
+    const Eigen::Matrix3Xf view_normals = rotation * normals;
+    const float scale = static_cast<float>(camera.pose.scale);
+    const Eigen::Vector2f t = camera.pose.translation.cast<float>();
+    const Eigen::Vector2f low = (scale * camera_xyz.topRows<2>()).rowwise().minCoeff() + t;
+    const Eigen::Vector2f high = (scale * camera_xyz.topRows<2>()).rowwise().maxCoeff() + t;
+    const float shrink = std::min(1.0f, static_cast<float>(options.max_depth_side) / std::max(high.x() - low.x(), high.y() - low.y()));
+    const Eigen::Vector2f origin = low.array() - 1.0f;
+    render::Camera depth_camera;
+    depth_camera.projection = render::Projection::kOrthographic;
+    depth_camera.pose.rotation = camera.pose.rotation;
+    depth_camera.pose.translation = Eigen::Vector3d(0, 0, 1000);
+    const double focal = static_cast<double>(scale) * shrink;
+    depth_camera.intrinsics = {focal, focal, static_cast<double>((t.x() - origin.x()) * shrink), static_cast<double>((t.y() - origin.y()) * shrink),
+                               static_cast<int>(std::ceil((high.x() - origin.x()) * shrink)) + 2,
+                               static_cast<int>(std::ceil((high.y() - origin.y()) * shrink)) + 2};
+    render::RenderSettings settings;
+    settings.msaa_samples = 0;
+    settings.geometry = true;
+    Mesh mesh;
+    mesh.vertices = vertices;
+    mesh.triangles = model.triangles;
+    const cv::Mat depth = renderer.render(mesh, depth_camera, settings).depth.clone();
+    cv::Mat inside = depth > 0;
+    cv::erode(inside, inside, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+    const float cx = static_cast<float>(depth_camera.intrinsics.cx), cy = static_cast<float>(depth_camera.intrinsics.cy);
+    cv::Mat isomap(raster.size, raster.size, CV_8UC4, cv::Scalar::all(0));
+    std::vector<UvRaster::Texel> texels = raster.texels;
+    std::sort(texels.begin(), texels.end(), [](const auto& a, const auto& b) { return a.index < b.index; });
+    for (const UvRaster::Texel& texel : texels) {
+        auto interpolate = [&](const auto& values) {
+            return (texel.weights[0] * values.col(texel.vertices[0]) + texel.weights[1] * values.col(texel.vertices[1]) +
+                    texel.weights[2] * values.col(texel.vertices[2])).eval();
+        };
+        const Eigen::Vector3f normal = interpolate(view_normals);
+        if (!(normal.norm() > 0)) continue;
+        const float cosine = normal.z() / normal.norm();
+        if (cosine < static_cast<float>(options.min_cosine)) continue;
+        const Eigen::Vector3f position = interpolate(camera_xyz);
+        const int px = static_cast<int>(position.x() * static_cast<float>(focal) + cx + 1.5f) - 1;
+        const int py = static_cast<int>(position.y() * static_cast<float>(focal) + cy + 1.5f) - 1;
+        if (px < 0 || py < 0 || px >= depth.cols || py >= depth.rows || !inside.at<std::uint8_t>(py, px)) continue;
+        const float slope = std::min(10.0f, std::sqrt(1 - cosine * cosine) / cosine);
+        if (position.z() + 1000.0f > depth.at<float>(py, px) + static_cast<float>(options.depth_tolerance_mm) + slope / static_cast<float>(focal)) continue;
+        const Eigen::Vector2f at = interpolate(image_xy);
+        if (!(at.x() >= 0 && at.y() >= 0 && at.x() <= static_cast<float>(bgr.cols - 1) && at.y() <= static_cast<float>(bgr.rows - 1))) continue;
+        cv::Mat pixel;
+        cv::getRectSubPix(bgr, cv::Size(1, 1), cv::Point2f(at.x(), at.y()), pixel, CV_32F);
+        const cv::Vec3f colour = pixel.at<cv::Vec3f>(0, 0);
+        isomap.ptr<cv::Vec4b>()[texel.index] = cv::Vec4b(cv::saturate_cast<std::uint8_t>(colour[0]), cv::saturate_cast<std::uint8_t>(colour[1]),
+                                                         cv::saturate_cast<std::uint8_t>(colour[2]),
+                                                         std::max<std::uint8_t>(1, cv::saturate_cast<std::uint8_t>(255 * cosine)));
+    }
+    return isomap;
+}
+
+TEST_F(FrontaliseTest, IsomapMatchesTheStraightforwardExtraction) {
+    const UvRaster& raster = frontaliser_->uv_raster(kIsomapSize);
+    for (double yaw : {0.0, -35.0, 60.0}) {
+        const SyntheticView v = view(yaw);
+        const fit::FitResult fit = frontaliser_->fitter().fit(v.landmarks, options().fit);
+        const Eigen::Matrix3Xf vertices = fit::fitted_shape(*model_, fit);
+        const ImageCamera camera{fit.camera, fit.pose};
+        const cv::Mat got = frontaliser_->extract_isomap(v.image, vertices, camera, options().isomap);
+        const cv::Mat want = reference_isomap(v.image, *model_, vertices, camera, raster, frontaliser_->renderer(), options().isomap);
+        int visible = 0, disagree = 0, colour_off = 0;
+        for (const UvRaster::Texel& texel : raster.texels) {
+            const cv::Vec4b a = got.ptr<cv::Vec4b>()[texel.index], b = want.ptr<cv::Vec4b>()[texel.index];
+            visible += b[3] > 0;
+            if ((a[3] > 0) != (b[3] > 0)) {
+                ++disagree;
+                continue;
+            }
+            for (int ch = 0; ch < 4; ++ch) colour_off += std::abs(a[ch] - b[ch]) > 1;
+        }
+        std::printf("yaw %.0f: %d visible texels, %d differ in visibility, %d channels by more than 1\n", yaw, visible, disagree, colour_off);
+        // Only float rounding differs (interpolation order): a texel exactly at a threshold may flip.
+        EXPECT_GT(visible, 20000) << "yaw " << yaw;
+        EXPECT_LE(disagree, visible / 1000) << "yaw " << yaw;
+        EXPECT_EQ(colour_off, 0) << "yaw " << yaw;
+    }
 }
 
 TEST_F(FrontaliseTest, FramingIsTheSameForEveryFace) {
