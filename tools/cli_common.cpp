@@ -70,6 +70,16 @@ CLI::App& eval_group(CLI::App& app) {
     return *eval;
 }
 
+CLI::Option* add_detector_option(CLI::App& command, std::string& value) {
+    return command
+        .add_option("--detector", value,
+                    "Face detector: frontal (OpenCV's Haar frontal cascade), multiview (frontal + profile cascades on the "
+                    "image and its mirror, overlapping boxes merged), or auto (the one recorded in the first SDM model "
+                    "given, else multiview)")
+        ->check(CLI::IsMember({"auto", "frontal", "multiview"}))
+        ->capture_default_str();
+}
+
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value) {
     write_file_atomically(path, value.dump(2) + "\n");
 }

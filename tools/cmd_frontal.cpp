@@ -68,6 +68,7 @@ std::vector<fs::path> expand_inputs(const std::vector<std::string>& inputs) {
 struct FrontaliseArgs {
     std::string model = "builtin";
     std::string regressor;
+    std::string detector = "auto";
     std::string landmarks;  // dlib | pts
     std::string pts;
     std::vector<std::string> inputs;
@@ -80,14 +81,15 @@ struct FrontaliseArgs {
     bool quiet = false;
 };
 
-// Where each image's landmarks come from: a regressor run on Haar face boxes (every face found), or
-// .pts files.
+// Where each image's landmarks come from: a regressor run on detected face boxes (every face found),
+// or .pts files.
 class LandmarkSource {
 public:
     explicit LandmarkSource(const FrontaliseArgs& a) : args_(a) {
         if (!a.regressor.empty() || a.landmarks == "dlib") {
             regressor_ = train::open_regressor(a.regressor.empty() ? std::string("dlib") : a.regressor);
-            detector_ = std::make_unique<train::FaceDetector>();
+            const train::LandmarkRegressor* const regressors[] = {regressor_.get()};
+            detector_ = std::make_unique<train::FaceDetector>(train::choose_detector(a.detector, regressors));
         }
     }
     [[nodiscard]] std::string label() const {
@@ -268,8 +270,10 @@ struct EvalArgs {
     int size = 256;
     int image_size = 384;
     double fov = frontal::ViewOptions{}.fov_deg;
+    double framing = frontal::ViewOptions{}.framing;
     std::string lighting = "unlit";
     std::string regressor;
+    std::string detector = "auto";
     std::string json;
     std::string plot;
     std::string examples;
@@ -384,17 +388,20 @@ void run_eval_frontalise(const EvalArgs& a) {
     frontal::ViewOptions view_options;
     view_options.size = a.image_size;
     view_options.fov_deg = a.fov;
+    view_options.framing = a.framing;
     if (a.lighting == "sky") view_options.lighting = render::Lighting{};
     std::unique_ptr<train::LandmarkRegressor> regressor;
     std::unique_ptr<train::FaceDetector> detector;
     if (!a.regressor.empty()) {
         regressor = train::open_regressor(a.regressor);
-        detector = std::make_unique<train::FaceDetector>();
+        const train::LandmarkRegressor* const regressors[] = {regressor.get()};
+        detector = std::make_unique<train::FaceDetector>(train::choose_detector(a.detector, regressors));
     }
     if (!a.examples.empty()) fs::create_directories(a.examples);
 
     std::array<EvalSums, kYawBins> truth_bins{}, detected_bins{};
     int detector_misses = 0;
+    std::array<int, kYawBins> bin_misses{};  // detector misses and failed fits per yaw bin
     Progress progress("eval frontalise", static_cast<std::size_t>(a.count), a.quiet);
     for (int i = 0; i < a.count; ++i) {
         const auto index = static_cast<std::uint64_t>(i);
@@ -417,6 +424,7 @@ void run_eval_frontalise(const EvalArgs& a) {
                 const auto box = train::match_detection(detector->detect(gray), view.landmarks);
                 if (!box) {
                     ++detector_misses;
+                    ++bin_misses[static_cast<std::size_t>(b)];
                     continue;
                 }
                 try {
@@ -424,6 +432,7 @@ void run_eval_frontalise(const EvalArgs& a) {
                         score_view(frontaliser, face, view, regressor->predict(gray, *box), truth, layout, a, nullptr));
                 } catch (const Error& e) {
                     ++detector_misses;  // a fit that fails on detected landmarks counts as a miss
+                    ++bin_misses[static_cast<std::size_t>(b)];
                 }
             }
         }
@@ -440,6 +449,7 @@ void run_eval_frontalise(const EvalArgs& a) {
     j["size"] = a.size;
     j["image_size"] = a.image_size;
     j["fov_deg"] = a.fov;
+    j["framing"] = a.framing;
     j["lighting"] = a.lighting;
     j["texture"] = model.albedo && !model.albedo->empty() ? "albedo" : "procedural";
     EvalSums all, detected_all;
@@ -455,7 +465,10 @@ void run_eval_frontalise(const EvalArgs& a) {
     if (regressor) {
         detected_all.write(j, "detected_all_");
         j["regressor"] = regressor->label();
+        j["detector"] = train::detector_name(detector->kind());
         j["detector_misses"] = detector_misses;
+        for (int b = 0; b < kYawBins; ++b)
+            j["detector_misses_yaw_" + bin_label(b)] = bin_misses[static_cast<std::size_t>(b)];
     }
     if (!a.quiet) {
         auto table = [](const char* title, const std::array<EvalSums, kYawBins>& bins, const EvalSums& total) {
@@ -477,7 +490,10 @@ void run_eval_frontalise(const EvalArgs& a) {
         table("frontalised from ground-truth landmarks (_m: with mirror fill):", truth_bins, all);
         if (regressor) {
             table("frontalised from detected landmarks:", detected_bins, detected_all);
-            std::printf("detector misses: %d of %d views\n", detector_misses, a.count * kYawBins);
+            std::printf("%s detector misses: %d of %d views (per bin:", train::detector_name(detector->kind()), detector_misses,
+                        a.count * kYawBins);
+            for (int b = 0; b < kYawBins; ++b) std::printf(" %d", bin_misses[static_cast<std::size_t>(b)]);
+            std::printf(")\n");
         }
         std::printf("CPU %.1f ms per frontalisation (fit + %d² isomap + %d² frontal render)\n", all.cpu_ms / std::max(all.count, 1), a.isomap_size, a.size);
     }
@@ -575,11 +591,12 @@ void register_frontal_commands(CLI::App& app) {
     auto a = std::make_shared<FrontaliseArgs>();
     auto* cmd = app.add_subcommand("frontalise", "Frontalise faces in photographs: fit, isomap (uv texture) and frontal render");
     cmd->add_option("--model", a->model, "Model: builtin, a model file, or a folder such as shared/data/sfm")->capture_default_str();
-    auto* regressor = cmd->add_option("--regressor", a->regressor, "Landmarks from this regressor (train/regressor.h specs: PATH, dlib, ert:PATH, ...) on Haar face boxes");
-    auto* landmarks = cmd->add_option("--landmarks", a->landmarks, "dlib: dlib's predictor on Haar face boxes; pts: IMAGE.pts beside each image (or ../landmarks/STEM.pts of a synth dataset)")->check(CLI::IsMember({"dlib", "pts"}));
+    auto* regressor = cmd->add_option("--regressor", a->regressor, "Landmarks from this regressor (train/regressor.h specs: PATH, dlib, ert:PATH, ...) on detected face boxes (--detector)");
+    auto* landmarks = cmd->add_option("--landmarks", a->landmarks, "dlib: dlib's predictor on detected face boxes; pts: IMAGE.pts beside each image (or ../landmarks/STEM.pts of a synth dataset)")->check(CLI::IsMember({"dlib", "pts"}));
     auto* pts = cmd->add_option("--pts", a->pts, "The 68 landmarks (.pts, 1-based) of the one IMAGE")->check(CLI::ExistingFile);
     regressor->excludes(landmarks)->excludes(pts);
     landmarks->excludes(pts);
+    add_detector_option(*cmd, a->detector);
     cmd->add_option("images", a->inputs, "Images or folders of images")->required();
     cmd->add_option("--out", a->out, "Output folder: STEM.isomap.png, STEM.frontal.png, STEM.glb, STEM.json per face")->required();
     cmd->add_option("--isomap-size", a->isomap_size, "Isomap side in texels")->capture_default_str()->check(CLI::Range(16, 4096));
@@ -604,8 +621,14 @@ void register_frontal_commands(CLI::App& app) {
     ev->add_option("--size", e->size, "Frontal render side in pixels")->capture_default_str()->check(CLI::Range(16, 4096));
     ev->add_option("--image-size", e->image_size, "Side of the posed renders in pixels")->capture_default_str()->check(CLI::Range(64, 4096));
     ev->add_option("--fov", e->fov, "Vertical field of view of the posed renders (degrees)")->capture_default_str()->check(CLI::Range(1.0, 90.0));
+    ev->add_option("--framing", e->framing,
+                   "Posed render side / mean landmark box side: 1.5 fills the image with the face; about 2.5 shows the whole "
+                   "head, which the face detectors need at large yaw")
+        ->capture_default_str()
+        ->check(CLI::Range(1.2, 4.0));
     ev->add_option("--lighting", e->lighting, "unlit (albedo as is) or sky (the renderer's default soft light), the same for every view")->capture_default_str()->check(CLI::IsMember({"unlit", "sky"}));
-    ev->add_option("--regressor", e->regressor, "Also frontalise from landmarks this regressor finds on Haar boxes (detected_* keys)");
+    ev->add_option("--regressor", e->regressor, "Also frontalise from landmarks this regressor finds on detected face boxes (detected_* keys)");
+    add_detector_option(*ev, e->detector);
     ev->add_option("--json", e->json, "Write the flat metrics here");
     ev->add_option("--plot", e->plot, "Write PSNR per yaw bin as an SVG plot here");
     ev->add_option("--examples", e->examples, "Write the views, isomaps and frontal renders of the first two identities into this folder");

@@ -19,6 +19,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -47,6 +49,7 @@ struct TrainArgs {
     double validation_share = SdmTrainOptions{}.validation_share;
     std::vector<int> ranks = SdmTrainOptions{}.ranks;
     int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
+    std::string detector = "multiview";
     std::filesystem::path json;
     bool quiet = false;
 };
@@ -60,6 +63,7 @@ void run_train(const TrainArgs& args) {
         PrepareOptions options;
         options.threads = args.threads;
         options.seed = args.seed;
+        options.detector = parse_detector_kind(args.detector);
         std::size_t reported = 0;
         options.on_progress = [&](std::size_t done, std::size_t) {
             progress.advance(done - reported);
@@ -71,16 +75,20 @@ void run_train(const TrainArgs& args) {
     for (const auto& w : prepared.warnings) std::fprintf(stderr, "facesynth: warning: %s\n", w.c_str());
     const BoxStatistics& boxes = prepared.boxes;
     if (!args.quiet)
-        std::printf("%zu faces (%zu images skipped); Haar detector matched %d, missed %d (synthesised boxes: width "
-                    "ratio %.3f±%.3f, offset (%.3f, %.3f))\n",
-                    prepared.faces.size(), prepared.warnings.size(), boxes.detector_matched, boxes.detector_missed,
+        std::printf("%zu faces (%zu images skipped); %s detector matched %d (frontal %d, nose left %d, nose right %d), "
+                    "missed %d (synthesised boxes: width ratio %.3f±%.3f, offset (%.3f, %.3f))\n",
+                    prepared.faces.size(), prepared.warnings.size(), detector_name(boxes.detector), boxes.detector_matched,
+                    boxes.view_matched[0], boxes.view_matched[1], boxes.view_matched[2], boxes.detector_missed,
                     boxes.width_ratio_mean, boxes.width_ratio_std, boxes.offset_mean.x(), boxes.offset_mean.y());
 
     nlohmann::json report = {{"method", args.method},
                              {"faces", prepared.faces.size()},
                              {"skipped_images", prepared.warnings.size()},
+                             {"detector", detector_name(boxes.detector)},
                              {"detector_matched", boxes.detector_matched},
                              {"detector_missed", boxes.detector_missed}};
+    for (std::size_t v = 0; v < kFaceViews; ++v)
+        report[std::string("detector_matched_") + view_name(static_cast<FaceView>(v))] = boxes.view_matched[v];
     if (args.method == "sdm") {
         SdmTrainOptions options;
         options.stages = args.stages;
@@ -146,6 +154,7 @@ void run_train(const TrainArgs& args) {
 
 struct DetectArgs {
     std::string regressor;
+    std::string detector = "auto";
     std::vector<std::filesystem::path> images;
     std::filesystem::path out;
     bool quiet = false;
@@ -159,7 +168,8 @@ void write_png(const std::filesystem::path& path, const cv::Mat& image) {
 
 void run_detect(const DetectArgs& args) {
     const auto regressor = open_regressor(args.regressor);
-    const FaceDetector detector;
+    const LandmarkRegressor* const regressors[] = {regressor.get()};
+    const FaceDetector detector(choose_detector(args.detector, regressors));
     create_output_folder(args.out);
     int failed = 0, faces_total = 0;
     Progress progress("images", args.images.size(), args.quiet);
@@ -188,12 +198,14 @@ void run_detect(const DetectArgs& args) {
                     landmarks.push_back({points(0, i), points(1, i)});
                 }
                 faces.push_back({{"box", {rect.x, rect.y, rect.width, rect.height}},
+                                 {"view", view_name(boxes[k].view)},
                                  {"pts", stem + "_" + std::to_string(k) + ".pts"},
                                  {"landmarks", landmarks}});
             }
             write_png(args.out / (stem + "_overlay.png"), overlay);
             const nlohmann::json record = {{"image", path.string()},
                                            {"regressor", regressor->label()},
+                                           {"detector", detector_name(detector.kind())},
                                            {"coordinates", "0-based pixels; box = [x, y, width, height]"},
                                            {"faces", faces}};
             write_file_atomically(args.out / (stem + ".json"), record.dump(2) + "\n");
@@ -216,6 +228,7 @@ void run_detect(const DetectArgs& args) {
 
 struct EvalArgs {
     std::vector<std::string> regressors;
+    std::string detector = "auto";
     std::string data;
     std::filesystem::path json;
     std::filesystem::path ced;
@@ -231,10 +244,11 @@ std::string csv_field(const std::string& text) {
     return quoted + "\"";
 }
 
-// One row per face: its key, true yaw (empty when unknown), whether the detector found it, and the
-// NME of each regressor in --regressor order (inf for a miss). The report draws CED curves from it.
+// One row per face: its key, true yaw (empty when unknown), whether the detector found it and with
+// which view (empty for a miss), and the NME of each regressor in --regressor order (inf for a miss).
+// The report draws CED curves from it.
 std::string per_face_nme_csv(const Evaluation& evaluation) {
-    std::string csv = "key,yaw_deg,detected";
+    std::string csv = "key,yaw_deg,detected,view";
     for (std::size_t r = 0; r < evaluation.regressors.size(); ++r) csv += ",regressor" + std::to_string(r + 1);
     csv += "\n";
     char number[32];
@@ -245,7 +259,7 @@ std::string per_face_nme_csv(const Evaluation& evaluation) {
             std::snprintf(number, sizeof number, "%.3f", *face.yaw_deg);
             csv += number;
         }
-        csv += face.detected ? ",1" : ",0";
+        csv += face.detected ? std::string(",1,") + view_name(face.view) : std::string(",0,");
         for (const auto& reg : evaluation.regressors) {
             std::snprintf(number, sizeof number, "%.6g", reg.nmes[f]);
             csv += std::string(",") + (std::isfinite(reg.nmes[f]) ? number : "inf");
@@ -253,6 +267,36 @@ std::string per_face_nme_csv(const Evaluation& evaluation) {
         csv += "\n";
     }
     return csv;
+}
+
+// Which view found the faces, and the detector's misses per 10° |yaw| bin (where the data has yaw):
+// printed, and as JSON keys detector_view_<view>, detector_misses_yaw_<lo>_<hi>, faces_yaw_<lo>_<hi>.
+void add_detector_breakdown(const Evaluation& evaluation, nlohmann::json& report) {
+    std::array<int, kFaceViews> views{};
+    constexpr int kBins = 9;  // 0-10 ... 80-90
+    std::array<int, kBins> faces{}, misses{};
+    for (const auto& face : evaluation.faces) {
+        if (face.detected) ++views[static_cast<std::size_t>(face.view)];
+        if (!face.yaw_deg) continue;
+        const auto bin = static_cast<std::size_t>(std::clamp(static_cast<int>(std::abs(*face.yaw_deg) / 10), 0, kBins - 1));
+        ++faces[bin];
+        if (!face.detected) ++misses[bin];
+    }
+    std::printf("detections by view:");
+    for (std::size_t v = 0; v < kFaceViews; ++v) {
+        const char* name = view_name(static_cast<FaceView>(v));
+        report[std::string("detector_view_") + name] = views[v];
+        std::printf(" %s %d", name, views[v]);
+    }
+    std::printf("\n");
+    for (std::size_t b = 0; b < kBins; ++b) {
+        if (!faces[b]) continue;
+        char suffix[32];
+        std::snprintf(suffix, sizeof suffix, "yaw_%02zu_%02zu", 10 * b, 10 * b + 10);
+        report[std::string("detector_misses_") + suffix] = misses[b];
+        report[std::string("faces_") + suffix] = faces[b];
+        std::printf("    |yaw| %2zu-%2zu: detector missed %3d of %3d\n", 10 * b, 10 * b + 10, misses[b], faces[b]);
+    }
 }
 
 void run_eval_landmarks(const EvalArgs& args) {
@@ -266,17 +310,19 @@ void run_eval_landmarks(const EvalArgs& args) {
     Evaluation evaluation;
     {
         Progress progress("faces", images.size(), args.quiet);
-        evaluation = evaluate_landmarks(images, regressors, [&] { progress.advance(); });
+        evaluation = evaluate_landmarks(images, regressors, choose_detector(args.detector, regressors), [&] { progress.advance(); });
         progress.finish();
     }
     for (const auto& w : evaluation.warnings) std::fprintf(stderr, "facesynth: warning: %s\n", w.c_str());
-    std::printf("%zu faces, %d detector misses (counted as failures), Haar detector %.2f ms per image\n",
-                images.size(), evaluation.detector_misses, evaluation.detector_ms_per_image);
+    std::printf("%zu faces, %d detector misses (counted as failures), %s detector %.2f ms per image\n", images.size(),
+                evaluation.detector_misses, detector_name(evaluation.detector), evaluation.detector_ms_per_image);
     std::printf("%-40s %9s %9s %8s %9s %9s\n", "regressor", "NME mean", "median", "AUC@.08", "fail@.08", "ms/face");
     nlohmann::json report = {{"count", static_cast<int>(images.size())},
                              {"detector_misses", evaluation.detector_misses},
                              {"detector_ms_per_image", evaluation.detector_ms_per_image},
-                             {"unreadable", static_cast<int>(evaluation.warnings.size())}};
+                             {"unreadable", static_cast<int>(evaluation.warnings.size())},
+                             {"detector", detector_name(evaluation.detector)}};
+    add_detector_breakdown(evaluation, report);
     for (std::size_t r = 0; r < evaluation.regressors.size(); ++r) {
         const auto& reg = evaluation.regressors[r];
         const auto& s = reg.summary;
@@ -377,17 +423,23 @@ void register_train_commands(CLI::App& app) {
             ->delimiter(',')
             ->check(CLI::Range(1, 136))
             ->capture_default_str();
+        cmd->add_option("--detector", args->detector,
+                        "Face detector for the training boxes, recorded in the model: frontal (Haar frontal cascade) or "
+                        "multiview (frontal + profile cascades, one mean shape per view)")
+            ->check(CLI::IsMember({"frontal", "multiview"}))
+            ->capture_default_str();
         cmd->add_option("--json", args->json, "Write a JSON summary here");
         cmd->add_flag("--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_train(*args); });
     }
     {
         auto args = std::make_shared<DetectArgs>();
-        auto* cmd = app.add_subcommand("detect", "Find faces (Haar cascade) and their 68 landmarks in images");
+        auto* cmd = app.add_subcommand("detect", "Find faces (cascade detector) and their 68 landmarks in images");
         cmd->add_option("--regressor", args->regressor, "MODEL (SDM file), sdm@K:MODEL, mean:MODEL, dlib, dlib:FILE, ert:FILE or lbf:FILE")
             ->required();
         cmd->add_option("images", args->images, "Images")->required();
         cmd->add_option("--out", args->out, "Output folder: <stem>_<k>.pts, <stem>_overlay.png, <stem>.json")->required();
+        add_detector_option(*cmd, args->detector);
         cmd->add_flag("--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_detect(*args); });
     }
@@ -399,9 +451,10 @@ void register_train_commands(CLI::App& app) {
                         "or lbf:FILE; repeat to compare on the same boxes")
             ->required();
         cmd->add_option("--data", args->data, "Folders with images and .pts, comma-separated")->required();
+        add_detector_option(*cmd, args->detector);
         cmd->add_option("--json", args->json, "Write flat JSON results here");
         cmd->add_option("--ced", args->ced, "Write the CED curves (NME 0-0.08) here: .svg, or .png");
-        cmd->add_option("--nme-csv", args->nme_csv, "Write every face's NME per regressor here (key,yaw_deg,detected,regressor1,...)");
+        cmd->add_option("--nme-csv", args->nme_csv, "Write every face's NME per regressor here (key,yaw_deg,detected,view,regressor1,...)");
         cmd->add_flag("--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_eval_landmarks(*args); });
     }

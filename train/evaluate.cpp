@@ -41,10 +41,11 @@ std::optional<double> read_yaw(const LabelledImage& image) {
 std::vector<std::pair<int, int>> yaw_bins() { return {{0, 15}, {15, 30}, {30, 45}, {45, 60}, {60, 90}}; }
 
 Evaluation evaluate_landmarks(const std::vector<LabelledImage>& images, std::span<const LandmarkRegressor* const> regressors,
-                              const std::function<void()>& on_image) {
+                              DetectorKind detector_kind, const std::function<void()>& on_image) {
     Evaluation result;
+    result.detector = detector_kind;
     for (const auto* r : regressors) result.regressors.push_back({r->label(), {}, 0, {}});
-    const FaceDetector detector;
+    const FaceDetector detector(detector_kind);
     std::vector<double> predict_ms(regressors.size(), 0.0);
     double detect_ms = 0;
     int detected_faces = 0;
@@ -64,6 +65,7 @@ Evaluation evaluate_landmarks(const std::vector<LabelledImage>& images, std::spa
             const auto box = match_detection(detector.detect(gray), truth);
             detect_ms += ms_since(start);
             face.detected = box.has_value();
+            if (box) face.view = box->view;
             for (std::size_t r = 0; r < regressors.size(); ++r) {
                 if (!box) {
                     face.nme.push_back(inf);

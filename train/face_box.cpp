@@ -14,6 +14,75 @@ std::filesystem::path default_face_cascade_path() {
     return "/usr/share/opencv4/haarcascades/haarcascade_frontalface_alt2.xml";
 }
 
+std::filesystem::path default_profile_cascade_path() {
+    return "/usr/share/opencv4/haarcascades/haarcascade_profileface.xml";
+}
+
+const char* view_name(FaceView view) {
+    switch (view) {
+        case FaceView::kNoseLeft: return "nose_left";
+        case FaceView::kNoseRight: return "nose_right";
+        case FaceView::kFrontal: break;
+    }
+    return "frontal";
+}
+
+const char* detector_name(DetectorKind kind) { return kind == DetectorKind::kMultiView ? "multiview" : "frontal"; }
+
+DetectorKind parse_detector_kind(const std::string& name) {
+    if (name == "frontal") return DetectorKind::kFrontal;
+    if (name == "multiview") return DetectorKind::kMultiView;
+    throw Error("unknown face detector '" + name + "' (expected frontal or multiview)");
+}
+
+namespace {
+
+double overlap_of_smaller(const FaceBox& a, const FaceBox& b) {
+    const cv::Rect2d ra = rect_from_face_box(a), rb = rect_from_face_box(b);
+    const double smaller = std::min(ra.area(), rb.area());
+    return smaller > 0 ? (ra & rb).area() / smaller : 0.0;
+}
+
+cv::CascadeClassifier load_cascade(const std::filesystem::path& path) {
+    if (!std::filesystem::exists(path))
+        throw file_error(path.string(), "face detector cascade not found (install Debian package opencv-data)");
+    cv::CascadeClassifier cascade;
+    if (!cascade.load(path.string())) throw file_error(path.string(), "cannot load the cascade");
+    return cascade;
+}
+
+void run_cascade(cv::CascadeClassifier& cascade, const cv::Mat& equalised, FaceView view, bool mirrored,
+                 std::vector<ScoredBox>& out) {
+    std::vector<cv::Rect> rects;
+    std::vector<int> neighbours;
+    cascade.detectMultiScale(equalised, rects, neighbours, 1.2, 2, 0, cv::Size(50, 50));
+    for (std::size_t i = 0; i < rects.size(); ++i) {
+        ScoredBox scored{face_box_from_rect(rects[i]), i < neighbours.size() ? neighbours[i] : 0};
+        if (mirrored) scored.box.centre.x() = equalised.cols - 1 - scored.box.centre.x();
+        scored.box.view = view;
+        out.push_back(scored);
+    }
+}
+
+}  // namespace
+
+std::vector<FaceBox> merge_detections(std::vector<ScoredBox> detections) {
+    std::stable_sort(detections.begin(), detections.end(), [](const ScoredBox& a, const ScoredBox& b) {
+        if (a.neighbours != b.neighbours) return a.neighbours > b.neighbours;
+        const bool a_frontal = a.box.view == FaceView::kFrontal, b_frontal = b.box.view == FaceView::kFrontal;
+        if (a_frontal != b_frontal) return a_frontal;
+        return a.box.width > b.box.width;
+    });
+    std::vector<FaceBox> kept;
+    for (const auto& d : detections) {
+        const bool duplicate =
+            std::any_of(kept.begin(), kept.end(), [&](const FaceBox& k) { return overlap_of_smaller(k, d.box) >= 0.5; });
+        if (!duplicate) kept.push_back(d.box);
+    }
+    std::stable_sort(kept.begin(), kept.end(), [](const FaceBox& a, const FaceBox& b) { return a.width > b.width; });
+    return kept;
+}
+
 FaceBox face_box_from_rect(const cv::Rect& rect) {
     FaceBox box;
     box.centre = {rect.x + (rect.width - 1) / 2.0, rect.y + (rect.height - 1) / 2.0};
@@ -26,21 +95,37 @@ cv::Rect2d rect_from_face_box(const FaceBox& box) {
     return {box.centre.x() - half, box.centre.y() - half, box.width, box.width};
 }
 
-FaceDetector::FaceDetector(const std::filesystem::path& cascade) {
-    if (!std::filesystem::exists(cascade))
-        throw file_error(cascade.string(), "face detector cascade not found (install Debian package opencv-data)");
-    if (!cascade_.load(cascade.string())) throw file_error(cascade.string(), "cannot load the Haar cascade");
+FaceDetector::FaceDetector(DetectorKind kind)
+    : FaceDetector(default_face_cascade_path(),
+                   kind == DetectorKind::kMultiView ? default_profile_cascade_path() : std::filesystem::path()) {}
+
+FaceDetector::FaceDetector(const std::filesystem::path& frontal_cascade, const std::filesystem::path& profile_cascade)
+    : frontal_(load_cascade(frontal_cascade)) {
+    if (!profile_cascade.empty()) profile_ = load_cascade(profile_cascade);
+}
+
+std::vector<ScoredBox> FaceDetector::detect_unmerged(const cv::Mat& gray) const {
+    cv::Mat equalised;
+    cv::equalizeHist(gray, equalised);
+    std::vector<ScoredBox> found;
+    run_cascade(frontal_, equalised, FaceView::kFrontal, false, found);
+    if (profile_) {
+        run_cascade(*profile_, equalised, FaceView::kNoseLeft, false, found);
+        cv::Mat mirrored;
+        cv::flip(equalised, mirrored, 1);
+        run_cascade(*profile_, mirrored, FaceView::kNoseRight, true, found);
+    }
+    return found;
 }
 
 std::vector<FaceBox> FaceDetector::detect(const cv::Mat& gray) const {
-    cv::Mat equalised;
-    cv::equalizeHist(gray, equalised);
-    std::vector<cv::Rect> rects;
-    cascade_.detectMultiScale(equalised, rects, 1.2, 2, 0, cv::Size(50, 50));
-    std::vector<FaceBox> boxes;
-    for (const auto& r : rects) boxes.push_back(face_box_from_rect(r));
-    std::stable_sort(boxes.begin(), boxes.end(), [](const FaceBox& a, const FaceBox& b) { return a.width > b.width; });
-    return boxes;
+    if (!profile_) {  // the frontal detector as it always was: every detection, largest first
+        std::vector<FaceBox> boxes;
+        for (const auto& d : detect_unmerged(gray)) boxes.push_back(d.box);
+        std::stable_sort(boxes.begin(), boxes.end(), [](const FaceBox& a, const FaceBox& b) { return a.width > b.width; });
+        return boxes;
+    }
+    return merge_detections(detect_unmerged(gray));
 }
 
 std::optional<FaceBox> match_detection(const std::vector<FaceBox>& detections, const Eigen::Matrix2Xd& landmarks) {

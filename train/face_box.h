@@ -8,7 +8,9 @@
 #include <opencv2/objdetect.hpp>
 
 #include <filesystem>
+#include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace facesynth::train {
@@ -16,26 +18,61 @@ namespace facesynth::train {
 inline constexpr double kCanonicalBoxWidth = 128.0;
 inline constexpr int kCanonicalCropSide = 256;
 
-// Debian's opencv-data cascade used everywhere (scale 1.2, min neighbours 2, min size 50).
+// Debian's opencv-data cascades (scale 1.2, min neighbours 2, min size 50): the frontal one, and the
+// profile one that the multi-view detector adds (it finds faces whose nose points to the image's
+// left; the detector also runs it on the mirrored image for the other side).
 [[nodiscard]] std::filesystem::path default_face_cascade_path();
+[[nodiscard]] std::filesystem::path default_profile_cascade_path();
+
+// Which cascade found a face: frontal, or profile with the nose toward the image's left or right.
+enum class FaceView : std::uint8_t { kFrontal = 0, kNoseLeft = 1, kNoseRight = 2 };
+inline constexpr int kFaceViews = 3;
+[[nodiscard]] const char* view_name(FaceView view);  // "frontal", "nose_left", "nose_right"
 
 // A square face box: centre in 0-based pixel coordinates and side length in pixels.
 struct FaceBox {
     Eigen::Vector2d centre = Eigen::Vector2d::Zero();
     double width = 0;
+    FaceView view = FaceView::kFrontal;
 };
+
+// The face detectors: OpenCV's frontal Haar cascade alone, or multi-view (frontal + profile on the
+// image and on its mirror image, overlapping detections merged). Recorded in SDM model files.
+enum class DetectorKind : std::uint8_t { kFrontal = 0, kMultiView = 1 };
+[[nodiscard]] const char* detector_name(DetectorKind kind);  // "frontal", "multiview"
+// "frontal" or "multiview"; throws facesynth::Error for anything else.
+[[nodiscard]] DetectorKind parse_detector_kind(const std::string& name);
+
+// One detection before merging: its box and the cascade's neighbour count (how many raw windows
+// grouped into it, OpenCV's confidence).
+struct ScoredBox {
+    FaceBox box;
+    int neighbours = 0;
+};
+
+// One box per face: detections are taken by decreasing neighbour count (ties: frontal before
+// profile, then larger first), and one is dropped when it covers at least half of a box already
+// kept, or a kept box covers at least half of it (intersection / smaller area >= 0.5). The kept
+// boxes are returned largest first.
+[[nodiscard]] std::vector<FaceBox> merge_detections(std::vector<ScoredBox> detections);
 [[nodiscard]] FaceBox face_box_from_rect(const cv::Rect& rect);
 [[nodiscard]] cv::Rect2d rect_from_face_box(const FaceBox& box);
 
-// Haar cascade face detector; one per thread (cv::CascadeClassifier is not shared across threads).
+// Cascade face detector; one per thread (cv::CascadeClassifier is not shared across threads).
 class FaceDetector {
 public:
-    explicit FaceDetector(const std::filesystem::path& cascade = default_face_cascade_path());
-    // All faces in an 8-bit grey image, largest first.
+    explicit FaceDetector(DetectorKind kind = DetectorKind::kFrontal);
+    // Explicit cascades; an empty profile path gives the frontal-only detector.
+    FaceDetector(const std::filesystem::path& frontal_cascade, const std::filesystem::path& profile_cascade);
+    // All faces in an 8-bit grey image, largest first, each with the view that found it.
     [[nodiscard]] std::vector<FaceBox> detect(const cv::Mat& gray) const;
+    // Every detection of every cascade before merging (diagnosis and tests).
+    [[nodiscard]] std::vector<ScoredBox> detect_unmerged(const cv::Mat& gray) const;
+    [[nodiscard]] DetectorKind kind() const { return profile_.has_value() ? DetectorKind::kMultiView : DetectorKind::kFrontal; }
 
 private:
-    mutable cv::CascadeClassifier cascade_;
+    mutable cv::CascadeClassifier frontal_;
+    mutable std::optional<cv::CascadeClassifier> profile_;
 };
 
 // The detection belonging to a ground-truth shape: its centre lies inside the landmarks' bounding

@@ -44,6 +44,17 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
                             b.offset_std.x(), b.offset_std.y(), b.init_translation_std, b.init_scale_std,
                             b.init_rotation_std_deg};
     write_doubles(payload, stats, std::size(stats));
+    payload.write(static_cast<std::uint32_t>(b.detector));
+    payload.write(static_cast<std::uint32_t>(kFaceViews));
+    for (std::size_t v = 0; v < kFaceViews; ++v) {
+        const auto& view_mean = model.view_mean_shapes[v];
+        if (view_mean.size() && (view_mean.rows() != 2 || view_mean.cols() != model.num_landmarks))
+            throw file_error(path.string(), "cannot write a model whose view mean shape has the wrong size");
+        payload.write(static_cast<std::int32_t>(b.view_matched[v]));
+        payload.write(static_cast<std::int32_t>(model.view_faces[v]));
+        payload.write(static_cast<std::int32_t>(view_mean.size() ? 1 : 0));
+        if (view_mean.size()) write_doubles(payload, view_mean.data(), static_cast<std::size_t>(view_mean.size()));
+    }
     for (const auto& stage : model.stages) {
         const int dims = model.feature_dims(stage.settings);
         const auto rank = stage.basis.cols();
@@ -86,7 +97,7 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
         throw file_error(path.string(), "not a facesynth SDM model (bad magic)");
     r.skip(sizeof(kMagic), "magic");
     const auto version = r.read<std::uint32_t>("version");
-    if (version != 1 && version != kSdmModelVersion)
+    if (version < 1 || version > kSdmModelVersion)
         throw file_error(path.string(), "unsupported SDM model version " + std::to_string(version) + " (this build reads 1 to " +
                                             std::to_string(kSdmModelVersion) + ")");
     SdmModel model;
@@ -130,6 +141,28 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
     b.init_translation_std = stats[6];
     b.init_scale_std = stats[7];
     b.init_rotation_std_deg = stats[8];
+    if (version >= 3) {
+        const auto detector = r.read<std::uint32_t>("face detector");
+        if (detector > static_cast<std::uint32_t>(DetectorKind::kMultiView))
+            throw r.error("unknown face detector " + std::to_string(detector) + " (corrupt file or a newer build's model)");
+        b.detector = static_cast<DetectorKind>(detector);
+        const auto views = r.read<std::uint32_t>("view count");
+        if (views != static_cast<std::uint32_t>(kFaceViews))
+            throw r.error("has " + std::to_string(views) + " detector views, this build knows " + std::to_string(kFaceViews));
+        for (std::size_t v = 0; v < kFaceViews; ++v) {
+            b.view_matched[v] = r.read<std::int32_t>("view statistics");
+            model.view_faces[v] = r.read<std::int32_t>("view statistics");
+            const auto has_mean = r.read<std::int32_t>("view mean shape flag");
+            if (has_mean != 0 && has_mean != 1) throw r.error("invalid view mean shape flag for view " + std::string(view_name(static_cast<FaceView>(v))));
+            if (has_mean) {
+                model.view_mean_shapes[v].resize(2, model.num_landmarks);
+                read_doubles(r, model.view_mean_shapes[v].data(), static_cast<std::size_t>(model.view_mean_shapes[v].size()),
+                             "view mean shape");
+            }
+        }
+    } else {
+        b.view_matched[0] = b.detector_matched;  // the frontal cascade was the only detector
+    }
     for (std::uint32_t k = 0; k < stages; ++k) {
         SdmStage stage;
         stage.settings.patch_relative = r.read<double>("stage patch size");

@@ -9,7 +9,9 @@
 
 namespace facesynth::train {
 
-inline constexpr std::uint32_t kSdmModelVersion = 2;  // 2: reduced-rank stages (version 1 files are still read)
+// 2: reduced-rank stages; 3: the face detector and per-view mean shapes. Versions 1 and 2 are still
+// read, as models of the frontal detector with one mean shape.
+inline constexpr std::uint32_t kSdmModelVersion = 3;
 
 // Atomic write; throws facesynth::Error naming the file.
 void write_sdm_model(const std::filesystem::path& path, const SdmModel& model);

@@ -21,6 +21,7 @@ public:
         if (stages >= 0) model_.stages.resize(static_cast<std::size_t>(stages));
     }
     Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override { return sdm_detect(model_, gray, box); }
+    std::optional<DetectorKind> trained_detector() const override { return model_.boxes.detector; }
 
 private:
     SdmModel model_;
@@ -82,6 +83,13 @@ std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec) {
         return std::make_unique<SdmRegressor>(spec, spec.substr(colon + 1), stages);
     }
     return std::make_unique<SdmRegressor>("sdm:" + spec, spec, -1);
+}
+
+DetectorKind choose_detector(const std::string& option, std::span<const LandmarkRegressor* const> regressors) {
+    if (option != "auto") return parse_detector_kind(option);
+    for (const auto* r : regressors)
+        if (const auto kind = r->trained_detector()) return *kind;
+    return DetectorKind::kMultiView;
 }
 
 }  // namespace facesynth::train

@@ -13,6 +13,8 @@
 #include <opencv2/core.hpp>
 
 #include <memory>
+#include <optional>
+#include <span>
 #include <string>
 
 namespace facesynth::train {
@@ -23,6 +25,8 @@ public:
     // Landmarks (0-based image pixels) of the face in `box` of an 8-bit grey image.
     [[nodiscard]] virtual Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const = 0;
     [[nodiscard]] const std::string& label() const { return label_; }
+    // The face detector the regressor was trained with, where its model file records one (SDM).
+    [[nodiscard]] virtual std::optional<DetectorKind> trained_detector() const { return std::nullopt; }
 
 protected:
     explicit LandmarkRegressor(std::string label) : label_(std::move(label)) {}
@@ -33,5 +37,9 @@ private:
 
 // Throws facesynth::Error naming the file for unreadable models.
 [[nodiscard]] std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec);
+
+// The commands' --detector option: "frontal" or "multiview", or "auto": the detector recorded in the
+// first regressor that records one (SDM models; version 1-2 files say frontal), else multi-view.
+[[nodiscard]] DetectorKind choose_detector(const std::string& option, std::span<const LandmarkRegressor* const> regressors);
 
 }  // namespace facesynth::train

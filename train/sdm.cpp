@@ -84,6 +84,11 @@ int SdmModel::feature_dims(const SdmStageSettings& stage) const {
     return feature_landmark_count(stage) * hog_dims(hog_cells);
 }
 
+const Eigen::Matrix2Xd& SdmModel::initial_shape(FaceView view) const {
+    const auto& own = view_mean_shapes[static_cast<std::size_t>(view)];
+    return own.size() ? own : mean_shape;
+}
+
 void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
                   std::span<float> out) {
     const int per_landmark = hog_dims(hog_cells);
@@ -116,7 +121,7 @@ Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::M
 
 Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box) {
     const FaceFrame frame{box};
-    return frame.to_image(sdm_refine(model, canonical_crop(gray, frame), model.mean_shape));
+    return frame.to_image(sdm_refine(model, canonical_crop(gray, frame), model.initial_shape(box.view)));
 }
 
 double landmark_nme(const Eigen::Matrix2Xd& predicted, const Eigen::Matrix2Xd& truth) {
@@ -160,24 +165,35 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
     model.augment = static_cast<std::uint32_t>(options.augment);
 
     // The mean shape in the box frame is the learned box-to-shape alignment: averaged over the training
-    // faces whose box came from the detector (all training faces if there are none).
-    model.mean_shape = Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks);
-    int used = 0;
+    // faces whose box came from the detector (all training faces if there are none), overall and per
+    // detector view.
     const bool have_detector_faces =
         std::any_of(train_faces.begin(), train_faces.end(), [&](std::size_t f) { return faces[f].box_from_detector; });
     const auto shapes_the_mean = [&](std::size_t f) { return !have_detector_faces || faces[f].box_from_detector; };
+    const auto view_index = [&](std::size_t f) { return static_cast<std::size_t>(faces[f].view); };
+    model.mean_shape = Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks);
+    std::array<Eigen::Matrix2Xd, kFaceViews> view_sums;
+    view_sums.fill(Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks));
+    std::array<int, kFaceViews> view_used{};
+    int used = 0;
     for (std::size_t f : train_faces) {
+        ++model.view_faces[view_index(f)];
         if (!shapes_the_mean(f)) continue;
         model.mean_shape += faces[f].truth;
+        view_sums[view_index(f)] += faces[f].truth;
+        ++view_used[view_index(f)];
         ++used;
     }
     model.mean_shape /= used;
+    for (std::size_t v = 0; v < kFaceViews; ++v)
+        if (view_used[v] >= kMinViewFaces && view_used[v] < used) model.view_mean_shapes[v] = view_sums[v] / view_used[v];
+    const auto start_shape = [&](std::size_t f) -> const Eigen::Matrix2Xd& { return model.initial_shape(faces[f].view); };
 
-    // Spread of the true shapes around the mean (detector faces only): the initialisation noise.
+    // Spread of the true shapes around their start (detector faces only): the initialisation noise.
     std::vector<double> dx, dy, scales, rotations;
     for (std::size_t f : train_faces) {
         if (!shapes_the_mean(f)) continue;
-        const Similarity s = fit_similarity(model.mean_shape, faces[f].truth);
+        const Similarity s = fit_similarity(start_shape(f), faces[f].truth);
         dx.push_back(s.translation.x() / kCanonicalBoxWidth);
         dy.push_back(s.translation.y() / kCanonicalBoxWidth);
         scales.push_back(s.scale);
@@ -206,7 +222,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
         s.scale = 1 + boxes.init_scale_std * rng.normal();
         s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
         s.translation = Eigen::Vector2d(rng.normal(), rng.normal()) * boxes.init_translation_std * kCanonicalBoxWidth;
-        shapes[r] = apply_similarity(model.mean_shape, s);
+        shapes[r] = apply_similarity(start_shape(row_face[r]), s);
     }
     const auto face_of = [&](std::size_t row) -> const TrainingFace& { return faces[row_face[row]]; };
     const auto mean_nme = [&](std::size_t first, std::size_t count) {

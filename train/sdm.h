@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -46,7 +47,9 @@ struct SdmStage {
 
 // How detector boxes relate to the faces, measured on the training data.
 struct BoxStatistics {
-    int detector_matched = 0;  // training faces with a matching Haar detection
+    DetectorKind detector = DetectorKind::kFrontal;  // the face detector used (and to use with the model)
+    std::array<int, kFaceViews> view_matched{};      // detector-matched training faces per view
+    int detector_matched = 0;  // training faces with a matching detection
     int detector_missed = 0;   // faces that got a synthesised box instead
     // Detector box relative to the landmarks' bounding box (width ratio; centre offset / landmark width).
     double width_ratio_mean = 1.0, width_ratio_std = 0.04;
@@ -59,7 +62,13 @@ struct BoxStatistics {
 struct SdmModel {
     int num_landmarks = 68;
     int hog_cells = 3;                 // HOG cells per patch side
-    Eigen::Matrix2Xd mean_shape;       // canonical crop coordinates
+    // The learned box-to-shape alignment: the mean shape (canonical crop coordinates) of the training
+    // faces whose box came from the detector, and per detector view (train/face_box.h) the mean of
+    // that view's faces: the pose-indexed initialisation. A view with too few training faces
+    // (kMinViewFaces) has an empty matrix and starts from `mean_shape`.
+    Eigen::Matrix2Xd mean_shape;
+    std::array<Eigen::Matrix2Xd, kFaceViews> view_mean_shapes;
+    std::array<int, kFaceViews> view_faces{};  // training faces (all boxes) per view
     std::vector<SdmStage> stages;
     BoxStatistics boxes;
     std::uint64_t training_checksum = 0;  // of the training keys and landmarks
@@ -67,7 +76,12 @@ struct SdmModel {
     std::uint32_t augment = 0;
 
     [[nodiscard]] int feature_dims(const SdmStageSettings& stage) const;
+    // Where the cascade starts for a box found by `view`.
+    [[nodiscard]] const Eigen::Matrix2Xd& initial_shape(FaceView view) const;
 };
+
+// Fewest detector-boxed training faces of one view for that view to get its own mean shape.
+inline constexpr int kMinViewFaces = 10;
 
 // Features of one shape for one stage: feature_landmark_count(stage) · hog_dims(hog_cells) floats.
 void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
@@ -78,7 +92,8 @@ void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_ce
 [[nodiscard]] Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
                                           std::vector<Eigen::Matrix2Xd>* after_each_stage = nullptr);
 
-// Landmarks (0-based image pixels) of the face in `box` of an 8-bit grey image.
+// Landmarks (0-based image pixels) of the face in `box` of an 8-bit grey image, starting from the
+// initial shape of the box's view.
 [[nodiscard]] Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box);
 
 // One training face, already cut out around its box.
@@ -86,6 +101,7 @@ struct TrainingFace {
     cv::Mat crop;               // kCanonicalCropSide² 8-bit grey
     Eigen::Matrix2Xd truth;     // canonical crop coordinates
     bool box_from_detector = false;
+    FaceView view = FaceView::kFrontal;  // the view that found it (for synthesised boxes: the view assigned)
 };
 
 struct SdmStageReport {

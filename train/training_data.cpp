@@ -8,7 +8,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
+#include <array>
 #include <cstring>
+#include <limits>
 #include <mutex>
 #include <optional>
 
@@ -50,6 +52,13 @@ double mean_of(const std::vector<double>& v) {
     return v.empty() ? 0 : s / static_cast<double>(v.size());
 }
 
+// Signed horizontal offset of the nose tip (iBUG 31) from the midpoint of the outer eye corners
+// (37, 46), in inter-ocular distances: about 0 for a frontal face, its sign says where the nose points.
+double yaw_proxy(const Eigen::Matrix2Xd& shape) {
+    const double middle = 0.5 * (shape(0, 36) + shape(0, 45));
+    return (shape(0, 30) - middle) / std::max(1e-9, inter_ocular_distance(shape));
+}
+
 double std_of(const std::vector<double>& v) {
     if (v.size() < 2) return 0;
     const double m = mean_of(v);
@@ -64,7 +73,7 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
     std::vector<Loaded> loaded(images.size());
     const std::size_t workers = worker_count(options.threads, images.size());
     std::vector<FaceDetector> detectors;
-    for (std::size_t w = 0; w < workers; ++w) detectors.emplace_back();
+    for (std::size_t w = 0; w < workers; ++w) detectors.emplace_back(options.detector);
     std::mutex progress_mutex;
     std::size_t done = 0;
     parallel_for(0, images.size(), options.threads, [&](std::size_t i, std::size_t worker) {
@@ -94,21 +103,51 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
     });
 
     PreparedFaces result;
-    std::vector<double> ratios, offset_x, offset_y;
+    BoxStatistics& stats = result.boxes;
+    stats.detector = options.detector;
+    // Box placement relative to the landmarks, pooled (recorded in the model) and per view (used to
+    // synthesise the boxes of missed faces assigned to that view), and the yaw proxy per view.
+    struct Placement {
+        std::vector<double> ratios, offset_x, offset_y, yaw_proxy;
+    };
+    Placement pooled;
+    std::array<Placement, kFaceViews> per_view;
     for (const auto& item : loaded) {
         if (!item.ok || !item.detected) continue;
         const LandmarkBounds b = bounds_of(item.truth);
-        ratios.push_back(item.detected->width / b.width);
-        offset_x.push_back((item.detected->centre.x() - b.centre.x()) / b.width);
-        offset_y.push_back((item.detected->centre.y() - b.centre.y()) / b.width);
+        for (Placement* p : {&pooled, &per_view[static_cast<std::size_t>(item.detected->view)]}) {
+            p->ratios.push_back(item.detected->width / b.width);
+            p->offset_x.push_back((item.detected->centre.x() - b.centre.x()) / b.width);
+            p->offset_y.push_back((item.detected->centre.y() - b.centre.y()) / b.width);
+            p->yaw_proxy.push_back(yaw_proxy(item.truth));
+        }
     }
-    BoxStatistics& stats = result.boxes;
-    if (ratios.size() >= 5) {
-        stats.width_ratio_mean = mean_of(ratios);
-        stats.width_ratio_std = std_of(ratios);
-        stats.offset_mean = {mean_of(offset_x), mean_of(offset_y)};
-        stats.offset_std = {std_of(offset_x), std_of(offset_y)};
+    const auto placement_statistics = [](const Placement& p, BoxStatistics& into) {
+        into.width_ratio_mean = mean_of(p.ratios);
+        into.width_ratio_std = std_of(p.ratios);
+        into.offset_mean = {mean_of(p.offset_x), mean_of(p.offset_y)};
+        into.offset_std = {std_of(p.offset_x), std_of(p.offset_y)};
+    };
+    if (pooled.ratios.size() >= 5) placement_statistics(pooled, stats);
+    std::array<BoxStatistics, kFaceViews> view_stats;
+    for (std::size_t v = 0; v < kFaceViews; ++v) {
+        view_stats[v] = stats;
+        if (per_view[v].ratios.size() >= 5) placement_statistics(per_view[v], view_stats[v]);
     }
+    // A missed face's view: the one (with at least 5 detected faces) whose mean yaw proxy is nearest.
+    const auto assign_view = [&](const Eigen::Matrix2Xd& truth) {
+        FaceView best = FaceView::kFrontal;
+        double best_distance = std::numeric_limits<double>::infinity();
+        for (std::size_t v = 0; v < kFaceViews; ++v) {
+            if (per_view[v].yaw_proxy.size() < 5) continue;
+            const double distance = std::abs(yaw_proxy(truth) - mean_of(per_view[v].yaw_proxy));
+            if (distance < best_distance) {
+                best_distance = distance;
+                best = static_cast<FaceView>(v);
+            }
+        }
+        return best;
+    };
 
     std::uint64_t checksum = 0xcbf29ce484222325ULL;
     for (std::size_t i = 0; i < loaded.size(); ++i) {
@@ -121,12 +160,15 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
         if (item.detected) {
             box = *item.detected;
             ++stats.detector_matched;
+            ++stats.view_matched[static_cast<std::size_t>(box.view)];
         } else {
             Rng rng(options.seed, i, kFallbackBoxStream);
             const LandmarkBounds b = bounds_of(item.truth);
-            box.width = b.width * (stats.width_ratio_mean + stats.width_ratio_std * rng.normal());
-            box.centre = b.centre + b.width * (stats.offset_mean + stats.offset_std.cwiseProduct(
-                                                                       Eigen::Vector2d(rng.normal(), rng.normal())));
+            box.view = assign_view(item.truth);
+            const BoxStatistics& placement = view_stats[static_cast<std::size_t>(box.view)];
+            box.width = b.width * (placement.width_ratio_mean + placement.width_ratio_std * rng.normal());
+            box.centre = b.centre + b.width * (placement.offset_mean + placement.offset_std.cwiseProduct(
+                                                                           Eigen::Vector2d(rng.normal(), rng.normal())));
             ++stats.detector_missed;
         }
         const FaceFrame frame{box};
@@ -134,6 +176,7 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
         face.crop = item.detected ? item.crop : canonical_crop(item.gray, frame);
         face.truth = frame.to_canonical(item.truth);
         face.box_from_detector = item.detected.has_value();
+        face.view = box.view;
         item.gray.release();
         item.crop.release();
         fnv1a(checksum, images[i].key.data(), images[i].key.size());

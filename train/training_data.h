@@ -1,8 +1,10 @@
 #pragma once
-// Turns labelled images into canonical training faces: runs the Haar detector on every image,
+// Turns labelled images into canonical training faces: runs the face detector on every image,
 // matches the detection to the ground truth, measures how detector boxes sit relative to the
-// landmarks, and gives faces the detector missed a box synthesised from their landmarks with that
-// measured offset and spread (recorded as such).
+// landmarks (per view), and gives faces the detector missed a box synthesised from their landmarks
+// with that measured offset and spread (recorded as such). A missed face is assigned the view whose
+// detected faces have the nearest mean yaw sign proxy (nose tip offset from the eye-corner midpoint,
+// in inter-ocular distances), so that it starts from that view's mean shape.
 #include "train/dataset.h"
 #include "train/sdm.h"
 
@@ -21,6 +23,7 @@ struct PreparedFaces {
 };
 
 struct PrepareOptions {
+    DetectorKind detector = DetectorKind::kFrontal;
     int threads = 1;
     std::uint64_t seed = 1;
     std::function<void(std::size_t done, std::size_t total)> on_progress;

@@ -82,7 +82,7 @@ TexturedFace make_textured_face(const MorphableModel& model, Frontaliser& fronta
 
 SyntheticView render_view(render::Renderer& renderer, const MorphableModel& model, const TexturedFace& face, double yaw_deg,
                           const ViewOptions& options, const JawContourRegion* contour_region) {
-    // Frame the mean face's landmarks (the same box as the frontal framing) at two thirds of the image.
+    // Frame the mean face's landmarks (the same box as the frontal framing) at 1 / framing of the image.
     const Eigen::Matrix3Xf mean_landmarks = model.landmark_positions(as_points(model.shape.mean));
     Eigen::Vector3d low = Eigen::Vector3d::Constant(1e30), high = -low;
     for (Eigen::Index i = 0; i < mean_landmarks.cols(); ++i)
@@ -91,7 +91,7 @@ SyntheticView render_view(render::Renderer& renderer, const MorphableModel& mode
             high = high.cwiseMax(mean_landmarks.col(i).cast<double>());
         }
     const Eigen::Vector3d centre = 0.5 * (low + high);
-    const double extent = 1.5 * std::max(high.x() - low.x(), high.y() - low.y());
+    const double extent = options.framing * std::max(high.x() - low.x(), high.y() - low.y());
     render::Camera camera;
     camera.intrinsics = intrinsics_from_fov(options.fov_deg, options.size, options.size);
     const double distance = extent / (2 * std::tan(0.5 * options.fov_deg * std::numbers::pi / 180));

@@ -41,13 +41,16 @@ struct SyntheticView {
 struct ViewOptions {
     int size = 384;
     double fov_deg = 8;  // a long lens (about 1.4 m away): the affine fit has little perspective to absorb
+    // The image side over the mean face's landmark box side: 1.5 fills the image with the face (the
+    // benchmark's framing); larger values show the whole head, as face detectors expect.
+    double framing = 1.5;
     render::Lighting lighting;        // the same for every yaw; default unlit()
     cv::Vec3b background{70, 70, 70};
     ViewOptions();
 };
 
 // `face` rendered with a perspective camera at yaw `yaw_deg` (pitch = roll = 0), the mean face's
-// landmark box filling about two thirds of the image.
+// landmark box filling 1 / options.framing of the image.
 [[nodiscard]] SyntheticView render_view(render::Renderer& renderer, const MorphableModel& model, const TexturedFace& face,
                                         double yaw_deg, const ViewOptions& options = {},
                                         const JawContourRegion* contour_region = nullptr);

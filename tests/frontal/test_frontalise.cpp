@@ -6,6 +6,7 @@
 #include "morph/builtin.h"
 #include "morph/error.h"
 #include "morph/pose.h"
+#include "train/face_box.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -219,6 +220,27 @@ TEST_F(FrontaliseTest, IsomapMatchesTheStraightforwardExtraction) {
         EXPECT_GT(visible, 20000) << "yaw " << yaw;
         EXPECT_LE(disagree, visible / 1000) << "yaw " << yaw;
         EXPECT_EQ(colour_off, 0) << "yaw " << yaw;
+    }
+}
+
+// The multi-view detector (train/face_box.h) on renders at ±60° yaw showing the whole head: the
+// frontal Haar cascade misses the face, the profile cascade (on the image, or on its mirror for the
+// other side) finds it, with the view that says where the nose points.
+TEST_F(FrontaliseTest, MultiViewDetectorFindsFacesAtYaw60ThatTheFrontalCascadeMisses) {
+    const train::FaceDetector frontal_only(train::DetectorKind::kFrontal);
+    const train::FaceDetector multi_view(train::DetectorKind::kMultiView);
+    for (const double yaw : {-60.0, 60.0}) {
+        ViewOptions whole_head;
+        whole_head.framing = 2.5;
+        const SyntheticView v = render_view(frontaliser_->renderer(), *model_, *face_, yaw, whole_head, region_.get());
+        keep("detector_yaw" + std::to_string(static_cast<int>(yaw)) + ".png", v.image);
+        const cv::Mat gray = train::to_gray8(v.image);
+        EXPECT_FALSE(train::match_detection(frontal_only.detect(gray), v.landmarks).has_value()) << "yaw " << yaw;
+        const auto found = train::match_detection(multi_view.detect(gray), v.landmarks);
+        ASSERT_TRUE(found.has_value()) << "yaw " << yaw;
+        // Negative yaw turns the nose toward the image's left (docs/conventions.md).
+        EXPECT_EQ(found->view, yaw < 0 ? train::FaceView::kNoseLeft : train::FaceView::kNoseRight) << "yaw " << yaw;
+        EXPECT_LT((found->centre - v.landmarks.rowwise().mean()).norm(), 0.3 * found->width) << "yaw " << yaw;
     }
 }
 

@@ -42,8 +42,10 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     ASSERT_EQ(run_command(train_cmd, &out), 0) << out;
     ASSERT_TRUE(fs::exists(model));
     const auto train_report = read_json(dir / "train.json");
-    for (const char* key : {"stage1_nme", "stage1_validation_nme", "stage1_lambda_factor", "stage1_rank", "stage3_rank"})
+    for (const char* key : {"stage1_nme", "stage1_validation_nme", "stage1_lambda_factor", "stage1_rank", "stage3_rank",
+                            "detector_matched_frontal", "detector_matched_nose_left", "detector_matched_nose_right"})
         EXPECT_TRUE(train_report.contains(key)) << key;
+    EXPECT_EQ(train_report["detector"], "multiview");  // the default
 
     const auto eval_json = dir / "eval.json";
     const std::string eval_cmd = cli_path().string() + " eval landmarks --regressor " + model.string() +
@@ -54,8 +56,11 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     ASSERT_EQ(run_command(eval_cmd, &out), 0) << out;
     const auto j = read_json(eval_json);
     for (const char* key : {"nme_mean", "nme_median", "auc_008", "failure_rate_008", "ms_per_face", "detector_misses",
-                            "count", "regressor1", "regressor2", "regressor2_nme_mean", "regressor3_nme_mean"})
+                            "count", "regressor1", "regressor2", "regressor2_nme_mean", "regressor3_nme_mean",
+                            "detector_view_frontal", "detector_view_nose_left", "detector_view_nose_right",
+                            "detector_misses_yaw_00_10", "faces_yaw_00_10"})
         EXPECT_TRUE(j.contains(key)) << key;
+    EXPECT_EQ(j["detector"], "multiview");  // auto: the one recorded in the model
     EXPECT_EQ(j["count"].get<int>(), 30);
     EXPECT_LT(j["detector_misses"].get<int>(), 30);
     // The cascade must improve on its own starting point (the mean shape in the same boxes).
@@ -65,7 +70,7 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     std::ifstream nme_csv(dir / "nme.csv");
     std::string line;
     ASSERT_TRUE(std::getline(nme_csv, line));
-    EXPECT_EQ(line, "key,yaw_deg,detected,regressor1,regressor2,regressor3");
+    EXPECT_EQ(line, "key,yaw_deg,detected,view,regressor1,regressor2,regressor3");
     int rows = 0;
     while (std::getline(nme_csv, line)) ++rows;
     EXPECT_EQ(rows, 30);

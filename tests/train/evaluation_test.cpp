@@ -87,10 +87,52 @@ TEST(FaceBox, CanonicalFrameRoundTripsAndCropsAtTheRightPlace) {
     EXPECT_NEAR(max_at.y, 127.5, 1.0);
 }
 
+FaceBox box_at(double x, double y, double width, FaceView view) {
+    FaceBox box;
+    box.centre = {x, y};
+    box.width = width;
+    box.view = view;
+    return box;
+}
+
+TEST(FaceBox, MergingKeepsOneBoxPerFaceFromTheMostConfidentCascade) {
+    // Face A: frontal (3 neighbours) and nose-left profile (7) overlap: the profile box stays.
+    // Face B: a frontal box with a small profile box inside it, equal neighbours: frontal wins the tie.
+    // Face C: a lone nose-right profile box far away stays.
+    const std::vector<ScoredBox> detections = {
+        {box_at(100, 100, 80, FaceView::kFrontal), 3},
+        {box_at(110, 104, 70, FaceView::kNoseLeft), 7},
+        {box_at(300, 100, 100, FaceView::kFrontal), 5},
+        {box_at(290, 110, 40, FaceView::kNoseRight), 5},
+        {box_at(500, 300, 60, FaceView::kNoseRight), 2},
+    };
+    const auto merged = merge_detections(detections);
+    ASSERT_EQ(merged.size(), 3u);
+    // Largest first.
+    EXPECT_EQ(merged[0].centre, Eigen::Vector2d(300, 100));
+    EXPECT_EQ(merged[0].view, FaceView::kFrontal);
+    EXPECT_EQ(merged[1].centre, Eigen::Vector2d(110, 104));
+    EXPECT_EQ(merged[1].view, FaceView::kNoseLeft);
+    EXPECT_EQ(merged[2].view, FaceView::kNoseRight);
+    // Boxes that touch but overlap less than half of the smaller one are different faces.
+    const auto apart = merge_detections({{box_at(100, 100, 80, FaceView::kFrontal), 3}, {box_at(170, 100, 80, FaceView::kNoseLeft), 3}});
+    EXPECT_EQ(apart.size(), 2u);
+    EXPECT_TRUE(merge_detections({}).empty());
+}
+
+TEST(FaceBox, DetectorNamesRoundTripAndUnknownOnesAreRefused) {
+    for (const auto kind : {DetectorKind::kFrontal, DetectorKind::kMultiView})
+        EXPECT_EQ(parse_detector_kind(detector_name(kind)), kind);
+    EXPECT_THROW((void)parse_detector_kind("profile"), Error);
+    EXPECT_EQ(FaceDetector(DetectorKind::kMultiView).kind(), DetectorKind::kMultiView);
+    EXPECT_EQ(FaceDetector().kind(), DetectorKind::kFrontal);
+}
+
 TEST(FaceBox, NoFaceInABlankOrNoiseImage) {
     const FaceDetector detector;
     cv::Mat blank(240, 320, CV_8UC1, cv::Scalar(128));
     EXPECT_TRUE(detector.detect(blank).empty());
+    EXPECT_TRUE(FaceDetector(DetectorKind::kMultiView).detect(blank).empty());
 }
 
 TEST(FaceBox, DetectsTheAnnotatedFaceOnARealPhoto) {

@@ -202,6 +202,46 @@ TEST(SdmModelFile, RoundTripsExactly) {
     }
 }
 
+// A model trained with views: even faces frontal, odd ones nose-left (no nose-right face), as from
+// the multi-view detector.
+SdmModel model_with_views() {
+    auto train = cartoon_training_faces(6, 44);
+    for (std::size_t i = 0; i < train.size(); ++i) train[i].view = i % 2 ? FaceView::kNoseLeft : FaceView::kFrontal;
+    SdmTrainOptions options;
+    options.augment = 2;
+    options.stages = 1;
+    options.hog_cells = 2;
+    BoxStatistics boxes;
+    boxes.detector = DetectorKind::kMultiView;
+    boxes.view_matched = {22, 22, 0};
+    boxes.detector_matched = 44;
+    return train_sdm(train, boxes, options);
+}
+
+TEST(SdmModelFile, DetectorAndViewMeanShapesRoundTrip) {
+    const SdmModel model = model_with_views();
+    // Each view with enough faces has its own mean shape, the mean of its faces; the others start
+    // from the overall mean.
+    ASSERT_EQ(model.view_mean_shapes[0].cols(), 68);
+    ASSERT_EQ(model.view_mean_shapes[1].cols(), 68);
+    EXPECT_EQ(model.view_mean_shapes[2].size(), 0);
+    EXPECT_EQ(model.view_faces[0] + model.view_faces[1], 40);  // 4 of the 44 are held out for validation
+    EXPECT_EQ(model.view_faces[2], 0);
+    EXPECT_FALSE(model.view_mean_shapes[0].isApprox(model.view_mean_shapes[1]));
+    EXPECT_TRUE(&model.initial_shape(FaceView::kNoseRight) == &model.mean_shape);
+    EXPECT_TRUE(&model.initial_shape(FaceView::kNoseLeft) == &model.view_mean_shapes[1]);
+
+    const auto dir = testkit::fresh_temp_dir("sdm_model_views");
+    write_sdm_model(dir / "views.sdm", model);
+    const SdmModel back = read_sdm_model(dir / "views.sdm");
+    EXPECT_EQ(back.boxes.detector, DetectorKind::kMultiView);
+    EXPECT_EQ(back.boxes.view_matched, model.boxes.view_matched);
+    EXPECT_EQ(back.view_faces, model.view_faces);
+    for (std::size_t v = 0; v < kFaceViews; ++v) EXPECT_TRUE(back.view_mean_shapes[v] == model.view_mean_shapes[v]) << v;
+    EXPECT_TRUE(back.mean_shape == model.mean_shape);
+    EXPECT_TRUE(back.stages[0].weights == model.stages[0].weights);
+}
+
 std::string read_all(const std::filesystem::path& path) {
     std::ifstream in(path, std::ios::binary);
     return {std::istreambuf_iterator<char>(in), {}};
@@ -254,6 +294,34 @@ TEST(SdmModelFile, WrongTruncatedAndCorruptFilesGiveErrorsNamingTheFile) {
     newer[8] = 99;
     write_all(future, newer);
     expect_error_naming(future, "version");
+}
+
+// A version 2 file (no detector, one mean shape), made from a version 3 one by dropping the view
+// block: read as a frontal-detector model whose views all start from the mean shape.
+TEST(SdmModelFile, ReadsVersion2FilesAsFrontalDetectorModels) {
+    const SdmModel model = model_with_views();
+    const auto dir = testkit::fresh_temp_dir("sdm_model_v2");
+    write_sdm_model(dir / "v3.sdm", model);
+    const std::string v3 = read_all(dir / "v3.sdm");
+    constexpr std::size_t kPayload = 76;
+    const std::size_t view_block_at = kPayload + 68 * 2 * 8 + 2 * 4 + 9 * 8;  // after mean shape and box statistics
+    std::size_t view_block = 8;
+    for (const auto& shape : model.view_mean_shapes) view_block += 12 + static_cast<std::size_t>(shape.size()) * 8;
+    std::string v2 = v3.substr(0, view_block_at) + v3.substr(view_block_at + view_block);
+    const std::uint32_t version = 2;
+    std::memcpy(v2.data() + 8, &version, 4);
+    const std::uint64_t payload_size = v2.size() - kPayload;
+    std::memcpy(v2.data() + 60, &payload_size, 8);
+    std::uint64_t hash = 0xcbf29ce484222325ULL;
+    for (std::size_t i = kPayload; i < v2.size(); ++i) hash = (hash ^ static_cast<unsigned char>(v2[i])) * 0x100000001b3ULL;
+    std::memcpy(v2.data() + 68, &hash, 8);
+    write_all(dir / "v2.sdm", v2);
+
+    const SdmModel back = read_sdm_model(dir / "v2.sdm");
+    EXPECT_EQ(back.boxes.detector, DetectorKind::kFrontal);
+    for (std::size_t v = 0; v < kFaceViews; ++v) EXPECT_EQ(back.view_mean_shapes[v].size(), 0) << v;
+    EXPECT_TRUE(back.initial_shape(FaceView::kNoseLeft) == model.mean_shape);
+    EXPECT_TRUE(back.stages[0].weights == model.stages[0].weights);
 }
 
 TEST(SdmModelFile, HugeStageDimensionsAreRefusedBeforeAllocation) {
