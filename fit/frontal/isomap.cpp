@@ -69,7 +69,6 @@ UvRaster rasterise_uv(const MorphableModel& model, int size, render::Renderer& r
             if (ids[c] < 0) continue;
             UvRaster::Texel& texel = raster.texels[static_cast<std::size_t>(next[static_cast<std::size_t>(ids[c])]++)];
             texel.index = r * size + c;
-            texel.vertices = flat.triangles[static_cast<std::size_t>(ids[c])];
             const float sum = weights[c][0] + weights[c][1] + weights[c][2];
             for (int k = 0; k < 3; ++k) texel.weights[static_cast<std::size_t>(k)] = weights[c][k] / (sum > 0 ? sum : 1.0f);
         }
@@ -92,10 +91,12 @@ UvRaster rasterise_uv(const MorphableModel& model, int size, render::Renderer& r
 
 namespace {
 
-template <typename Vertices>
-Eigen::Vector3f interpolate(const Vertices& values, const UvRaster::Texel& t) {
-    return t.weights[0] * values.col(t.vertices[0]) + t.weights[1] * values.col(t.vertices[1]) +
-           t.weights[2] * values.col(t.vertices[2]);
+// Calls visit(texel position in raster.texels, texel, its triangle's corners) for every covered texel.
+template <typename Visit>
+void for_each_texel(const UvRaster& raster, Visit&& visit) {
+    for (const UvRaster::TriangleTexels& triangle : raster.triangles)
+        for (int i = triangle.first; i < triangle.first + triangle.count; ++i)
+            visit(static_cast<std::size_t>(i), raster.texels[static_cast<std::size_t>(i)], triangle.vertices);
 }
 
 cv::Mat as_bgr8(const cv::Mat& image) {
@@ -304,21 +305,20 @@ Eigen::Matrix2Xf mirror_positions(const MorphableModel& model, const UvRaster& r
     const float nan = std::numeric_limits<float>::quiet_NaN();
     Eigen::Matrix2Xf positions(2, static_cast<Eigen::Index>(raster.texels.size()));
     const float size = static_cast<float>(raster.size);
-    for (std::size_t i = 0; i < raster.texels.size(); ++i) {
-        const UvRaster::Texel& texel = raster.texels[i];
+    for_each_texel(raster, [&](std::size_t i, const UvRaster::Texel& texel, const std::array<int, 3>& corners) {
         Eigen::Vector2f uv = Eigen::Vector2f::Zero();
         bool known = true;
-        for (int k = 0; k < 3; ++k) {
-            const int mirror = symmetry[static_cast<std::size_t>(texel.vertices[static_cast<std::size_t>(k)])];
+        for (std::size_t k = 0; k < 3; ++k) {
+            const int mirror = symmetry[static_cast<std::size_t>(corners[k])];
             if (mirror < 0 || mirror >= model.num_vertices()) {
                 known = false;
                 break;
             }
-            uv += texel.weights[static_cast<std::size_t>(k)] * model.uv.col(mirror);
+            uv += texel.weights[k] * model.uv.col(mirror);
         }
         positions.col(static_cast<Eigen::Index>(i)) = known ? Eigen::Vector2f(uv.x() * size - 0.5f, uv.y() * size - 0.5f)
                                                             : Eigen::Vector2f(nan, nan);
-    }
+    });
     return positions;
 }
 
@@ -389,11 +389,14 @@ cv::Mat vertex_colour_isomap(const Eigen::Matrix3Xf& colours, const UvRaster& ra
     cv::Mat out(raster.size, raster.size, CV_8UC3, cv::Scalar::all(0));
     auto* pixels = out.ptr<cv::Vec3b>();
     const float inverse_gamma = 1.0f / gamma;
-    for (const UvRaster::Texel& texel : raster.texels) {
-        const Eigen::Vector3f rgb = interpolate(colours, texel).cwiseMax(0.0f).cwiseMin(1.0f);
+    for_each_texel(raster, [&](std::size_t, const UvRaster::Texel& texel, const std::array<int, 3>& corners) {
+        const Eigen::Vector3f rgb = (texel.weights[0] * colours.col(corners[0]) + texel.weights[1] * colours.col(corners[1]) +
+                                     texel.weights[2] * colours.col(corners[2]))
+                                        .cwiseMax(0.0f)
+                                        .cwiseMin(1.0f);
         pixels[texel.index] = cv::Vec3b(to_byte(255 * std::pow(rgb.z(), inverse_gamma)), to_byte(255 * std::pow(rgb.y(), inverse_gamma)),
                                         to_byte(255 * std::pow(rgb.x(), inverse_gamma)));
-    }
+    });
     return out;
 }
 

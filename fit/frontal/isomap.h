@@ -27,8 +27,7 @@ namespace facesynth::frontal {
 struct UvRaster {
     struct Texel {
         int index = 0;                         // r · size + c
-        std::array<int, 3> vertices{};         // the covering triangle's corners
-        std::array<float, 3> weights{};        // their barycentric weights at the texel centre
+        std::array<float, 3> weights{};        // barycentric weights of its triangle's corners at the texel centre
     };
     // A texel just outside the layout and its covered 8-neighbours, for padding textures.
     struct Padding {
@@ -38,11 +37,13 @@ struct UvRaster {
     };
     // The texels of one uv triangle: texels[first, first + count).
     struct TriangleTexels {
-        std::array<int, 3> vertices{};
+        std::array<int, 3> vertices{};       // the triangle's corners
         int first = 0, count = 0;
     };
     int size = 0;
-    std::vector<Texel> texels;               // covered texels, grouped by triangle, row-major within one
+    // Covered texels, grouped by triangle (row-major within one), 16 bytes each: the texel loops stream
+    // them once per face, so they carry no corners (those are in `triangles`).
+    std::vector<Texel> texels;
     std::vector<TriangleTexels> triangles;   // the groups, in the model's triangle order
     std::vector<Padding> padding;            // uncovered texels next to covered ones
 };

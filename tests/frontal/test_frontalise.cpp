@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <cstdlib>
@@ -167,9 +168,17 @@ cv::Mat reference_isomap(const cv::Mat& bgr, const MorphableModel& model, const 
     cv::erode(inside, inside, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
     const float cx = static_cast<float>(depth_camera.intrinsics.cx), cy = static_cast<float>(depth_camera.intrinsics.cy);
     cv::Mat isomap(raster.size, raster.size, CV_8UC4, cv::Scalar::all(0));
-    std::vector<UvRaster::Texel> texels = raster.texels;
+    struct CornersAndWeights {
+        int index = 0;
+        std::array<int, 3> vertices{};
+        std::array<float, 3> weights{};
+    };
+    std::vector<CornersAndWeights> texels;
+    for (const UvRaster::TriangleTexels& triangle : raster.triangles)
+        for (int i = triangle.first; i < triangle.first + triangle.count; ++i)
+            texels.push_back({raster.texels[static_cast<std::size_t>(i)].index, triangle.vertices, raster.texels[static_cast<std::size_t>(i)].weights});
     std::sort(texels.begin(), texels.end(), [](const auto& a, const auto& b) { return a.index < b.index; });
-    for (const UvRaster::Texel& texel : texels) {
+    for (const CornersAndWeights& texel : texels) {
         auto interpolate = [&](const auto& values) {
             return (texel.weights[0] * values.col(texel.vertices[0]) + texel.weights[1] * values.col(texel.vertices[1]) +
                     texel.weights[2] * values.col(texel.vertices[2])).eval();
