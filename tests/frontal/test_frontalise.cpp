@@ -236,20 +236,31 @@ TEST_F(FrontaliseTest, IsomapMatchesTheStraightforwardExtraction) {
 // frontal Haar cascade misses the face, the profile cascade (on the image, or on its mirror for the
 // other side) finds it, with the view that says where the nose points.
 TEST_F(FrontaliseTest, MultiViewDetectorFindsFacesAtYaw60ThatTheFrontalCascadeMisses) {
+    // Several identities, so that the assertion is about the detectors, not one face's colouring.
     const train::FaceDetector frontal_only(train::DetectorKind::kFrontal);
     const train::FaceDetector multi_view(train::DetectorKind::kMultiView);
+    constexpr int kFaces = 6;
     for (const double yaw : {-60.0, 60.0}) {
-        ViewOptions whole_head;
-        whole_head.framing = 2.5;
-        const SyntheticView v = render_view(frontaliser_->renderer(), *model_, *face_, yaw, whole_head, region_.get());
-        keep("detector_yaw" + std::to_string(static_cast<int>(yaw)) + ".png", v.image);
-        const cv::Mat gray = train::to_gray8(v.image);
-        EXPECT_FALSE(train::match_detection(frontal_only.detect(gray), v.landmarks).has_value()) << "yaw " << yaw;
-        const auto found = train::match_detection(multi_view.detect(gray), v.landmarks);
-        ASSERT_TRUE(found.has_value()) << "yaw " << yaw;
-        // Negative yaw turns the nose toward the image's left (docs/conventions.md).
-        EXPECT_EQ(found->view, yaw < 0 ? train::FaceView::kNoseLeft : train::FaceView::kNoseRight) << "yaw " << yaw;
-        EXPECT_LT((found->centre - v.landmarks.rowwise().mean()).norm(), 0.3 * found->width) << "yaw " << yaw;
+        int frontal_found = 0, multi_view_found = 0;
+        for (int index = 0; index < kFaces; ++index) {
+            const TexturedFace face = make_textured_face(*model_, *frontaliser_, 7, static_cast<std::uint64_t>(index), kIsomapSize);
+            ViewOptions whole_head;
+            whole_head.framing = 2.5;
+            const SyntheticView v = render_view(frontaliser_->renderer(), *model_, face, yaw, whole_head, region_.get());
+            keep("detector_yaw" + std::to_string(static_cast<int>(yaw)) + "_" + std::to_string(index) + ".png", v.image);
+            const cv::Mat gray = train::to_gray8(v.image);
+            frontal_found += train::match_detection(frontal_only.detect(gray), v.landmarks).has_value() ? 1 : 0;
+            const auto found = train::match_detection(multi_view.detect(gray), v.landmarks);
+            // Counted only with the right profile view: negative yaw turns the nose toward the image's
+            // left (docs/conventions.md).
+            if (!found || found->view != (yaw < 0 ? train::FaceView::kNoseLeft : train::FaceView::kNoseRight)) continue;
+            ++multi_view_found;
+            EXPECT_LT((found->centre - v.landmarks.rowwise().mean()).norm(), 0.3 * found->width) << "yaw " << yaw << ", face " << index;
+        }
+        std::printf("yaw %+.0f: frontal cascade found %d, multi-view %d of %d faces with the right view\n", yaw, frontal_found, multi_view_found, kFaces);
+        EXPECT_LE(frontal_found, 1) << "yaw " << yaw;
+        EXPECT_GE(multi_view_found, kFaces - 2) << "yaw " << yaw;
+        EXPECT_GE(multi_view_found, frontal_found + 3) << "yaw " << yaw;
     }
 }
 
