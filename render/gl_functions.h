@@ -60,6 +60,7 @@ namespace facesynth::render::detail {
     X(PFNGLGETUNIFORMLOCATIONPROC, GetUniformLocation)                  \
     X(PFNGLUNIFORM1IPROC, Uniform1i)                                    \
     X(PFNGLUNIFORM1FPROC, Uniform1f)                                    \
+    X(PFNGLUNIFORM1FVPROC, Uniform1fv)                                  \
     X(PFNGLUNIFORM3FVPROC, Uniform3fv)                                  \
     X(PFNGLUNIFORM4FVPROC, Uniform4fv)                                  \
     X(PFNGLUNIFORMMATRIX3FVPROC, UniformMatrix3fv)                      \
@@ -83,6 +84,8 @@ namespace facesynth::render::detail {
     X(PFNGLACTIVETEXTUREPROC, ActiveTexture)                            \
     X(PFNGLTEXIMAGE2DPROC, TexImage2D)                                  \
     X(PFNGLTEXSUBIMAGE2DPROC, TexSubImage2D)                            \
+    X(PFNGLTEXIMAGE3DPROC, TexImage3D)                                  \
+    X(PFNGLFRAMEBUFFERTEXTURELAYERPROC, FramebufferTextureLayer)        \
     X(PFNGLTEXPARAMETERIPROC, TexParameteri)                            \
     X(PFNGLFRAMEBUFFERTEXTURE2DPROC, FramebufferTexture2D)
 

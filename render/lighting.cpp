@@ -38,7 +38,8 @@ void from_json(const nlohmann::json& j, DirectionalLight& light) {
 
 void to_json(nlohmann::json& j, const Lighting& lighting) {
     j = nlohmann::json{{"sh", lighting.sh},           {"ambient", lighting.ambient}, {"lights", lighting.lights},
-                       {"specular", lighting.specular}, {"shininess", lighting.shininess}, {"gamma", lighting.gamma}};
+                       {"specular", lighting.specular}, {"shininess", lighting.shininess}, {"gamma", lighting.gamma},
+                       {"shadows", lighting.shadows}};
 }
 
 void from_json(const nlohmann::json& j, Lighting& lighting) {
@@ -49,6 +50,7 @@ void from_json(const nlohmann::json& j, Lighting& lighting) {
     read_key(j, "specular", lighting.specular);
     read_key(j, "shininess", lighting.shininess);
     read_key(j, "gamma", lighting.gamma);
+    read_key(j, "shadows", lighting.shadows);
 }
 
 }  // namespace facesynth::render

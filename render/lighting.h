@@ -8,6 +8,8 @@
 // where E_sh is the irradiance of the second-order spherical-harmonics environment
 // (Ramamoorthi & Hanrahan 2001): E(n) = Σ_lm Â_l L_lm Y_lm(n), Â = (π, 2π/3, π/4).
 // A uniform environment of radiance L has L_00 = L·√(4π) and shades albedo · L (white furnace).
+// With `shadows`, each directional light's diffuse and specular terms are multiplied by its
+// visibility from a shadow map (docs/render.md "Shadows"); the SH environment stays unshadowed.
 #include <nlohmann/json_fwd.hpp>
 
 #include <array>
@@ -30,6 +32,7 @@ struct Lighting {
     float specular = 0.0f;                          // Blinn-Phong strength (0 = matte)
     float shininess = 32.0f;
     float gamma = 2.2f;                             // output encoding: linear^(1/gamma); 1 = linear
+    bool shadows = false;                           // directional lights cast shadows (shadow maps)
 };
 
 // √(4π): the SH DC coefficient of a uniform environment of radiance 1.

@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <vector>
 
@@ -116,8 +117,10 @@ GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& sou
 // Shader variants: bit flags compiled in with #define (shaders.h).
 enum Variant : unsigned {
     kWithColour = 1, kWithNormals = 2, kWithIds = 4, kWithBarycentrics = 8, kWithTexture = 16, kWithLights = 32,
-    kTwoSided = 64, kNumVariants = 128
+    kTwoSided = 64, kWithShadows = 128, kNumVariants = 256
 };
+// No outputs: the depth-only pass that fills a shadow map.
+constexpr unsigned kDepthOnly = 0;
 
 GLuint link_program(const GlFunctions& gl, unsigned variant) {
     const bool with_barycentrics = (variant & kWithBarycentrics) != 0;
@@ -125,7 +128,7 @@ GLuint link_program(const GlFunctions& gl, unsigned variant) {
     const std::pair<Variant, const char*> defines[] = {
         {kWithColour, "WITH_COLOUR"}, {kWithNormals, "WITH_NORMALS"}, {kWithIds, "WITH_IDS"},
         {kWithBarycentrics, "WITH_BARYCENTRICS"}, {kWithTexture, "WITH_TEXTURE"}, {kWithLights, "WITH_LIGHTS"},
-        {kTwoSided, "TWO_SIDED"}};
+        {kTwoSided, "TWO_SIDED"}, {kWithShadows, "WITH_SHADOWS"}};
     for (const auto& [bit, name] : defines)
         if (variant & bit) header += std::string("#define ") + name + "\n";
     header += detail::kCommonHeader;
@@ -205,7 +208,8 @@ struct Program {
     GLuint id = 0;
     GLint model_to_clip = -1, model_to_camera = -1, sh = -1, ambient = -1, light_count = -1, light_direction = -1,
           light_colour = -1, specular = -1, shininess = -1, inverse_gamma = -1, perspective = -1,
-          window_to_ray = -1, albedo_texture = -1;
+          window_to_ray = -1, albedo_texture = -1, shadow_maps = -1, shadow_from_camera = -1, shadow_texel_depth = -1,
+          shadow_texel = -1;
 
     void locate(const GlFunctions& gl) {
         auto at = [&](const char* name) { return gl.GetUniformLocation(id, name); };
@@ -222,13 +226,80 @@ struct Program {
         perspective = at("perspective");
         window_to_ray = at("window_to_ray");
         albedo_texture = at("albedo_texture");
+        shadow_maps = at("shadow_maps");
+        shadow_from_camera = at("shadow_from_camera");
+        shadow_texel_depth = at("shadow_texel_depth");
+        shadow_texel = at("shadow_texel");
     }
 };
+
+// Directional lights in camera space (OpenCV axes), unit, toward the light.
+std::vector<Eigen::Vector3d> light_directions_in_camera(const Lighting& lighting) {
+    if (lighting.lights.size() > 4) throw Error("render: at most 4 directional lights are supported");
+    std::vector<Eigen::Vector3d> directions;
+    for (std::size_t i = 0; i < lighting.lights.size(); ++i) {
+        const auto& d = lighting.lights[i].direction;
+        const Eigen::Vector3d view(d[0], d[1], d[2]);
+        if (view.norm() == 0) throw Error("render: directional light " + std::to_string(i) + " has a zero direction");
+        directions.push_back(model_to_camera_flip() * view.normalized());
+    }
+    return directions;
+}
+
+// Shadow-map padding in texels on each side of the mesh's footprint, so that every PCF tap of a
+// mesh point (up to 2 texels away) reads inside the map.
+constexpr int kShadowPadTexels = 3;
+// Depth margin (mm) in front of and behind the mesh in light space.
+constexpr double kShadowDepthMarginMm = 1.0;
+
+// One light's orthographic shadow projection, fitted to the mesh as the light sees it.
+struct ShadowProjection {
+    Eigen::Matrix4d clip_from_camera;  // camera space to the light's clip space
+    double texel_mm = 0;               // the larger side of one texel
+    double depth_range_mm = 0;         // far - near
+};
+
+// Light space: x, y across the beam, z along it (away from the light); the orthographic box is the
+// mesh's bounding box in those axes (a tight fit, recomputed per render), padded by a few texels.
+ShadowProjection fit_shadow_projection(const Eigen::Vector3d& toward_light, const Eigen::Matrix3Xd& camera_points,
+                                       int map_size) {
+    const Eigen::Vector3d along = -toward_light;
+    const Eigen::Vector3d helper = std::abs(along.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d across_x = helper.cross(along).normalized();
+    const Eigen::Vector3d across_y = along.cross(across_x);
+    Eigen::Matrix3d light_from_camera;
+    light_from_camera << across_x.transpose(), across_y.transpose(), along.transpose();
+    Eigen::Vector3d low = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), high = -low;
+    for (Eigen::Index i = 0; i < camera_points.cols(); ++i) {
+        const Eigen::Vector3d p = light_from_camera * camera_points.col(i);
+        low = low.cwiseMin(p);
+        high = high.cwiseMax(p);
+    }
+    const double usable = static_cast<double>(map_size - 2 * kShadowPadTexels) / map_size;
+    Eigen::Matrix4d ortho = Eigen::Matrix4d::Identity();
+    double texel_mm = 0;
+    for (int axis = 0; axis < 2; ++axis) {
+        const double half = std::max(0.5 * (high[axis] - low[axis]), 1e-3) / usable;
+        ortho(axis, axis) = 1.0 / half;
+        ortho(axis, 3) = -0.5 * (high[axis] + low[axis]) / half;
+        texel_mm = std::max(texel_mm, 2.0 * half / map_size);
+    }
+    const double near = low.z() - kShadowDepthMarginMm, far = high.z() + kShadowDepthMarginMm;
+    ortho(2, 2) = 2.0 / (far - near);
+    ortho(2, 3) = -(far + near) / (far - near);
+    Eigen::Matrix4d light = Eigen::Matrix4d::Identity();
+    light.topLeftCorner<3, 3>() = light_from_camera;
+    return {ortho * light, texel_mm, far - near};
+}
 
 // The irradiance-convolved SH coefficients divided by π (Ramamoorthi & Hanrahan): Â_l / π.
 constexpr std::array<float, 9> kShBandScale{1.0f, 2.0f / 3.0f, 2.0f / 3.0f, 2.0f / 3.0f, 0.25f, 0.25f, 0.25f, 0.25f, 0.25f};
 
 }  // namespace
+
+// Texture unit of the shadow maps (unit 0 holds the albedo texture).
+constexpr GLint kShadowTextureUnit = 1;
+constexpr int kMinShadowMapSize = 16;
 
 // Single-sample colour attachments by shader output location, then the depth attachment.
 enum Target : std::size_t { kColourTarget = 0, kNormalTarget = 1, kIdTarget = 2, kBarycentricTarget = 3, kDepthTarget = 4 };
@@ -250,13 +321,21 @@ struct Renderer::Impl {
     GLuint msaa_fbo = 0;
     std::array<GLuint, 2> msaa_targets{};
     int width = 0, height = 0;  // this render's image: the bottom-left corner of the targets
-    int target_width = 0, target_height = 0, samples = 0, max_samples = 0;
+    int target_width = 0, target_height = 0, samples = 0, max_samples = 0, max_texture_size = 0;
     ProvokingTopology topology;
     Eigen::Matrix3Xf normals;
     std::vector<float> expanded;  // one attribute extended to every vertex slot
     std::vector<std::uint8_t> triangle_labels;
     cv::Mat rgba;                 // 8-bit colour + coverage read-back
     cv::Mat vectors;              // RGBA float read-back (normals, barycentrics)
+    // Shadow maps (created on the first render with shadows, kept for later ones): one depth layer
+    // per light, re-created only when the map size or a larger light count asks for it.
+    GLuint shadow_fbo = 0;
+    GLuint shadow_texture = 0;
+    int shadow_size = 0, shadow_layers = 0;
+    Eigen::Matrix3Xd camera_points;  // mesh vertices in camera space, for fitting the light boxes
+    std::array<float, 64> shadow_from_camera{};  // 4 column-major 4x4 matrices
+    std::array<float, 4> shadow_texel_depth{};
     double near_plane = 0, far_plane = 0;
     bool perspective = true;
 
@@ -285,6 +364,7 @@ struct Renderer::Impl {
         renderer_string = std::string(reinterpret_cast<const char*>(gl.GetString(GL_RENDERER))) + " | " +
                           reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
         gl.GetIntegerv(GL_MAX_SAMPLES, &max_samples);
+        gl.GetIntegerv(GL_MAX_TEXTURE_SIZE, &max_texture_size);
         (void)program(kWithColour | kWithIds);
         gl.GenVertexArrays(1, &vao);
         gl.GenBuffers(static_cast<GLsizei>(vertex_buffers.size()), vertex_buffers.data());
@@ -320,6 +400,8 @@ struct Renderer::Impl {
         gl.DeleteFramebuffers(1, &fbo);
         gl.DeleteFramebuffers(1, &msaa_fbo);
         gl.DeleteTextures(1, &texture);
+        if (shadow_fbo) gl.DeleteFramebuffers(1, &shadow_fbo);
+        if (shadow_texture) gl.DeleteTextures(1, &shadow_texture);
         gl.DeleteBuffers(1, &index_buffer);
         gl.DeleteBuffers(static_cast<GLsizei>(vertex_buffers.size()), vertex_buffers.data());
         gl.DeleteVertexArrays(1, &vao);
@@ -509,19 +591,13 @@ struct Renderer::Impl {
             for (std::size_t c = 0; c < 3; ++c) sh[3 * k + c] = lighting.sh[k][c] * kShBandScale[k];
         gl.Uniform3fv(program.sh, 9, sh.data());
         gl.Uniform3fv(program.ambient, 1, lighting.ambient.data());
-        if (lighting.lights.size() > 4) throw Error("render: at most 4 directional lights are supported");
         std::array<float, 12> directions{}, colours{};
-        const Eigen::Matrix3d flip = model_to_camera_flip();
-        for (std::size_t i = 0; i < lighting.lights.size(); ++i) {
-            const auto& light = lighting.lights[i];
-            Eigen::Vector3d d(light.direction[0], light.direction[1], light.direction[2]);
-            if (d.norm() == 0) throw Error("render: directional light " + std::to_string(i) + " has a zero direction");
-            d = flip * d.normalized();
+        const std::vector<Eigen::Vector3d> toward_lights = light_directions_in_camera(lighting);
+        for (std::size_t i = 0; i < toward_lights.size(); ++i)
             for (std::size_t c = 0; c < 3; ++c) {
-                directions[3 * i + c] = static_cast<float>(d[static_cast<Eigen::Index>(c)]);
-                colours[3 * i + c] = light.colour[c];
+                directions[3 * i + c] = static_cast<float>(toward_lights[i][static_cast<Eigen::Index>(c)]);
+                colours[3 * i + c] = lighting.lights[i].colour[c];
             }
-        }
         gl.Uniform1i(program.light_count, static_cast<GLint>(lighting.lights.size()));
         gl.Uniform3fv(program.light_direction, 4, directions.data());
         gl.Uniform3fv(program.light_colour, 4, colours.data());
@@ -535,6 +611,83 @@ struct Renderer::Impl {
                                                  static_cast<float>(k.cx + 0.5), static_cast<float>(k.cy + 0.5)};
         gl.Uniform4fv(program.window_to_ray, 1, window_to_ray.data());
         gl.Uniform1i(program.albedo_texture, 0);
+        if (program.shadow_maps >= 0) {
+            gl.Uniform1i(program.shadow_maps, kShadowTextureUnit);
+            gl.UniformMatrix4fv(program.shadow_from_camera, 4, GL_FALSE, shadow_from_camera.data());
+            gl.Uniform1fv(program.shadow_texel_depth, 4, shadow_texel_depth.data());
+            gl.Uniform1f(program.shadow_texel, 1.0f / static_cast<float>(shadow_size));
+        }
+    }
+
+    // Depth textures for `layers` lights at `size`²; the texture object is made once and its storage
+    // replaced only when the size changes or more lights than ever before need a layer.
+    void ensure_shadow_maps(int size, int layers) {
+        if (shadow_texture && size == shadow_size && layers <= shadow_layers) return;
+        if (size == shadow_size) layers = std::max(layers, shadow_layers);
+        if (!shadow_fbo) gl.GenFramebuffers(1, &shadow_fbo);
+        if (!shadow_texture) gl.GenTextures(1, &shadow_texture);
+        gl.ActiveTexture(GL_TEXTURE0 + kShadowTextureUnit);
+        gl.BindTexture(GL_TEXTURE_2D_ARRAY, shadow_texture);
+        gl.TexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_DEPTH_COMPONENT32F, size, size, layers, 0, GL_DEPTH_COMPONENT, GL_FLOAT,
+                      nullptr);
+        // Bilinear comparisons: each tap is a 2x2 percentage-closer filter in itself.
+        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+        gl.ActiveTexture(GL_TEXTURE0);
+        gl.BindFramebuffer(GL_FRAMEBUFFER, shadow_fbo);
+        gl.FramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, shadow_texture, 0, 0);
+        const GLenum none = GL_NONE;
+        gl.DrawBuffers(1, &none);
+        gl.ReadBuffer(GL_NONE);
+        if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            throw Error("render: shadow-map framebuffer incomplete at " + std::to_string(size) + "x" + std::to_string(size));
+        shadow_size = size;
+        shadow_layers = layers;
+        check("creating shadow maps");
+    }
+
+    // One depth-only pass per light, seen along the light with an orthographic box fitted to the mesh;
+    // fills the lookup matrices and bias scales that set_uniforms hands to the shading pass.
+    void render_shadow_maps(const Mesh& mesh, const Camera& camera, const std::vector<Eigen::Vector3d>& toward_lights,
+                            int size) {
+        if (size < kMinShadowMapSize || size > max_texture_size)
+            throw Error("render: shadow_map_size " + std::to_string(size) + " is out of range [" +
+                        std::to_string(kMinShadowMapSize) + ", " + std::to_string(max_texture_size) + "]");
+        ensure_shadow_maps(size, static_cast<int>(toward_lights.size()));
+        Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
+        model_to_camera.topLeftCorner<3, 3>() = model_to_camera_rotation(camera.pose);
+        model_to_camera.topRightCorner<3, 1>() = camera.pose.translation;
+        camera_points.resize(3, mesh.num_vertices());
+        camera_points.noalias() = model_to_camera.topLeftCorner<3, 3>() * mesh.vertices.cast<double>();
+        camera_points.colwise() += camera.pose.translation;
+        const Program& depth_only = program(kDepthOnly);
+        gl.UseProgram(depth_only.id);
+        gl.BindFramebuffer(GL_FRAMEBUFFER, shadow_fbo);
+        gl.Viewport(0, 0, size, size);
+        gl.Disable(GL_CULL_FACE);  // open meshes cast shadows with either side
+        Eigen::Matrix4d texture_from_clip = 0.5 * Eigen::Matrix4d::Identity();
+        texture_from_clip(3, 3) = 1.0;
+        texture_from_clip.topRightCorner<3, 1>().setConstant(0.5);
+        const float far_depth = 1.0f;
+        for (std::size_t i = 0; i < toward_lights.size(); ++i) {
+            const ShadowProjection projection = fit_shadow_projection(toward_lights[i], camera_points, size);
+            const Eigen::Matrix4f clip = (projection.clip_from_camera * model_to_camera).cast<float>();
+            gl.FramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, shadow_texture, 0, static_cast<GLint>(i));
+            gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
+            gl.UniformMatrix4fv(depth_only.model_to_clip, 1, GL_FALSE, clip.data());
+            draw();
+            const Eigen::Matrix4f lookup = (texture_from_clip * projection.clip_from_camera).cast<float>();
+            std::copy(lookup.data(), lookup.data() + 16, shadow_from_camera.begin() + static_cast<std::ptrdiff_t>(16 * i));
+            shadow_texel_depth[i] = static_cast<float>(projection.texel_mm / projection.depth_range_mm);
+        }
+        gl.ActiveTexture(GL_TEXTURE0 + kShadowTextureUnit);
+        gl.BindTexture(GL_TEXTURE_2D_ARRAY, shadow_texture);
+        gl.ActiveTexture(GL_TEXTURE0);
+        check("rendering shadow maps");
     }
 
     void draw() {
@@ -554,13 +707,16 @@ struct Renderer::Impl {
         gl.BindVertexArray(vao);
         const bool with_texture = extras.texture != nullptr;
         upload_mesh(mesh, extras, with_texture);
+        const bool with_shadows = settings.lighting.shadows && !settings.lighting.lights.empty();
+        if (with_shadows)
+            render_shadow_maps(mesh, camera, light_directions_in_camera(settings.lighting), settings.shadow_map_size);
         if (settings.cull_back_faces)
             gl.Enable(GL_CULL_FACE);
         else
             gl.Disable(GL_CULL_FACE);
         gl.Viewport(0, 0, w, h);
         const unsigned shading = (with_texture ? kWithTexture : 0u) | (settings.lighting.lights.empty() ? 0u : kWithLights) |
-                                 (settings.cull_back_faces ? 0u : kTwoSided);
+                                 (settings.cull_back_faces ? 0u : kTwoSided) | (with_shadows ? kWithShadows : 0u);
         const bool multisampled = samples > 1;
         const bool with_normals = settings.geometry && settings.normals;
         const bool with_ids = settings.geometry || settings.barycentrics;

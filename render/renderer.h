@@ -57,6 +57,11 @@ struct RenderSettings {
     // Only the z-buffer (frame.depth; every other map is left empty): no shading, no colour, id or
     // normal targets, no MSAA. For visibility passes, which need the nearest surface and nothing else.
     bool depth_only = false;
+    // Texels per side of each directional light's shadow map (with lighting.shadows), fitted to the
+    // mesh as the light sees it. 512: a texel is ~0.5 mm on a whole head, about half a pixel of a
+    // 256² render, so the 4x4-texel filter softens shadow edges over ~2 pixels; the depth pass costs
+    // in proportion to the map's area (docs/render.md "Shadows"). About 2x the image side is the rule.
+    int shadow_map_size = 512;
     Lighting lighting;
 };
 

@@ -186,6 +186,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"lighting.white_balance", &c.lighting.white_balance,
                  "share of the environment light's colour cast removed, as a camera's white balance does (0 = none, 1 = all)"});
     f.push_back({"lighting.specular_max", &c.lighting.specular_max, "Blinn-Phong specular weight upper bound"});
+    f.push_back({"lighting.shadow_probability", &c.lighting.shadow_probability,
+                 "share of samples whose directional lights cast shadows (shadow maps)"});
     f.push_back({"background.type", &c.background.type, "\"solid\", \"procedural\" or \"images\""});
     f.push_back({"background.folder", &c.background.folder, "folder of background images (type = \"images\")"});
     f.push_back({"degrade.blur_probability", &c.degrade.blur_probability, "share of images blurred"});
@@ -207,6 +209,7 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"occluders.max_size", &c.occluders.max_size, "largest occluder extent, share of the face size"});
     f.push_back({"landmarks.mode", &c.landmarks.mode, "jaw points written to .pts: \"contour\" (300-W style) or \"fixed\""});
     f.push_back({"render.msaa_samples", &c.render.msaa_samples, "multisample anti-aliasing samples (0 or 1 = none)"});
+    f.push_back({"render.shadow_map_size", &c.render.shadow_map_size, "shadow-map texels per side, per light (with shadows)"});
     f.push_back({"output.formats", &c.output.formats, "comma-separated: folder, wds, coco"});
     f.push_back({"output.image_format", &c.output.image_format, "\"png\" or \"jpg\""});
     f.push_back({"output.png_compression", &c.output.png_compression, "PNG zlib level 0-9 (low = fast, larger files)"});
@@ -274,6 +277,7 @@ void validate(const SynthConfig& c) {
     require(c.lighting.white_balance >= 0 && c.lighting.white_balance <= 1, "lighting.white_balance", "must lie in [0, 1]");
     require(c.lighting.colour_temperature_max <= 40000, "lighting.colour_temperature_max", "must be at most 40000 K");
     require(c.lighting.specular_max >= 0, "lighting.specular_max", "must not be negative");
+    validate_share(c.lighting.shadow_probability, "lighting.shadow_probability");
     require(c.background.type == "solid" || c.background.type == "procedural" || c.background.type == "images",
             "background.type", "must be \"solid\", \"procedural\" or \"images\"");
     require(c.background.type != "images" || !c.background.folder.empty(), "background.folder", "must name a folder when background.type = \"images\"");
@@ -294,6 +298,7 @@ void validate(const SynthConfig& c) {
     require(c.occluders.max_size > 0 && c.occluders.max_size <= 1, "occluders.max_size", "must be in (0, 1]");
     require(c.landmarks.mode == "contour" || c.landmarks.mode == "fixed", "landmarks.mode", "must be \"contour\" or \"fixed\"");
     require(c.render.msaa_samples >= 0 && c.render.msaa_samples <= 16, "render.msaa_samples", "must be in [0, 16]");
+    require(c.render.shadow_map_size >= 16 && c.render.shadow_map_size <= 8192, "render.shadow_map_size", "must be in [16, 8192]");
     (void)parse_formats(c.output.formats);
     require(c.output.image_format == "png" || c.output.image_format == "jpg", "output.image_format", "must be \"png\" or \"jpg\"");
     require(c.output.png_compression >= 0 && c.output.png_compression <= 9, "output.png_compression", "must be in [0, 9]");

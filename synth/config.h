@@ -71,6 +71,9 @@ struct LightingConfig {
     double colour_temperature_max = 7500;
     double white_balance = 0.7;  // share of the environment's colour cast that the camera removes
     double specular_max = 0.25;            // Blinn-Phong specular weight uniform in [0, specular_max]
+    // Share of samples whose directional lights cast shadows (shadow maps). Off by default: existing
+    // datasets and their figures stay byte-identical, and each shadowed light costs a depth pass.
+    double shadow_probability = 0;
 };
 
 struct BackgroundConfig {
@@ -104,6 +107,7 @@ struct OccluderConfig {
 
 struct RenderConfig {
     int msaa_samples = 4;  // colour anti-aliasing samples (0 or 1 = none; fewer is faster)
+    int shadow_map_size = 512;  // shadow-map texels per side, per light (render::RenderSettings)
 };
 
 struct LandmarkConfig {

@@ -125,6 +125,9 @@ LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
     }
     l.specular = static_cast<float>(rng.uniform(0.0, c.specular_max));
     white_balance(spec, c.white_balance);
+    // Drawn last, so that the draws above (and datasets made before shadows existed) are unchanged.
+    const bool shadows = chance(rng, c.shadow_probability);
+    l.shadows = shadows && !l.lights.empty();
     return spec;
 }
 

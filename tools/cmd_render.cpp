@@ -39,13 +39,15 @@ struct ViewArgs {
     bool orthographic = false;
     std::string backend = "auto";
     int msaa = 4;
+    std::string lighting_file;
+    bool shadows = false;
+    int shadow_map_size = render::RenderSettings{}.shadow_map_size;
 };
 
 struct RenderArgs {
     ViewArgs view;
     std::optional<std::int64_t> seed;
     double truncation = 3.0;
-    std::string lighting_file;
     std::string out;
     std::string json;
     bool quiet = false;
@@ -77,6 +79,35 @@ void add_view_options(CLI::App* cmd, ViewArgs& v) {
     cmd->add_option("--backend", v.backend, "auto, egl or osmesa (auto: EGL, then OSMesa)")
         ->check(CLI::IsMember({"auto", "egl", "osmesa"}))->capture_default_str();
     cmd->add_option("--msaa", v.msaa, "multisample anti-aliasing samples (0 = off)")->check(CLI::Range(0, 16))->capture_default_str();
+    cmd->add_option("--lighting", v.lighting_file, "lighting JSON (docs/render.md)")->check(CLI::ExistingFile);
+    cmd->add_flag("--shadows", v.shadows, "directional lights cast shadows (shadow maps; sets the lighting's \"shadows\")");
+    cmd->add_option("--shadow-map-size", v.shadow_map_size, "shadow map texels per side, per light")
+        ->check(CLI::Range(16, 16384))->capture_default_str();
+}
+
+// The render settings the view options ask for: MSAA, the lighting file and shadows.
+render::RenderSettings view_settings(const ViewArgs& v) {
+    render::RenderSettings settings;
+    settings.msaa_samples = v.msaa;
+    settings.shadow_map_size = v.shadow_map_size;
+    if (!v.lighting_file.empty()) {
+        try {
+            settings.lighting = nlohmann::json::parse(read_file(v.lighting_file)).get<render::Lighting>();
+        } catch (const nlohmann::json::exception& e) {
+            throw file_error(v.lighting_file, e.what());
+        } catch (const Error& e) {
+            throw file_error(v.lighting_file, e.what());
+        }
+    }
+    if (v.shadows) settings.lighting.shadows = true;
+    return settings;
+}
+
+// Shadows come from directional lights only; without one the flag changes nothing, which a user
+// who asked for shadows should hear about.
+void warn_if_shadows_have_no_light(const render::RenderSettings& settings, bool quiet) {
+    if (!quiet && settings.lighting.shadows && settings.lighting.lights.empty())
+        std::fprintf(stderr, "facesynth: warning: shadows have no effect without directional lights (add \"lights\" to --lighting)\n");
 }
 
 // A camera looking at the centre of the mesh's bounding box with the requested pose.
@@ -188,18 +219,9 @@ void run_render(const RenderArgs& a) {
     }
     const Mesh mesh = model.instance(alpha, psi, beta);
     const render::Camera camera = frame_camera(a.view, mesh);
-    render::RenderSettings settings;
-    settings.msaa_samples = a.view.msaa;
+    render::RenderSettings settings = view_settings(a.view);
     settings.barycentrics = false;
-    if (!a.lighting_file.empty()) {
-        try {
-            settings.lighting = nlohmann::json::parse(read_file(a.lighting_file)).get<render::Lighting>();
-        } catch (const nlohmann::json::exception& e) {
-            throw file_error(a.lighting_file, e.what());
-        } catch (const Error& e) {
-            throw file_error(a.lighting_file, e.what());
-        }
-    }
+    warn_if_shadows_have_no_light(settings, a.quiet);
     const JawContourRegion contour_region = jaw_contour_region(model);
     render::Renderer renderer({render::parse_backend(a.view.backend), true});
     render::MeshExtras extras;
@@ -240,6 +262,7 @@ void run_render(const RenderArgs& a) {
     j["beta"] = beta;
     j["lighting"] = settings.lighting;
     j["msaa"] = settings.msaa_samples;
+    j["shadow_map_size"] = settings.shadow_map_size;
     j["landmarks_fixed"] = points_json(lm.pixels);
     j["landmarks_contour"] = points_json(lm.contour_pixels);
     j["landmarks_3d_fixed"] = points_json(lm.model_points);
@@ -273,8 +296,9 @@ void run_bench(const BenchArgs& b) {
     std::vector<render::Renderer> pool;
     // Contexts are created (and warmed up) before timing: the benchmark measures steady-state renders.
     for (int t = 0; t < threads; ++t) pool.emplace_back(render::RendererOptions{render::parse_backend(b.view.backend), true});
-    render::RenderSettings settings;
-    settings.msaa_samples = b.view.msaa;
+    render::RenderSettings settings = view_settings(b.view);
+    if (settings.lighting.shadows && settings.lighting.lights.empty())
+        throw Error("bench render: --shadows needs directional lights to measure (--lighting FILE with \"lights\")");
     settings.geometry = !b.colour_only;
     settings.normals = !b.no_normals;
     settings.barycentrics = b.barycentrics;
@@ -341,14 +365,17 @@ void run_bench(const BenchArgs& b) {
     j["count"] = total;
     j["threads"] = threads;
     j["msaa"] = b.view.msaa;
+    j["lights"] = settings.lighting.lights.size();
+    j["shadows"] = settings.lighting.shadows;
+    j["shadow_map_size"] = settings.shadow_map_size;
     j["barycentrics"] = b.barycentrics;
     j["geometry"] = !b.colour_only;
     j["normals"] = !b.colour_only && !b.no_normals;
     j["lp_num_threads"] = lp_threads ? lp_threads : "";
     if (!b.json.empty()) write_json_file(b.json, j);
-    std::printf("bench render: %s (%d vertices) %dx%d, %d thread(s), msaa %d: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
+    std::printf("bench render: %s (%d vertices) %dx%d, %d thread(s), msaa %d, %zu light(s), shadows %s: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
                 model.name.c_str(), mesh.num_vertices(), j["width"].get<int>(), j["height"].get<int>(), threads, b.view.msaa,
-                rate, j["ms_per_render"].get<double>(), j["cpu_ms_per_render"].get<double>(), backends[0].c_str(), renderers[0].c_str());
+                settings.lighting.lights.size(), settings.lighting.shadows ? "on" : "off", rate, j["ms_per_render"].get<double>(), j["cpu_ms_per_render"].get<double>(), backends[0].c_str(), renderers[0].c_str());
 }
 
 }  // namespace
@@ -359,7 +386,6 @@ void register_render_commands(CLI::App& app) {
     add_view_options(cmd, args->view);
     cmd->add_option("--seed", args->seed, "draw identity and albedo from the model's prior with this seed (default: mean face)");
     cmd->add_option("--truncation", args->truncation, "coefficient truncation in standard deviations")->capture_default_str();
-    cmd->add_option("--lighting", args->lighting_file, "lighting JSON (docs/render.md)")->check(CLI::ExistingFile);
     cmd->add_option("--out,-o", args->out, "output folder")->required();
     cmd->add_option("--json", args->json, "also write render.json's content to this file");
     cmd->add_flag("--quiet,-q", args->quiet, "print nothing");

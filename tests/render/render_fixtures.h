@@ -9,6 +9,8 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <string>
 #include <map>
 #include <memory>
 
@@ -33,6 +35,15 @@ inline render::Camera make_camera(double yaw, double pitch, double roll, int wid
     camera.pose.rotation = rotation_from_euler({yaw, pitch, roll});
     camera.pose.translation = Eigen::Vector3d(0, 0, distance);
     return camera;
+}
+
+// Resident memory of this process (VmRSS, KiB), for checks that repeated renders do not grow it.
+inline long resident_kib() {
+    std::ifstream status("/proc/self/status");
+    std::string line;
+    while (std::getline(status, line))
+        if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+    return -1;
 }
 
 // Writes an RGB frame as PNG under the test temporary folder for a person to look at.

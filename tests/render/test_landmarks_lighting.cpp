@@ -8,7 +8,6 @@
 #include <nlohmann/json.hpp>
 #include <gtest/gtest.h>
 
-#include <fstream>
 #include <thread>
 
 namespace facesynth {
@@ -148,14 +147,6 @@ TEST(Lighting, JsonRoundTrip) {
     EXPECT_THROW((void)nlohmann::json::parse(R"({"gamma": "x"})").get<render::Lighting>(), Error);
 }
 
-long resident_kib() {
-    std::ifstream status("/proc/self/status");
-    std::string line;
-    while (std::getline(status, line))
-        if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
-    return -1;
-}
-
 TEST(Resources, ThousandsOfRendersKeepMemorySteady) {
 #if defined(__SANITIZE_ADDRESS__)
     // AddressSanitizer holds freed blocks in its quarantine (256 MB by default), so RSS keeps growing
@@ -175,9 +166,9 @@ TEST(Resources, ThousandsOfRendersKeepMemorySteady) {
         }
     };
     run(300);
-    const long before = resident_kib();
+    const long before = testkit::resident_kib();
     run(2000);
-    const long after = resident_kib();
+    const long after = testkit::resident_kib();
     EXPECT_LT(after - before, 2048) << "RSS grew from " << before << " to " << after << " KiB";
 }
 

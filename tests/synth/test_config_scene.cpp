@@ -160,6 +160,34 @@ TEST(SynthScene, NeutralShareGivesEmptyExpressions) {
     }
 }
 
+TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
+    const MorphableModel model = testkit::make_toy_model();
+    SynthConfig off, on, half;
+    on.lighting.shadow_probability = 1.0;
+    half.lighting.shadow_probability = 0.5;
+    int lit = 0, half_shadowed = 0;
+    for (int i = 0; i < 40; ++i) {
+        const render::Lighting a = sample_scene(off, model, i).lighting.lighting;
+        const render::Lighting b = sample_scene(on, model, i).lighting.lighting;
+        EXPECT_FALSE(a.shadows) << i;
+        EXPECT_EQ(b.shadows, !b.lights.empty()) << i;  // no directional light, nothing to shadow
+        nlohmann::json ja = a, jb = b;
+        ja.erase("shadows");
+        jb.erase("shadows");
+        EXPECT_EQ(ja, jb) << i;  // the other draws are those of a dataset without shadows
+        lit += b.lights.empty() ? 0 : 1;
+        half_shadowed += sample_scene(half, model, i).lighting.lighting.shadows ? 1 : 0;
+    }
+    EXPECT_GT(lit, 10);
+    EXPECT_GT(half_shadowed, 0);
+    EXPECT_LT(half_shadowed, lit);
+    half.lighting.shadow_probability = 1.5;
+    EXPECT_NE(error_of([&] { validate(half); }).find("lighting.shadow_probability"), std::string::npos);
+    half.lighting.shadow_probability = 0.5;
+    half.render.shadow_map_size = 8;
+    EXPECT_NE(error_of([&] { validate(half); }).find("render.shadow_map_size"), std::string::npos);
+}
+
 TEST(SynthScene, ColourTemperatureIsWhiteAtDaylightAndWarmBelow) {
     const auto daylight = colour_of_temperature(6500);
     EXPECT_NEAR(daylight.x(), 1.0, 1e-9);

@@ -11,6 +11,7 @@
 #include "morph/random.h"
 #include "morph/regions.h"
 #include "synth/dataset.h"
+#include "synth/scene.h"
 #include "synth/tar.h"
 
 #include <gtest/gtest.h>
@@ -133,6 +134,35 @@ TEST(SynthCli, MetaCarriesGroundTruthConsistentWithPts) {
     }
     const auto manifest = read_file(dir / "manifest.jsonl");
     EXPECT_EQ(std::count(manifest.begin(), manifest.end(), '\n'), 3);
+}
+
+TEST(SynthCli, ShadowProbabilityShadowsTheSamplesWithLightsAndRecordsIt) {
+    const auto plain = testkit::fresh_temp_dir("synth_shadows_off"), shadowed = testkit::fresh_temp_dir("synth_shadows_on");
+    const std::string args = " --model " + toy_model_file().string() + " -n 8 --size 96 --seed 3 --threads 1 --quiet" +
+                             " --set lighting.directional_max=2 --set lighting.intensity_min=0.6 --set lighting.intensity_max=0.9" +
+                             " --set render.shadow_map_size=512";
+    std::string log;
+    ASSERT_EQ(synth(" -o " + plain.string() + args, &log), 0) << log;
+    ASSERT_EQ(synth(" -o " + shadowed.string() + args + " --set lighting.shadow_probability=1", &log), 0) << log;
+    const auto config = nlohmann::json::parse(read_file(shadowed / "dataset.json"));
+    EXPECT_EQ(config["config"]["lighting"]["shadow_probability"], 1.0) << config.dump();
+    int with_lights = 0, changed = 0;
+    for (int i = 0; i < 8; ++i) {
+        const std::string key = sample_key(i);
+        const auto meta = nlohmann::json::parse(read_file(shadowed / "meta" / (key + ".json")));
+        const auto plain_meta = nlohmann::json::parse(read_file(plain / "meta" / (key + ".json")));
+        const bool lights = !meta["lighting"]["lights"].empty();
+        EXPECT_EQ(meta["lighting"]["shadows"], lights) << key;
+        EXPECT_EQ(plain_meta["lighting"]["shadows"], false) << key;
+        const bool same_image = read_file(shadowed / "images" / (key + ".png")) == read_file(plain / "images" / (key + ".png"));
+        if (!lights) {
+            EXPECT_TRUE(same_image) << key << ": no directional light, nothing to shadow";
+        }
+        with_lights += lights ? 1 : 0;
+        changed += same_image ? 0 : 1;
+    }
+    EXPECT_GT(with_lights, 0);
+    EXPECT_GT(changed, 0);  // the toy's nose shadows its face under some of the lights
 }
 
 // Starts `facesynth<args>` in a child process (output discarded) and returns its pid.
