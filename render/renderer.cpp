@@ -668,6 +668,7 @@ struct Renderer::Impl {
         gl.UseProgram(depth_only.id);
         gl.BindFramebuffer(GL_FRAMEBUFFER, shadow_fbo);
         gl.Viewport(0, 0, size, size);
+        gl.Scissor(0, 0, size, size);  // the image's scissor (ensure_targets) would clip the map
         gl.Disable(GL_CULL_FACE);  // open meshes cast shadows with either side
         Eigen::Matrix4d texture_from_clip = 0.5 * Eigen::Matrix4d::Identity();
         texture_from_clip(3, 3) = 1.0;
@@ -684,6 +685,7 @@ struct Renderer::Impl {
             std::copy(lookup.data(), lookup.data() + 16, shadow_from_camera.begin() + static_cast<std::ptrdiff_t>(16 * i));
             shadow_texel_depth[i] = static_cast<float>(projection.texel_mm / projection.depth_range_mm);
         }
+        gl.Scissor(0, 0, width, height);
         gl.ActiveTexture(GL_TEXTURE0 + kShadowTextureUnit);
         gl.BindTexture(GL_TEXTURE_2D_ARRAY, shadow_texture);
         gl.ActiveTexture(GL_TEXTURE0);
