@@ -24,6 +24,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <memory>
 #include <thread>
 
@@ -50,12 +51,15 @@ struct TrainArgs {
     std::vector<int> ranks = SdmTrainOptions{}.ranks;
     int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
     std::string detector = "multiview";
+    LbfTrainOptions lbf;
     std::filesystem::path json;
     bool quiet = false;
 };
 
 void run_train(const TrainArgs& args) {
     const auto start = std::chrono::steady_clock::now();
+    const std::clock_t cpu_start = std::clock();
+    if (args.method == "lbf") check_lbf_options(args.lbf);  // before the long preparation
     const auto images = list_labelled_images(split_folder_list(args.data));
     PreparedFaces prepared;
     {
@@ -140,15 +144,26 @@ void run_train(const TrainArgs& args) {
         if (!args.quiet) std::printf("training dlib ERT (cascade depth %d, oversampling %d)...\n", options.cascade_depth, options.oversampling);
         train_dlib_ert(prepared.faces, options, args.out);
     } else if (args.method == "lbf") {
-        LbfTrainOptions options;
+        LbfTrainOptions options = args.lbf;
         options.augment = args.augment;
         options.seed = args.seed;
-        if (!args.quiet) std::printf("training OpenCV LBF (%d stages, %d initial shapes)...\n", options.stages, options.augment);
-        train_lbf(prepared.faces, options, args.out);
+        if (!args.quiet)
+            std::printf("training OpenCV LBF (%d stages, %d trees of depth %d per landmark, %d initial shapes)...\n",
+                        options.stages, options.trees, options.depth, options.augment);
+        const LbfTrainReport r = train_lbf(prepared.faces, options, args.out);
+        report["lbf_faces_used"] = r.faces_used;
+        report["lbf_faces_outside_box"] = r.faces_outside_box;
+        report["train_nme_initial"] = r.train_nme_initial;
+        report["train_nme_final"] = r.train_nme_final;
+        if (!args.quiet)
+            std::printf("%d faces used (%d outside OpenCV's box test); training NME (mean shape -> LBF): %.4f -> %.4f\n",
+                        r.faces_used, r.faces_outside_box, r.train_nme_initial, r.train_nme_final);
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double cpu_seconds = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
     report["seconds"] = seconds;
-    if (!args.quiet) std::printf("wrote %s (%.1f s)\n", args.out.string().c_str(), seconds);
+    report["cpu_seconds"] = cpu_seconds;
+    if (!args.quiet) std::printf("wrote %s (%.1f s, %.1f s CPU)\n", args.out.string().c_str(), seconds, cpu_seconds);
     if (!args.json.empty()) write_json_file(args.json, report);
 }
 
@@ -393,7 +408,7 @@ void register_train_commands(CLI::App& app) {
             ->check(CLI::IsMember({"sdm", "ert", "lbf"}))
             ->capture_default_str();
         cmd->add_option("--stages", args->stages, "SDM cascade stages")->check(CLI::Range(1, 8))->capture_default_str();
-        cmd->add_option("--augment", args->augment, "Perturbed initialisations per face")
+        cmd->add_option("--augment", args->augment, "Perturbed initialisations per face (LBF: initial shapes, initShape_n)")
             ->check(CLI::Range(1, 1000))
             ->capture_default_str();
         cmd->add_option("--threads", args->threads, "Worker threads (results do not depend on it)")
@@ -428,6 +443,27 @@ void register_train_commands(CLI::App& app) {
                         "multiview (frontal + profile cascades, one mean shape per view)")
             ->check(CLI::IsMember({"frontal", "multiview"}))
             ->capture_default_str();
+        cmd->add_option("--lbf-stages", args->lbf.stages, "LBF: cascade stages (stages_n)")
+            ->check(CLI::Range(1, 20))
+            ->capture_default_str();
+        cmd->add_option("--lbf-trees", args->lbf.trees, "LBF: trees per landmark and stage (tree_n)")
+            ->check(CLI::Range(1, 100))
+            ->capture_default_str();
+        cmd->add_option("--lbf-depth", args->lbf.depth, "LBF: tree depth (tree_depth; 2^(depth-1) leaves)")
+            ->check(CLI::Range(2, 12))
+            ->capture_default_str();
+        cmd->add_option("--lbf-features", args->lbf.features,
+                        "LBF: candidate pixel-difference features per split, one per stage (feats_m)")
+            ->delimiter(',')
+            ->check(CLI::Range(1, 100000))
+            ->capture_default_str();
+        cmd->add_option("--lbf-radii", args->lbf.radii,
+                        "LBF: feature sampling radius per stage, in box half-widths (radius_m)")
+            ->delimiter(',')
+            ->check(CLI::Range(0.001, 2.0))
+            ->capture_default_str();
+        cmd->add_flag("--lbf-verbose", args->lbf.verbose,
+                      "LBF: OpenCV's own print-out (per-stage forest and regression times, liblinear iterations)");
         cmd->add_option("--json", args->json, "Write a JSON summary here");
         cmd->add_flag("--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_train(*args); });

@@ -1,6 +1,7 @@
 #include "cartoon_faces.h"
 
 #include "morph/random.h"
+#include "train/face_box.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -108,6 +109,22 @@ CartoonFace make_cartoon_face(std::uint64_t seed, std::uint64_t index, int image
     noisy += noise;
     noisy.convertTo(face.gray, CV_8UC1);
     return face;
+}
+
+std::vector<train::TrainingFace> cartoon_training_faces(std::uint64_t seed, int count) {
+    using namespace train;
+    std::vector<TrainingFace> faces;
+    for (int i = 0; i < count; ++i) {
+        const auto cartoon = testkit::make_cartoon_face(seed, static_cast<std::uint64_t>(i));
+        Rng rng(seed, static_cast<std::uint64_t>(i), 5);
+        const Eigen::Vector2d low = cartoon.landmarks.rowwise().minCoeff(), high = cartoon.landmarks.rowwise().maxCoeff();
+        FaceBox box;
+        box.width = (high - low).maxCoeff() * (1.0 + 0.03 * rng.normal());
+        box.centre = (low + high) / 2 + 0.03 * box.width * Eigen::Vector2d(rng.normal(), rng.normal());
+        const FaceFrame frame{box};
+        faces.push_back({canonical_crop(cartoon.gray, frame), frame.to_canonical(cartoon.landmarks), true});
+    }
+    return faces;
 }
 
 }  // namespace facesynth::testkit

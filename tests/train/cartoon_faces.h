@@ -4,7 +4,10 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "train/sdm.h"
+
 #include <cstdint>
+#include <vector>
 
 namespace facesynth::testkit {
 
@@ -15,5 +18,9 @@ struct CartoonFace {
 
 // Face i of a reproducible family: random shape jitter, position, scale, rotation, noise.
 [[nodiscard]] CartoonFace make_cartoon_face(std::uint64_t seed, std::uint64_t index, int image_size = 200);
+
+// Cartoon faces cut out around a box derived from their landmarks with a little jitter (the
+// detector-miss path of real training), as canonical training faces.
+[[nodiscard]] std::vector<train::TrainingFace> cartoon_training_faces(std::uint64_t seed, int count);
 
 }  // namespace facesynth::testkit

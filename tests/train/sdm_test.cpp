@@ -16,22 +16,7 @@
 namespace facesynth::train {
 namespace {
 
-// Cartoon faces cut out around a box derived from their landmarks with a little jitter (the
-// detector-miss path of real training), as canonical training faces.
-std::vector<TrainingFace> cartoon_training_faces(std::uint64_t seed, int count) {
-    std::vector<TrainingFace> faces;
-    for (int i = 0; i < count; ++i) {
-        const auto cartoon = testkit::make_cartoon_face(seed, static_cast<std::uint64_t>(i));
-        Rng rng(seed, static_cast<std::uint64_t>(i), 5);
-        const Eigen::Vector2d low = cartoon.landmarks.rowwise().minCoeff(), high = cartoon.landmarks.rowwise().maxCoeff();
-        FaceBox box;
-        box.width = (high - low).maxCoeff() * (1.0 + 0.03 * rng.normal());
-        box.centre = (low + high) / 2 + 0.03 * box.width * Eigen::Vector2d(rng.normal(), rng.normal());
-        const FaceFrame frame{box};
-        faces.push_back({canonical_crop(cartoon.gray, frame), frame.to_canonical(cartoon.landmarks), true});
-    }
-    return faces;
-}
+using testkit::cartoon_training_faces;
 
 struct HeldOutErrors {
     double initial = 0;
