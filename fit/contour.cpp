@@ -155,11 +155,10 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
     Eigen::Matrix2Xd projected(2, static_cast<Eigen::Index>(cand.size()));
     for (std::size_t c = 0; c < cand.size(); ++c) projected.col(static_cast<Eigen::Index>(c)) = project(position_of(cand[c]));
     for (int j : fallback) {
-        const int wanted_side = j < kChinLandmark ? -1 : 1;
+        const signed char wanted_side = j < kChinLandmark ? -1 : 1;
         double best = std::numeric_limits<double>::max();
         for (std::size_t c = 0; c < cand.size(); ++c) {
-            const int s = side_[static_cast<std::size_t>(cand[c])];
-            if (s != wanted_side) continue;
+            if (side_[static_cast<std::size_t>(cand[c])] != wanted_side) continue;
             const double d = (projected.col(static_cast<Eigen::Index>(c)) - landmarks.col(j)).squaredNorm();
             if (d < best) {
                 best = d;

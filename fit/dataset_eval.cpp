@@ -21,7 +21,7 @@ nlohmann::json parse_json_file(const fs::path& path) {
     if (!in) throw file_error(path.string(), "cannot open");
     std::ostringstream text;
     text << in.rdbuf();
-    const auto j = nlohmann::json::parse(text.str(), nullptr, false);
+    auto j = nlohmann::json::parse(text.str(), nullptr, false);
     if (j.is_discarded()) throw file_error(path.string(), "not valid JSON (truncated or corrupt?)");
     if (!j.is_object()) throw file_error(path.string(), "expected a JSON object");
     return j;

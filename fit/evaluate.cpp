@@ -24,7 +24,7 @@ double thread_cpu_ms() {
 }
 
 double rmse(const Eigen::VectorXf& a, const Eigen::VectorXf& b) {
-    return std::sqrt((a - b).cast<double>().squaredNorm() / static_cast<double>(a.size() / 3));
+    return std::sqrt(3.0 * (a - b).cast<double>().squaredNorm() / static_cast<double>(a.size()));  // per vertex
 }
 
 }  // namespace
@@ -107,6 +107,7 @@ std::vector<LambdaScore> score_lambdas(const Fitter& fitter, const std::vector<d
                                        std::uint64_t seed, const SyntheticOptions& synthetic, const FitOptions& base) {
     if (count < 1) throw Error("lambda selection: needs at least one validation case");
     std::vector<SyntheticCase> cases;
+    cases.reserve(static_cast<std::size_t>(count));
     for (int i = 0; i < count; ++i) cases.push_back(make_synthetic_case(fitter.model(), seed, static_cast<std::uint64_t>(i), synthetic));
     std::vector<LambdaScore> scores;
     for (double lambda : candidates) {

@@ -305,7 +305,7 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
         return out;
     };
     auto estimate_camera = [&]() {
-        const Eigen::Matrix3Xd x3 = lin.positions(alpha, psi);
+        Eigen::Matrix3Xd x3 = lin.positions(alpha, psi);
         result.camera = estimate_affine_camera(observed, x3, weights);
         result.pose = decompose(result.camera);
         // Re-centre the translation for the orthonormalised camera (weighted mean residual).

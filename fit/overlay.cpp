@@ -21,7 +21,7 @@ cv::Mat draw_fit_overlay(const cv::Mat& image, const Eigen::Matrix2Xd& vertices_
     if (out.depth() != CV_8U) out.convertTo(out, CV_8U);
     const int thickness = std::max(1, std::min(out.cols, out.rows) / 500);
     const int shift = 4;  // sub-pixel drawing: coordinates in 1/16 pixel
-    auto point = [&](const Eigen::Vector2d& p) { return cv::Point(static_cast<int>(p.x() * (1 << shift) + 0.5), static_cast<int>(p.y() * (1 << shift) + 0.5)); };
+    auto point = [&](const Eigen::Vector2d& p) { return cv::Point(cvRound(p.x() * (1 << shift)), cvRound(p.y() * (1 << shift))); };
     cv::Mat wire = out.clone();
     for (const auto& t : triangles) {
         const Eigen::Vector2d a = vertices_px.col(t[0]), b = vertices_px.col(t[1]), c = vertices_px.col(t[2]);

@@ -27,7 +27,7 @@ inline std::filesystem::path scratch_dir() {
 
 // Writes the input to scratch_dir()/name and returns that path.
 inline std::filesystem::path write_input(std::string_view bytes, const std::string& name) {
-    const auto path = scratch_dir() / name;
+    auto path = scratch_dir() / name;
     std::filesystem::create_directories(path.parent_path());
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));

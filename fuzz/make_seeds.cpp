@@ -127,6 +127,7 @@ int main(int argc, char** argv) {
         for (const auto& entry : fs::directory_iterator(run.out / "meta"))
             fs::copy_file(entry.path(), out / "dataset_meta" / entry.path().filename(), fs::copy_options::overwrite_existing);
         fs::copy_file(run.out / "dataset.json", out / "dataset_meta" / "dataset.json", fs::copy_options::overwrite_existing);
+        fs::copy_file(run.out / "manifest.jsonl", out / "dataset_meta" / "manifest.jsonl", fs::copy_options::overwrite_existing);
         fs::remove_all(run.out);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "make_seeds: %s\n", e.what());

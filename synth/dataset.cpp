@@ -553,6 +553,14 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
     return result;
 }
 
+nlohmann::json read_json_file(const fs::path& path) {
+    try {
+        return nlohmann::json::parse(read_file(path));
+    } catch (const nlohmann::json::exception& e) {
+        throw file_error(path.string(), std::string("invalid JSON: ") + e.what());
+    }
+}
+
 nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::int64_t>& indices, const SynthConfig& config) {
     nlohmann::json names = nlohmann::json::array();
     for (int i = 1; i <= kNumIbugLandmarks; ++i) names.push_back("ibug_" + std::to_string(i));
@@ -576,12 +584,7 @@ nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::in
     for (const auto index : indices) {
         const std::string key = sample_key(index);
         const fs::path meta_path = dataset / "meta" / (key + ".json");
-        nlohmann::json meta;
-        try {
-            meta = nlohmann::json::parse(read_file(meta_path));
-        } catch (const nlohmann::json::exception& e) {
-            throw file_error(meta_path.string(), std::string("invalid JSON: ") + e.what());
-        }
+        const nlohmann::json meta = read_json_file(meta_path);
         // A meta file edited or damaged by hand: every access is checked (at()), and a wrong key,
         // type or length is reported against the file.
         try {
@@ -624,7 +627,9 @@ nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::in
 SynthConfig read_dataset_config(const fs::path& dataset) {
     const fs::path path = dataset / "dataset.json";
     try {
-        return config_from_json(nlohmann::json::parse(read_file(path)).at("config"));
+        SynthConfig config = config_from_json(nlohmann::json::parse(read_file(path)).at("config"));
+        validate(config);  // a hand-edited file must not reach merge with, say, wds_shard_size 0
+        return config;
     } catch (const nlohmann::json::exception& e) {
         throw file_error(path.string(), std::string("not a facesynth dataset.json: ") + e.what());
     } catch (const Error& e) {
@@ -632,20 +637,54 @@ SynthConfig read_dataset_config(const fs::path& dataset) {
     }
 }
 
+namespace {
+
+// What decides whether two dataset folders may be merged: the configuration and model checksum of
+// their dataset.json (read_dataset_config checks the configuration itself first).
+nlohmann::json read_dataset_identity(const fs::path& dataset) {
+    const fs::path path = dataset / "dataset.json";
+    (void)read_dataset_config(dataset);
+    try {
+        const nlohmann::json info = nlohmann::json::parse(read_file(path));
+        const auto checksum = info.find("model_checksum");
+        if (checksum != info.end() && !checksum->is_string()) throw file_error(path.string(), "model_checksum must be a string");
+        return dataset_identity(info.at("config"), checksum == info.end() ? "" : checksum->get<std::string>());
+    } catch (const nlohmann::json::exception& e) {
+        throw file_error(path.string(), std::string("not a facesynth dataset.json: ") + e.what());
+    }
+}
+
+// The sample index of one manifest line; a line that is not an entry of this dataset (no integer
+// "index" below count, or a "key" that is not that index's) is an error naming file and line.
+std::int64_t manifest_line_index(const std::string& line, const SynthConfig& config, const fs::path& manifest, int line_number) {
+    const auto bad = [&](const std::string& problem) {
+        return file_error(manifest.string(), "line " + std::to_string(line_number) + ": " + problem);
+    };
+    const auto parsed = nlohmann::json::parse(line, nullptr, false);
+    if (parsed.is_discarded() || !parsed.is_object()) throw bad("not a manifest entry (a JSON object per line)");
+    const auto index = parsed.find("index");
+    if (index == parsed.end() || !index->is_number_integer()) throw bad("no integer \"index\" key");
+    const auto value = index->get<std::int64_t>();
+    if (value < 0 || value >= config.count)
+        throw bad("index " + std::to_string(value) + " is outside the dataset's 0.." + std::to_string(config.count - 1));
+    const auto key = parsed.find("key");
+    if (key != parsed.end() && !(key->is_string() && key->get<std::string>() == sample_key(value)))
+        throw bad("key " + key->dump() + " does not match index " + std::to_string(value));
+    return value;
+}
+
+}  // namespace
+
 MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& out) {
     if (inputs.empty()) throw Error("synth merge: name at least one dataset folder");
     const fs::path first_info = inputs.front() / "dataset.json";
-    const nlohmann::json info = nlohmann::json::parse(read_file(first_info), nullptr, false);
-    if (info.is_discarded()) throw file_error(first_info.string(), "invalid JSON");
     const SynthConfig config = read_dataset_config(inputs.front());
     const auto formats = parse_formats(config.output.formats);
-    const auto identity = dataset_identity(info.at("config"), info.value("model_checksum", ""));
+    const auto identity = read_dataset_identity(inputs.front());
     std::map<std::int64_t, fs::path> sources;  // index -> folder holding it
     MergeResult result;
     for (const auto& input : inputs) {
-        const nlohmann::json other = nlohmann::json::parse(read_file(input / "dataset.json"), nullptr, false);
-        if (other.is_discarded()) throw file_error((input / "dataset.json").string(), "invalid JSON");
-        const auto difference = identity_mismatch(identity, dataset_identity(other.at("config"), other.value("model_checksum", "")));
+        const auto difference = identity_mismatch(identity, read_dataset_identity(input));
         if (!difference.empty())
             throw file_error(input.string(), "made with a different config than " + inputs.front().string() + " ('" + difference + "' differs)");
         for (const auto& entry : fs::directory_iterator(input)) {
@@ -657,43 +696,45 @@ MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& 
             while (std::getline(lines, line)) {
                 ++line_number;
                 if (line.empty()) continue;
-                const auto parsed = nlohmann::json::parse(line, nullptr, false);
-                if (parsed.is_discarded() || !parsed.contains("index"))
-                    throw file_error(entry.path().string(), "line " + std::to_string(line_number) + " is not a manifest entry");
-                const std::int64_t index = parsed.at("index");
-                if (!sources.emplace(index, input).second) ++result.duplicates;
+                if (!sources.emplace(manifest_line_index(line, config, entry.path(), line_number), input).second) ++result.duplicates;
             }
         }
     }
-    std::error_code error;
-    fs::create_directories(out, error);
     const auto files = sample_files(config);
     std::vector<std::int64_t> indices;
+    std::vector<std::pair<fs::path, fs::path>> links;
     for (const auto& [index, source] : sources) {
         indices.push_back(index);
-        std::vector<std::pair<fs::path, fs::path>> links;
         if (formats.folder || formats.coco)
             for (const auto& file : files) links.push_back({source / file.folder / (sample_key(index) + file.suffix), out / file.folder / (sample_key(index) + file.suffix)});
         if (formats.wds && index % config.output.wds_shard_size == 0) {
             const auto tar = wds_tar_name(config, index / config.output.wds_shard_size);
             links.push_back({source / tar, out / tar});
         }
-        for (const auto& [from, to] : links) {
-            if (!fs::exists(from)) throw file_error(from.string(), "listed in a manifest but missing");
-            if (fs::equivalent(from.parent_path(), to.parent_path(), error) || fs::exists(to)) continue;
-            fs::create_directories(to.parent_path());
-            const auto temp = temporary_path_for(to);
-            fs::create_hard_link(from, temp, error);
-            if (error) fs::copy_file(from, temp);
-            commit_temporary_file(temp, to);
-        }
+    }
+    // Every file is checked before the first is linked: a missing one leaves `out` as it was.
+    for (const auto& [from, to] : links)
+        if (!fs::exists(from)) throw file_error(from.string(), "listed in a manifest but missing");
+    std::error_code error;
+    fs::create_directories(out, error);
+    if (error) throw file_error(out.string(), "cannot create output folder: " + error.message());
+    for (const auto& [from, to] : links) {
+        if (fs::equivalent(from.parent_path(), to.parent_path(), error) || fs::exists(to)) continue;
+        fs::create_directories(to.parent_path());
+        const auto temp = temporary_path_for(to);
+        fs::create_hard_link(from, temp, error);
+        if (error) fs::copy_file(from, temp);
+        commit_temporary_file(temp, to);
     }
     for (std::int64_t i = 0; i < config.count; ++i)
         if (!sources.count(i)) ++result.missing;
     result.samples = indices.size();
+    // The COCO file is built (reading every meta file) before anything is written, so that a
+    // damaged meta file leaves no manifest behind.
+    const std::string coco = formats.coco ? coco_from_meta(out, indices, config).dump() + "\n" : "";
     if (!fs::exists(out / "dataset.json") || !fs::equivalent(inputs.front(), out)) write_file_atomically(out / "dataset.json", read_file(first_info));
     write_file_atomically(out / "manifest.jsonl", manifest_text(indices, config));
-    if (formats.coco) write_file_atomically(out / "coco.json", coco_from_meta(out, indices, config).dump() + "\n");
+    if (formats.coco) write_file_atomically(out / "coco.json", coco);
     return result;
 }
 

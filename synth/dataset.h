@@ -85,6 +85,10 @@ MergeResult merge_datasets(const std::vector<std::filesystem::path>& inputs, con
 [[nodiscard]] nlohmann::json coco_from_meta(const std::filesystem::path& dataset, const std::vector<std::int64_t>& indices,
                                             const SynthConfig& config);
 
+// Parses a JSON file of a dataset folder (a meta file); throws facesynth::Error
+// "<path>: invalid JSON: …" when it is not JSON.
+[[nodiscard]] nlohmann::json read_json_file(const std::filesystem::path& path);
+
 // Reads dataset.json's configuration; throws facesynth::Error naming the file.
 [[nodiscard]] SynthConfig read_dataset_config(const std::filesystem::path& dataset);
 

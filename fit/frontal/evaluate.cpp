@@ -23,6 +23,7 @@ cv::Mat procedural_texture(Rng& rng, int size) {
         double fu, fv, phase, amplitude;
     };
     std::vector<Wave> waves;
+    waves.reserve(6);
     for (int k = 0; k < 6; ++k) waves.push_back({rng.uniform(1, 8), rng.uniform(1, 8), rng.uniform(0, 2 * std::numbers::pi), rng.uniform(0.02, 0.06)});
     const double dot_spacing = rng.uniform(0.03, 0.05);
     cv::Mat texture(size, size, CV_8UC3);

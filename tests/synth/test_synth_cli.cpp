@@ -432,5 +432,147 @@ TEST(SynthCli, CocoExportNamesADamagedMetaFile) {
     }
 }
 
+// Reading dataset folders written (and perhaps damaged) by others: `synth sheet` and `synth merge`
+// answer every damaged file with one error line naming it, exit 1, and leave no output.
+
+// A 3-sample folder+COCO dataset, made once per test process; each case damages a copy.
+fs::path damaged_copy(const std::string& name) {
+    static const fs::path original = [] {
+        const auto dir = testkit::fresh_temp_dir("synth_damage_original_" + std::to_string(::getpid()));
+        std::string log;
+        EXPECT_EQ(synth(" -o " + dir.string() + " --model " + toy_model_file().string() +
+                            " -n 3 --size 48 --seed 5 --format folder,coco --quiet",
+                        &log),
+                  0)
+            << log;
+        return dir;
+    }();
+    const auto copy = testkit::fresh_temp_dir(name);
+    fs::copy(original, copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+    return copy;
+}
+
+// Runs the command; expects exit 1 with one `facesynth: error:` line that names `file`.
+void expect_error_naming(const std::string& args, const fs::path& file, const std::string& problem) {
+    std::string log;
+    EXPECT_EQ(synth(args, &log), 1) << args << "\n" << log;
+    EXPECT_NE(log.find("facesynth: error: "), std::string::npos) << log;
+    EXPECT_EQ(log.find("internal error"), std::string::npos) << log;
+    EXPECT_NE(log.find(file.string()), std::string::npos) << "does not name " << file << ":\n" << log;
+    EXPECT_NE(log.find(problem), std::string::npos) << "does not say '" << problem << "':\n" << log;
+}
+
+TEST(SynthDatasetFiles, SheetNamesADamagedMetaFileOrMissingImageAndWritesNothing) {
+    const std::string valid = read_file(damaged_copy("synth_sheet_valid") / "meta" / "s00000001.json");
+    auto with = [&](std::string text, const std::string& from, const std::string& to) {
+        text.replace(text.find(from), from.size(), to);
+        return text;
+    };
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {valid.substr(0, valid.size() / 2), "invalid JSON"},                                  // truncated
+        {std::string("\x89PNG\r\n\x1a\n\0\0garbage", 16), "invalid JSON"},                // binary garbage
+        {"", "invalid JSON"},                                                                  // empty
+        {"[1, 2, 3]", "not a facesynth meta file"},                                            // not an object
+        {with(valid, "\"landmarks\":", "\"landmarkz\":"), "not a facesynth meta file"},       // missing key
+        {with(valid, "\"visibility\":[", "\"visibility\":\"x\",\"unused\":["), "must be arrays of one length"},
+        {with(valid, "\"key\":\"s00000001\"", "\"key\":\"s00000002\""), "does not match the file name"},
+        {with(valid, "\"key\":\"s00000001\"", "\"key\":7"), "not a facesynth meta file"},
+    };
+    for (std::size_t c = 0; c < cases.size(); ++c) {
+        const auto dir = damaged_copy("synth_sheet_bad_meta");
+        const auto meta = dir / "meta" / "s00000001.json";
+        write_file_atomically(meta, cases[c].first);
+        SCOPED_TRACE("case " + std::to_string(c));
+        expect_error_naming(" sheet " + dir.string() + " -o " + (dir / "sheet.png").string(), meta, cases[c].second);
+        EXPECT_FALSE(fs::exists(dir / "sheet.png"));
+    }
+    // A meta file whose landmark lists differ in length (read past the end before).
+    {
+        const auto dir = damaged_copy("synth_sheet_short_visibility");
+        auto meta = nlohmann::json::parse(valid);
+        meta["visibility"] = nlohmann::json::array({1});
+        write_file_atomically(dir / "meta" / "s00000001.json", meta.dump());
+        expect_error_naming(" sheet " + dir.string() + " -o " + (dir / "sheet.png").string(), dir / "meta" / "s00000001.json",
+                            "must be arrays of one length");
+    }
+    // The image a meta file names is missing, or is not an image.
+    {
+        const auto dir = damaged_copy("synth_sheet_missing_image");
+        fs::remove(dir / "images" / "s00000002.png");
+        expect_error_naming(" sheet " + dir.string() + " -o " + (dir / "sheet.png").string(), dir / "images" / "s00000002.png", "missing");
+        write_file_atomically(dir / "images" / "s00000002.png", "not a PNG");
+        expect_error_naming(" sheet " + dir.string() + " -o " + (dir / "sheet.png").string(), dir / "images" / "s00000002.png",
+                            "cannot read image");
+        EXPECT_FALSE(fs::exists(dir / "sheet.png"));
+    }
+    // A landmark far outside the image is drawn clamped at the tile's edge: the sheet is written.
+    {
+        const auto dir = damaged_copy("synth_sheet_far_landmark");
+        auto meta = nlohmann::json::parse(valid);
+        meta["landmarks"][0] = {1e300, -1e300};
+        write_file_atomically(dir / "meta" / "s00000001.json", meta.dump());
+        std::string log;
+        EXPECT_EQ(synth(" sheet " + dir.string() + " --columns 3 -o " + (dir / "sheet.png").string(), &log), 0) << log;
+        EXPECT_EQ(cv::imread((dir / "sheet.png").string()).cols, 3 * 160);
+    }
+}
+
+TEST(SynthDatasetFiles, MergeNamesABadManifestLineAndLeavesTheTargetUntouched) {
+    const std::vector<std::pair<std::string, std::string>> lines = {
+        {"{\"key\":\"s00000001\"}", "line 2: no integer \"index\" key"},                 // index missing
+        {"{\"index\":\"1\",\"key\":\"s00000001\"}", "line 2: no integer \"index\" key"}, // index a string
+        {"{\"index\":1.5}", "line 2: no integer \"index\" key"},
+        {"{\"index\":3}", "line 2: index 3 is outside the dataset's 0..2"},
+        {"{\"index\":-1}", "line 2: index -1 is outside"},
+        {"{\"index\":1,\"key\":\"s00000002\"}", "line 2: key \"s00000002\" does not match index 1"},
+        {"[1]", "line 2: not a manifest entry"},
+        {"{\"index\":1", "line 2: not a manifest entry"},  // truncated
+    };
+    for (std::size_t c = 0; c < lines.size(); ++c) {
+        const auto dir = damaged_copy("synth_merge_bad_line");
+        const auto manifest = dir / "manifest.jsonl";
+        write_file_atomically(manifest, "{\"index\":0,\"key\":\"s00000000\"}\n" + lines[c].first + "\n");
+        SCOPED_TRACE("case " + std::to_string(c));
+        expect_error_naming(" merge " + dir.string() + " --into " + (dir / "merged").string() + " --quiet", manifest, lines[c].second);
+        EXPECT_FALSE(fs::exists(dir / "merged"));
+    }
+}
+
+TEST(SynthDatasetFiles, MergeNamesAMissingSampleFileBeforeLinkingAny) {
+    const auto dir = damaged_copy("synth_merge_missing_image");
+    fs::remove(dir / "images" / "s00000002.png");
+    expect_error_naming(" merge " + dir.string() + " --into " + (dir / "merged").string() + " --quiet", dir / "images" / "s00000002.png",
+                        "listed in a manifest but missing");
+    EXPECT_FALSE(fs::exists(dir / "merged"));  // samples 0 and 1 were not linked either
+}
+
+TEST(SynthDatasetFiles, MergeNamesADamagedDatasetJsonOrMetaFile) {
+    const auto dir = damaged_copy("synth_merge_bad_info");
+    const auto info_path = dir / "dataset.json";
+    const std::string valid = read_file(info_path);
+    auto info = nlohmann::json::parse(valid);
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {valid.substr(0, valid.size() / 3), "not a facesynth dataset.json"},  // truncated
+        {"\x01\x02garbage", "not a facesynth dataset.json"},
+        {"{}", "not a facesynth dataset.json"},  // no config
+        {[&] { auto j = info; j["config"]["output"]["wds_shard_size"] = 0; return j.dump(); }(), "output.wds_shard_size"},
+        {[&] { auto j = info; j["config"]["count"] = -4; return j.dump(); }(), "count"},
+        {[&] { auto j = info; j["model_checksum"] = 12; return j.dump(); }(), "model_checksum must be a string"},
+    };
+    for (std::size_t c = 0; c < cases.size(); ++c) {
+        write_file_atomically(info_path, cases[c].first);
+        SCOPED_TRACE("case " + std::to_string(c));
+        expect_error_naming(" merge " + dir.string() + " --into " + (dir / "merged").string() + " --quiet", info_path, cases[c].second);
+        EXPECT_FALSE(fs::exists(dir / "merged" / "manifest.jsonl"));
+    }
+    // A damaged meta file stops the COCO export before the merged manifest is written.
+    write_file_atomically(info_path, valid);
+    write_file_atomically(dir / "meta" / "s00000001.json", "{\"image_width\": 48");
+    expect_error_naming(" merge " + dir.string() + " --into " + (dir / "merged").string() + " --quiet", dir / "merged" / "meta" / "s00000001.json",
+                        "invalid JSON");
+    EXPECT_FALSE(fs::exists(dir / "merged" / "manifest.jsonl"));
+    EXPECT_FALSE(fs::exists(dir / "merged" / "coco.json"));
+}
+
 }  // namespace
 }  // namespace facesynth::synth
