@@ -792,7 +792,7 @@ std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::v
     for (int i = 0; i < 5; ++i) set_pair(18 + i, front(-brow_x[static_cast<std::size_t>(i)], brow_centre(l, brow_x[static_cast<std::size_t>(i)]) + 1.2));
     // Nose bridge 28-31 and base 32-36.
     const double y28 = l.y_eye + 3.0, y31 = l.y_prn;
-    for (int i = 0; i < 4; ++i) lm[static_cast<std::size_t>(27 + i)] = front(0.0, lerp(y28, y31, i / 3.0));
+    for (int i = 0; i < 4; ++i) lm[27 + static_cast<std::size_t>(i)] = front(0.0, lerp(y28, y31, i / 3.0));
     lm[33] = front(0.0, l.y_sn + 0.3);
     set_pair(32, front(-0.72 * l.x_al, l.y_sn + 2.6));
     set_pair(33, front(-0.38 * l.x_al, l.y_sn + 1.0));

@@ -11,6 +11,7 @@
 
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 namespace facesynth {
 namespace {
@@ -282,6 +283,8 @@ LandmarkCompletion parse_landmark_completion(const std::string& toml_text, const
         return completion;
     } catch (const toml::exception& e) {
         throw file_error(source_name, std::string("TOML error: ") + e.what());
+    } catch (const std::out_of_range& e) {  // toml::find's answer to a missing key
+        throw file_error(source_name, std::string("missing key: ") + e.what());
     }
 }
 

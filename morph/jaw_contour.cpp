@@ -18,7 +18,7 @@ JawBand jaw_band(const MorphableModel& model) {
     std::vector<Eigen::Vector3f> anchors;
     for (const auto* chain : {&model.contour.right, &model.contour.left})
         for (int id : *chain)
-            if (id >= 0 && id < v) anchors.push_back(mean.col(id));
+            if (id >= 0 && id < v) anchors.emplace_back(mean.col(id));
     for (int j = 0; j < kNumJawLandmarks && j < static_cast<int>(model.landmarks.size()); ++j) {
         bool ok = true;
         for (int id : model.landmarks[static_cast<std::size_t>(j)].vertices) ok = ok && id >= 0 && id < v;
@@ -83,7 +83,7 @@ std::vector<Eigen::Vector2f> landmark_polygon(const MorphableModel& model, const
     std::vector<Eigen::Vector2f> polygon;
     Eigen::Vector2f centroid = Eigen::Vector2f::Zero();
     for (int id : ids) {
-        polygon.push_back(model.landmarks[static_cast<std::size_t>(id)].position(mean).head<2>());
+        polygon.emplace_back(model.landmarks[static_cast<std::size_t>(id)].position(mean).head<2>());
         centroid += polygon.back();
     }
     centroid /= static_cast<float>(polygon.size());

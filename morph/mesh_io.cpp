@@ -103,7 +103,7 @@ const tinygltf::Accessor& checked_accessor(const tinygltf::Model& model, int ind
     const int component_size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(accessor.componentType));
     const int components = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(accessor.type));
     if (component_size <= 0 || components <= 0) throw file_error(file, std::string(what) + ": unknown component type");
-    const std::size_t element = static_cast<std::size_t>(component_size * components);
+    const std::size_t element = static_cast<std::size_t>(component_size) * static_cast<std::size_t>(components);
     const std::size_t stride = view.byteStride ? view.byteStride : element;
     const std::size_t buffer_size = model.buffers[static_cast<std::size_t>(view.buffer)].data.size();
     if (accessor.count > 0 &&

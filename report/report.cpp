@@ -199,6 +199,7 @@ std::vector<Bin> yaw_bins(const json& j, const std::string& prefix = "") {
         bin.metrics[std::string(rest)] = value.get<double>();
     }
     std::vector<Bin> out;
+    out.reserve(bins.size());
     for (auto& [range, bin] : bins) out.push_back(std::move(bin));
     return out;
 }
@@ -226,7 +227,7 @@ void samples_section(const ReportInputs& inputs, Context& context) {
     if (inputs.dataset.empty()) {
         page.missing("no synthetic dataset was given (--dataset DIR)",
                      "facesynth synth --model builtin --out DIR --count 64, then facesynth report --dataset DIR");
-        context.report.sections_missing.push_back("samples");
+        context.report.sections_missing.emplace_back("samples");
         return;
     }
     if (const auto info = load_json(inputs.dataset / "dataset.json", context)) {
@@ -236,7 +237,7 @@ void samples_section(const ReportInputs& inputs, Context& context) {
     }
     if (!inputs.contact_sheet || inputs.contact_sheet->empty()) {
         page.missing("the contact sheet of " + inputs.dataset.string(), "facesynth synth sheet " + inputs.dataset.string() + " --out sheet.png");
-        context.report.sections_missing.push_back("samples");
+        context.report.sections_missing.emplace_back("samples");
         return;
     }
     cv::Mat bgr;
@@ -244,7 +245,7 @@ void samples_section(const ReportInputs& inputs, Context& context) {
     page.paragraph("The first samples with their landmarks: green visible, red self-occluded, orange covered by an occluder; each tile "
                    "names its sample key and yaw.");
     page.raw("<div class=\"sheet\">" + img_tag(bgr, ImageCoding::kJpeg, "contact sheet of " + inputs.dataset.filename().string()) + "</div>\n");
-    context.report.sections_shown.push_back("samples");
+    context.report.sections_shown.emplace_back("samples");
 }
 
 void fit_results_table(const std::vector<std::pair<std::string, json>>& runs, HtmlPage& page) {
@@ -350,7 +351,7 @@ void fit_section(const fs::path& evals, Context& context) {
         page.figures(plots);
         shown = true;
     }
-    (shown ? context.report.sections_shown : context.report.sections_missing).push_back("fit");
+    (shown ? context.report.sections_shown : context.report.sections_missing).emplace_back("fit");
 }
 
 // Regressor specs name files; the report shows the file name only.
@@ -369,7 +370,7 @@ void landmarks_section(const fs::path& evals, Context& context) {
         page.missing("landmark results (" + std::string(layout::kLandmarksPrefix) + "<name>.json in the results folder)",
                      "facesynth eval landmarks --regressor MODEL.sdm --regressor dlib --data DATASET --json EVALS/eval_landmarks_synthetic.json "
                      "--nme-csv EVALS/eval_landmarks_synthetic.nme.csv");
-        context.report.sections_missing.push_back("landmarks");
+        context.report.sections_missing.emplace_back("landmarks");
         return;
     }
     page.paragraph("NME: mean point-to-point error over the 68 points divided by the outer-eye-corner distance; faces the Haar detector "
@@ -423,7 +424,7 @@ void landmarks_section(const fs::path& evals, Context& context) {
         }
     }
     page.figures(plots);
-    context.report.sections_shown.push_back("landmarks");
+    context.report.sections_shown.emplace_back("landmarks");
 }
 
 // A thumbnail at most `side` px on its longer side (never enlarged).
@@ -550,7 +551,7 @@ void frontalise_section(const fs::path& evals, Context& context) {
         else page.table(header, rows);
         shown = true;
     }
-    (shown ? context.report.sections_shown : context.report.sections_missing).push_back("frontalise");
+    (shown ? context.report.sections_shown : context.report.sections_missing).emplace_back("frontalise");
 }
 
 // Recognition keys: gallery<G>_yaw_<lo>_<hi>_<metric>, G = the gallery's yaw in degrees.
@@ -624,12 +625,12 @@ void recognition_section(const fs::path& evals, Context& context) {
         page.missing("the recognition experiment (" + std::string(layout::kRecognitionEval) + ")",
                      "facesynth eval recognition --model builtin --json EVALS/" + std::string(layout::kRecognitionEval) + " --det-csv EVALS/" +
                          layout::kRecognitionDet);
-        context.report.sections_missing.push_back("recognition");
+        context.report.sections_missing.emplace_back("recognition");
         return;
     }
     const auto j = load_json(eval_path, context);
     if (!j) {
-        context.report.sections_missing.push_back("recognition");
+        context.report.sections_missing.emplace_back("recognition");
         return;
     }
     page.paragraph("Verification on synthetic identities (" + text_at(*j, "identities") + " identities, matcher: " + text_at(*j, "matcher") +
@@ -685,7 +686,7 @@ void recognition_section(const fs::path& evals, Context& context) {
                          percent(number_at(*p, "photos_frr_org")), percent(number_at(*p, "photos_frr_lm")), fixed(number_at(*p, "photos_auc_org"), 3),
                          fixed(number_at(*p, "photos_auc_lm"), 3)}});
         }
-    context.report.sections_shown.push_back("recognition");
+    context.report.sections_shown.emplace_back("recognition");
 }
 
 }  // namespace

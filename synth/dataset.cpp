@@ -706,10 +706,10 @@ MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& 
     for (const auto& [index, source] : sources) {
         indices.push_back(index);
         if (formats.folder || formats.coco)
-            for (const auto& file : files) links.push_back({source / file.folder / (sample_key(index) + file.suffix), out / file.folder / (sample_key(index) + file.suffix)});
+            for (const auto& file : files) links.emplace_back(source / file.folder / (sample_key(index) + file.suffix), out / file.folder / (sample_key(index) + file.suffix));
         if (formats.wds && index % config.output.wds_shard_size == 0) {
             const auto tar = wds_tar_name(config, index / config.output.wds_shard_size);
-            links.push_back({source / tar, out / tar});
+            links.emplace_back(source / tar, out / tar);
         }
     }
     // Every file is checked before the first is linked: a missing one leaves `out` as it was.
