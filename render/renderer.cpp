@@ -241,7 +241,7 @@ std::vector<Eigen::Vector3d> light_directions_in_camera(const Lighting& lighting
         const auto& d = lighting.lights[i].direction;
         const Eigen::Vector3d view(d[0], d[1], d[2]);
         if (view.norm() == 0) throw Error("render: directional light " + std::to_string(i) + " has a zero direction");
-        directions.push_back(model_to_camera_flip() * view.normalized());
+        directions.emplace_back(model_to_camera_flip() * view.normalized());
     }
     return directions;
 }

@@ -70,7 +70,7 @@ cv::Mat read_sample_image(const std::filesystem::path& dataset, const std::strin
     if (!std::filesystem::exists(image_path))
         throw file_error((dataset / "images" / (key + ".png")).string(), "missing (no .png or .jpg for " + meta_path.string() + ")");
     check_image_not_too_large(image_path);
-    const cv::Mat bgr = cv::imread(image_path.string(), cv::IMREAD_COLOR);
+    cv::Mat bgr = cv::imread(image_path.string(), cv::IMREAD_COLOR);
     if (bgr.empty()) throw file_error(image_path.string(), "cannot read image");
     return bgr;
 }

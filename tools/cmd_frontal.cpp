@@ -103,6 +103,7 @@ public:
             const auto boxes = detector_->detect(gray);
             if (boxes.empty()) throw file_error(image_path.string(), "no face found");
             std::vector<Eigen::Matrix2Xd> out;
+            out.reserve(boxes.size());
             for (const auto& box : boxes) out.push_back(regressor_->predict(gray, box));
             return out;
         }
@@ -119,7 +120,7 @@ private:
         fs::path beside = image;
         beside.replace_extension(".pts");
         if (fs::exists(beside)) return beside;
-        const fs::path dataset = image.parent_path().parent_path() / "landmarks" / (image.stem().string() + ".pts");
+        fs::path dataset = image.parent_path().parent_path() / "landmarks" / (image.stem().string() + ".pts");
         if (fs::exists(dataset)) return dataset;
         throw file_error(image.string(), "no landmarks: neither " + beside.string() + " nor " + dataset.string() + " exists");
     }

@@ -151,7 +151,7 @@ cv::Mat normals_picture(const cv::Mat& normals, const cv::Mat& mask) {
     for (int y = 0; y < normals.rows; ++y)
         for (int x = 0; x < normals.cols; ++x) {
             if (mask.at<std::uint8_t>(y, x) == 0) continue;
-            const cv::Vec3f n = normals.at<cv::Vec3f>(y, x);
+            const cv::Vec3f& n = normals.at<cv::Vec3f>(y, x);
             auto byte = [](float value) { return cv::saturate_cast<std::uint8_t>(127.5f * (value + 1.0f)); };
             bgr.at<cv::Vec3b>(y, x) = cv::Vec3b(byte(-n[2]), byte(-n[1]), byte(n[0]));
         }
@@ -294,6 +294,7 @@ void run_bench(const BenchArgs& b) {
     std::vector<std::string> backends(static_cast<std::size_t>(threads)), renderers(static_cast<std::size_t>(threads));
     std::vector<double> seconds(static_cast<std::size_t>(threads), 0.0);
     std::vector<render::Renderer> pool;
+    pool.reserve(static_cast<std::size_t>(threads));
     // Contexts are created (and warmed up) before timing: the benchmark measures steady-state renders.
     for (int t = 0; t < threads; ++t) pool.emplace_back(render::RendererOptions{render::parse_backend(b.view.backend), true});
     render::RenderSettings settings = view_settings(b.view);
@@ -312,7 +313,7 @@ void run_bench(const BenchArgs& b) {
             for (int i = 0; i < 5; ++i) renderer.render(mesh, frame_camera(view, mesh), settings, frame);
             std::vector<render::Camera> cameras;
             for (int i = 0; i < per_thread; ++i) {
-                Rng rng = make_rng(1, static_cast<std::uint64_t>(t * per_thread + i), RandomStream::kPose);
+                Rng rng = make_rng(1, static_cast<std::uint64_t>(t) * static_cast<std::uint64_t>(per_thread) + static_cast<std::uint64_t>(i), RandomStream::kPose);
                 view.yaw = rng.uniform(-60, 60);
                 view.pitch = rng.uniform(-20, 20);
                 view.roll = rng.uniform(-15, 15);
@@ -339,6 +340,7 @@ void run_bench(const BenchArgs& b) {
         worker(0);
     } else {
         std::vector<std::thread> workers;
+        workers.reserve(static_cast<std::size_t>(threads));
         for (int t = 0; t < threads; ++t) workers.emplace_back(worker, t);
         for (auto& w : workers) w.join();
     }

@@ -1,16 +1,18 @@
 #!/usr/bin/env bash
 # Builds facesynth and runs the whole test suite twice (README's second command; .ci/run calls it):
 #   1. Release, in build/ (FACESYNTH_BUILD_DIR);
-#   2. AddressSanitizer + UndefinedBehaviorSanitizer with leak detection on, in build-asan/
-#      (FACESYNTH_ASAN_BUILD_DIR). tools/lsan.supp suppresses leaks inside Mesa's libraries only.
-# --quick skips the sanitizer pass (for local runs); CI runs both.
+#   2. clang-tidy over every non-test .cpp (tools/tidy.sh, the checks in .clang-tidy), with that
+#      build's compile commands;
+#   3. AddressSanitizer + UndefinedBehaviorSanitizer with leak detection on, in build-asan/
+#      (FACESYNTH_ASAN_BUILD_DIR). tools/lsan.supp suppresses leaks inside Mesa's and HDF5's libraries only.
+# --quick skips steps 2 and 3 (for local runs); CI runs all three.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-sanitize=1
+full=1
 for arg in "$@"; do
     case $arg in
-        --quick) sanitize=0 ;;
-        -h|--help) sed -n '2,6p' "$0"; exit 0 ;;
+        --quick) full=0 ;;
+        -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
         *) echo "usage: tools/test.sh [--quick]" >&2; exit 2 ;;
     esac
 done
@@ -20,7 +22,9 @@ build_dir=${FACESYNTH_BUILD_DIR:-build}
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release
 cmake --build "$build_dir" -j2
 (cd "$build_dir" && ctest --output-on-failure -j2 --timeout 900)
-[[ $sanitize == 1 ]] || exit 0
+[[ $full == 1 ]] || exit 0
+
+FACESYNTH_BUILD_DIR=$build_dir bash tools/tidy.sh
 
 # Benchmarks are not built in the sanitizer pass: they are never run by the suite.
 asan_dir=${FACESYNTH_ASAN_BUILD_DIR:-build-asan}

@@ -134,7 +134,7 @@ void extract_patch(const cv::Mat& gray, const Eigen::Vector2d& centre, double si
             const float wx = x_weight[u];
             const float upper = top[x_low[u]] + wx * static_cast<float>(top[x_high[u]] - top[x_low[u]]);
             const float lower = bottom[x_low[u]] + wx * static_cast<float>(bottom[x_high[u]] - bottom[x_low[u]]);
-            out[u] = static_cast<std::uint8_t>(upper + wy * (lower - upper) + 0.5f);
+            out[u] = static_cast<std::uint8_t>(upper + wy * (lower - upper) + 0.5f);  // NOLINT(bugprone-incorrect-roundings): a mix of bytes, never negative
         }
     }
 }

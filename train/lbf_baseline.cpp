@@ -24,7 +24,7 @@ bool canonical_box_detector(cv::InputArray, cv::OutputArray faces, void*) {
     return true;
 }
 
-cv::Ptr<cv::face::FacemarkLBF> make_lbf(cv::face::FacemarkLBF::Params params) {
+cv::Ptr<cv::face::FacemarkLBF> make_lbf(const cv::face::FacemarkLBF::Params& params) {
     auto lbf = cv::face::FacemarkLBF::create(params);
     lbf->setFaceDetector(canonical_box_detector, nullptr);
     return lbf;
@@ -57,8 +57,10 @@ bool fits_lbf_box_test(const Eigen::Matrix2Xd& truth) {
     const Eigen::Vector2d low = truth.rowwise().minCoeff(), high = truth.rowwise().maxCoeff();
     const Eigen::Vector2d centre = truth.rowwise().mean();
     if (high.x() - low.x() > box.width * 1.5 || high.y() - low.y() > box.height * 1.5) return false;
-    return std::abs(centre.x() - (box.x + box.width / 2)) <= box.width / 2 &&
-           std::abs(centre.y() - (box.y + box.height / 2)) <= box.height / 2;
+    // Integer halves, as in OpenCV's own test.
+    const int box_centre_x = box.x + box.width / 2, box_centre_y = box.y + box.height / 2;
+    const int half_width = box.width / 2, half_height = box.height / 2;
+    return std::abs(centre.x() - box_centre_x) <= half_width && std::abs(centre.y() - box_centre_y) <= half_height;
 }
 
 std::vector<cv::Point2f> to_points(const Eigen::Matrix2Xd& points) {
@@ -180,7 +182,7 @@ void check_lbf_model_file(const std::filesystem::path& path) {
             for (int j = 0; j < trees; ++j) {
                 const std::string suffix = std::to_string(k) + "_" + std::to_string(i) + "_" + std::to_string(j);
                 matrix("tree_" + suffix, 2 * leaves, 4);
-                if (fs["thresholds_" + suffix].size() != static_cast<std::size_t>(2 * leaves))
+                if (fs["thresholds_" + suffix].size() != 2 * static_cast<std::size_t>(leaves))
                     throw file_error(path.string(), "not an OpenCV LBF model: thresholds_" + suffix + " missing or short");
             }
     }

@@ -48,7 +48,7 @@ std::string ced_png(std::span<const CedCurve> curves, double max_nme) {
         return cv::Point2d(kLeft + plot_w * nme / max_nme, kTop + plot_h * (1 - share));
     };
     cv::Mat image(kHeight, kWidth, CV_8UC3, cv::Scalar(255, 255, 255));
-    const auto text = [&](const std::string& s, cv::Point2d p, cv::Scalar colour = cv::Scalar(0, 0, 0)) {
+    const auto text = [&](const std::string& s, cv::Point2d p, const cv::Scalar& colour = cv::Scalar(0, 0, 0)) {
         cv::putText(image, s, p, cv::FONT_HERSHEY_SIMPLEX, 0.45, colour, 1, cv::LINE_AA);
     };
     char buf[32];

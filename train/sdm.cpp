@@ -72,6 +72,7 @@ std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_feature
     static constexpr int kCells[] = {8, 7, 6, 5, 5, 5, 5, 5};
     if (stages < 1 || stages > 8) throw Error("SDM: stages must be between 1 and 8, got " + std::to_string(stages));
     std::vector<SdmStageSettings> settings;
+    settings.reserve(static_cast<std::size_t>(stages));
     for (int k = 0; k < stages; ++k) settings.push_back({kRelative[k], kCells[k], k + 1 >= jaw_features_from});
     return settings;
 }
