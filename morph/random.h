@@ -42,6 +42,7 @@ enum class RandomStream : std::uint64_t {
     kTexture,
     kNoise,
     kSplit,
+    kAlbedoRedraw,  // synth: colour draws that replace implausible ones (albedo.reject_implausible)
 };
 
 [[nodiscard]] inline Rng make_rng(std::uint64_t seed, std::uint64_t index, RandomStream stream) {

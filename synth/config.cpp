@@ -161,6 +161,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"expression.truncation", &c.expression.truncation, "PCA expression models: coefficients truncated at ±k σ"});
     f.push_back({"albedo.truncation", &c.albedo.truncation, "colour coefficients truncated at ±k σ (models without a colour model get a random uniform skin tone)"});
     f.push_back({"albedo.scale", &c.albedo.scale, "multiplier on the colour coefficients (0 = mean colour)"});
+    f.push_back({"albedo.reject_implausible", &c.albedo.reject_implausible,
+                 "redraw colour draws whose mean skin colour is implausible (too dark, light or red, wrong hue, clamped; docs/builtin-model.md); the others are unchanged"});
     f.push_back({"albedo.texture_folder", &c.albedo.texture_folder,
                  "folder of UV texture maps (images, sampled with the model's uv); each sample renders with one, chosen from (seed, index); empty = off"});
     add_angle(f, "yaw", c.pose.yaw);

@@ -39,6 +39,9 @@ struct ExpressionConfig {
 struct AlbedoConfig {
     double truncation = 2.0;  // colour coefficients truncated at ±truncation σ
     double scale = 1.0;
+    // Redraw colour coefficients whose mean skin colour is implausible (morph/skin_colour.h), from
+    // their own random stream, so that the samples that pass keep their bytes.
+    bool reject_implausible = true;
     std::string texture_folder;  // folder of UV texture maps; each sample renders with one of them
 };
 

@@ -330,6 +330,8 @@ nlohmann::json sample_meta(const Sample& sample, const SynthConfig& config, cons
         {"alpha", s.alpha},
         {"psi", s.psi},
         {"beta", s.beta},
+        {"albedo_redraws", s.albedo_redraws},
+        {"albedo_shrink", s.albedo_shrink},
         {"skin_tone", s.skin_tone ? vector_json(*s.skin_tone) : nlohmann::json(nullptr)},
         {"texture", sample.texture.empty() ? nlohmann::json(nullptr) : nlohmann::json(sample.texture)},
         {"rotation", rotation},

@@ -199,7 +199,7 @@ ImageLibrary::ImageLibrary(const std::filesystem::path& folder, const std::strin
 SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel& model, const ImageLibrary& backgrounds,
                                  const ImageLibrary& textures, const render::RendererOptions& renderer_options)
     : config_(config), model_(model), backgrounds_(backgrounds), textures_(textures),
-      contour_region_(jaw_contour_region(model)), renderer_(renderer_options) {
+      contour_region_(jaw_contour_region(model)), albedo_check_(make_albedo_check(config, model)), renderer_(renderer_options) {
     if (config.background.type == "images" && backgrounds.empty())
         throw Error("background.type = \"images\" needs a background folder with readable images");
     if (!config.albedo.texture_folder.empty() && textures.empty())
@@ -212,7 +212,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     auto clock = Clock::now();
     StageTimes local;
     Sample s;
-    s.spec = sample_scene(config_, model_, index);
+    s.spec = sample_scene(config_, model_, index, albedo_check_ ? &*albedo_check_ : nullptr);
     Mesh mesh = model_.instance(s.spec.alpha, s.spec.psi, s.spec.beta);
     if (s.spec.skin_tone) mesh.colours = s.spec.skin_tone->cast<float>().replicate(1, mesh.num_vertices());
     local.sample = seconds_since(clock);

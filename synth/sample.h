@@ -12,6 +12,7 @@
 #include <chrono>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -80,6 +81,7 @@ private:
     const ImageLibrary& backgrounds_;
     const ImageLibrary& textures_;
     JawContourRegion contour_region_;  // the face region of the jaw contour definition
+    std::optional<SkinColourCheck> albedo_check_;  // albedo.reject_implausible
     render::Renderer renderer_;
     render::Frame frame_;
 };

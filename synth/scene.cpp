@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <numbers>
 #include <numeric>
+#include <utility>
 
 namespace facesynth::synth {
 namespace {
@@ -213,7 +214,25 @@ Eigen::Vector3d colour_of_temperature(double kelvin) {
     return rgb / rgb.maxCoeff();
 }
 
-SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index) {
+std::optional<SkinColourCheck> make_albedo_check(const SynthConfig& config, const MorphableModel& model) {
+    if (!config.albedo.reject_implausible || model.num_albedo_components() == 0) return std::nullopt;
+    SkinColourCheck check(model);
+    const SkinColourVerdict mean = check.check({});
+    if (!mean.plausible())
+        throw Error("model '" + model.name + "': its mean colour already fails the skin colour check (" + flaw_names(mean.flaws) +
+                    "); set albedo.reject_implausible = false to sample it unchecked");
+    return check;
+}
+
+AlbedoDraw sample_albedo(const SynthConfig& config, const MorphableModel& model, std::int64_t index, const SkinColourCheck* albedo_check) {
+    const auto i = static_cast<std::uint64_t>(index);
+    Rng first = make_rng(config.seed, i, RandomStream::kAlbedo);
+    Rng redraw = make_rng(config.seed, i, RandomStream::kAlbedoRedraw);
+    return draw_albedo(first, redraw, model.num_albedo_components(), config.albedo.truncation, config.albedo.scale, albedo_check,
+                       kMaxAlbedoRedraws);
+}
+
+SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index, const SkinColourCheck* albedo_check) {
     const auto i = static_cast<std::uint64_t>(index);
     SampleSpec s;
     s.seed = config.seed;
@@ -225,8 +244,15 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
     }
     s.psi = sample_expression(config, model, index);
     if (model.num_albedo_components() > 0) {
-        Rng rng = make_rng(config.seed, i, RandomStream::kAlbedo);
-        s.beta = scaled(sample_coefficients(rng, model.num_albedo_components(), config.albedo.truncation), config.albedo.scale);
+        std::optional<SkinColourCheck> local_check;
+        if (albedo_check == nullptr && config.albedo.reject_implausible) {
+            local_check = make_albedo_check(config, model);
+            albedo_check = &*local_check;
+        }
+        AlbedoDraw albedo = sample_albedo(config, model, index, config.albedo.reject_implausible ? albedo_check : nullptr);
+        s.beta = std::move(albedo.beta);
+        s.albedo_redraws = albedo.redraws;
+        s.albedo_shrink = albedo.shrink;
     } else {
         Rng rng = make_rng(config.seed, i, RandomStream::kAlbedo);
         s.skin_tone = sample_skin_tone(rng);

@@ -4,6 +4,7 @@
 #include "morph/camera.h"
 #include "morph/model.h"
 #include "morph/pose.h"
+#include "morph/skin_colour.h"
 #include "render/lighting.h"
 #include "synth/config.h"
 
@@ -58,6 +59,8 @@ struct SampleSpec {
     std::int64_t index = 0;
     std::string key;  // "s00001234"
     std::vector<float> alpha, psi, beta;
+    int albedo_redraws = 0;     // implausible colour draws replaced (albedo.reject_implausible)
+    double albedo_shrink = 1;   // < 1: no redraw passed and the first draw was moved toward the mean
     // Uniform skin colour (linear RGB) for models without a colour model; empty otherwise.
     std::optional<Eigen::Vector3d> skin_tone;
     // With albedo.texture_folder: which texture map (a draw taken modulo the number of maps).
@@ -76,8 +79,22 @@ struct SampleSpec {
 [[nodiscard]] std::string sample_key(std::int64_t index);
 
 // Draws the scene of sample `index`. The camera distance and translation are chosen so that the
-// sampled face (its 68 landmarks) has the sampled size and position in the image.
-[[nodiscard]] SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index);
+// sampled face (its 68 landmarks) has the sampled size and position in the image. `albedo_check` is
+// make_albedo_check's result, made once per model; without it, it is made here when needed.
+[[nodiscard]] SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index,
+                                      const SkinColourCheck* albedo_check = nullptr);
+
+// Redraws per sample before falling back to shrinking the first draw (albedo.reject_implausible).
+inline constexpr int kMaxAlbedoRedraws = 16;
+
+// The check albedo.reject_implausible applies: none when the key is off or the model has no colour
+// model. Throws facesynth::Error naming the model when its mean colour fails the check itself.
+[[nodiscard]] std::optional<SkinColourCheck> make_albedo_check(const SynthConfig& config, const MorphableModel& model);
+
+// The colour coefficients of sample `index` (the model must have a colour model): the kAlbedo
+// stream's draw, and while `albedo_check` rejects it, draws from the kAlbedoRedraw stream.
+[[nodiscard]] AlbedoDraw sample_albedo(const SynthConfig& config, const MorphableModel& model, std::int64_t index,
+                                       const SkinColourCheck* albedo_check);
 
 // Linear RGB of a black body at `kelvin`, normalised to a maximum component of 1.
 [[nodiscard]] Eigen::Vector3d colour_of_temperature(double kelvin);

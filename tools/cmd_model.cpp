@@ -1,5 +1,6 @@
-// `facesynth model info|export|convert|build`: inspect, instantiate, convert and build morphable
-// models. The formats live in morph/ (model_io, eos_io, bfm_io, mesh_io, model_build).
+// `facesynth model info|export|convert|build|albedo-check`: inspect, instantiate, convert, build
+// morphable models and measure their colour draws. The formats live in morph/ (model_io, eos_io,
+// bfm_io, mesh_io, model_build), the skin colour check in morph/skin_colour.h.
 #include "cli_common.h"
 #include "commands.h"
 
@@ -10,8 +11,12 @@
 #include "morph/model_io.h"
 #include "morph/random.h"
 #include "morph/sampling.h"
+#include "morph/skin_colour.h"
+#include "synth/scene.h"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -38,6 +43,16 @@ struct ExportArgs {
 struct ConvertArgs {
     std::string model = "builtin";
     std::string out;
+};
+
+struct AlbedoCheckArgs {
+    std::string model = "builtin";
+    std::int64_t count = 2000;
+    std::int64_t seed = 1;
+    double truncation = 2.0;
+    double scale = 1.0;
+    std::string json;
+    bool quiet = false;
 };
 
 struct BuildArgs {
@@ -230,6 +245,112 @@ void run_build(const BuildArgs& a) {
                 built.model.num_albedo_components(), built.model.checksum().c_str());
 }
 
+// The p-th quantile (0..1) of `values` (sorted in place), nearest rank; 0 when empty.
+double quantile(std::vector<double>& values, double p) {
+    if (values.empty()) return 0.0;
+    std::sort(values.begin(), values.end());
+    const auto rank = static_cast<std::size_t>(std::lround(p * static_cast<double>(values.size() - 1)));
+    return values[rank];
+}
+
+// Draws the colour coefficients of samples 0..count-1 exactly as synth does (albedo.truncation,
+// albedo.scale, seed) and counts the draws the skin colour check rejects, by reason; then what
+// albedo.reject_implausible makes of them.
+void run_albedo_check(const AlbedoCheckArgs& a) {
+    const MorphableModel m = load_model(a.model);
+    synth::SynthConfig config;
+    config.seed = static_cast<std::uint64_t>(a.seed);
+    config.albedo.truncation = a.truncation;
+    config.albedo.scale = a.scale;
+    const SkinColourCheck check(m);
+    const SkinColourVerdict mean = check.check({});
+    constexpr std::array<SkinColourFlaw, 5> kFlaws{kSkinTooDark, kSkinTooLight, kSkinTooRed, kSkinWrongHue, kSkinClamped};
+    std::array<std::int64_t, kFlaws.size()> per_flaw{};
+    std::int64_t implausible = 0, redrawn = 0, redraws = 0, shrunk = 0, implausible_after = 0;
+    std::string indices;  // the first implausible sample indices, for looking at them
+    int listed = 0;
+    std::vector<double> luminance, green_over_red;
+    Progress progress("checking colour draws", static_cast<std::size_t>(a.count), a.quiet);
+    for (std::int64_t i = 0; i < a.count; ++i) {
+        const AlbedoDraw first = synth::sample_albedo(config, m, i, nullptr);
+        const SkinColourVerdict v = check.check(first.beta);
+        luminance.push_back(v.luminance);
+        green_over_red.push_back(v.green_over_red);
+        if (!v.plausible()) {
+            ++implausible;
+            for (std::size_t f = 0; f < kFlaws.size(); ++f)
+                if ((v.flaws & kFlaws[f]) != 0) ++per_flaw[f];
+            if (listed++ < 40) indices += (indices.empty() ? "" : ",") + std::to_string(i);
+            const AlbedoDraw fixed = synth::sample_albedo(config, m, i, &check);
+            ++redrawn;
+            redraws += fixed.redraws;
+            shrunk += fixed.shrink < 1.0 ? 1 : 0;
+            implausible_after += check.check(fixed.beta).plausible() ? 0 : 1;
+        }
+        progress.advance();
+    }
+    progress.finish();
+    const double share = a.count > 0 ? static_cast<double>(implausible) / static_cast<double>(a.count) : 0.0;
+    const SkinColourLimits& l = check.limits();
+
+    std::printf("model:              %s (%s, checksum %s)\n", a.model.c_str(), m.name.c_str(), m.checksum().c_str());
+    std::printf("skin vertices:      %d\n", check.skin_vertices());
+    std::printf("draws:              %lld (seed %lld, truncation %g, scale %g; synth's kAlbedo stream)\n", static_cast<long long>(a.count),
+                static_cast<long long>(a.seed), a.truncation, a.scale);
+    std::printf("limits:             luminance %g..%g, green/red %g..%g, blue/green <= %g, clamped skin <= %g\n", l.min_luminance,
+                l.max_luminance, l.min_green_over_red, l.max_green_over_red, l.max_blue_over_green, l.max_clamped_share);
+    std::printf("mean colour:        luminance %.3f, green/red %.3f, blue/green %.3f (%s)\n", mean.luminance, mean.green_over_red,
+                mean.blue_over_green, mean.plausible() ? "plausible" : flaw_names(mean.flaws).c_str());
+    std::printf("implausible:        %lld (%.2f %%)\n", static_cast<long long>(implausible), 100.0 * share);
+    for (std::size_t f = 0; f < kFlaws.size(); ++f)
+        std::printf("  %-17s %lld\n", (flaw_names(kFlaws[f]) + ":").c_str(), static_cast<long long>(per_flaw[f]));
+    if (!indices.empty()) std::printf("first implausible:  %s\n", indices.c_str());
+    const double lum_p01 = quantile(luminance, 0.01), lum_p50 = quantile(luminance, 0.5), lum_p99 = quantile(luminance, 0.99);
+    const double gr_p01 = quantile(green_over_red, 0.01), gr_p50 = quantile(green_over_red, 0.5), gr_p99 = quantile(green_over_red, 0.99);
+    std::printf("skin luminance:     1 %% %.3f, median %.3f, 99 %% %.3f\n", lum_p01, lum_p50, lum_p99);
+    std::printf("skin green/red:     1 %% %.3f, median %.3f, 99 %% %.3f\n", gr_p01, gr_p50, gr_p99);
+    std::printf("reject_implausible: %lld samples redrawn (%lld redraws), %lld shrunk toward the mean, %lld implausible after\n",
+                static_cast<long long>(redrawn), static_cast<long long>(redraws), static_cast<long long>(shrunk),
+                static_cast<long long>(implausible_after));
+
+    if (!a.json.empty()) {
+        nlohmann::json j;
+        j["model"] = a.model;
+        j["model_checksum"] = m.checksum();
+        j["count"] = a.count;
+        j["seed"] = a.seed;
+        j["truncation"] = a.truncation;
+        j["scale"] = a.scale;
+        j["skin_vertices"] = check.skin_vertices();
+        j["implausible"] = implausible;
+        j["implausible_share"] = share;
+        for (std::size_t f = 0; f < kFlaws.size(); ++f) j[flaw_names(kFlaws[f])] = per_flaw[f];
+        j["implausible_indices"] = indices;
+        j["mean_luminance"] = mean.luminance;
+        j["mean_green_over_red"] = mean.green_over_red;
+        j["mean_blue_over_green"] = mean.blue_over_green;
+        j["mean_plausible"] = mean.plausible();
+        j["luminance_p01"] = lum_p01;
+        j["luminance_p50"] = lum_p50;
+        j["luminance_p99"] = lum_p99;
+        j["green_over_red_p01"] = gr_p01;
+        j["green_over_red_p50"] = gr_p50;
+        j["green_over_red_p99"] = gr_p99;
+        j["limit_min_luminance"] = l.min_luminance;
+        j["limit_max_luminance"] = l.max_luminance;
+        j["limit_min_green_over_red"] = l.min_green_over_red;
+        j["limit_max_green_over_red"] = l.max_green_over_red;
+        j["limit_max_blue_over_green"] = l.max_blue_over_green;
+        j["limit_max_clamped_share"] = l.max_clamped_share;
+        j["redrawn"] = redrawn;
+        j["redraws"] = redraws;
+        j["shrunk"] = shrunk;
+        j["implausible_after"] = implausible_after;
+        j["max_redraws"] = synth::kMaxAlbedoRedraws;
+        write_json_file(a.json, j);
+    }
+}
+
 void add_model_option(CLI::App* command, std::string& target) {
     command->add_option("--model,-m", target,
                         "builtin, a model file (.fsm, eos .bin, BFM 2017 .h5) or a folder with a model and its side files")
@@ -269,6 +390,18 @@ void register_model_commands(CLI::App& app) {
     add_model_option(convert_cmd, convert->model);
     convert_cmd->add_option("--out,-o", convert->out, "Output model: FILE.fsm")->required();
     convert_cmd->callback([convert] { run_convert(*convert); });
+
+    auto check = std::make_shared<AlbedoCheckArgs>();
+    CLI::App* check_cmd = group->add_subcommand(
+        "albedo-check", "Draw colour coefficients as synth does and count implausible skin colours (by reason)");
+    add_model_option(check_cmd, check->model);
+    check_cmd->add_option("--count,-n", check->count, "Number of draws (samples 0..N-1)")->capture_default_str()->check(CLI::NonNegativeNumber);
+    check_cmd->add_option("--seed", check->seed, "Dataset seed, as synth's seed")->capture_default_str()->check(CLI::NonNegativeNumber);
+    check_cmd->add_option("--truncation", check->truncation, "As synth's albedo.truncation")->capture_default_str()->check(CLI::NonNegativeNumber);
+    check_cmd->add_option("--scale", check->scale, "As synth's albedo.scale")->capture_default_str();
+    check_cmd->add_option("--json", check->json, "Also write the figures as flat JSON to this file");
+    check_cmd->add_flag("--quiet,-q", check->quiet, "No progress output");
+    check_cmd->callback([check] { run_albedo_check(*check); });
 
     auto build = std::make_shared<BuildArgs>();
     CLI::App* build_cmd = group->add_subcommand(

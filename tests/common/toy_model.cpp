@@ -175,4 +175,15 @@ MorphableModel make_toy_model(const ToyModelOptions& o) {
     return m;
 }
 
+void set_uniform_colour_model(MorphableModel& model, const Eigen::Vector3f& mean, const Eigen::Vector3f& shift_per_sigma) {
+    const int v = model.num_vertices();
+    PcaModel albedo;
+    albedo.mean = mean.replicate(v, 1);
+    albedo.basis = shift_per_sigma.replicate(v, 1);
+    const float norm = albedo.basis.norm();
+    albedo.basis /= norm;
+    albedo.eigenvalues = Eigen::VectorXf::Constant(1, norm * norm);
+    model.albedo = std::move(albedo);
+}
+
 }  // namespace facesynth::testkit

@@ -160,6 +160,45 @@ TEST(SynthScene, NeutralShareGivesEmptyExpressions) {
     }
 }
 
+// albedo.reject_implausible changes only the colour coefficients of the samples whose first draw
+// the skin colour check rejects; every other sample, and every other draw, stays as it was.
+TEST(SynthScene, RejectImplausibleRedrawsOnlyTheRejectedColourDraws) {
+    MorphableModel model = testkit::make_toy_model();
+    testkit::set_uniform_colour_model(model, {0.5f, 0.3f, 0.2f}, {0.0f, -0.2f, 0.0f});  // 40 % rejected
+    const SkinColourCheck check(model);
+    SynthConfig on, off;
+    off.albedo.reject_implausible = false;
+    EXPECT_TRUE(on.albedo.reject_implausible);  // the default
+    const std::optional<SkinColourCheck> made = make_albedo_check(on, model);
+    ASSERT_TRUE(made.has_value());
+    EXPECT_FALSE(make_albedo_check(off, model).has_value());
+    int redrawn = 0;
+    for (int i = 0; i < 60; ++i) {
+        const SampleSpec a = sample_scene(off, model, i), b = sample_scene(on, model, i, &*made);
+        EXPECT_EQ(a.alpha, b.alpha);
+        EXPECT_EQ(a.psi, b.psi);
+        EXPECT_TRUE(a.pose.translation == b.pose.translation);
+        EXPECT_EQ(nlohmann::json(a.lighting.lighting), nlohmann::json(b.lighting.lighting));
+        EXPECT_EQ(a.albedo_redraws, 0);
+        EXPECT_TRUE(check.check(b.beta).plausible()) << i;
+        if (check.check(a.beta).plausible()) {
+            EXPECT_EQ(a.beta, b.beta) << i;
+            EXPECT_EQ(b.albedo_redraws, 0) << i;
+        } else {
+            EXPECT_GE(b.albedo_redraws, 1) << i;
+            ++redrawn;
+        }
+        EXPECT_EQ(sample_scene(on, model, i).beta, b.beta) << i;  // the check made inside gives the same draw
+    }
+    EXPECT_GT(redrawn, 3);
+    // A model whose mean colour already fails cannot be sampled with the check.
+    testkit::set_uniform_colour_model(model, {0.6f, 0.05f, 0.04f}, {0.0f, 0.01f, 0.0f});
+    model.name = "red";
+    const std::string message = error_of([&] { (void)make_albedo_check(on, model); });
+    EXPECT_NE(message.find("'red'"), std::string::npos) << message;
+    EXPECT_NE(message.find("albedo.reject_implausible"), std::string::npos) << message;
+}
+
 TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
     const MorphableModel model = testkit::make_toy_model();
     SynthConfig off, on, half;

@@ -120,7 +120,7 @@ TEST(SynthCli, MetaCarriesGroundTruthConsistentWithPts) {
     std::string log;
     ASSERT_EQ(synth(" -o " + dir.string() + base_args(3) + " --threads 1", &log), 0) << log;
     const auto meta = nlohmann::json::parse(read_file(dir / "meta" / "s00000001.json"));
-    for (const char* key : {"key", "index", "seed", "model_name", "model_checksum", "alpha", "psi", "beta", "rotation", "yaw", "pitch", "roll",
+    for (const char* key : {"key", "index", "seed", "model_name", "model_checksum", "alpha", "psi", "beta", "albedo_redraws", "albedo_shrink", "rotation", "yaw", "pitch", "roll",
                             "translation", "intrinsics", "image_width", "image_height", "lighting", "background", "landmark_mode",
                             "landmarks", "visibility", "landmarks_fixed", "landmarks_contour", "landmarks_3d_fixed", "bbox"})
         EXPECT_TRUE(meta.contains(key)) << key;

@@ -125,3 +125,49 @@ TEST(CmdModel, ExitCodes) {
     for (const char* command : {"model", "model info", "model export", "model convert", "model build"})
         EXPECT_EQ(run(std::string(command) + " --help", &output), 0) << command;
 }
+
+// The figure docs/builtin-model.md gives for the built-in model's colour draws (synth's defaults:
+// seed 1, truncation 2), and that albedo.reject_implausible leaves none of them implausible.
+TEST(CmdModel, AlbedoCheckMeasuresTheBuiltinModelsImplausibleColourDraws) {
+    const auto dir = testkit::fresh_temp_dir("cmd_model_albedo_check");
+    std::string output;
+    ASSERT_EQ(run("model albedo-check --count 2000 --seed 1 --quiet --json " + (dir / "check.json").string(), &output), 0) << output;
+    EXPECT_NE(output.find("implausible:        126 (6.30 %)"), std::string::npos) << output;
+    const auto j = read_json(dir / "check.json");
+    EXPECT_EQ(j["count"], 2000);
+    EXPECT_EQ(j["implausible"], 126);
+    EXPECT_EQ(j["too_red"], 120);
+    EXPECT_EQ(j["too_dark"], 24);
+    EXPECT_EQ(j["too_light"], 0);
+    EXPECT_EQ(j["wrong_hue"], 5);
+    EXPECT_EQ(j["clamped"], 95);
+    EXPECT_TRUE(j["mean_plausible"].get<bool>());
+    EXPECT_EQ(j["redrawn"], 126);
+    EXPECT_EQ(j["shrunk"], 0);
+    EXPECT_EQ(j["implausible_after"], 0);
+    EXPECT_EQ(j["implausible_indices"].get<std::string>().rfind("29,48,", 0), 0u);  // the red and the black face of the sheet
+}
+
+TEST(CmdModel, AlbedoCheckFindsABrokenColourBasisAndNeedsAColourModel) {
+    const auto dir = testkit::fresh_temp_dir("cmd_model_albedo_check_broken");
+    testkit::ToyModelOptions o;
+    o.shape_components = 4;
+    MorphableModel broken = testkit::make_toy_model(o);
+    // Each σ moves green by 0.5: above +0.44σ the skin is too red, below -0.4σ greener than red.
+    testkit::set_uniform_colour_model(broken, {0.6f, 0.4f, 0.3f}, {0.0f, -0.5f, 0.0f});
+    write_model(broken, dir / "broken.fsm");
+    std::string output;
+    ASSERT_EQ(run("model albedo-check --model " + (dir / "broken.fsm").string() + " --count 300 -q --json " + (dir / "broken.json").string(), &output), 0)
+        << output;
+    const auto j = read_json(dir / "broken.json");
+    EXPECT_GT(j["implausible_share"].get<double>(), 0.5);
+    EXPECT_GT(j["too_red"].get<int>(), 60);
+    EXPECT_GT(j["wrong_hue"].get<int>(), 60);
+    EXPECT_EQ(j["implausible_after"], 0);
+
+    MorphableModel colourless = testkit::make_toy_model(o);
+    colourless.albedo.reset();
+    write_model(colourless, dir / "colourless.fsm");
+    EXPECT_EQ(run("model albedo-check --model " + (dir / "colourless.fsm").string() + " -q", &output), 1) << output;
+    EXPECT_NE(output.find("no colour model"), std::string::npos) << output;
+}
