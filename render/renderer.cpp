@@ -6,10 +6,12 @@
 #include "render/shaders.h"
 
 #include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -96,6 +98,21 @@ Eigen::Matrix4d clip_from_camera(const Camera& camera, double near, double far) 
         p(3, 3) = 1.0;
     }
     return p;
+}
+
+// The same view `factor` times larger: pixel (u, v) covers fine pixels factor·u .. factor·u + factor − 1,
+// i.e. fine = factor · (coarse + 0.5) − 0.5 in OpenCV pixel coordinates (centre of pixel 0 at 0).
+Camera supersampled_camera(const Camera& camera, int factor) {
+    Camera fine = camera;
+    Intrinsics& k = fine.intrinsics;
+    const double f = factor;
+    k.width *= factor;
+    k.height *= factor;
+    k.fx *= f;
+    k.fy *= f;
+    k.cx = f * (k.cx + 0.5) - 0.5;
+    k.cy = f * (k.cy + 0.5) - 0.5;
+    return fine;
 }
 
 GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& source) {
@@ -297,9 +314,21 @@ constexpr std::array<float, 9> kShBandScale{1.0f, 2.0f / 3.0f, 2.0f / 3.0f, 2.0f
 
 }  // namespace
 
+// RGBA8 to RGB8 + the alpha plane: cv::mixChannels' generic path cost ~18 instructions per pixel
+// (5 % of a 256² render); cvtColor's SIMD path and a loop the compiler vectorises cost about one.
+void split_colour_and_coverage(const cv::Mat& rgba, cv::Mat& rgb, cv::Mat& alpha) {
+    cv::cvtColor(rgba, rgb, cv::COLOR_RGBA2RGB);
+    for (int y = 0; y < rgba.rows; ++y) {
+        const std::uint8_t* in = rgba.ptr<std::uint8_t>(y);
+        std::uint8_t* coverage = alpha.ptr<std::uint8_t>(y);
+        for (int x = 0; x < rgba.cols; ++x) coverage[x] = in[4 * x + 3];
+    }
+}
+
 // Texture unit of the shadow maps (unit 0 holds the albedo texture).
 constexpr GLint kShadowTextureUnit = 1;
 constexpr int kMinShadowMapSize = 16;
+constexpr int kMaxSupersampling = 4;
 
 // Single-sample colour attachments by shader output location, then the depth attachment.
 enum Target : std::size_t { kColourTarget = 0, kNormalTarget = 1, kIdTarget = 2, kBarycentricTarget = 3, kDepthTarget = 4 };
@@ -320,9 +349,15 @@ struct Renderer::Impl {
     // Multisampled colour pass.
     GLuint msaa_fbo = 0;
     std::array<GLuint, 2> msaa_targets{};
+    // Supersampled colour pass (created on first use): colour and depth, growing like the others.
+    GLuint supersample_fbo = 0;
+    std::array<GLuint, 2> supersample_targets{};
+    int supersample_width = 0, supersample_height = 0;
+    cv::Mat fine_rgba;  // its read-back before the box filter
     int width = 0, height = 0;  // this render's image: the bottom-left corner of the targets
     int target_width = 0, target_height = 0, samples = 0, max_samples = 0, max_texture_size = 0;
     ProvokingTopology topology;
+    Eigen::Vector3f mesh_low, mesh_high;  // bounding box of the uploaded positions
     Eigen::Matrix3Xf normals;
     std::vector<float> expanded;  // one attribute extended to every vertex slot
     std::vector<std::uint8_t> triangle_labels;
@@ -397,6 +432,7 @@ struct Renderer::Impl {
             return;  // the context goes with it
         }
         release_targets();
+        release_supersample_targets();
         gl.DeleteFramebuffers(1, &fbo);
         gl.DeleteFramebuffers(1, &msaa_fbo);
         gl.DeleteTextures(1, &texture);
@@ -435,6 +471,12 @@ struct Renderer::Impl {
             if (t) gl.DeleteRenderbuffers(1, &t), t = 0;
     }
 
+    void release_supersample_targets() {
+        for (GLuint& t : supersample_targets)
+            if (t) gl.DeleteRenderbuffers(1, &t), t = 0;
+        if (supersample_fbo) gl.DeleteFramebuffers(1, &supersample_fbo), supersample_fbo = 0;
+    }
+
     GLuint storage(GLenum format, int sample_count) {
         GLuint rb = 0;
         gl.GenRenderbuffers(1, &rb);
@@ -443,6 +485,14 @@ struct Renderer::Impl {
             gl.RenderbufferStorageMultisample(GL_RENDERBUFFER, sample_count, format, target_width, target_height);
         else
             gl.RenderbufferStorage(GL_RENDERBUFFER, format, target_width, target_height);
+        return rb;
+    }
+
+    GLuint sized_storage(GLenum format, int w, int h) {
+        GLuint rb = 0;
+        gl.GenRenderbuffers(1, &rb);
+        gl.BindRenderbuffer(GL_RENDERBUFFER, rb);
+        gl.RenderbufferStorage(GL_RENDERBUFFER, format, w, h);
         return rb;
     }
 
@@ -513,6 +563,12 @@ struct Renderer::Impl {
                    GL_UNSIGNED_INT);
         }
         upload_expanded(kPosition, mesh.vertices.data(), 3);
+        // One pass over the columns: Eigen's row-wise reductions of a 3xN matrix cost several times more.
+        mesh_low = mesh_high = mesh.vertices.col(0);
+        for (Eigen::Index i = 1; i < mesh.vertices.cols(); ++i) {
+            mesh_low = mesh_low.cwiseMin(mesh.vertices.col(i));
+            mesh_high = mesh_high.cwiseMax(mesh.vertices.col(i));
+        }
     }
 
     // A depth-only pass reads positions only; the other arrays are switched off so that no stale buffer
@@ -553,16 +609,19 @@ struct Renderer::Impl {
             gl.DisableVertexAttribArray(kUv);
             gl.VertexAttrib2f(kUv, 0.0f, 0.0f);
         }
-        // Labels are flat per triangle, from its provoking (last) vertex: looked up from the ids.
-        triangle_labels.resize(mesh.triangles.size());
+        // Labels are flat per triangle, from its provoking (last) vertex: looked up from the ids, which
+        // are written as triangle + 1 (0 = background).
+        triangle_labels.resize(mesh.triangles.size() + 1);
+        triangle_labels[0] = static_cast<std::uint8_t>(Region::kBackground);
         for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
-            triangle_labels[t] = extras.vertex_labels.empty() ? static_cast<std::uint8_t>(Region::kSkin)
-                                                              : extras.vertex_labels[static_cast<std::size_t>(mesh.triangles[t][2])];
+            triangle_labels[t + 1] = extras.vertex_labels.empty()
+                                         ? static_cast<std::uint8_t>(Region::kSkin)
+                                         : extras.vertex_labels[static_cast<std::size_t>(mesh.triangles[t][2])];
     }
 
-    // Near and far planes from the mesh's bounding sphere, with a margin.
-    void choose_depth_range(const Mesh& mesh, const Camera& camera, const Eigen::Matrix3d& rotation) {
-        const Eigen::Vector3f low = mesh.vertices.rowwise().minCoeff(), high = mesh.vertices.rowwise().maxCoeff();
+    // Near and far planes from the bounding sphere of the uploaded mesh (upload_positions), with a margin.
+    void choose_depth_range(const Camera& camera, const Eigen::Matrix3d& rotation) {
+        const Eigen::Vector3f low = mesh_low, high = mesh_high;
         const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
         const double radius = 0.5 * (high - low).cast<double>().norm();
         const double centre_z = (rotation * centre + camera.pose.translation).z();
@@ -575,12 +634,12 @@ struct Renderer::Impl {
         far_plane = far;
     }
 
-    void set_uniforms(const Program& program, const Mesh& mesh, const Camera& camera, const Lighting& lighting) {
+    void set_uniforms(const Program& program, const Camera& camera, const Lighting& lighting) {
         const Eigen::Matrix3d rotation = model_to_camera_rotation(camera.pose);
         Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
         model_to_camera.topLeftCorner<3, 3>() = rotation;
         model_to_camera.topRightCorner<3, 1>() = camera.pose.translation;
-        choose_depth_range(mesh, camera, rotation);
+        choose_depth_range(camera, rotation);
         const Eigen::Matrix4f model_to_clip = (clip_from_camera(camera, near_plane, far_plane) * model_to_camera).cast<float>();
         const Eigen::Matrix4f model_to_camera_f = model_to_camera.cast<float>();
         gl.UseProgram(program.id);
@@ -698,14 +757,15 @@ struct Renderer::Impl {
 
     void render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
                 const MeshExtras& extras) {
-        validate(mesh, camera, extras);
+        validate(mesh, camera, settings, extras);
         context->make_current();
         if (settings.depth_only) {
             render_depth(mesh, camera, settings, frame);
             return;
         }
         const int w = camera.intrinsics.width, h = camera.intrinsics.height;
-        ensure_targets(w, h, settings.msaa_samples);
+        const bool supersampled = settings.supersampling > 1;
+        ensure_targets(w, h, supersampled ? 0 : settings.msaa_samples);
         gl.BindVertexArray(vao);
         const bool with_texture = extras.texture != nullptr;
         upload_mesh(mesh, extras, with_texture);
@@ -720,26 +780,27 @@ struct Renderer::Impl {
         const unsigned shading = (with_texture ? kWithTexture : 0u) | (settings.lighting.lights.empty() ? 0u : kWithLights) |
                                  (settings.cull_back_faces ? 0u : kTwoSided) | (with_shadows ? kWithShadows : 0u);
         const bool multisampled = samples > 1;
+        const bool separate_colour_pass = multisampled || supersampled;
         const bool with_normals = settings.geometry && settings.normals;
         const bool with_ids = settings.geometry || settings.barycentrics;
         // Pass 1, single-sampled at pixel centres: depth, normals, ids, barycentrics, and colour
-        // unless a multisampled pass makes it.
+        // unless a multisampled or supersampled pass makes it.
         const unsigned geometry_outputs = (with_normals ? kWithNormals : 0u) | (with_ids ? kWithIds : 0u) |
                                           (settings.barycentrics ? kWithBarycentrics : 0u);
-        const bool single_sample_pass = !multisampled || geometry_outputs != 0;
+        const bool single_sample_pass = !separate_colour_pass || geometry_outputs != 0;
         const float zeros[4] = {0, 0, 0, 0};
         const GLuint zero_ids[4] = {0, 0, 0, 0};
         const float far_depth = 1.0f;
         if (single_sample_pass) {
-            const unsigned variant = geometry_outputs | (multisampled ? 0u : kWithColour | shading);
-            set_uniforms(program(variant), mesh, camera, settings.lighting);
+            const unsigned variant = geometry_outputs | (separate_colour_pass ? 0u : kWithColour | shading);
+            set_uniforms(program(variant), camera, settings.lighting);
             gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
-            const GLenum buffers[4] = {multisampled ? GLenum(GL_NONE) : GLenum(GL_COLOR_ATTACHMENT0),
+            const GLenum buffers[4] = {separate_colour_pass ? GLenum(GL_NONE) : GLenum(GL_COLOR_ATTACHMENT0),
                                        with_normals ? GLenum(GL_COLOR_ATTACHMENT1) : GLenum(GL_NONE),
                                        with_ids ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE),
                                        settings.barycentrics ? GLenum(GL_COLOR_ATTACHMENT3) : GLenum(GL_NONE)};
             gl.DrawBuffers(4, buffers);
-            if (!multisampled) gl.ClearBufferfv(GL_COLOR, kColourTarget, zeros);
+            if (!separate_colour_pass) gl.ClearBufferfv(GL_COLOR, kColourTarget, zeros);
             if (with_normals) gl.ClearBufferfv(GL_COLOR, kNormalTarget, zeros);
             if (with_ids) gl.ClearBufferuiv(GL_COLOR, kIdTarget, zero_ids);
             if (settings.barycentrics) gl.ClearBufferfv(GL_COLOR, kBarycentricTarget, zeros);
@@ -747,7 +808,7 @@ struct Renderer::Impl {
             draw();
         }
         if (multisampled) {
-            set_uniforms(program(kWithColour | shading), mesh, camera, settings.lighting);
+            set_uniforms(program(kWithColour | shading), camera, settings.lighting);
             gl.BindFramebuffer(GL_FRAMEBUFFER, msaa_fbo);
             const GLenum buffer = GL_COLOR_ATTACHMENT0;
             gl.DrawBuffers(1, &buffer);
@@ -760,9 +821,57 @@ struct Renderer::Impl {
             gl.DrawBuffers(1, &buffer);
             gl.BlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
         }
+        if (supersampled) render_supersampled_colour(camera, settings, shading);
         gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
-        read_back(settings, with_normals, with_ids, frame);
+        read_back(settings, with_normals, with_ids, !supersampled, frame);
         check("rendering");
+    }
+
+    // Colour and coverage at `factor`² samples per pixel (an ordered grid): the image rendered
+    // `factor` times larger without MSAA, read back and box-filtered into `rgba` (cv::INTER_AREA averages
+    // each factor x factor block). Colours are premultiplied by coverage, so the average is the
+    // anti-aliased composite over black.
+    void render_supersampled_colour(const Camera& camera, const RenderSettings& settings, unsigned shading) {
+        const int factor = settings.supersampling;
+        const Camera fine = supersampled_camera(camera, factor);
+        const int fine_width = fine.intrinsics.width, fine_height = fine.intrinsics.height;
+        ensure_supersample_targets(fine_width, fine_height);
+        set_uniforms(program(kWithColour | shading), fine, settings.lighting);
+        gl.BindFramebuffer(GL_FRAMEBUFFER, supersample_fbo);
+        gl.Viewport(0, 0, fine_width, fine_height);
+        gl.Scissor(0, 0, fine_width, fine_height);
+        const GLenum buffer = GL_COLOR_ATTACHMENT0;
+        gl.DrawBuffers(1, &buffer);
+        const float zeros[4] = {0, 0, 0, 0};
+        const float far_depth = 1.0f;
+        gl.ClearBufferfv(GL_COLOR, 0, zeros);
+        gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
+        draw();
+        fine_rgba.create(fine_height, fine_width, CV_8UC4);
+        gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
+        gl.ReadPixels(0, 0, fine_width, fine_height, GL_RGBA, GL_UNSIGNED_BYTE, fine_rgba.data);
+        rgba.create(height, width, CV_8UC4);
+        cv::resize(fine_rgba, rgba, rgba.size(), 0, 0, cv::INTER_AREA);
+        gl.Viewport(0, 0, width, height);
+        gl.Scissor(0, 0, width, height);
+    }
+
+    // Colour target and depth buffer of the supersampled pass; like the others they only grow.
+    void ensure_supersample_targets(int w, int h) {
+        if (w <= supersample_width && h <= supersample_height) return;
+        supersample_width = std::max(w, supersample_width);
+        supersample_height = std::max(h, supersample_height);
+        for (GLuint& t : supersample_targets)
+            if (t) gl.DeleteRenderbuffers(1, &t), t = 0;
+        if (!supersample_fbo) gl.GenFramebuffers(1, &supersample_fbo);
+        gl.BindFramebuffer(GL_FRAMEBUFFER, supersample_fbo);
+        supersample_targets[0] = sized_storage(GL_RGBA8, supersample_width, supersample_height);
+        gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, supersample_targets[0]);
+        supersample_targets[1] = sized_storage(GL_DEPTH_COMPONENT24, supersample_width, supersample_height);
+        gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, supersample_targets[1]);
+        if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            throw Error("render: supersampling framebuffer incomplete at " + std::to_string(w) + "x" + std::to_string(h));
+        check("creating supersampling targets");
     }
 
     // The nearest surface only: the fragment stage writes nothing, and only the depth buffer is read.
@@ -777,7 +886,7 @@ struct Renderer::Impl {
         else
             gl.Disable(GL_CULL_FACE);
         gl.Viewport(0, 0, w, h);
-        set_uniforms(program(0), mesh, camera, settings.lighting);
+        set_uniforms(program(0), camera, settings.lighting);
         gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
         const GLenum none[4] = {GL_NONE, GL_NONE, GL_NONE, GL_NONE};
         gl.DrawBuffers(4, none);
@@ -798,12 +907,24 @@ struct Renderer::Impl {
         const double n = near_plane, f = far_plane;
         const auto fn = static_cast<float>(f * n), f_ = static_cast<float>(f), range = static_cast<float>(f - n),
                    n_ = static_cast<float>(n);
+        // z is computed for every pixel and the background (d = 1) masked to 0 with an integer
+        // comparison of d's bits (|d| < 1): a float comparison may trap, so the compiler would keep
+        // a branch per pixel instead of vectorising the loop.
+        auto keep_mask = [](float d) {
+            return (std::bit_cast<std::uint32_t>(d) & 0x7fffffffu) < std::bit_cast<std::uint32_t>(1.0f) ? ~0u : 0u;
+        };
         for (int y = 0; y < height; ++y) {
             float* row = depth.ptr<float>(y);
             if (perspective)
-                for (int x = 0; x < width; ++x) row[x] = row[x] >= 1.0f ? 0.0f : fn / (f_ - range * row[x]);
+                for (int x = 0; x < width; ++x) {
+                    const float z = fn / (f_ - range * row[x]);
+                    row[x] = std::bit_cast<float>(std::bit_cast<std::uint32_t>(z) & keep_mask(row[x]));
+                }
             else
-                for (int x = 0; x < width; ++x) row[x] = row[x] >= 1.0f ? 0.0f : n_ + range * row[x];
+                for (int x = 0; x < width; ++x) {
+                    const float z = n_ + range * row[x];
+                    row[x] = std::bit_cast<float>(std::bit_cast<std::uint32_t>(z) & keep_mask(row[x]));
+                }
         }
     }
 
@@ -813,15 +934,13 @@ struct Renderer::Impl {
         labels.create(height, width, CV_8UC1);
         gl.ReadBuffer(GL_COLOR_ATTACHMENT0 + kIdTarget);
         gl.ReadPixels(0, 0, width, height, GL_RED_INTEGER, GL_UNSIGNED_INT, triangle_ids.data);
-        const std::uint8_t* label_of = triangle_labels.data();
+        // triangle_labels[0] is the background's label, so the written id (triangle + 1) indexes it directly.
+        const std::uint8_t* label_of_written_id = triangle_labels.data();
         for (int y = 0; y < height; ++y) {
             int* id = triangle_ids.ptr<int>(y);
             std::uint8_t* label = labels.ptr<std::uint8_t>(y);
-            for (int x = 0; x < width; ++x) {
-                const int triangle = id[x] - 1;
-                id[x] = triangle;
-                label[x] = triangle < 0 ? static_cast<std::uint8_t>(Region::kBackground) : label_of[triangle];
-            }
+            for (int x = 0; x < width; ++x) label[x] = label_of_written_id[id[x]];
+            for (int x = 0; x < width; ++x) id[x] -= 1;
         }
     }
 
@@ -835,17 +954,16 @@ struct Renderer::Impl {
         cv::mixChannels(&vectors, 1, &out, 1, pairs, 3);
     }
 
-    void read_back(const RenderSettings& settings, bool with_normals, bool with_ids, Frame& frame) {
-        rgba.create(height, width, CV_8UC4);
-        gl.ReadBuffer(GL_COLOR_ATTACHMENT0 + kColourTarget);
-        gl.ReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
+    // `read_colour`: false when `rgba` already holds the colour (the supersampled pass).
+    void read_back(const RenderSettings& settings, bool with_normals, bool with_ids, bool read_colour, Frame& frame) {
+        if (read_colour) {
+            rgba.create(height, width, CV_8UC4);
+            gl.ReadBuffer(GL_COLOR_ATTACHMENT0 + kColourTarget);
+            gl.ReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
+        }
         frame.rgb.create(height, width, CV_8UC3);
         frame.mask.create(height, width, CV_8UC1);
-        {
-            cv::Mat outputs[] = {frame.rgb, frame.mask};
-            const int pairs[] = {0, 0, 1, 1, 2, 2, 3, 3};
-            cv::mixChannels(&rgba, 1, outputs, 2, pairs, 4);
-        }
+        split_colour_and_coverage(rgba, frame.rgb, frame.mask);
         if (settings.geometry) read_depth(frame.depth);
         else frame.depth.release();
         if (with_ids) {
@@ -860,10 +978,19 @@ struct Renderer::Impl {
         else frame.barycentrics.release();
     }
 
-    static void validate(const Mesh& mesh, const Camera& camera, const MeshExtras& extras) {
+    void validate(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, const MeshExtras& extras) const {
         const Intrinsics& k = camera.intrinsics;
         if (k.width <= 0 || k.height <= 0 || k.width > 16384 || k.height > 16384)
             throw Error("render: image size " + std::to_string(k.width) + "x" + std::to_string(k.height) + " is out of range");
+        if (settings.supersampling < 1 || settings.supersampling > kMaxSupersampling)
+            throw Error("render: supersampling " + std::to_string(settings.supersampling) + " is out of range [1, " +
+                        std::to_string(kMaxSupersampling) + "]");
+        if (settings.supersampling > 1 && settings.msaa_samples > 1)
+            throw Error("render: supersampling and msaa_samples are alternatives; set msaa_samples to 0 with supersampling");
+        if (static_cast<long>(settings.supersampling) * std::max(k.width, k.height) > max_texture_size)
+            throw Error("render: a " + std::to_string(k.width) + "x" + std::to_string(k.height) + " image supersampled " +
+                        std::to_string(settings.supersampling) + "x exceeds the largest render target (" +
+                        std::to_string(max_texture_size) + ")");
         if (!(k.fx > 0) || !(k.fy > 0)) throw Error("render: camera focal lengths must be positive");
         if (mesh.num_vertices() == 0 || mesh.triangles.empty()) throw Error("render: the mesh is empty");
         if (mesh.colours.cols() != 0 && mesh.colours.cols() != mesh.num_vertices())

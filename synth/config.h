@@ -110,6 +110,7 @@ struct OccluderConfig {
 
 struct RenderConfig {
     int msaa_samples = 4;  // colour anti-aliasing samples (0 or 1 = none; fewer is faster)
+    int supersampling = 1;  // instead of MSAA (with msaa_samples 0): colour drawn N times larger, box-filtered
     int shadow_map_size = 512;  // shadow-map texels per side, per light (render::RenderSettings)
 };
 

@@ -223,6 +223,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     settings.geometry = true;  // depth for landmark visibility
     settings.normals = config_.output.normals;  // an extra float target: only when written
     settings.msaa_samples = config_.render.msaa_samples;
+    settings.supersampling = config_.render.supersampling;
     settings.shadow_map_size = config_.render.shadow_map_size;
     render::MeshExtras extras;
     extras.vertex_labels = model_.vertex_labels;

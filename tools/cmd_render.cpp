@@ -39,6 +39,7 @@ struct ViewArgs {
     bool orthographic = false;
     std::string backend = "auto";
     int msaa = 4;
+    int supersample = 1;
     std::string lighting_file;
     bool shadows = false;
     int shadow_map_size = render::RenderSettings{}.shadow_map_size;
@@ -79,6 +80,8 @@ void add_view_options(CLI::App* cmd, ViewArgs& v) {
     cmd->add_option("--backend", v.backend, "auto, egl or osmesa (auto: EGL, then OSMesa)")
         ->check(CLI::IsMember({"auto", "egl", "osmesa"}))->capture_default_str();
     cmd->add_option("--msaa", v.msaa, "multisample anti-aliasing samples (0 = off)")->check(CLI::Range(0, 16))->capture_default_str();
+    cmd->add_option("--supersample", v.supersample, "anti-aliasing by N x N supersampling instead of MSAA (1 = off; needs --msaa 0)")
+        ->check(CLI::Range(1, 4))->capture_default_str();
     cmd->add_option("--lighting", v.lighting_file, "lighting JSON (docs/render.md)")->check(CLI::ExistingFile);
     cmd->add_flag("--shadows", v.shadows, "directional lights cast shadows (shadow maps; sets the lighting's \"shadows\")");
     cmd->add_option("--shadow-map-size", v.shadow_map_size, "shadow map texels per side, per light")
@@ -89,6 +92,7 @@ void add_view_options(CLI::App* cmd, ViewArgs& v) {
 render::RenderSettings view_settings(const ViewArgs& v) {
     render::RenderSettings settings;
     settings.msaa_samples = v.msaa;
+    settings.supersampling = v.supersample;
     settings.shadow_map_size = v.shadow_map_size;
     if (!v.lighting_file.empty()) {
         try {
@@ -262,6 +266,7 @@ void run_render(const RenderArgs& a) {
     j["beta"] = beta;
     j["lighting"] = settings.lighting;
     j["msaa"] = settings.msaa_samples;
+    j["supersampling"] = settings.supersampling;
     j["shadow_map_size"] = settings.shadow_map_size;
     j["landmarks_fixed"] = points_json(lm.pixels);
     j["landmarks_contour"] = points_json(lm.contour_pixels);
@@ -367,6 +372,7 @@ void run_bench(const BenchArgs& b) {
     j["count"] = total;
     j["threads"] = threads;
     j["msaa"] = b.view.msaa;
+    j["supersampling"] = b.view.supersample;
     j["lights"] = settings.lighting.lights.size();
     j["shadows"] = settings.lighting.shadows;
     j["shadow_map_size"] = settings.shadow_map_size;

@@ -80,7 +80,7 @@ TEST(Renderer, TextureAndVertexLabelsReachTheOutputs) {
 // Triangle ids come from a flat per-vertex attribute on a re-indexed mesh (no gl_PrimitiveID); they
 // must name the same triangles as the geometry-shader pass, and each pixel's depth must be the
 // camera z of that triangle's surface at the pixel centre.
-TEST(Renderer, IdsLabelsAndDepthMatchTheReferencePassAndTheSurface) {
+TEST(Renderer, IdsLabelsMaskAndDepthMatchTheReferencePassAndTheSurface) {
     const Mesh mesh = toy().instance({});
     std::vector<std::uint8_t> vertex_labels(static_cast<std::size_t>(mesh.num_vertices()));
     for (std::size_t i = 0; i < vertex_labels.size(); ++i) vertex_labels[i] = static_cast<std::uint8_t>(1 + i % 9);
@@ -104,11 +104,16 @@ TEST(Renderer, IdsLabelsAndDepthMatchTheReferencePassAndTheSurface) {
             for (int x = 0; x < a.triangle_ids.cols; ++x) {
                 const int id = a.triangle_ids.at<int>(y, x);
                 const auto label = a.labels.at<std::uint8_t>(y, x);
+                // Without MSAA the coverage is exactly the id buffer's, and the background is black.
                 if (id < 0) {
                     ASSERT_EQ(label, 0);
                     ASSERT_EQ(a.depth.at<float>(y, x), 0.0f);
+                    ASSERT_EQ(a.mask.at<std::uint8_t>(y, x), 0);
+                    ASSERT_EQ(a.rgb.at<cv::Vec3b>(y, x), cv::Vec3b(0, 0, 0));
                     continue;
                 }
+                ASSERT_EQ(a.mask.at<std::uint8_t>(y, x), 255);
+                ASSERT_GT(a.depth.at<float>(y, x), 0.0f);
                 ++face_pixels;
                 const Triangle& t = mesh.triangles[static_cast<std::size_t>(id)];
                 ASSERT_EQ(label, vertex_labels[static_cast<std::size_t>(t[2])]) << "labels follow the provoking (last) vertex";

@@ -227,6 +227,16 @@ TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
     EXPECT_NE(error_of([&] { validate(half); }).find("render.shadow_map_size"), std::string::npos);
 }
 
+TEST(SynthConfig, SupersamplingReplacesMsaaAndIsBounded) {
+    SynthConfig config;
+    config.render.supersampling = 2;  // with the default MSAA 4
+    EXPECT_NE(error_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
+    config.render.msaa_samples = 0;
+    EXPECT_NO_THROW(validate(config));
+    config.render.supersampling = 5;
+    EXPECT_NE(error_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
+}
+
 TEST(SynthScene, ColourTemperatureIsWhiteAtDaylightAndWarmBelow) {
     const auto daylight = colour_of_temperature(6500);
     EXPECT_NEAR(daylight.x(), 1.0, 1e-9);
