@@ -26,7 +26,11 @@ std::vector<TrainingFace> faces(int count) {
         const auto cartoon = facesynth::testkit::make_cartoon_face(11, static_cast<std::uint64_t>(i));
         const Eigen::Vector2d low = cartoon.landmarks.rowwise().minCoeff(), high = cartoon.landmarks.rowwise().maxCoeff();
         const FaceFrame frame{FaceBox{(low + high) / 2, (high - low).maxCoeff()}};
-        out.push_back({canonical_crop(cartoon.gray, frame), frame.to_canonical(cartoon.landmarks), true});
+        TrainingFace face;
+        face.crop = canonical_crop(cartoon.gray, frame);
+        face.truth = frame.to_canonical(cartoon.landmarks);
+        face.box_from_detector = true;
+        out.push_back(std::move(face));
     }
     return out;
 }

@@ -15,6 +15,7 @@
 #include "train/model_file.h"
 #include "train/regressor.h"
 #include "train/training_data.h"
+#include "train/view_cascades.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -51,6 +52,8 @@ struct TrainArgs {
     std::vector<int> ranks = SdmTrainOptions{}.ranks;
     int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
     std::string detector = "multiview";
+    std::string cascades = "auto";  // auto, views or single
+    std::vector<double> view_overlap;  // frontal max |yaw|, profile min |yaw|
     LbfTrainOptions lbf;
     std::filesystem::path json;
     bool quiet = false;
@@ -60,6 +63,10 @@ void run_train(const TrainArgs& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::clock_t cpu_start = std::clock();
     if (args.method == "lbf") check_lbf_options(args.lbf);  // before the long preparation
+    if (args.cascades == "views" && (args.method != "sdm" || args.detector != "multiview"))
+        throw CLI::ValidationError("--cascades", "views needs --method sdm and --detector multiview");
+    if (!args.view_overlap.empty() && args.cascades == "single")
+        throw CLI::ValidationError("--view-overlap", "only applies to view-specific cascades");
     const auto images = list_labelled_images(split_folder_list(args.data));
     PreparedFaces prepared;
     {
@@ -112,30 +119,70 @@ void run_train(const TrainArgs& args) {
             reported = done;
         };
         double first_nme = 0, last_nme = 0;
-        options.on_stage = [&](const SdmStageReport& r) {
-            if (r.stage == 1) first_nme = r.nme_before;
-            last_nme = r.nme_after;
+        // Stage reports; with view-specific cascades the profile cascade's keys are prefixed "profile_".
+        const auto on_stage = [&](const char* cascade, const SdmStageReport& r) {
+            const bool profile = std::string(cascade) == "profile";
+            if (!profile) {
+                if (r.stage == 1) first_nme = r.nme_before;
+                last_nme = r.nme_after;
+            }
             if (!args.quiet)
                 std::fprintf(stderr,
-                             "\nstage %d/%d: training NME %.4f -> %.4f, validation NME %.4f -> %.4f (lambda factor %g, "
+                             "\n%sstage %d/%d: training NME %.4f -> %.4f, validation NME %.4f -> %.4f (lambda factor %g, "
                              "lambda %.4g, rank %d, %.1f s)\n",
-                             r.stage, args.stages, r.nme_before, r.nme_after, r.validation_nme_before,
-                             r.validation_nme_after, r.lambda_factor, r.lambda, r.rank, r.seconds);
-            const std::string stage = "stage" + std::to_string(r.stage);
+                             profile ? "profile cascade " : "", r.stage,
+                             args.stages, r.nme_before, r.nme_after, r.validation_nme_before, r.validation_nme_after,
+                             r.lambda_factor, r.lambda, r.rank, r.seconds);
+            const std::string stage = std::string(profile ? "profile_" : "") + "stage" + std::to_string(r.stage);
+            if (profile && r.stage == 1) report["profile_train_nme_initial"] = r.nme_before;
+            if (profile) report["profile_train_nme_final"] = r.nme_after;
             report[stage + "_nme"] = r.nme_after;
             report[stage + "_validation_nme"] = r.validation_nme_after;
             report[stage + "_lambda_factor"] = r.lambda_factor;
             report[stage + "_rank"] = r.rank;
         };
-        SdmModel model = train_sdm(prepared.faces, boxes, options);
+        SdmModel model;
+        ViewSplit split;
+        if (!args.view_overlap.empty()) {
+            split.frontal_max_yaw_deg = args.view_overlap[0];
+            split.profile_min_yaw_deg = args.view_overlap[1];
+        }
+        // auto: view-specific cascades when the multi-view detector gives each enough faces.
+        bool views = args.cascades == "views";
+        if (args.cascades == "auto" && boxes.detector == DetectorKind::kMultiView) {
+            const ViewCascadeCounts planned = count_view_split(prepared.faces, split);
+            views = planned.frontal_faces >= kMinViewCascadeFaces && planned.profile_faces >= kMinViewCascadeFaces;
+            if (!views && !args.quiet)
+                std::printf("one cascade for all views: view-specific cascades need %d faces each, the split gives frontal %d, "
+                            "profile %d\n",
+                            kMinViewCascadeFaces, planned.frontal_faces, planned.profile_faces);
+        }
+        report["view_cascades"] = views;
+        if (views) {
+            ViewCascadeCounts counts;
+            model = train_view_cascades(prepared.faces, boxes, options, split, &counts, on_stage);
+            report["view_cascade_frontal_faces"] = counts.frontal_faces;
+            report["view_cascade_profile_faces"] = counts.profile_faces;
+            report["view_cascade_profile_mirrored"] = counts.profile_mirrored;
+            report["view_cascade_frontal_from_profile"] = counts.frontal_from_profile;
+            report["view_cascade_profile_from_frontal"] = counts.profile_from_frontal;
+            if (!args.quiet)
+                std::printf("view-specific cascades: frontal %d faces (%d from the profile views), profile %d faces (%d "
+                            "mirrored nose-right, %d from the frontal view)\n",
+                            counts.frontal_faces, counts.frontal_from_profile, counts.profile_faces, counts.profile_mirrored,
+                            counts.profile_from_frontal);
+        } else {
+            options.on_stage = [&](const SdmStageReport& r) { on_stage("single", r); };
+            model = train_sdm(prepared.faces, boxes, options);
+        }
         if (progress) progress->finish();
         model.training_checksum = prepared.checksum;
         write_sdm_model(args.out, model);
         report["train_nme_initial"] = first_nme;
         report["train_nme_final"] = last_nme;
         if (!args.quiet)
-            std::printf("training NME (inter-ocular, %d perturbed starts per face): %.4f -> %.4f\n", args.augment,
-                        first_nme, last_nme);
+            std::printf("training NME (inter-ocular, %d perturbed starts per face%s): %.4f -> %.4f\n", args.augment,
+                        views ? ", frontal cascade" : "", first_nme, last_nme);
     } else if (args.method == "ert") {
         ErtTrainOptions options;
         options.threads = args.threads;
@@ -443,6 +490,20 @@ void register_train_commands(CLI::App& app) {
                         "multiview (frontal + profile cascades, one mean shape per view)")
             ->check(CLI::IsMember({"frontal", "multiview"}))
             ->capture_default_str();
+        cmd->add_option("--cascades", args->cascades,
+                        "SDM: views (one cascade for the frontal view and one for the profile views, nose-right faces "
+                        "mirrored, chosen at detection by the detector's view; needs --detector multiview), single (one "
+                        "for all views), or auto (views with the multi-view detector when each cascade gets at least 100 "
+                        "faces)")
+            ->check(CLI::IsMember({"auto", "views", "single"}))
+            ->capture_default_str();
+        cmd->add_option("--view-overlap", args->view_overlap,
+                        "SDM, view-specific cascades: FRONTAL_MAX,PROFILE_MIN true |yaw| in degrees: profile-view faces with "
+                        "|yaw| <= FRONTAL_MAX also train the frontal cascade, frontal-view faces with |yaw| >= PROFILE_MIN "
+                        "the profile one (needs synth meta files; default: no overlap)")
+            ->delimiter(',')
+            ->expected(2)
+            ->check(CLI::Range(0.0, 90.0));
         cmd->add_option("--lbf-stages", args->lbf.stages, "LBF: cascade stages (stages_n)")
             ->check(CLI::Range(1, 20))
             ->capture_default_str();

@@ -1,7 +1,10 @@
 #include "train/dataset.h"
 
 #include "morph/error.h"
+#include "morph/atomic_file.h"
 #include "morph/image_header.h"
+
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <sstream>
@@ -47,6 +50,21 @@ std::vector<std::filesystem::path> split_folder_list(const std::string& comma_se
     while (std::getline(stream, part, ','))
         if (!part.empty()) folders.emplace_back(part);
     return folders;
+}
+
+// "yaw" at the top level or under "pose" of DIR/meta/<stem>.json.
+std::optional<double> read_meta_yaw(const LabelledImage& image) {
+    const auto meta = image.pts.parent_path().parent_path() / "meta" / (image.pts.stem().string() + ".json");
+    if (!std::filesystem::exists(meta)) return std::nullopt;
+    try {
+        const auto json = nlohmann::json::parse(read_file(meta));
+        if (json.contains("yaw") && json["yaw"].is_number()) return json["yaw"].get<double>();
+        if (json.contains("pose") && json["pose"].is_object() && json["pose"].contains("yaw") &&
+            json["pose"]["yaw"].is_number())
+            return json["pose"]["yaw"].get<double>();
+    } catch (const std::exception&) {
+    }
+    return std::nullopt;
 }
 
 }  // namespace facesynth::train

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,10 @@ struct LabelledImage {
 // each folder, folders in the order given. Throws facesynth::Error for a folder that does not exist
 // or holds no labelled image.
 [[nodiscard]] std::vector<LabelledImage> list_labelled_images(const std::vector<std::filesystem::path>& folders);
+
+// The sample's true yaw in degrees from a `facesynth synth` meta file (DIR/meta/<stem>.json beside
+// DIR/landmarks/), or nothing where there is none or it cannot be read.
+[[nodiscard]] std::optional<double> read_meta_yaw(const LabelledImage& image);
 
 // "a,b,c" -> {a, b, c} (empty parts dropped).
 [[nodiscard]] std::vector<std::filesystem::path> split_folder_list(const std::string& comma_separated);

@@ -22,20 +22,6 @@ double ms_since(Clock::time_point start) {
     return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-// The sample's yaw from a `facesynth synth` meta file: "yaw" at the top level or under "pose".
-std::optional<double> read_yaw(const LabelledImage& image) {
-    const auto meta = image.pts.parent_path().parent_path() / "meta" / (image.pts.stem().string() + ".json");
-    if (!std::filesystem::exists(meta)) return std::nullopt;
-    try {
-        const auto json = nlohmann::json::parse(read_file(meta));
-        if (json.contains("yaw") && json["yaw"].is_number()) return json["yaw"].get<double>();
-        if (json.contains("pose") && json["pose"].is_object() && json["pose"].contains("yaw"))
-            return json["pose"]["yaw"].get<double>();
-    } catch (const std::exception&) {
-    }
-    return std::nullopt;
-}
-
 }  // namespace
 
 std::vector<std::pair<int, int>> yaw_bins() { return {{0, 15}, {15, 30}, {30, 45}, {45, 60}, {60, 90}}; }
@@ -53,7 +39,7 @@ Evaluation evaluate_landmarks(const std::vector<LabelledImage>& images, std::spa
     for (const auto& image : images) {
         FaceEvaluation face;
         face.key = image.key;
-        face.yaw_deg = read_yaw(image);
+        face.yaw_deg = read_meta_yaw(image);
         try {
             const Eigen::Matrix2Xd truth = read_pts(image.pts);
             if (truth.cols() != kNumIbugLandmarks) throw file_error(image.pts.string(), "expected 68 points");

@@ -31,10 +31,57 @@ void read_doubles(ByteReader& r, double* values, std::size_t count, const char* 
         if (!std::isfinite(values[i])) throw r.error(std::string(what) + " contains NaN or infinite values");
 }
 
+void write_stage(ByteWriter& payload, const SdmModel& model, const SdmStage& stage, const std::filesystem::path& path) {
+    const int outputs = 2 * model.num_landmarks;
+    const int dims = model.feature_dims(stage.settings);
+    const auto rank = stage.basis.cols();
+    if (stage.basis.rows() != outputs || rank < 1 || rank > outputs || stage.weights.rows() != rank ||
+        stage.weights.cols() != dims || stage.bias.size() != outputs)
+        throw file_error(path.string(), "cannot write a model whose stage matrices do not match its header");
+    payload.write(stage.settings.patch_relative);
+    payload.write(static_cast<std::int32_t>(stage.settings.cell_size));
+    payload.write(static_cast<std::int32_t>(stage.settings.jaw_features ? 1 : 0));
+    payload.write(static_cast<std::int32_t>(rank));
+    payload.write_floats(stage.basis);
+    payload.write_floats(stage.weights);
+    payload.write_floats(stage.bias);
+}
+
+SdmStage read_stage(ByteReader& r, const SdmModel& model, std::uint32_t version, const std::string& which) {
+    const int outputs = 2 * model.num_landmarks;
+    SdmStage stage;
+    stage.settings.patch_relative = r.read<double>((which + " patch size").c_str());
+    stage.settings.cell_size = r.read<std::int32_t>((which + " cell size").c_str());
+    if (!(stage.settings.patch_relative > 0) || stage.settings.cell_size < 1 || stage.settings.cell_size > 64)
+        throw r.error(which + " has invalid patch settings");
+    if (version >= 2) {
+        const auto jaw = r.read<std::int32_t>((which + " jaw features flag").c_str());
+        if (jaw != 0 && jaw != 1) throw r.error(which + " has an invalid jaw features flag");
+        stage.settings.jaw_features = jaw == 1;
+    }
+    const int dims = model.feature_dims(stage.settings);
+    // Version 1 stored full-rank stages (2L x D weights, no basis).
+    const int rank = version == 1 ? outputs : r.read<std::int32_t>((which + " rank").c_str());
+    if (rank < 1 || rank > outputs) throw r.error(which + " has invalid rank " + std::to_string(rank));
+    // The header's HOG cells and the rank set the matrix sizes: check them against the file before allocating.
+    r.check_fits(static_cast<std::uint64_t>(rank) * static_cast<std::uint64_t>(dims + (version == 1 ? 0 : outputs)), sizeof(float),
+                 (which + " weights").c_str());
+    if (version == 1) {
+        stage.basis = Eigen::MatrixXf::Identity(outputs, outputs);
+    } else {
+        stage.basis.resize(outputs, rank);
+        r.read_floats(stage.basis, (which + " basis").c_str());
+    }
+    stage.weights.resize(rank, dims);
+    r.read_floats(stage.weights, (which + " weights").c_str());
+    stage.bias.resize(outputs);
+    r.read_floats(stage.bias, (which + " bias").c_str());
+    return stage;
+}
+
 }  // namespace
 
 void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
-    const int outputs = 2 * model.num_landmarks;
     ByteWriter payload;
     write_doubles(payload, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()));
     const BoxStatistics& b = model.boxes;
@@ -55,19 +102,18 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
         payload.write(static_cast<std::int32_t>(view_mean.size() ? 1 : 0));
         if (view_mean.size()) write_doubles(payload, view_mean.data(), static_cast<std::size_t>(view_mean.size()));
     }
-    for (const auto& stage : model.stages) {
-        const int dims = model.feature_dims(stage.settings);
-        const auto rank = stage.basis.cols();
-        if (stage.basis.rows() != outputs || rank < 1 || rank > outputs || stage.weights.rows() != rank ||
-            stage.weights.cols() != dims || stage.bias.size() != outputs)
-            throw file_error(path.string(), "cannot write a model whose stage matrices do not match its header");
-        payload.write(stage.settings.patch_relative);
-        payload.write(static_cast<std::int32_t>(stage.settings.cell_size));
-        payload.write(static_cast<std::int32_t>(stage.settings.jaw_features ? 1 : 0));
-        payload.write(static_cast<std::int32_t>(rank));
-        payload.write_floats(stage.basis);
-        payload.write_floats(stage.weights);
-        payload.write_floats(stage.bias);
+    for (const auto& stage : model.stages) write_stage(payload, model, stage, path);
+    payload.write(static_cast<std::uint32_t>(model.profile ? 1 : 0));
+    if (model.profile) {
+        const ProfileCascade& profile = *model.profile;
+        if (profile.stages.size() != model.stages.size() || profile.mean_shape.rows() != 2 ||
+            profile.mean_shape.cols() != model.num_landmarks)
+            throw file_error(path.string(), "cannot write a model whose profile cascade does not match its frontal one");
+        payload.write(static_cast<std::int32_t>(profile.faces));
+        const double spreads[] = {profile.init_translation_std, profile.init_scale_std, profile.init_rotation_std_deg};
+        write_doubles(payload, spreads, std::size(spreads));
+        write_doubles(payload, profile.mean_shape.data(), static_cast<std::size_t>(profile.mean_shape.size()));
+        for (const auto& stage : profile.stages) write_stage(payload, model, stage, path);
     }
 
     ByteWriter file;
@@ -126,7 +172,6 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
     if (fnv1a(std::string_view(bytes).substr(r.offset())) != payload_checksum)
         throw file_error(path.string(), "payload checksum mismatch (corrupt file)");
 
-    const int outputs = 2 * model.num_landmarks;
     model.mean_shape.resize(2, model.num_landmarks);
     read_doubles(r, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()), "mean shape");
     BoxStatistics& b = model.boxes;
@@ -163,35 +208,24 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
     } else {
         b.view_matched[0] = b.detector_matched;  // the frontal cascade was the only detector
     }
-    for (std::uint32_t k = 0; k < stages; ++k) {
-        SdmStage stage;
-        stage.settings.patch_relative = r.read<double>("stage patch size");
-        stage.settings.cell_size = r.read<std::int32_t>("stage cell size");
-        if (!(stage.settings.patch_relative > 0) || stage.settings.cell_size < 1 || stage.settings.cell_size > 64)
-            throw r.error("stage " + std::to_string(k + 1) + " has invalid patch settings");
-        if (version >= 2) {
-            const auto jaw = r.read<std::int32_t>("stage jaw features flag");
-            if (jaw != 0 && jaw != 1) throw r.error("stage " + std::to_string(k + 1) + " has an invalid jaw features flag");
-            stage.settings.jaw_features = jaw == 1;
+    for (std::uint32_t k = 0; k < stages; ++k) model.stages.push_back(read_stage(r, model, version, "stage " + std::to_string(k + 1)));
+    if (version >= 4) {
+        const auto has_profile = r.read<std::uint32_t>("profile cascade flag");
+        if (has_profile > 1) throw r.error("invalid profile cascade flag " + std::to_string(has_profile));
+        if (has_profile) {
+            ProfileCascade profile;
+            profile.faces = r.read<std::int32_t>("profile cascade faces");
+            double spreads[3];
+            read_doubles(r, spreads, 3, "profile cascade statistics");
+            profile.init_translation_std = spreads[0];
+            profile.init_scale_std = spreads[1];
+            profile.init_rotation_std_deg = spreads[2];
+            profile.mean_shape.resize(2, model.num_landmarks);
+            read_doubles(r, profile.mean_shape.data(), static_cast<std::size_t>(profile.mean_shape.size()), "profile mean shape");
+            for (std::uint32_t k = 0; k < stages; ++k)
+                profile.stages.push_back(read_stage(r, model, version, "profile stage " + std::to_string(k + 1)));
+            model.profile = std::move(profile);
         }
-        const int dims = model.feature_dims(stage.settings);
-        // Version 1 stored full-rank stages (2L x D weights, no basis).
-        const int rank = version == 1 ? outputs : r.read<std::int32_t>("stage rank");
-        if (rank < 1 || rank > outputs) throw r.error("stage " + std::to_string(k + 1) + " has invalid rank " + std::to_string(rank));
-        // The header's HOG cells and the rank set the matrix sizes: check them against the file before allocating.
-        r.check_fits(static_cast<std::uint64_t>(rank) * static_cast<std::uint64_t>(dims + (version == 1 ? 0 : outputs)), sizeof(float),
-                     "stage weights");
-        if (version == 1) {
-            stage.basis = Eigen::MatrixXf::Identity(outputs, outputs);
-        } else {
-            stage.basis.resize(outputs, rank);
-            r.read_floats(stage.basis, "stage basis");
-        }
-        stage.weights.resize(rank, dims);
-        r.read_floats(stage.weights, "stage weights");
-        stage.bias.resize(outputs);
-        r.read_floats(stage.bias, "stage bias");
-        model.stages.push_back(std::move(stage));
     }
     if (!r.at_end()) throw r.error("unexpected bytes after the last stage");
     return model;

@@ -9,9 +9,10 @@
 
 namespace facesynth::train {
 
-// 2: reduced-rank stages; 3: the face detector and per-view mean shapes. Versions 1 and 2 are still
-// read, as models of the frontal detector with one mean shape.
-inline constexpr std::uint32_t kSdmModelVersion = 3;
+// 2: reduced-rank stages; 3: the face detector and per-view mean shapes; 4: an optional profile
+// cascade (view-specific cascades). Versions 1 and 2 are still read, as models of the frontal detector
+// with one mean shape, and version 3 as a model with one cascade for all views.
+inline constexpr std::uint32_t kSdmModelVersion = 4;
 
 // Atomic write; throws facesynth::Error naming the file.
 void write_sdm_model(const std::filesystem::path& path, const SdmModel& model);

@@ -18,7 +18,10 @@ public:
         if (stages > static_cast<int>(model_.stages.size()))
             throw file_error(path, "has " + std::to_string(model_.stages.size()) + " stages, asked for " +
                                        std::to_string(stages));
-        if (stages >= 0) model_.stages.resize(static_cast<std::size_t>(stages));
+        if (stages >= 0) {
+            model_.stages.resize(static_cast<std::size_t>(stages));
+            if (model_.profile) model_.profile->stages.resize(static_cast<std::size_t>(stages));
+        }
     }
     Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override { return sdm_detect(model_, gray, box); }
     std::optional<DetectorKind> trained_detector() const override { return model_.boxes.detector; }

@@ -6,6 +6,8 @@
 #include "train/hog.h"
 #include "train/parallel.h"
 
+#include <opencv2/core.hpp>
+
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
@@ -105,12 +107,12 @@ void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_ce
     }
 }
 
-Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
+Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, const cv::Mat& crop, Eigen::Matrix2Xd shape,
                             std::vector<Eigen::Matrix2Xd>* after_each_stage) {
     Eigen::VectorXf features, reduced, delta;
-    for (const auto& stage : model.stages) {
-        features.resize(model.feature_dims(stage.settings));
-        sdm_features(crop, shape, model.hog_cells, stage.settings, {features.data(), static_cast<std::size_t>(features.size())});
+    for (const auto& stage : stages) {
+        features.resize(feature_landmark_count(stage.settings) * hog_dims(hog_cells));
+        sdm_features(crop, shape, hog_cells, stage.settings, {features.data(), static_cast<std::size_t>(features.size())});
         reduced.noalias() = stage.weights * features;
         delta.noalias() = stage.basis * reduced;
         delta += stage.bias;
@@ -120,9 +122,49 @@ Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::M
     return shape;
 }
 
+Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
+                            std::vector<Eigen::Matrix2Xd>* after_each_stage) {
+    return sdm_refine(model.stages, model.hog_cells, crop, std::move(shape), after_each_stage);
+}
+
+Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view) {
+    if (!model.profile || view == FaceView::kFrontal) return sdm_refine(model, crop, model.initial_shape(view));
+    const ProfileCascade& profile = *model.profile;
+    if (view == FaceView::kNoseLeft) return sdm_refine(profile.stages, model.hog_cells, crop, profile.mean_shape);
+    cv::Mat mirrored;
+    cv::flip(crop, mirrored, 1);
+    return mirror_canonical_shape(sdm_refine(profile.stages, model.hog_cells, mirrored, profile.mean_shape));
+}
+
 Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box) {
     const FaceFrame frame{box};
-    return frame.to_image(sdm_refine(model, canonical_crop(gray, frame), model.initial_shape(box.view)));
+    return frame.to_image(sdm_refine_view(model, canonical_crop(gray, frame), box.view));
+}
+
+Eigen::Matrix2Xd mirror_canonical_shape(const Eigen::Matrix2Xd& shape) {
+    const auto partner = ibug_mirror_pairs();
+    if (shape.cols() != static_cast<Eigen::Index>(partner.size()))
+        throw Error("mirror_canonical_shape: expected " + std::to_string(partner.size()) + " points, got " +
+                    std::to_string(shape.cols()));
+    Eigen::Matrix2Xd mirrored(2, shape.cols());
+    for (Eigen::Index i = 0; i < shape.cols(); ++i) {
+        const Eigen::Index from = partner[static_cast<std::size_t>(i)];
+        mirrored(0, i) = (kCanonicalCropSide - 1) - shape(0, from);
+        mirrored(1, i) = shape(1, from);
+    }
+    return mirrored;
+}
+
+TrainingFace mirror_training_face(const TrainingFace& face) {
+    TrainingFace mirrored;
+    cv::flip(face.crop, mirrored.crop, 1);
+    mirrored.truth = mirror_canonical_shape(face.truth);
+    mirrored.box_from_detector = face.box_from_detector;
+    mirrored.view = face.view == FaceView::kNoseLeft    ? FaceView::kNoseRight
+                    : face.view == FaceView::kNoseRight ? FaceView::kNoseLeft
+                                                        : FaceView::kFrontal;
+    if (face.yaw_deg) mirrored.yaw_deg = -*face.yaw_deg;
+    return mirrored;
 }
 
 double landmark_nme(const Eigen::Matrix2Xd& predicted, const Eigen::Matrix2Xd& truth) {

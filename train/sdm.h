@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -59,6 +60,17 @@ struct BoxStatistics {
     double init_translation_std = 0.04, init_scale_std = 0.04, init_rotation_std_deg = 3.0;
 };
 
+// The cascade of the profile views when the model has view-specific cascades (format version 4): trained
+// on the faces the profile cascade found with the nose to the image's left, and on nose-right faces
+// mirrored (image flipped, points permuted), so that one cascade serves both sides. Detection mirrors
+// nose-right crops, runs it, and mirrors the result back.
+struct ProfileCascade {
+    Eigen::Matrix2Xd mean_shape;  // nose-left orientation, canonical crop coordinates
+    std::vector<SdmStage> stages;
+    int faces = 0;  // training faces (held-out validation faces included), mirrored ones counted once
+    double init_translation_std = 0, init_scale_std = 0, init_rotation_std_deg = 0;
+};
+
 struct SdmModel {
     int num_landmarks = 68;
     int hog_cells = 3;                 // HOG cells per patch side
@@ -69,7 +81,8 @@ struct SdmModel {
     Eigen::Matrix2Xd mean_shape;
     std::array<Eigen::Matrix2Xd, kFaceViews> view_mean_shapes;
     std::array<int, kFaceViews> view_faces{};  // training faces (all boxes) per view
-    std::vector<SdmStage> stages;
+    std::vector<SdmStage> stages;  // with a profile cascade: the frontal view's cascade
+    std::optional<ProfileCascade> profile;
     BoxStatistics boxes;
     std::uint64_t training_checksum = 0;  // of the training keys and landmarks
     std::uint32_t training_faces = 0;
@@ -87,13 +100,22 @@ inline constexpr int kMinViewFaces = 10;
 void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
                   std::span<float> out);
 
-// Runs all stages from `shape` on a canonical crop; `after_each_stage` (optional) receives the shape
+// Runs `stages` from `shape` on a canonical crop; `after_each_stage` (optional) receives the shape
 // after every stage.
+[[nodiscard]] Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, const cv::Mat& crop,
+                                          Eigen::Matrix2Xd shape, std::vector<Eigen::Matrix2Xd>* after_each_stage = nullptr);
+// The same with the model's main (single or frontal) cascade.
 [[nodiscard]] Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
                                           std::vector<Eigen::Matrix2Xd>* after_each_stage = nullptr);
 
+// The landmarks (canonical crop coordinates) of the face in a canonical crop found by `view`: the
+// cascade that serves that view from its start shape (a nose-right crop is mirrored for the profile
+// cascade and the result mirrored back).
+[[nodiscard]] Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view);
+
 // Landmarks (0-based image pixels) of the face in `box` of an 8-bit grey image, starting from the
-// initial shape of the box's view.
+// initial shape of the box's view; profile views go through the profile cascade where the model has
+// one (nose-right crops mirrored).
 [[nodiscard]] Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box);
 
 // One training face, already cut out around its box.
@@ -102,7 +124,16 @@ struct TrainingFace {
     Eigen::Matrix2Xd truth;     // canonical crop coordinates
     bool box_from_detector = false;
     FaceView view = FaceView::kFrontal;  // the view that found it (for synthesised boxes: the view assigned)
+    std::optional<double> yaw_deg;       // ground truth where the data has it (synth meta)
 };
+
+// The iBUG mirror of a shape in canonical crop coordinates: x -> side - 1 - x (the pixel centres of a
+// horizontally flipped crop) and each point takes its left/right partner's place
+// (morph ibug_mirror_pairs), so that the result is again a valid 68-point shape of the flipped crop.
+// Mirroring twice gives the shape back exactly.
+[[nodiscard]] Eigen::Matrix2Xd mirror_canonical_shape(const Eigen::Matrix2Xd& shape);
+// The flipped crop with the mirrored shape; nose-left and nose-right views swap, the yaw changes sign.
+[[nodiscard]] TrainingFace mirror_training_face(const TrainingFace& face);
 
 struct SdmStageReport {
     int stage = 0;           // 1-based

@@ -177,6 +177,7 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
         face.truth = frame.to_canonical(item.truth);
         face.box_from_detector = item.detected.has_value();
         face.view = box.view;
+        face.yaw_deg = read_meta_yaw(images[i]);
         item.gray.release();
         item.crop.release();
         fnv1a(checksum, images[i].key.data(), images[i].key.size());

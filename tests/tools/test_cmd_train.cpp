@@ -46,6 +46,8 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
                             "detector_matched_frontal", "detector_matched_nose_left", "detector_matched_nose_right"})
         EXPECT_TRUE(train_report.contains(key)) << key;
     EXPECT_EQ(train_report["detector"], "multiview");  // the default
+    // --cascades auto: these near-frontal faces give the profile cascade too few faces, so one cascade.
+    EXPECT_EQ(train_report["view_cascades"], false);
 
     const auto eval_json = dir / "eval.json";
     const std::string eval_cmd = cli_path().string() + " eval landmarks --regressor " + model.string() +
@@ -99,6 +101,14 @@ TEST(CmdTrain, BadRegressorFileAndUsageErrors) {
         << out;
     EXPECT_NE(out.find("bad.sdm"), std::string::npos) << out;
     EXPECT_EQ(run_command(cli_path().string() + " train --out " + (dir / "m.sdm").string(), &out), 2) << out;
+    // View-specific cascades need the multi-view detector's views; the overlap needs the cascades.
+    const std::string train_here = cli_path().string() + " train --data " + dir.string() + " --out " + (dir / "m.sdm").string();
+    EXPECT_EQ(run_command(train_here + " --cascades views --detector frontal", &out), 2) << out;
+    EXPECT_NE(out.find("--cascades"), std::string::npos) << out;
+    EXPECT_EQ(run_command(train_here + " --cascades single --view-overlap 35,20", &out), 2) << out;
+    EXPECT_EQ(run_command(train_here + " --view-overlap 35", &out), 2) << out;
+    EXPECT_EQ(run_command(train_here + " --cascades both", &out), 2) << out;
+    EXPECT_FALSE(fs::exists(dir / "m.sdm"));
     EXPECT_EQ(run_command(cli_path().string() + " eval landmarks --regressor sdm@x:" + (dir / "bad.sdm").string() +
                               " --data " + dir.string(),
                           &out),

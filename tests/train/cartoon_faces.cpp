@@ -55,6 +55,18 @@ Eigen::Matrix2Xd template_shape(Rng& rng) {
     return p;
 }
 
+// Points of the flat template placed on a rounded head (depth falls off toward the sides), with the
+// nose (iBUG 28-36) standing out toward its tip, then turned about the vertical axis and projected.
+void turn(Eigen::Matrix2Xd& p, double yaw) {
+    for (Eigen::Index i = 0; i < p.cols(); ++i) {
+        const double x = p(0, i);
+        double depth = 0.45 * std::sqrt(std::max(0.0, 1.0 - (x / 0.6) * (x / 0.6)));
+        if (i >= 27 && i <= 30) depth += 0.04 * static_cast<double>(i - 26);  // bridge to tip
+        if (i >= 31 && i <= 35) depth += 0.08;                              // nostrils
+        p(0, i) = x * std::cos(yaw) + depth * std::sin(yaw);
+    }
+}
+
 std::vector<cv::Point> polyline(const Eigen::Matrix2Xd& p, int first, int count) {
     std::vector<cv::Point> points;
     for (int i = first; i < first + count; ++i)
@@ -64,9 +76,10 @@ std::vector<cv::Point> polyline(const Eigen::Matrix2Xd& p, int first, int count)
 
 }  // namespace
 
-CartoonFace make_cartoon_face(std::uint64_t seed, std::uint64_t index, int image_size) {
+CartoonFace make_cartoon_face(std::uint64_t seed, std::uint64_t index, int image_size, double yaw_deg) {
     Rng rng(seed, index, 77);
-    const Eigen::Matrix2Xd shape = template_shape(rng);
+    Eigen::Matrix2Xd shape = template_shape(rng);
+    if (yaw_deg != 0) turn(shape, yaw_deg * std::numbers::pi / 180.0);
     const double scale = image_size * (0.42 + 0.04 * rng.normal());
     const double angle = 6.0 * rng.normal() * std::numbers::pi / 180.0;
     const Eigen::Vector2d centre(image_size / 2.0 + 0.05 * image_size * rng.normal(),
@@ -111,18 +124,27 @@ CartoonFace make_cartoon_face(std::uint64_t seed, std::uint64_t index, int image
     return face;
 }
 
-std::vector<train::TrainingFace> cartoon_training_faces(std::uint64_t seed, int count) {
+std::vector<train::TrainingFace> cartoon_training_faces(std::uint64_t seed, int count, double yaw_deg) {
     using namespace train;
     std::vector<TrainingFace> faces;
     for (int i = 0; i < count; ++i) {
-        const auto cartoon = testkit::make_cartoon_face(seed, static_cast<std::uint64_t>(i));
         Rng rng(seed, static_cast<std::uint64_t>(i), 5);
+        const double yaw = yaw_deg == 0 ? 0.0 : yaw_deg + 5 * (2 * Rng(seed, static_cast<std::uint64_t>(i), 6).uniform() - 1);
+        const auto cartoon = testkit::make_cartoon_face(seed, static_cast<std::uint64_t>(i), 200, yaw);
         const Eigen::Vector2d low = cartoon.landmarks.rowwise().minCoeff(), high = cartoon.landmarks.rowwise().maxCoeff();
         FaceBox box;
         box.width = (high - low).maxCoeff() * (1.0 + 0.03 * rng.normal());
         box.centre = (low + high) / 2 + 0.03 * box.width * Eigen::Vector2d(rng.normal(), rng.normal());
         const FaceFrame frame{box};
-        faces.push_back({canonical_crop(cartoon.gray, frame), frame.to_canonical(cartoon.landmarks), true});
+        TrainingFace face;
+        face.crop = canonical_crop(cartoon.gray, frame);
+        face.truth = frame.to_canonical(cartoon.landmarks);
+        face.box_from_detector = true;
+        if (yaw_deg != 0) {
+            face.yaw_deg = yaw;
+            face.view = std::abs(yaw) < 20 ? FaceView::kFrontal : yaw < 0 ? FaceView::kNoseLeft : FaceView::kNoseRight;
+        }
+        faces.push_back(std::move(face));
     }
     return faces;
 }

@@ -3,14 +3,16 @@
 #include "train/sdm.h"
 
 #include "cartoon_faces.h"
+#include "common/model_files.h"
 #include "common/test_data.h"
+#include "morph/atomic_file.h"
+#include "sdm_file_testing.h"
 #include "morph/error.h"
 #include "morph/random.h"
 
 #include <gtest/gtest.h>
 
 #include <cstring>
-#include <fstream>
 #include <vector>
 
 namespace facesynth::train {
@@ -227,25 +229,11 @@ TEST(SdmModelFile, DetectorAndViewMeanShapesRoundTrip) {
     EXPECT_TRUE(back.stages[0].weights == model.stages[0].weights);
 }
 
-std::string read_all(const std::filesystem::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), {}};
-}
+using testkit::expect_sdm_error_naming;
+using testkit::rewrite_sdm_header;
 
-void write_all(const std::filesystem::path& path, const std::string& bytes) {
-    std::ofstream(path, std::ios::binary) << bytes;
-}
-
-void expect_error_naming(const std::filesystem::path& path, const std::string& fragment) {
-    try {
-        (void)read_sdm_model(path);
-        FAIL() << "no error for " << path;
-    } catch (const Error& e) {
-        const std::string message = e.what();
-        EXPECT_NE(message.find(path.string()), std::string::npos) << message;
-        EXPECT_NE(message.find(fragment), std::string::npos) << message;
-    }
-}
+std::string read_all(const std::filesystem::path& path) { return read_file(path); }
+void write_all(const std::filesystem::path& path, const std::string& bytes) { testkit::write_bytes(path, bytes); }
 
 TEST(SdmModelFile, WrongTruncatedAndCorruptFilesGiveErrorsNamingTheFile) {
     const auto dir = testkit::fresh_temp_dir("sdm_model_corrupt");
@@ -254,31 +242,31 @@ TEST(SdmModelFile, WrongTruncatedAndCorruptFilesGiveErrorsNamingTheFile) {
     const std::string bytes = read_all(good);
 
     const auto missing = dir / "missing.sdm";
-    expect_error_naming(missing, "not found");
+    expect_sdm_error_naming(missing, "not found");
 
     const auto foreign = dir / "foreign.sdm";
     write_all(foreign, "this is not a model file at all, just text");
-    expect_error_naming(foreign, "bad magic");
+    expect_sdm_error_naming(foreign, "bad magic");
 
     const auto truncated = dir / "truncated.sdm";
     write_all(truncated, bytes.substr(0, bytes.size() / 2));
-    expect_error_naming(truncated, "truncated");
+    expect_sdm_error_naming(truncated, "truncated");
 
     const auto header_only = dir / "header_only.sdm";
     write_all(header_only, bytes.substr(0, 20));
-    expect_error_naming(header_only, "truncated");
+    expect_sdm_error_naming(header_only, "truncated");
 
     const auto corrupt = dir / "corrupt.sdm";
     std::string flipped = bytes;
     flipped[flipped.size() - 100] ^= 0x5a;
     write_all(corrupt, flipped);
-    expect_error_naming(corrupt, "checksum");
+    expect_sdm_error_naming(corrupt, "checksum");
 
     const auto future = dir / "future.sdm";
     std::string newer = bytes;
     newer[8] = 99;
     write_all(future, newer);
-    expect_error_naming(future, "version");
+    expect_sdm_error_naming(future, "version");
 }
 
 // A version 2 file (no detector, one mean shape), made from a version 3 one by dropping the view
@@ -292,14 +280,9 @@ TEST(SdmModelFile, ReadsVersion2FilesAsFrontalDetectorModels) {
     const std::size_t view_block_at = kPayload + 68 * 2 * 8 + 2 * 4 + 9 * 8;  // after mean shape and box statistics
     std::size_t view_block = 8;
     for (const auto& shape : model.view_mean_shapes) view_block += 12 + static_cast<std::size_t>(shape.size()) * 8;
-    std::string v2 = v3.substr(0, view_block_at) + v3.substr(view_block_at + view_block);
-    const std::uint32_t version = 2;
-    std::memcpy(v2.data() + 8, &version, 4);
-    const std::uint64_t payload_size = v2.size() - kPayload;
-    std::memcpy(v2.data() + 60, &payload_size, 8);
-    std::uint64_t hash = 0xcbf29ce484222325ULL;
-    for (std::size_t i = kPayload; i < v2.size(); ++i) hash = (hash ^ static_cast<unsigned char>(v2[i])) * 0x100000001b3ULL;
-    std::memcpy(v2.data() + 68, &hash, 8);
+    // (the file is version 4: its last 4 bytes are the profile cascade flag, 0, which version 2 lacks)
+    std::string v2 = v3.substr(0, view_block_at) + v3.substr(view_block_at + view_block, v3.size() - 4 - view_block_at - view_block);
+    rewrite_sdm_header(v2, 2);
     write_all(dir / "v2.sdm", v2);
 
     const SdmModel back = read_sdm_model(dir / "v2.sdm");
@@ -319,12 +302,10 @@ TEST(SdmModelFile, HugeStageDimensionsAreRefusedBeforeAllocation) {
     // size check itself is reached.
     const std::uint32_t cells = 16;
     std::memcpy(bytes.data() + 20, &cells, 4);
-    std::uint64_t hash = 0xcbf29ce484222325ULL;
-    for (std::size_t i = 76; i < bytes.size(); ++i) hash = (hash ^ static_cast<unsigned char>(bytes[i])) * 0x100000001b3ULL;
-    std::memcpy(bytes.data() + 68, &hash, 8);
+    rewrite_sdm_header(bytes, kSdmModelVersion);
     const auto huge = dir / "huge.sdm";
     write_all(huge, bytes);
-    expect_error_naming(huge, "stage weights: size");
+    expect_sdm_error_naming(huge, "stage 1 weights: size");
 }
 
 }  // namespace

@@ -1,0 +1,102 @@
+#include "train/view_cascades.h"
+
+#include "morph/error.h"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace facesynth::train {
+
+namespace {
+
+// Faces of each cascade, the profile ones in nose-left orientation.
+struct SplitFaces {
+    std::vector<TrainingFace> frontal, profile;
+    ViewCascadeCounts counts;
+};
+
+// With `copy_faces` false only the counts are filled.
+SplitFaces split_faces(std::span<const TrainingFace> faces, const ViewSplit& split, bool copy_faces) {
+    SplitFaces out;
+    ViewCascadeCounts& c = out.counts;
+    // Nose-left orientation of a profile-cascade face: nose-right faces are mirrored; a frontal-view face
+    // in the overlap band by where its nose points (the sign of its true yaw).
+    const auto add_profile = [&](const TrainingFace& face, bool nose_right) {
+        ++c.profile_faces;
+        c.profile_mirrored += nose_right ? 1 : 0;
+        if (!copy_faces) return;
+        out.profile.push_back(nose_right ? mirror_training_face(face) : face);
+        out.profile.back().view = FaceView::kNoseLeft;
+    };
+    const auto add_frontal = [&](const TrainingFace& face) {
+        ++c.frontal_faces;
+        if (!copy_faces) return;
+        out.frontal.push_back(face);
+        out.frontal.back().view = FaceView::kFrontal;
+    };
+    for (const auto& face : faces) {
+        const double abs_yaw = face.yaw_deg ? std::abs(*face.yaw_deg) : std::nan("");
+        if (face.view == FaceView::kFrontal) {
+            add_frontal(face);
+            if (abs_yaw >= split.profile_min_yaw_deg) {
+                // Negative yaw turns the nose to the image's left (the nose-left view's side).
+                add_profile(face, *face.yaw_deg > 0);
+                ++c.profile_from_frontal;
+            }
+        } else {
+            add_profile(face, face.view == FaceView::kNoseRight);
+            if (abs_yaw <= split.frontal_max_yaw_deg) {
+                add_frontal(face);
+                ++c.frontal_from_profile;
+            }
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+ViewCascadeCounts count_view_split(std::span<const TrainingFace> faces, const ViewSplit& split) {
+    return split_faces(faces, split, false).counts;
+}
+
+SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStatistics& boxes, const SdmTrainOptions& options,
+                             const ViewSplit& split, ViewCascadeCounts* counts,
+                             const std::function<void(const char* cascade, const SdmStageReport&)>& on_stage) {
+    const SplitFaces sets = split_faces(faces, split, true);
+    const ViewCascadeCounts& c = sets.counts;
+    if (counts) *counts = c;
+
+    const auto train_one = [&](const char* name, const std::vector<TrainingFace>& set) {
+        SdmTrainOptions o = options;
+        if (on_stage) o.on_stage = [&](const SdmStageReport& r) { on_stage(name, r); };
+        try {
+            return train_sdm(set, boxes, o);
+        } catch (const Error& e) {
+            throw Error(std::string("view-specific cascades: the ") + name + " cascade (" + std::to_string(set.size()) +
+                        " faces): " + e.what());
+        }
+    };
+    SdmModel model = train_one("frontal", sets.frontal);
+    const SdmModel profile_model = train_one("profile", sets.profile);
+
+    ProfileCascade cascade;
+    cascade.mean_shape = profile_model.mean_shape;
+    cascade.stages = profile_model.stages;
+    cascade.faces = c.profile_faces;
+    cascade.init_translation_std = profile_model.boxes.init_translation_std;
+    cascade.init_scale_std = profile_model.boxes.init_scale_std;
+    cascade.init_rotation_std_deg = profile_model.boxes.init_rotation_std_deg;
+    model.view_mean_shapes[static_cast<std::size_t>(FaceView::kFrontal)] = model.mean_shape;
+    model.view_mean_shapes[static_cast<std::size_t>(FaceView::kNoseLeft)] = cascade.mean_shape;
+    model.view_mean_shapes[static_cast<std::size_t>(FaceView::kNoseRight)] = mirror_canonical_shape(cascade.mean_shape);
+    model.profile = std::move(cascade);
+    // Training faces per view as the detector (or the fallback) assigned them, before any mirroring.
+    model.view_faces = {};
+    for (const auto& face : faces) ++model.view_faces[static_cast<std::size_t>(face.view)];
+    model.training_faces = static_cast<std::uint32_t>(faces.size());
+    return model;
+}
+
+}  // namespace facesynth::train
