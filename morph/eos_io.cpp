@@ -5,9 +5,9 @@
 #include "morph/error.h"
 #include "morph/landmarks.h"
 #include "morph/sfm_completion_data.h"  // generated from data/sfm_landmarks_completion.toml
+#include "morph/toml_file.h"
 
 #include <nlohmann/json.hpp>
-#include <toml.hpp>
 
 #include <fstream>
 #include <sstream>
@@ -210,9 +210,9 @@ std::vector<Blendshape> read_eos_blendshapes(const std::filesystem::path& path, 
 LandmarkMapping read_landmark_mapping(const std::filesystem::path& path) {
     const std::string text = read_file(path);
     if (text.empty()) throw file_error(path.string(), "empty landmark mapping file");
+    const toml::value root = parse_toml(text, path.string());
     try {
-        std::istringstream stream(text);
-        return mapping_from_toml(toml::parse(stream, path.string()), path.string());
+        return mapping_from_toml(root, path.string());
     } catch (const toml::exception& e) {
         throw file_error(path.string(), std::string("TOML error: ") + e.what());
     }
@@ -269,9 +269,8 @@ std::vector<int> read_symmetry(const std::filesystem::path& path, int num_vertic
 }
 
 LandmarkCompletion parse_landmark_completion(const std::string& toml_text, const std::string& source_name) {
+    const toml::value root = parse_toml(toml_text, source_name);
     try {
-        std::istringstream stream(toml_text);
-        const toml::value root = toml::parse(stream, source_name);
         LandmarkCompletion completion;
         completion.model_vertices = toml::find<int>(root, "model_vertices");
         completion.model_triangles = toml::find<int>(root, "model_triangles");

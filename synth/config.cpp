@@ -1,8 +1,7 @@
 #include "synth/config.h"
 
 #include "morph/error.h"
-
-#include <toml.hpp>
+#include "morph/toml_file.h"
 
 #include <charconv>
 #include <cmath>
@@ -228,12 +227,7 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
 }
 
 void apply_toml_file(SynthConfig& config, const std::filesystem::path& path) {
-    toml::value root;
-    try {
-        root = toml::parse(path.string());
-    } catch (const std::exception& e) {
-        throw file_error(path.string(), std::string("cannot parse TOML: ") + e.what());
-    }
+    const toml::value root = read_toml_file(path);
     if (!root.is_table()) throw file_error(path.string(), "not a TOML table");
     apply_toml_table(config_fields(config), root.as_table(), "", path.string() + ": ");
 }

@@ -47,6 +47,18 @@ TEST(SynthConfig, TomlFileSetsKeysAndRejectsUnknownKeyNamingIt) {
     EXPECT_NE(type_message.find("camera.width"), std::string::npos) << type_message;
 }
 
+TEST(SynthConfig, FuzzFindingInvalidUtf8IsRefusedNamingTheFileAndLine) {
+    // fuzz_synth_config: a literal string with invalid UTF-8 made toml11 3.7 read past its buffer
+    // (heap-buffer-overflow in location::reset). The config reader now refuses the bytes first.
+    const auto kept = std::filesystem::path(FACESYNTH_TEST_FILES) / "fuzz_regressions" /
+                      "synth_config-toml11-heap-overflow-3ea07958.toml";
+    ASSERT_TRUE(std::filesystem::exists(kept)) << kept;
+    SynthConfig config;
+    const std::string message = error_of([&] { apply_toml_file(config, kept); });
+    EXPECT_NE(message.find(kept.string() + ": line 2, byte 9: not valid UTF-8"), std::string::npos) << message;
+    EXPECT_EQ(config.count, SynthConfig{}.count);  // nothing applied
+}
+
 TEST(SynthConfig, OverridesParseByTypeAndNameTheKey) {
     SynthConfig config;
     apply_override(config, "pose.roll.max=5.5");
