@@ -1,5 +1,6 @@
 #include "render/landmarks.h"
 
+#include "morph/camera.h"
 #include "morph/error.h"
 #include "morph/jaw_contour.h"
 #include "morph/landmarks.h"
@@ -8,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace facesynth::render {
 namespace {
@@ -34,6 +36,94 @@ double pixels_per_mm(const Camera& camera, double z) {
 bool inside_image(const cv::Mat& image, const Eigen::Vector2d& p) {
     return p.x() >= -0.5 && p.y() >= -0.5 && p.x() < image.cols - 0.5 && p.y() < image.rows - 0.5;
 }
+
+// The exact ray test behind is_unoccluded, with what it needs per mesh and camera computed once.
+class RayOcclusion {
+public:
+    RayOcclusion(const Mesh& mesh, const Camera& camera)
+        : camera_(camera), triangles_(mesh.triangles), vertices_(to_camera(camera.pose, mesh.vertices)) {
+        // Triangles around each vertex, compressed rows.
+        first_.assign(static_cast<std::size_t>(mesh.num_vertices()) + 1, 0);
+        for (const Triangle& t : triangles_)
+            for (const int v : t) ++first_[static_cast<std::size_t>(v) + 1];
+        for (std::size_t v = 1; v < first_.size(); ++v) first_[v] += first_[v - 1];
+        around_.resize(static_cast<std::size_t>(first_.back()));
+        std::vector<int> next(first_.begin(), first_.end() - 1);
+        for (std::size_t t = 0; t < triangles_.size(); ++t)
+            for (const int v : triangles_[t]) around_[static_cast<std::size_t>(next[static_cast<std::size_t>(v)]++)] = static_cast<int>(t);
+        seen_.assign(triangles_.size(), 0);
+        tested_.assign(triangles_.size(), 0);
+    }
+
+    // Candidates: the triangles seen in the window around the point's pixel and every triangle
+    // sharing a vertex with one of them. Near an outline the one that covers the point may be
+    // smaller than a pixel and cover no pixel centre; its neighbours on the same surface do.
+    [[nodiscard]] bool unoccluded(const Frame& frame, const Eigen::Vector2d& pixel, const Eigen::Vector3d& camera_point,
+                                  const LandmarkOptions& options) {
+        if (frame.triangle_ids.empty()) throw Error("render: landmark visibility needs the triangle-id buffer (settings.geometry)");
+        if (!inside_image(frame.triangle_ids, pixel)) return false;
+        // The segment from the camera (its centre, or the image plane when orthographic) to the point.
+        const Eigen::Vector3d origin = camera_.projection == Projection::kPerspective
+                                           ? Eigen::Vector3d::Zero()
+                                           : Eigen::Vector3d(camera_point.x(), camera_point.y(), 0.0);
+        const Eigen::Vector3d segment = camera_point - origin;
+        const double length = segment.norm();
+        if (length <= options.occlusion_margin_mm) return true;
+        const Eigen::Vector3d direction = segment / length;
+        const double reach = length - options.occlusion_margin_mm;
+        ++query_;
+        const int cx = static_cast<int>(std::lround(pixel.x())), cy = static_cast<int>(std::lround(pixel.y()));
+        const int w = options.occluder_window_px;
+        for (int y = std::max(0, cy - w); y <= std::min(frame.triangle_ids.rows - 1, cy + w); ++y)
+            for (int x = std::max(0, cx - w); x <= std::min(frame.triangle_ids.cols - 1, cx + w); ++x) {
+                const int seen = frame.triangle_ids.at<int>(y, x);
+                if (seen < 0 || static_cast<std::size_t>(seen) >= triangles_.size() || !first_visit(seen, seen_)) continue;
+                for (const int v : triangles_[static_cast<std::size_t>(seen)])
+                    for (int k = first_[static_cast<std::size_t>(v)]; k < first_[static_cast<std::size_t>(v) + 1]; ++k) {
+                        const int candidate = around_[static_cast<std::size_t>(k)];
+                        if (first_visit(candidate, tested_) && crosses(candidate, origin, direction, reach)) return false;
+                    }
+            }
+        return true;
+    }
+
+private:
+    // Marks `triangle` in `marks` for this query; false when it was already marked.
+    bool first_visit(int triangle, std::vector<int>& marks) const {
+        int& mark = marks[static_cast<std::size_t>(triangle)];
+        if (mark == query_) return false;
+        mark = query_;
+        return true;
+    }
+
+    // Whether the ray origin + s·direction, 0 < s < reach, crosses the front face of `triangle`
+    // (Möller–Trumbore). Back faces are culled in the render, so they hide nothing in the image.
+    [[nodiscard]] bool crosses(int triangle, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double reach) const {
+        const Triangle& t = triangles_[static_cast<std::size_t>(triangle)];
+        const Eigen::Vector3d a = vertices_.col(t[0]);
+        const Eigen::Vector3d e1 = vertices_.col(t[1]) - a, e2 = vertices_.col(t[2]) - a;
+        const Eigen::Vector3d p = direction.cross(e2);
+        const double det = e1.dot(p);  // > 0: the triangle faces the camera
+        if (det <= 1e-12 * e1.norm() * e2.norm()) return false;
+        const Eigen::Vector3d s = origin - a;
+        const double u = s.dot(p) / det;
+        if (u < 0.0 || u > 1.0) return false;
+        const Eigen::Vector3d q = s.cross(e1);
+        const double v = direction.dot(q) / det;
+        if (v < 0.0 || u + v > 1.0) return false;
+        const double distance = e2.dot(q) / det;
+        return distance > 0.0 && distance < reach;
+    }
+
+    const Camera& camera_;
+    const std::vector<Triangle>& triangles_;
+    Eigen::Matrix3Xd vertices_;  // camera space
+    std::vector<int> first_;     // around_[first_[v] .. first_[v + 1]): the triangles around vertex v
+    std::vector<int> around_;
+    // Per triangle, the last query that took it from the window (seen_) or ray-tested it (tested_).
+    std::vector<int> seen_, tested_;
+    int query_ = 0;
+};
 
 }  // namespace
 
@@ -84,6 +174,11 @@ bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_
     return false;
 }
 
+bool is_unoccluded(const Mesh& mesh, const Camera& camera, const Frame& frame, const Eigen::Vector2d& pixel,
+                   const Eigen::Vector3d& camera_point, const LandmarkOptions& options) {
+    return RayOcclusion(mesh, camera).unoccluded(frame, pixel, camera_point, options);
+}
+
 bool is_outline_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z, double pixels_per_mm,
                         std::span<const char> face_triangles, const LandmarkOptions& options) {
     if (frame.depth.empty()) throw Error("render: landmark visibility needs the depth buffer (settings.geometry)");
@@ -123,6 +218,7 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
     out.model_points.resize(3, count);
     out.camera_points.resize(3, count);
     out.visible.assign(static_cast<std::size_t>(count), 0);
+    RayOcclusion occlusion(mesh, camera);
     for (int i = 0; i < count; ++i) {
         const SurfacePoint& point = landmarks[static_cast<std::size_t>(i)];
         for (int v : point.vertices)
@@ -133,7 +229,12 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
         out.model_points.col(i) = x;
         out.camera_points.col(i) = to_camera(camera.pose, x);
         out.pixels.col(i) = project_point(camera, x);
-        out.visible[static_cast<std::size_t>(i)] = is_visible(frame, out.pixels.col(i), out.camera_points(2, i), options);
+        // The jaw points lie on the face's outline, where the face's own surface may cover them by a
+        // little: the depth test here, the outline rule below when there is a contour region.
+        const bool jaw_point = count == kNumIbugLandmarks && i < kNumJawLandmarks;
+        out.visible[static_cast<std::size_t>(i)] =
+            jaw_point ? is_visible(frame, out.pixels.col(i), out.camera_points(2, i), options)
+                      : occlusion.unoccluded(frame, out.pixels.col(i), out.camera_points.col(i), options);
     }
     const bool jaw = count == kNumIbugLandmarks && contour_region && !contour_region->vertices.empty();
     std::vector<char> face_triangles;

@@ -24,6 +24,11 @@ struct LandmarkOptions {
     // Jaw points (with a contour region): how much of the face's own outline may cover them, in mm
     // at the point's depth (see is_outline_visible); a fixed size in the image would change with it.
     double outline_tolerance_mm = 3.0;
+    // Points but the jaw (is_unoccluded): a surface crossing the camera ray less than this before the
+    // point is the point's own (float rounding where the ray meets its triangles), not an occluder.
+    double occlusion_margin_mm = 0.1;
+    // Half-size of the window of the triangle-id buffer whose triangles are the ray's candidates.
+    int occluder_window_px = 2;
 };
 
 struct ProjectedLandmarks {
@@ -51,6 +56,15 @@ struct ProjectedLandmarks {
 // Whether a camera-space depth `camera_z` at `pixel` is unoccluded in the frame's depth buffer.
 [[nodiscard]] bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z,
                               const LandmarkOptions& options = {});
+
+// Whether the camera ray to `camera_point` (camera space, at `pixel`) reaches it: an exact ray cast
+// against the triangles seen in the (2 occluder_window_px + 1)² pixels of frame.triangle_ids around
+// it, the only surfaces that can stand in front of it (a surface covering the point covers the pixel
+// centres next to it, unless it is thinner than a pixel there). A depth tolerance cannot decide next
+// to an outline: beside the nose's edge the far eye's corners have, within a pixel, both the nose
+// 10-20 mm in front and their own surface. False outside the image.
+[[nodiscard]] bool is_unoccluded(const Mesh& mesh, const Camera& camera, const Frame& frame, const Eigen::Vector2d& pixel,
+                                 const Eigen::Vector3d& camera_point, const LandmarkOptions& options = {});
 
 // Visibility of a point on the face's outline (the jaw points, fixed and contour). At a silhouette the
 // depth buffer cannot decide alone: the surface there is seen at a grazing angle, so a pixel next to
