@@ -114,6 +114,11 @@ void run_train(const TrainArgs& args) {
         std::unique_ptr<Progress> progress;
         std::size_t reported = 0;
         options.on_progress = [&](std::size_t done, std::size_t total) {
+            if (progress && done < reported) {  // the next cascade (view-specific cascades) counts from 0 again
+                progress->finish();
+                progress.reset();
+                reported = 0;
+            }
             if (!progress) progress = std::make_unique<Progress>("features", total, args.quiet);
             progress->advance(done - reported);
             reported = done;
