@@ -120,6 +120,8 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
     // The shared definition: far side on the face region's outline, near side on the fixed jaw line.
     Eigen::Matrix2Xd region_projected;
     std::vector<int> fallback;
+    std::vector<JawContourQuery> contour_queries;  // far-side points, searched together
+    std::vector<int> contour_landmarks;
     for (int j : jaw_indices) {
         if (j < 0 || j >= kNumJawLandmarks || j == kChinLandmark) continue;
         if (!fixed_defined(j) || region_.vertices.empty()) {
@@ -142,11 +144,13 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
         Eigen::Vector3d x = Eigen::Vector3d::Zero();
         for (int k = 0; k < 3; ++k) x += static_cast<double>(fixed.weights[static_cast<std::size_t>(k)]) * position_of(fixed.vertices[static_cast<std::size_t>(k)]);
         const Eigen::Vector2d toward_left = (project(Eigen::Vector3d(x + Eigen::Vector3d::UnitX())) - project(x)).normalized();
-        const Eigen::Vector2d outward = j < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
-        if (const auto hit = jaw_contour_point(region_, region_projected, landmarks.col(j), outward))
-            result[static_cast<std::size_t>(j)] = hit->point;
-        else
-            result[static_cast<std::size_t>(j)] = model_.landmarks[static_cast<std::size_t>(j)];
+        contour_queries.push_back({landmarks.col(j), j < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left});
+        contour_landmarks.push_back(j);
+    }
+    const auto hits = jaw_contour_points(region_, region_projected, contour_queries);
+    for (std::size_t q = 0; q < hits.size(); ++q) {
+        const auto j = static_cast<std::size_t>(contour_landmarks[q]);
+        result[j] = hits[q] ? hits[q]->point : model_.landmarks[j];
     }
     if (fallback.empty()) return result;
 

@@ -4,6 +4,7 @@
 #include "morph/polygon.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <initializer_list>
 #include <unordered_map>
@@ -169,25 +170,86 @@ int far_side(const Eigen::Matrix3d& rotation) {
     return z < 0 ? 1 : (z > 0 ? -1 : 0);
 }
 
-std::optional<JawContourHit> jaw_contour_point(const JawContourRegion& region, const Eigen::Matrix2Xd& projected,
-                                               const Eigen::Vector2d& fixed_pixel, const Eigen::Vector2d& outward) {
-    const Eigen::Vector2d u = outward.normalized();
-    const Eigen::Vector2d w(-u.y(), u.x());  // across the line
-    std::optional<JawContourHit> best;
+namespace {
+
+// One query's line test on one edge, exactly as the single-point search does it: updates `best`
+// when the edge crosses the line further out than every earlier edge.
+struct ContourLine {
+    Eigen::Vector2d fixed, u, w;  // the fixed point, outward, across
     double best_out = -std::numeric_limits<double>::max();
-    for (const auto& e : region.edges) {
+    std::optional<JawContourHit> best;
+
+    void test(const JawContourRegion& region, const Eigen::Matrix2Xd& projected, const std::array<int, 2>& e) {
         const Eigen::Vector2d pa = projected.col(e[0]), pb = projected.col(e[1]);
-        const double da = (pa - fixed_pixel).dot(w), db = (pb - fixed_pixel).dot(w);
-        if ((da > 0 && db > 0) || (da < 0 && db < 0) || da == db) continue;
+        const double da = (pa - fixed).dot(w), db = (pb - fixed).dot(w);
+        if ((da > 0 && db > 0) || (da < 0 && db < 0) || da == db) return;
         const double t = da / (da - db);
         const Eigen::Vector2d p = pa + t * (pb - pa);
-        const double out = (p - fixed_pixel).dot(u);
-        if (out <= best_out) continue;
+        const double out = (p - fixed).dot(u);
+        if (out <= best_out) return;
         best_out = out;
         const int a = region.vertices[static_cast<std::size_t>(e[0])], b = region.vertices[static_cast<std::size_t>(e[1])];
         best = JawContourHit{{{a, b, b}, {static_cast<float>(1.0 - t), static_cast<float>(t), 0.0f}}, p};
     }
-    return best;
+};
+
+}  // namespace
+
+std::optional<JawContourHit> jaw_contour_point(const JawContourRegion& region, const Eigen::Matrix2Xd& projected,
+                                               const Eigen::Vector2d& fixed_pixel, const Eigen::Vector2d& outward) {
+    ContourLine line;
+    line.fixed = fixed_pixel;
+    line.u = outward.normalized();
+    line.w = Eigen::Vector2d(-line.u.y(), line.u.x());
+    for (const auto& e : region.edges) line.test(region, projected, e);
+    return line.best;
+}
+
+std::vector<std::optional<JawContourHit>> jaw_contour_points(const JawContourRegion& region, const Eigen::Matrix2Xd& projected,
+                                                             const std::vector<JawContourQuery>& queries) {
+    std::vector<std::optional<JawContourHit>> hits(queries.size());
+    if (queries.empty() || projected.cols() == 0) return hits;
+    std::vector<ContourLine> lines(queries.size());
+    for (std::size_t q = 0; q < queries.size(); ++q) {
+        lines[q].fixed = queries[q].fixed_pixel;
+        lines[q].u = queries[q].outward.normalized();
+        lines[q].w = Eigen::Vector2d(-lines[q].u.y(), lines[q].u.x());
+    }
+    // The bound: every vertex's offset along the first query's across direction w0, s_v = p_v · w0.
+    // Query q's exact offset (p_v − f_q) · w_q differs from s_v − f_q · w0 by at most
+    // |p_v − f_q| |w_q − w0| plus rounding, so an edge whose bounds keep clear of the line by more
+    // than that margin cannot cross it; every other edge gets the exact test, in edge order.
+    const Eigen::Vector2d w0 = lines.front().w;
+    const Eigen::VectorXd s = projected.transpose() * w0;
+    const Eigen::Vector2d low = projected.rowwise().minCoeff(), high = projected.rowwise().maxCoeff();
+    struct Threshold {
+        double c, margin;
+        std::size_t query;
+    };
+    std::vector<Threshold> thresholds;
+    double largest_margin = 0;
+    for (std::size_t q = 0; q < lines.size(); ++q) {
+        const Eigen::Vector2d f = lines[q].fixed;
+        const double reach = (f - low).cwiseAbs().cwiseMax((f - high).cwiseAbs()).norm();
+        const double margin = reach * (lines[q].w - w0).norm() + 1e-9 * (reach + f.norm() + high.cwiseAbs().maxCoeff() + low.cwiseAbs().maxCoeff());
+        thresholds.push_back({f.dot(w0), margin, q});
+        largest_margin = std::max(largest_margin, margin);
+    }
+    if (!std::isfinite(largest_margin)) {  // non-finite input: the plain search per query
+        for (std::size_t q = 0; q < queries.size(); ++q) hits[q] = jaw_contour_point(region, projected, queries[q].fixed_pixel, queries[q].outward);
+        return hits;
+    }
+    std::sort(thresholds.begin(), thresholds.end(), [](const Threshold& a, const Threshold& b) { return a.c < b.c; });
+    for (const auto& e : region.edges) {
+        const double sa = s[e[0]], sb = s[e[1]];
+        const double lo = std::min(sa, sb) - largest_margin, hi = std::max(sa, sb) + largest_margin;
+        // The first threshold at or above lo, then every one up to hi.
+        auto it = std::lower_bound(thresholds.begin(), thresholds.end(), lo, [](const Threshold& t, double v) { return t.c < v; });
+        for (; it != thresholds.end() && it->c <= hi; ++it)
+            if (std::min(sa, sb) - it->margin <= it->c && it->c <= std::max(sa, sb) + it->margin) lines[it->query].test(region, projected, e);
+    }
+    for (std::size_t q = 0; q < lines.size(); ++q) hits[q] = std::move(lines[q].best);
+    return hits;
 }
 
 }  // namespace facesynth

@@ -74,4 +74,15 @@ struct JawContourHit {
                                                              const Eigen::Vector2d& fixed_pixel,
                                                              const Eigen::Vector2d& outward);
 
+// Several far-side jaw points in one pass over the region's edges: the same hits, bit for bit, as
+// jaw_contour_point for each query (an edge is tested exactly only when a cheap bound says that the
+// query's line may cross it). The fitter asks for up to 8 per round.
+struct JawContourQuery {
+    Eigen::Vector2d fixed_pixel;
+    Eigen::Vector2d outward;
+};
+[[nodiscard]] std::vector<std::optional<JawContourHit>> jaw_contour_points(const JawContourRegion& region,
+                                                                           const Eigen::Matrix2Xd& projected,
+                                                                           const std::vector<JawContourQuery>& queries);
+
 }  // namespace facesynth

@@ -2,7 +2,9 @@
 #include "fit/fit.h"
 
 #include "common/toy_model.h"
+#include "morph/builtin.h"
 #include "morph/jaw_contour.h"
+#include "morph/pose.h"
 #include "morph/landmarks.h"
 
 #include <gtest/gtest.h>
@@ -87,6 +89,47 @@ TEST(Contour, ContourModeFollowsTheSilhouetteBetterThanFixedJawPoints) {
     for (int j = 9; j < kNumJawLandmarks; ++j)
         moved += contour.correspondences[static_cast<std::size_t>(j)].vertices[0] != m.landmarks[static_cast<std::size_t>(j)].vertices[0];
     EXPECT_GT(moved, 0);
+}
+
+
+// The fitter searches all far-side jaw points in one pass over the region's edges; the hits must be
+// those of the one-point search, bit for bit, whether the queries' directions agree (affine camera)
+// or differ (a perspective camera turns the face's x axis differently at each point).
+TEST(Contour, BatchedContourSearchGivesTheSameHitsAsOnePointAtATime) {
+    const MorphableModel model = builtin_model();
+    const JawContourRegion region = jaw_contour_region(model);
+    ASSERT_FALSE(region.vertices.empty());
+    const Eigen::Matrix3Xf mean = as_points(model.shape.mean);
+    int found = 0;
+    for (double yaw : {-70.0, -40.0, -10.0, 25.0, 55.0}) {
+        const EulerAngles angles{yaw, 8, -5};
+        const Eigen::Matrix<double, 2, 3> m = 2.5 * (model_to_camera_flip() * rotation_from_euler(angles)).topRows<2>();
+        Eigen::Matrix2Xd projected(2, static_cast<Eigen::Index>(region.vertices.size()));
+        for (std::size_t r = 0; r < region.vertices.size(); ++r)
+            projected.col(static_cast<Eigen::Index>(r)) = m * mean.col(region.vertices[r]).cast<double>() + Eigen::Vector2d(200, 210);
+        const Eigen::Vector2d across = (m * Eigen::Vector3d::UnitX()).normalized();
+        for (double spread : {0.0, 1e-12, 0.05}) {  // directions equal, equal up to rounding, different
+            std::vector<JawContourQuery> queries;
+            for (int j = 0; j < kNumJawLandmarks; ++j) {
+                if (j == kChinLandmark) continue;
+                const Eigen::Vector2d fixed = m * model.landmarks[static_cast<std::size_t>(j)].position(mean).cast<double>() + Eigen::Vector2d(200, 210);
+                const Eigen::Vector2d outward = (j < kChinLandmark ? -across : across) + spread * (j - 8) * Eigen::Vector2d(across.y(), -across.x());
+                queries.push_back({fixed, outward});
+            }
+            const auto batch = jaw_contour_points(region, projected, queries);
+            ASSERT_EQ(batch.size(), queries.size());
+            for (std::size_t q = 0; q < queries.size(); ++q) {
+                const auto one = jaw_contour_point(region, projected, queries[q].fixed_pixel, queries[q].outward);
+                ASSERT_EQ(one.has_value(), batch[q].has_value()) << "yaw " << yaw << " query " << q;
+                if (!one) continue;
+                ++found;
+                EXPECT_EQ(one->point.vertices, batch[q]->point.vertices) << "yaw " << yaw << " query " << q;
+                EXPECT_EQ(one->point.weights, batch[q]->point.weights) << "yaw " << yaw << " query " << q;
+                EXPECT_EQ(one->pixel, batch[q]->pixel) << "yaw " << yaw << " query " << q;
+            }
+        }
+    }
+    EXPECT_GT(found, 200);  // most lines meet the region
 }
 
 }  // namespace
