@@ -272,6 +272,7 @@ struct EvalArgs {
     int image_size = 384;
     double fov = frontal::ViewOptions{}.fov_deg;
     double framing = frontal::ViewOptions{}.framing;
+    double detection_framing = 2.5;
     std::string lighting = "unlit";
     std::string regressor;
     std::string detector = "auto";
@@ -391,6 +392,13 @@ void run_eval_frontalise(const EvalArgs& a) {
     view_options.fov_deg = a.fov;
     view_options.framing = a.framing;
     if (a.lighting == "sky") view_options.lighting = render::Lighting{};
+    if (!a.regressor.empty() && a.detection_framing < a.framing)
+        throw Error("eval frontalise: --detection-framing " + std::to_string(a.detection_framing) + " is below --framing " + std::to_string(a.framing) +
+                    " (the detector's view shows the standard view and more)");
+    // The detected-landmark run sees the same camera with more around the face (the detectors need
+    // the head's outline), and is scored against the same truth at the standard framing.
+    const frontal::ViewOptions detection_view_options =
+        a.regressor.empty() ? view_options : frontal::with_context(view_options, a.detection_framing);
     std::unique_ptr<train::LandmarkRegressor> regressor;
     std::unique_ptr<train::FaceDetector> detector;
     if (!a.regressor.empty()) {
@@ -421,8 +429,11 @@ void run_eval_frontalise(const EvalArgs& a) {
                 throw Error("eval frontalise: identity " + std::to_string(i) + " at yaw " + std::to_string(yaw) + ": " + e.what());
             }
             if (regressor) {
-                const cv::Mat gray = train::to_gray8(view.image);
-                const auto box = train::match_detection(detector->detect(gray), view.landmarks);
+                const frontal::SyntheticView wide = detection_view_options.size == view_options.size
+                                                        ? view
+                                                        : frontal::render_view(frontaliser.renderer(), model, face, yaw, detection_view_options, &region);
+                const cv::Mat gray = train::to_gray8(wide.image);
+                const auto box = train::match_detection(detector->detect(gray), wide.landmarks);
                 if (!box) {
                     ++detector_misses;
                     ++bin_misses[static_cast<std::size_t>(b)];
@@ -430,7 +441,7 @@ void run_eval_frontalise(const EvalArgs& a) {
                 }
                 try {
                     detected_bins[static_cast<std::size_t>(b)].add(
-                        score_view(frontaliser, face, view, regressor->predict(gray, *box), truth, layout, a, nullptr));
+                        score_view(frontaliser, face, wide, regressor->predict(gray, *box), truth, layout, a, nullptr));
                 } catch (const Error& e) {
                     ++detector_misses;  // a fit that fails on detected landmarks counts as a miss
                     ++bin_misses[static_cast<std::size_t>(b)];
@@ -468,6 +479,8 @@ void run_eval_frontalise(const EvalArgs& a) {
         j["regressor"] = regressor->label();
         j["detector"] = train::detector_name(detector->kind());
         j["detector_misses"] = detector_misses;
+        j["detection_framing"] = a.detection_framing;
+        j["detection_image_size"] = detection_view_options.size;
         for (int b = 0; b < kYawBins; ++b)
             j["detector_misses_yaw_" + bin_label(b)] = bin_misses[static_cast<std::size_t>(b)];
     }
@@ -491,8 +504,8 @@ void run_eval_frontalise(const EvalArgs& a) {
         table("frontalised from ground-truth landmarks (_m: with mirror fill):", truth_bins, all);
         if (regressor) {
             table("frontalised from detected landmarks:", detected_bins, detected_all);
-            std::printf("%s detector misses: %d of %d views (per bin:", train::detector_name(detector->kind()), detector_misses,
-                        a.count * kYawBins);
+            std::printf("%s detector misses on %d² views at framing %.2f: %d of %d views (per bin:", train::detector_name(detector->kind()),
+                        detection_view_options.size, detection_view_options.framing, detector_misses, a.count * kYawBins);
             for (int b = 0; b < kYawBins; ++b) std::printf(" %d", bin_misses[static_cast<std::size_t>(b)]);
             std::printf(")\n");
         }
@@ -625,6 +638,11 @@ void register_frontal_commands(CLI::App& app) {
     ev->add_option("--framing", e->framing,
                    "Posed render side / mean landmark box side: 1.5 fills the image with the face; about 2.5 shows the whole "
                    "head, which the face detectors need at large yaw")
+        ->capture_default_str()
+        ->check(CLI::Range(1.2, 4.0));
+    ev->add_option("--detection-framing", e->detection_framing,
+                   "With --regressor: the detector's views show this much around the face (the same camera and face pixels, a larger "
+                   "image); 2.5 shows the whole head, which the profile cascade needs")
         ->capture_default_str()
         ->check(CLI::Range(1.2, 4.0));
     ev->add_option("--lighting", e->lighting, "unlit (albedo as is) or sky (the renderer's default soft light), the same for every view")->capture_default_str()->check(CLI::IsMember({"unlit", "sky"}));

@@ -20,6 +20,9 @@
 #include <cstdio>
 #include <ctime>
 #include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
 
 namespace facesynth::cli {
 namespace {
@@ -33,6 +36,8 @@ struct RecognitionArgs {
     std::filesystem::path examples;
     std::filesystem::path photos;
     std::string regressor = "dlib";
+    bool regressor_given = false;  // synthetic run: also LM probes from this regressor's landmarks
+    std::string detector = "auto";
     bool quiet = false;
 };
 
@@ -133,10 +138,24 @@ void run_eval_recognition(const RecognitionArgs& a) {
     if (!a.photos.empty()) return run_eval_recognition_photos(a);
     const MorphableModel model = load_model(a.model);
     const std::clock_t cpu_start = std::clock();
+    std::unique_ptr<train::LandmarkRegressor> regressor;
+    std::unique_ptr<train::FaceDetector> detector;
+    recognition::LandmarkFinder find_landmarks;
+    if (a.regressor_given) {
+        regressor = train::open_regressor(a.regressor);
+        const train::LandmarkRegressor* const regressors[] = {regressor.get()};
+        detector = std::make_unique<train::FaceDetector>(train::choose_detector(a.detector, regressors));
+        find_landmarks = [&](const cv::Mat& image, const Eigen::Matrix2Xd& truth) -> std::optional<Eigen::Matrix2Xd> {
+            const cv::Mat gray = train::to_gray8(image);
+            const auto box = train::match_detection(detector->detect(gray), truth);
+            if (!box) return std::nullopt;
+            return regressor->predict(gray, *box);
+        };
+    }
     recognition::ExperimentResult result;
     {
         Progress progress("identities", static_cast<std::size_t>(a.experiment.identities), a.quiet);
-        result = recognition::run_experiment(model, a.experiment, [&] { progress.advance(); });
+        result = recognition::run_experiment(model, a.experiment, [&] { progress.advance(); }, find_landmarks);
         progress.finish();
     }
     const double cpu_s = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
@@ -156,8 +175,18 @@ void run_eval_recognition(const RecognitionArgs& a) {
     j["landmarks"] = "ground truth";
     j["mirror_fill"] = a.experiment.mirror_fill;
     j["cpu_s"] = cpu_s;
+    if (result.detected) {
+        j["detected_regressor"] = regressor->label();
+        j["detector"] = train::detector_name(detector->kind());
+        j["detection_framing"] = a.experiment.detection_framing;
+        j["detector_misses"] = result.detector_misses;
+    }
     std::string det = "gallery_deg,probe_yaw_low,probe_yaw_high,method,far,frr\n";
-    if (!a.quiet) std::printf("%-9s %-9s %9s %9s %12s %8s %8s\n", "gallery", "probes", "FRR org", "FRR LM", "improvement", "AUC org", "AUC LM");
+    if (!a.quiet) {
+        std::printf("%-9s %-9s %9s %9s %12s %8s %8s", "gallery", "probes", "FRR org", "FRR LM", "improvement", "AUC org", "AUC LM");
+        if (result.detected) std::printf(" %11s %10s %7s", "FRR LM det", "AUC LM det", "misses");
+        std::printf("\n");
+    }
     for (const auto& bin : result.bins) {
         const std::string prefix = bin_prefix(bin);
         const double org = recognition::frr_at_far(bin.org, a.far), lm = recognition::frr_at_far(bin.lm, a.far);
@@ -168,19 +197,37 @@ void run_eval_recognition(const RecognitionArgs& a) {
         j[prefix + "auc_lm"] = recognition::separation_auc(bin.lm);
         j[prefix + "genuine"] = bin.lm.genuine.size();
         j[prefix + "impostor"] = bin.lm.impostor.size();
-        if (!a.quiet)
-            std::printf("%5d°    %3d-%-3d°  %8.1f%% %8.1f%% %+10.1f pt %8.3f %8.3f\n", bin.gallery_yaw, bin.low, bin.high, 100 * org, 100 * lm,
+        if (result.detected) {
+            j[prefix + "frr_lm_detected"] = recognition::frr_at_far(bin.lm_detected, a.far);
+            j[prefix + "auc_lm_detected"] = recognition::separation_auc(bin.lm_detected);
+            j[prefix + "detector_misses"] = bin.detector_misses;
+        }
+        if (!a.quiet) {
+            std::printf("%5d°    %3d-%-3d°  %8.1f%% %8.1f%% %+10.1f pt %8.3f %8.3f", bin.gallery_yaw, bin.low, bin.high, 100 * org, 100 * lm,
                         100 * (org - lm), j[prefix + "auc_org"].get<double>(), j[prefix + "auc_lm"].get<double>());
-        for (const auto& [method, scores] : {std::pair{"org", &bin.org}, std::pair{"lm", &bin.lm}})
+            if (result.detected)
+                std::printf(" %10.1f%% %10.3f %7d", 100 * j[prefix + "frr_lm_detected"].get<double>(), j[prefix + "auc_lm_detected"].get<double>(),
+                            bin.detector_misses);
+            std::printf("\n");
+        }
+        std::vector<std::pair<const char*, const recognition::MatchScores*>> methods{{"org", &bin.org}, {"lm", &bin.lm}};
+        if (result.detected) methods.emplace_back("lm_detected", &bin.lm_detected);
+        for (const auto& [method, scores] : methods)
             for (const auto& point : recognition::det_curve(*scores)) {
                 char line[160];
                 std::snprintf(line, sizeof line, "%d,%d,%d,%s,%.6g,%.6g\n", bin.gallery_yaw, bin.low, bin.high, method, point.far, point.frr);
                 det += line;
             }
     }
-    if (!a.quiet)
+    if (!a.quiet) {
         std::printf("%d identities, %d images (%d could not be frontalised), LBPH, FAR = %g; %.1f s CPU\n", a.experiment.identities, result.images,
                     result.failed_frontalisations, a.far, cpu_s);
+        if (result.detected)
+            std::printf("LM det: probes frontalised from %s landmarks on %s boxes (views at framing %.1f); %d probes not acquired, counted as "
+                        "rejected\n",
+                        regressor->label().c_str(), train::detector_name(detector->kind()), a.experiment.detection_framing,
+                        result.detector_misses);
+    }
     if (!a.json.empty()) write_json_file(a.json, j);
     if (!a.det_csv.empty()) write_file_atomically(a.det_csv, det);
     if (!a.examples.empty()) {
@@ -213,9 +260,20 @@ void register_recognition_commands(CLI::App& app) {
     cmd->add_option("--photos", a->photos,
                     "Instead of synthetic faces: photographs in DIR/<identity>/, every pair matched (landmarks from IMAGE.pts or --regressor)")
         ->check(CLI::ExistingDirectory);
-    cmd->add_option("--regressor", a->regressor, "With --photos: landmarks for images without .pts (dlib, an .sdm file, ...)")->capture_default_str();
+    auto* regressor = cmd->add_option("--regressor", a->regressor,
+                                      "Landmarks found by this regressor (dlib, an .sdm file, ...) on detected boxes: with --photos for images "
+                                      "without .pts; otherwise, when given, an extra LM column whose probes are frontalised from them")
+                          ->capture_default_str();
+    add_detector_option(*cmd, a->detector);
+    cmd->add_option("--detection-framing", e.detection_framing,
+                    "With --regressor: the detector's probe views show this much around the face (same camera, larger image)")
+        ->check(CLI::Range(1.5, 4.0))
+        ->capture_default_str();
     cmd->add_flag("--quiet", a->quiet, "No progress or table");
-    cmd->callback([a] { run_eval_recognition(*a); });
+    cmd->callback([a, regressor] {
+        a->regressor_given = regressor->count() > 0;
+        run_eval_recognition(*a);
+    });
 }
 
 }  // namespace facesynth::cli

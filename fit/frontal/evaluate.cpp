@@ -81,6 +81,18 @@ TexturedFace make_textured_face(const MorphableModel& model, Frontaliser& fronta
     return face;
 }
 
+ViewOptions with_context(const ViewOptions& options, double framing) {
+    if (!(framing >= options.framing) || !std::isfinite(framing))
+        throw Error("frontal benchmark: a view with context needs a framing of at least " + std::to_string(options.framing));
+    ViewOptions wide = options;
+    const double grow = options.size * (framing / options.framing - 1);
+    wide.size = options.size + 2 * static_cast<int>(std::lround(0.5 * grow));
+    const double ratio = static_cast<double>(wide.size) / options.size;
+    wide.framing = options.framing * ratio;
+    wide.fov_deg = 2 * std::atan(ratio * std::tan(0.5 * options.fov_deg * std::numbers::pi / 180)) * 180 / std::numbers::pi;
+    return wide;
+}
+
 SyntheticView render_view(render::Renderer& renderer, const MorphableModel& model, const TexturedFace& face, double yaw_deg,
                           const ViewOptions& options, const JawContourRegion* contour_region) {
     // Frame the mean face's landmarks (the same box as the frontal framing) at 1 / framing of the image.

@@ -49,6 +49,14 @@ struct ViewOptions {
     ViewOptions();
 };
 
+// The same camera (position, and focal length in pixels) with a larger image that shows more around
+// the face: the mean landmark box spans about 1 / `framing` of it instead of 1 / options.framing, and
+// the view at `options` is this one's centre crop. The face keeps its pixels; face detectors get the
+// context they need (the profile cascade looks for the back of the head). The size grows by an even
+// number of pixels, so the principal point stays on the same pixel grid; framing and fov are set
+// from it so that the camera is unchanged.
+[[nodiscard]] ViewOptions with_context(const ViewOptions& options, double framing);
+
 // `face` rendered with a perspective camera at yaw `yaw_deg` (pitch = roll = 0), the mean face's
 // landmark box filling 1 / options.framing of the image.
 [[nodiscard]] SyntheticView render_view(render::Renderer& renderer, const MorphableModel& model, const TexturedFace& face,

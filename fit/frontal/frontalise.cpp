@@ -134,7 +134,7 @@ render::Camera Frontaliser::frontal_camera(int size) const {
 
 cv::Mat Frontaliser::extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, const ImageCamera& camera,
                                     const IsomapOptions& options, IsomapStats* stats) {
-    return frontal::extract_isomap(image, vertices, model_.triangles, camera, uv_raster(options.size), renderer_, options, stats);
+    return frontal::extract_isomap(image, vertices, model_.triangles, camera, uv_raster(options.size), options, stats);
 }
 
 int Frontaliser::mirror_fill(cv::Mat& isomap) {

@@ -9,6 +9,7 @@
 #include <opencv2/face.hpp>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace facesynth::recognition {
@@ -34,6 +35,7 @@ render::Lighting random_lighting(Rng& rng) {
 struct Representations {
     cv::Mat org;
     cv::Mat lm;
+    cv::Mat lm_detected;  // probes only, with a LandmarkFinder; empty: not acquired
 };
 
 // One identity's images: the gallery views first (in gallery_yaws order), then one probe per bin.
@@ -49,6 +51,7 @@ void check(const ExperimentOptions& o) {
     if (o.probe_bin_width <= 0 || o.probe_max_yaw < o.probe_bin_width || o.probe_max_yaw > 90)
         throw Error("recognition: probe bins need 0 < width <= max yaw <= 90");
     if (o.crop.size < 16 || o.image_size < 64 || o.frontal_size < 32) throw Error("recognition: image sizes too small");
+    if (!(o.detection_framing >= 1.5 && o.detection_framing <= 4)) throw Error("recognition: detection framing must lie in [1.5, 4]");
 }
 
 cv::Ptr<cv::face::LBPHFaceRecognizer> lbph(const ExperimentOptions& o) {
@@ -61,6 +64,12 @@ void match(const cv::face::LBPHFaceRecognizer& recogniser, const cv::Mat& probe,
     const cv::Ptr<cv::face::StandardCollector> collector = cv::face::StandardCollector::create();
     recogniser.predict(probe, collector);
     for (const auto& [label, distance] : collector->getResults()) (label == probe_identity ? scores.genuine : scores.impostor).push_back(distance);
+}
+
+// A probe that could not be acquired: as far from every gallery image as can be.
+void match_failure(const std::vector<int>& gallery_labels, int probe_identity, MatchScores& scores) {
+    for (int label : gallery_labels)
+        (label == probe_identity ? scores.genuine : scores.impostor).push_back(std::numeric_limits<double>::infinity());
 }
 
 cv::Mat example_sheet(const std::vector<IdentityImages>& images, const ExperimentOptions& o) {
@@ -106,7 +115,8 @@ MatchScores match_all_pairs(const std::vector<cv::Mat>& images, const std::vecto
     return scores;
 }
 
-ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOptions& o, const std::function<void()>& on_identity) {
+ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOptions& o, const std::function<void()>& on_identity,
+                                const LandmarkFinder& find_landmarks) {
     check(o);
     const int bins = o.probe_max_yaw / o.probe_bin_width;
     frontal::Frontaliser frontaliser(model);
@@ -115,6 +125,8 @@ ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOpt
     frontalise_options.frontal.size = o.frontal_size;
     frontalise_options.mirror_fill = o.mirror_fill;
     ExperimentResult result;
+    result.detected = static_cast<bool>(find_landmarks);
+    std::vector<int> bin_misses(static_cast<std::size_t>(bins), 0);
 
     std::vector<IdentityImages> images(static_cast<std::size_t>(o.identities));
     for (int i = 0; i < o.identities; ++i) {
@@ -144,6 +156,20 @@ ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOpt
             }
             ++result.images;
             const bool gallery = v < o.gallery_yaws.size();
+            if (!gallery && find_landmarks) {
+                const frontal::ViewOptions wide_options = frontal::with_context(view_options, o.detection_framing);
+                const frontal::SyntheticView wide = frontal::render_view(frontaliser.renderer(), model, face, yaws[v], wide_options, &contour_region);
+                try {
+                    if (const std::optional<Eigen::Matrix2Xd> found = find_landmarks(wide.image, wide.landmarks))
+                        r.lm_detected = frontal_crop(frontaliser.frontalise(wide.image, *found, frontalise_options).frontal.image, o.crop);
+                } catch (const Error&) {
+                    r.lm_detected.release();  // a failed fit on found landmarks is a failure to acquire too
+                }
+                if (r.lm_detected.empty()) {
+                    ++result.detector_misses;
+                    ++bin_misses[v - o.gallery_yaws.size()];
+                }
+            }
             (gallery ? mine.gallery : mine.probes).push_back(std::move(r));
             (gallery ? mine.gallery_ok : mine.probes_ok).push_back(ok);
         }
@@ -176,7 +202,12 @@ ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOpt
                 if (!mine.probes_ok[static_cast<std::size_t>(b)]) continue;
                 match(*org, mine.probes[static_cast<std::size_t>(b)].org, i, scores.org);
                 match(*lm, mine.probes[static_cast<std::size_t>(b)].lm, i, scores.lm);
+                if (!find_landmarks) continue;
+                const cv::Mat& detected = mine.probes[static_cast<std::size_t>(b)].lm_detected;
+                if (detected.empty()) match_failure(labels, i, scores.lm_detected);
+                else match(*lm, detected, i, scores.lm_detected);
             }
+            scores.detector_misses = bin_misses[static_cast<std::size_t>(b)];
             result.bins.push_back(std::move(scores));
         }
     }

@@ -10,10 +10,12 @@
 #include "fit/recognition/verification.h"
 #include "morph/model.h"
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <vector>
 
 namespace facesynth::recognition {
@@ -33,7 +35,14 @@ struct ExperimentOptions {
     int lbph_neighbours = 8;
     int lbph_grid = 8;                         // cells per side
     int example_identities = 4;
+    // With a LandmarkFinder: the probes it sees are rendered with the same camera and more around the
+    // face (frontal::with_context), so that the detector has the head's outline to find.
+    double detection_framing = 2.5;
 };
+
+// Landmarks that a face detector and a landmark regressor find on `image` (the CLI brings them from
+// train/), or nullopt when no face is found. `true_landmarks` lets it pick the detection of this face.
+using LandmarkFinder = std::function<std::optional<Eigen::Matrix2Xd>(const cv::Mat& image, const Eigen::Matrix2Xd& true_landmarks)>;
 
 struct BinScores {
     int gallery_yaw = 0;
@@ -41,6 +50,12 @@ struct BinScores {
     int high = 0;
     MatchScores org;
     MatchScores lm;
+    // With a LandmarkFinder: LM probes frontalised from found landmarks, matched against the same LM
+    // gallery (enrolled from true landmarks). A probe whose face is not found, or whose fit fails, is a
+    // failure to acquire: distance +inf to every gallery image (its genuine pair rejected, its impostor
+    // pairs never accepted), so the pair counts match the other columns.
+    MatchScores lm_detected;
+    int detector_misses = 0;  // of this bin's probes (the same probes for every gallery)
 };
 
 struct ExperimentResult {
@@ -50,6 +65,8 @@ struct ExperimentResult {
     cv::Mat examples;
     int images = 0;
     int failed_frontalisations = 0;  // those images are left out of both representations
+    bool detected = false;           // lm_detected was measured (a LandmarkFinder was given)
+    int detector_misses = 0;         // probes without found landmarks or with a failed fit, over all bins
 };
 
 // Every unordered pair of `images` (8-bit grey, same size) matched with the options' LBPH: pairs of
@@ -58,9 +75,12 @@ struct ExperimentResult {
 [[nodiscard]] MatchScores match_all_pairs(const std::vector<cv::Mat>& images, const std::vector<int>& identity,
                                           const ExperimentOptions& options);
 
-// Deterministic: identity i's face, yaws and lightings depend only on (seed, i). `on_identity` is
-// called after each identity's images are made. Throws facesynth::Error when options are invalid.
+// Deterministic: identity i's face, yaws and lightings depend only on (seed, i) (and on the finder,
+// which should be deterministic too). `on_identity` is called after each identity's images are made.
+// `find_landmarks`, when given, adds the lm_detected scores. Throws facesynth::Error when options are
+// invalid.
 [[nodiscard]] ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOptions& options,
-                                              const std::function<void()>& on_identity = {});
+                                              const std::function<void()>& on_identity = {},
+                                              const LandmarkFinder& find_landmarks = {});
 
 }  // namespace facesynth::recognition

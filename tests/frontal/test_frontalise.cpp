@@ -18,6 +18,8 @@
 
 #include <cstdlib>
 #include <memory>
+#include <span>
+#include <vector>
 
 namespace facesynth::frontal {
 namespace {
@@ -300,6 +302,58 @@ TEST_F(FrontaliseTest, PartialSymmetryMapIsCompletedLikeSurreys) {
     int same = 0;
     for (std::size_t v = 0; v < completed.size(); ++v) same += completed[v] == model_->symmetry[v];
     EXPECT_GT(same, 0.99 * static_cast<double>(completed.size()));
+}
+
+// A view with context is the same photograph on a larger sensor: its centre crop is the standard
+// view, pixel for pixel up to anti-aliasing rounding, and the landmarks move by the crop offset.
+TEST_F(FrontaliseTest, ViewWithContextHasTheStandardViewAsItsCentre) {
+    ViewOptions standard;
+    standard.size = 192;
+    const ViewOptions wide = with_context(standard, 2.5);
+    EXPECT_EQ(wide.size, 320);
+    EXPECT_NEAR(wide.framing, 2.5, 1e-9);
+    const SyntheticView a = render_view(frontaliser_->renderer(), *model_, *face_, 35, standard, region_.get());
+    const SyntheticView b = render_view(frontaliser_->renderer(), *model_, *face_, 35, wide, region_.get());
+    const int offset = (wide.size - standard.size) / 2;
+    const cv::Mat centre = b.image(cv::Rect(offset, offset, standard.size, standard.size));
+    cv::Mat difference;
+    cv::absdiff(centre, a.image, difference);
+    double largest = 0;
+    cv::minMaxLoc(difference.reshape(1), nullptr, &largest);
+    EXPECT_LE(largest, 2) << "the centre of the wide view is the standard view";
+    EXPECT_LT((b.landmarks.array() - offset - a.landmarks.array()).abs().maxCoeff(), 1e-6);
+    EXPECT_THROW((void)with_context(standard, 1.2), Error);
+}
+
+// The isomap's visibility pass rasterises on the CPU; the renderer's depth-only pass is the reference.
+// Coverage may differ only at pixel centres within rounding of the outline, depth only by rounding.
+TEST_F(FrontaliseTest, CpuZBufferAgreesWithTheRenderersDepthPass) {
+    for (double yaw : {0.0, -35.0, 60.0, 80.0}) {
+        const EulerAngles angles{yaw, 12, -7};
+        render::Camera camera;
+        camera.projection = render::Projection::kOrthographic;
+        camera.pose.rotation = rotation_from_euler(angles);
+        camera.pose.translation = Eigen::Vector3d(0, 0, 1000);
+        camera.intrinsics = {1.3, 1.3, 120.25, 131.5, 240, 260};
+        render::RenderSettings settings;
+        settings.depth_only = true;
+        const cv::Mat want = frontaliser_->renderer().render(face_->mesh, camera, settings).depth.clone();
+        const Eigen::Matrix3Xf camera_xyz = (model_to_camera_flip() * camera.pose.rotation).cast<float>() * face_->mesh.vertices;
+        const Eigen::Matrix2Xf pixels = (1.3f * camera_xyz.topRows<2>()).colwise() + Eigen::Vector2f(120.25f, 131.5f);
+        const Eigen::RowVectorXf z = camera_xyz.row(2).array() + 1000.0f;
+        const cv::Mat got = orthographic_zbuffer(pixels, std::span(z.data(), static_cast<std::size_t>(z.size())), model_->triangles, 240, 260);
+        const int covered = cv::countNonZero(want > 0);
+        const int coverage_differs = cv::countNonZero((want > 0) != (got > 0));
+        cv::Mat difference;
+        cv::absdiff(want, got, difference);
+        double largest = 0;
+        cv::minMaxLoc(difference, nullptr, &largest, nullptr, nullptr, (want > 0) & (got > 0));
+        std::printf("yaw %.0f: %d pixels covered, %d differ in coverage, depth within %.4f mm\n", yaw, covered, coverage_differs, largest);
+        EXPECT_GT(covered, 10000) << "yaw " << yaw;
+        EXPECT_LE(coverage_differs, covered / 1000) << "yaw " << yaw;
+        EXPECT_LT(largest, 0.1) << "yaw " << yaw;
+    }
+    EXPECT_THROW((void)orthographic_zbuffer(Eigen::Matrix2Xf::Zero(2, 3), std::vector<float>(2, 0.0f), model_->triangles, 8, 8), Error);
 }
 
 TEST(ImageMetrics, IdenticalImagesAreAPerfectMatchAndNoiseLowersEveryScore) {

@@ -138,4 +138,26 @@ TEST(CmdFrontalise, EvalWritesFlatKeysAndMirrorFillHelpsAtLargeYaw) {
     EXPECT_TRUE(fs::exists(dir / "plot.svg"));
 }
 
+// The detected-landmark run sees each view with more around the face (the same camera, a larger
+// image): at the default framing the multi-view detector then finds most faces, where on the tight
+// standard views it found about one in six; every view is either scored or counted as a miss.
+TEST(CmdFrontalise, EvalWithARegressorDetectsOnViewsWithContext) {
+    const auto dir = fresh_temp_dir("cmd_frontalise_eval_detected");
+    std::string log;
+    const std::string cmd = cli_path().string() + " eval frontalise --count 1 --isomap-size 256 --size 128 --image-size 192 --quiet" +
+                            " --regressor dlib --detector multiview --json " + (dir / "eval.json").string();
+    ASSERT_EQ(run_command(cmd, &log), 0) << log;
+    const auto j = read_json(dir / "eval.json");
+    EXPECT_EQ(j.at("framing").get<double>(), 1.5);
+    EXPECT_EQ(j.at("detection_framing").get<double>(), 2.5);
+    EXPECT_EQ(j.at("detection_image_size").get<int>(), 320);  // 192 · 2.5 / 1.5
+    EXPECT_EQ(j.at("detected_all_count").get<int>() + j.at("detector_misses").get<int>(), 7);
+    EXPECT_GE(j.at("detected_all_count").get<int>(), 5) << log;
+    int misses = 0;
+    for (int b = 0; b < 7; ++b) misses += j.at("detector_misses_yaw_" + std::to_string(10 * b) + "_" + std::to_string(10 * b + 10)).get<int>();
+    EXPECT_EQ(misses, j.at("detector_misses").get<int>());
+    // A detection framing tighter than the standard view is a usage error.
+    EXPECT_NE(run_command(cli_path().string() + " eval frontalise --count 1 --quiet --regressor dlib --framing 2 --detection-framing 1.5", &log), 0);
+}
+
 }  // namespace

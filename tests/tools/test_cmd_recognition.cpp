@@ -52,6 +52,30 @@ TEST(CmdRecognition, TinySetWritesRatesDetCurvesAndFeedsTheReport) {
     EXPECT_NE(html.find("FRR at FAR = 0.01, gallery at 0"), std::string::npos);
 }
 
+// With --regressor the probes are also frontalised from found landmarks (dlib's predictor on
+// multi-view boxes): per bin FRR and AUC of that column, its misses, and a DET curve.
+TEST(CmdRecognition, RegressorAddsADetectedLandmarkColumnWithItsMisses) {
+    const fs::path dir = fresh_temp_dir("cmd_recognition_detected");
+    std::string out;
+    const std::string cmd = cli_path().string() + " eval recognition -n 3 --gallery 0 --probe-max-yaw 20 --size 128 --crop 48 --quiet --regressor dlib" +
+                            " --detector multiview --json " + (dir / "r.json").string() + " --det-csv " + (dir / "det.csv").string();
+    ASSERT_EQ(run_command(cmd, &out), 0) << out;
+    const auto j = read_json(dir / "r.json");
+    EXPECT_EQ(j.at("detector"), "multiview");
+    EXPECT_EQ(j.at("detection_framing").get<double>(), 2.5);
+    int misses = 0;
+    for (const char* bin : {"gallery0_yaw_0_10_", "gallery0_yaw_10_20_"}) {
+        for (const char* metric : {"frr_lm_detected", "auc_lm_detected"}) {
+            const double v = j.at(std::string(bin) + metric).get<double>();
+            EXPECT_GE(v, 0.0) << bin << metric;
+            EXPECT_LE(v, 1.0) << bin << metric;
+        }
+        misses += j.at(std::string(bin) + "detector_misses").get<int>();
+    }
+    EXPECT_EQ(j.at("detector_misses").get<int>(), misses);
+    EXPECT_NE(facesynth::read_file(dir / "det.csv").find(",lm_detected,"), std::string::npos);
+}
+
 TEST(CmdRecognition, UnusableInputsAreClearErrors) {
     const fs::path dir = fresh_temp_dir("cmd_recognition_errors");
     fs::create_directories(dir / "photos" / "alice");
