@@ -1,7 +1,8 @@
 #pragma once
 // Texture extraction into the model's uv space (the "isomap" of Huber et al., 2016) with per-texel
-// visibility from a z-buffer pass of our renderer, and filling of occluded texels from the mirror side
-// through the model's symmetry map (docs/frontalise.md).
+// visibility from a z-buffer pass (rasterised on the CPU; the renderer's depth-only pass is its test
+// reference), and filling of occluded texels from the mirror side through the model's symmetry map
+// (docs/frontalise.md).
 //
 // Layout: texel (row r, column c) of an S x S isomap shows the surface point with uv
 // ((c + 0.5) / S, (r + 0.5) / S), the model's uv with v = 0 on the top row. Images are OpenCV's:
