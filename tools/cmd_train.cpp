@@ -15,6 +15,7 @@
 #include "train/model_file.h"
 #include "train/regressor.h"
 #include "train/training_data.h"
+#include "train/view_baselines.h"
 #include "train/view_cascades.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -63,8 +64,10 @@ void run_train(const TrainArgs& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::clock_t cpu_start = std::clock();
     if (args.method == "lbf") check_lbf_options(args.lbf);  // before the long preparation
-    if (args.cascades == "views" && (args.method != "sdm" || args.detector != "multiview"))
-        throw CLI::ValidationError("--cascades", "views needs --method sdm and --detector multiview");
+    if (args.cascades == "views" && args.detector != "multiview")
+        throw CLI::ValidationError("--cascades", "views needs --detector multiview");
+    if (!args.view_overlap.empty() && args.method != "sdm")
+        throw CLI::ValidationError("--view-overlap", "only applies to --method sdm");
     if (!args.view_overlap.empty() && args.cascades == "single")
         throw CLI::ValidationError("--view-overlap", "only applies to view-specific cascades");
     const auto images = list_labelled_images(split_folder_list(args.data));
@@ -100,6 +103,23 @@ void run_train(const TrainArgs& args) {
                              {"detector_missed", boxes.detector_missed}};
     for (std::size_t v = 0; v < kFaceViews; ++v)
         report[std::string("detector_matched_") + view_name(static_cast<FaceView>(v))] = boxes.view_matched[v];
+    ViewSplit split;
+    if (!args.view_overlap.empty()) {
+        split.frontal_max_yaw_deg = args.view_overlap[0];
+        split.profile_min_yaw_deg = args.view_overlap[1];
+    }
+    // auto: view-specific models (SDM cascades, or ERT/LBF models) when the multi-view detector gives
+    // each view enough faces.
+    bool views = args.cascades == "views";
+    if (args.cascades == "auto" && boxes.detector == DetectorKind::kMultiView) {
+        const ViewCascadeCounts planned = count_view_split(prepared.faces, split);
+        views = planned.frontal_faces >= kMinViewCascadeFaces && planned.profile_faces >= kMinViewCascadeFaces;
+        if (!views && !args.quiet)
+            std::printf("one model for all views: view-specific models need %d faces each, the split gives frontal %d, "
+                        "profile %d\n",
+                        kMinViewCascadeFaces, planned.frontal_faces, planned.profile_faces);
+    }
+    report["view_cascades"] = views;
     if (args.method == "sdm") {
         SdmTrainOptions options;
         options.stages = args.stages;
@@ -147,22 +167,6 @@ void run_train(const TrainArgs& args) {
             report[stage + "_rank"] = r.rank;
         };
         SdmModel model;
-        ViewSplit split;
-        if (!args.view_overlap.empty()) {
-            split.frontal_max_yaw_deg = args.view_overlap[0];
-            split.profile_min_yaw_deg = args.view_overlap[1];
-        }
-        // auto: view-specific cascades when the multi-view detector gives each enough faces.
-        bool views = args.cascades == "views";
-        if (args.cascades == "auto" && boxes.detector == DetectorKind::kMultiView) {
-            const ViewCascadeCounts planned = count_view_split(prepared.faces, split);
-            views = planned.frontal_faces >= kMinViewCascadeFaces && planned.profile_faces >= kMinViewCascadeFaces;
-            if (!views && !args.quiet)
-                std::printf("one cascade for all views: view-specific cascades need %d faces each, the split gives frontal %d, "
-                            "profile %d\n",
-                            kMinViewCascadeFaces, planned.frontal_faces, planned.profile_faces);
-        }
-        report["view_cascades"] = views;
         if (views) {
             ViewCascadeCounts counts;
             model = train_view_cascades(prepared.faces, boxes, options, split, &counts, on_stage);
@@ -188,28 +192,62 @@ void run_train(const TrainArgs& args) {
         if (!args.quiet)
             std::printf("training NME (inter-ocular, %d perturbed starts per face%s): %.4f -> %.4f\n", args.augment,
                         views ? ", frontal cascade" : "", first_nme, last_nme);
-    } else if (args.method == "ert") {
-        ErtTrainOptions options;
-        options.threads = args.threads;
-        options.oversampling = args.augment;
-        options.seed = args.seed;
-        if (!args.quiet) std::printf("training dlib ERT (cascade depth %d, oversampling %d)...\n", options.cascade_depth, options.oversampling);
-        train_dlib_ert(prepared.faces, options, args.out);
-    } else if (args.method == "lbf") {
-        LbfTrainOptions options = args.lbf;
-        options.augment = args.augment;
-        options.seed = args.seed;
-        if (!args.quiet)
-            std::printf("training OpenCV LBF (%d stages, %d trees of depth %d per landmark, %d initial shapes)...\n",
-                        options.stages, options.trees, options.depth, options.augment);
-        const LbfTrainReport r = train_lbf(prepared.faces, options, args.out);
-        report["lbf_faces_used"] = r.faces_used;
-        report["lbf_faces_outside_box"] = r.faces_outside_box;
-        report["train_nme_initial"] = r.train_nme_initial;
-        report["train_nme_final"] = r.train_nme_final;
-        if (!args.quiet)
-            std::printf("%d faces used (%d outside OpenCV's box test); training NME (mean shape -> LBF): %.4f -> %.4f\n",
-                        r.faces_used, r.faces_outside_box, r.train_nme_initial, r.train_nme_final);
+    } else {
+        // The baselines: one model for all views, or one per view bundled (train/view_baselines.h).
+        const bool ert = args.method == "ert";
+        ErtTrainOptions ert_options;
+        ert_options.threads = args.threads;
+        ert_options.oversampling = args.augment;
+        ert_options.seed = args.seed;
+        LbfTrainOptions lbf_options = args.lbf;
+        lbf_options.augment = args.augment;
+        lbf_options.seed = args.seed;
+        if (!args.quiet) {
+            if (ert)
+                std::printf("training dlib ERT (cascade depth %d, oversampling %d)%s...\n", ert_options.cascade_depth,
+                            ert_options.oversampling, views ? ", one model per view" : "");
+            else
+                std::printf("training OpenCV LBF (%d stages, %d trees of depth %d per landmark, %d initial shapes)%s...\n",
+                            lbf_options.stages, lbf_options.trees, lbf_options.depth, lbf_options.augment,
+                            views ? ", one model per view" : "");
+        }
+        LbfTrainReport lbf_total;
+        const auto train_one = [&](std::span<const TrainingFace> faces, const std::filesystem::path& file) {
+            if (ert) {
+                train_dlib_ert(faces, ert_options, file);
+                return;
+            }
+            const LbfTrainReport r = train_lbf(faces, lbf_options, file);
+            // Training NMEs of the view models, weighted by the faces each used.
+            const double used = lbf_total.faces_used + r.faces_used;
+            lbf_total.train_nme_initial = (lbf_total.train_nme_initial * lbf_total.faces_used + r.train_nme_initial * r.faces_used) / used;
+            lbf_total.train_nme_final = (lbf_total.train_nme_final * lbf_total.faces_used + r.train_nme_final * r.faces_used) / used;
+            lbf_total.faces_used += r.faces_used;
+            lbf_total.faces_outside_box += r.faces_outside_box;
+        };
+        if (views) {
+            const ViewFaceSets sets = split_view_faces(prepared.faces, split);
+            report["view_cascade_frontal_faces"] = sets.counts.frontal_faces;
+            report["view_cascade_profile_faces"] = sets.counts.profile_faces;
+            report["view_cascade_profile_mirrored"] = sets.counts.profile_mirrored;
+            if (!args.quiet)
+                std::printf("view-specific models: frontal %d faces, profile %d faces (%d mirrored nose-right)\n",
+                            sets.counts.frontal_faces, sets.counts.profile_faces, sets.counts.profile_mirrored);
+            write_view_baseline_bundle(args.out, train_view_baselines(ert ? BaselineMethod::kErt : BaselineMethod::kLbf,
+                                                                      boxes.detector, sets, args.out, train_one));
+        } else {
+            train_one(prepared.faces, args.out);
+        }
+        if (!ert) {
+            report["lbf_faces_used"] = lbf_total.faces_used;
+            report["lbf_faces_outside_box"] = lbf_total.faces_outside_box;
+            report["train_nme_initial"] = lbf_total.train_nme_initial;
+            report["train_nme_final"] = lbf_total.train_nme_final;
+            if (!args.quiet)
+                std::printf("%d faces used (%d outside OpenCV's box test); training NME (mean shape -> LBF): %.4f -> %.4f\n",
+                            lbf_total.faces_used, lbf_total.faces_outside_box, lbf_total.train_nme_initial,
+                            lbf_total.train_nme_final);
+        }
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double cpu_seconds = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
@@ -496,10 +534,10 @@ void register_train_commands(CLI::App& app) {
             ->check(CLI::IsMember({"frontal", "multiview"}))
             ->capture_default_str();
         cmd->add_option("--cascades", args->cascades,
-                        "SDM: views (one cascade for the frontal view and one for the profile views, nose-right faces "
-                        "mirrored, chosen at detection by the detector's view; needs --detector multiview), single (one "
-                        "for all views), or auto (views with the multi-view detector when each cascade gets at least 100 "
-                        "faces)")
+                        "views (one cascade, or ERT/LBF model, for the frontal view and one for the profile views, "
+                        "nose-right faces mirrored, chosen at detection by the detector's view; needs --detector "
+                        "multiview), single (one for all views), or auto (views with the multi-view detector when each "
+                        "view gets at least 100 faces)")
             ->check(CLI::IsMember({"auto", "views", "single"}))
             ->capture_default_str();
         cmd->add_option("--view-overlap", args->view_overlap,

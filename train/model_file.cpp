@@ -10,11 +10,8 @@
 #include <string_view>
 
 namespace facesynth::train {
-namespace {
 
-constexpr char kMagic[8] = {'F', 'S', 'Y', 'N', 'S', 'D', 'M', '\0'};
-
-std::uint64_t fnv1a(std::string_view bytes) {
+std::uint64_t fnv1a_64(std::string_view bytes) {
     std::uint64_t hash = 0xcbf29ce484222325ULL;
     for (unsigned char c : bytes) {
         hash ^= c;
@@ -22,6 +19,10 @@ std::uint64_t fnv1a(std::string_view bytes) {
     }
     return hash;
 }
+
+namespace {
+
+constexpr char kMagic[8] = {'F', 'S', 'Y', 'N', 'S', 'D', 'M', '\0'};
 
 void write_doubles(ByteWriter& w, const double* values, std::size_t count) { w.write_bytes(values, count * sizeof(double)); }
 
@@ -130,7 +131,7 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
     file.write(model.training_faces);
     file.write(model.augment);
     file.write(static_cast<std::uint64_t>(payload.bytes().size()));
-    file.write(fnv1a(payload.bytes()));
+    file.write(fnv1a_64(payload.bytes()));
     file.bytes() += payload.bytes();
     write_file_atomically(path, file.bytes());
 }
@@ -169,7 +170,7 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
     if (payload_size != r.remaining())
         throw file_error(path.string(), "payload is " + std::to_string(r.remaining()) + " bytes, header says " +
                                             std::to_string(payload_size) + " (truncated or corrupt)");
-    if (fnv1a(std::string_view(bytes).substr(r.offset())) != payload_checksum)
+    if (fnv1a_64(std::string_view(bytes).substr(r.offset())) != payload_checksum)
         throw file_error(path.string(), "payload checksum mismatch (corrupt file)");
 
     model.mean_shape.resize(2, model.num_landmarks);

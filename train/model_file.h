@@ -5,7 +5,9 @@
 // Little-endian.
 #include "train/sdm.h"
 
+#include <cstdint>
 #include <filesystem>
+#include <string_view>
 
 namespace facesynth::train {
 
@@ -13,6 +15,9 @@ namespace facesynth::train {
 // cascade (view-specific cascades). Versions 1 and 2 are still read, as models of the frontal detector
 // with one mean shape, and version 3 as a model with one cascade for all views.
 inline constexpr std::uint32_t kSdmModelVersion = 4;
+
+// FNV-1a 64, the checksum of the model files' payloads.
+[[nodiscard]] std::uint64_t fnv1a_64(std::string_view bytes);
 
 // Atomic write; throws facesynth::Error naming the file.
 void write_sdm_model(const std::filesystem::path& path, const SdmModel& model);

@@ -4,6 +4,7 @@
 #include "train/lbf_baseline.h"
 #include "train/model_file.h"
 #include "train/sdm.h"
+#include "train/view_baselines.h"
 
 #include "morph/error.h"
 
@@ -39,31 +40,56 @@ private:
     DlibShapePredictor predictor_;
 };
 
-class ErtRegressor final : public LandmarkRegressor {
+FaceBox canonical_face_box() {
+    FaceBox canonical;
+    canonical.centre = Eigen::Vector2d::Constant((kCanonicalCropSide - 1) / 2.0);
+    canonical.width = kCanonicalBoxWidth;
+    return canonical;
+}
+
+// A baseline that runs on our canonical crop: one model for all views (a plain dlib or LBF file), or
+// a view-specific bundle (train/view_baselines.h) run by the detector box's view.
+template <typename Predictor>
+class CanonicalBaselineRegressor final : public LandmarkRegressor {
 public:
-    explicit ErtRegressor(const std::string& path) : LandmarkRegressor("ert:" + path), predictor_(path) {}
+    CanonicalBaselineRegressor(const std::string& prefix, const std::string& path, BaselineMethod method)
+        : LandmarkRegressor(prefix + path) {
+        if (!is_view_baseline_bundle(path)) {
+            frontal_ = std::make_unique<Predictor>(path);
+            return;
+        }
+        const ViewBaselineBundle bundle = read_view_baseline_bundle(path, method);
+        detector_ = bundle.detector;
+        const auto load = [&](const std::string& contents, const char* view) {
+            const std::string label = path + " (" + view + " model)";
+            const ScopedTemporaryFile file(contents, label);
+            try {
+                return std::make_unique<Predictor>(file.path());
+            } catch (const Error& e) {
+                throw file_error(label, e.what());
+            }
+        };
+        frontal_ = load(bundle.frontal_model, "frontal");
+        profile_ = load(bundle.profile_model, "profile");
+    }
     Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override {
         const FaceFrame frame{box};
-        FaceBox canonical;
-        canonical.centre = Eigen::Vector2d::Constant((kCanonicalCropSide - 1) / 2.0);
-        canonical.width = kCanonicalBoxWidth;
-        return frame.to_image(predictor_.predict(canonical_crop(gray, frame), canonical));
+        const cv::Mat crop = canonical_crop(gray, frame);
+        if (!profile_) return frame.to_image(predict_canonical(*frontal_, crop));
+        return frame.to_image(predict_by_view(
+            crop, box.view, [&](const cv::Mat& c) { return predict_canonical(*frontal_, c); },
+            [&](const cv::Mat& c) { return predict_canonical(*profile_, c); }));
     }
+    std::optional<DetectorKind> trained_detector() const override { return detector_; }
 
 private:
-    DlibShapePredictor predictor_;
-};
-
-class LbfRegressor final : public LandmarkRegressor {
-public:
-    explicit LbfRegressor(const std::string& path) : LandmarkRegressor("lbf:" + path), predictor_(path) {}
-    Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override {
-        const FaceFrame frame{box};
-        return frame.to_image(predictor_.predict(canonical_crop(gray, frame)));
+    static Eigen::Matrix2Xd predict_canonical(const DlibShapePredictor& p, const cv::Mat& crop) {
+        return p.predict(crop, canonical_face_box());
     }
+    static Eigen::Matrix2Xd predict_canonical(const LbfPredictor& p, const cv::Mat& crop) { return p.predict(crop); }
 
-private:
-    LbfPredictor predictor_;
+    std::unique_ptr<Predictor> frontal_, profile_;
+    std::optional<DetectorKind> detector_;  // recorded in bundles only
 };
 
 }  // namespace
@@ -71,8 +97,10 @@ private:
 std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec) {
     if (spec == "dlib") return std::make_unique<DlibRegressor>("dlib", default_dlib_predictor_path());
     if (spec.rfind("dlib:", 0) == 0) return std::make_unique<DlibRegressor>(spec, spec.substr(5));
-    if (spec.rfind("ert:", 0) == 0) return std::make_unique<ErtRegressor>(spec.substr(4));
-    if (spec.rfind("lbf:", 0) == 0) return std::make_unique<LbfRegressor>(spec.substr(4));
+    if (spec.rfind("ert:", 0) == 0)
+        return std::make_unique<CanonicalBaselineRegressor<DlibShapePredictor>>("ert:", spec.substr(4), BaselineMethod::kErt);
+    if (spec.rfind("lbf:", 0) == 0)
+        return std::make_unique<CanonicalBaselineRegressor<LbfPredictor>>("lbf:", spec.substr(4), BaselineMethod::kLbf);
     if (spec.rfind("sdm:", 0) == 0) return std::make_unique<SdmRegressor>(spec, spec.substr(4), -1);
     if (spec.rfind("mean:", 0) == 0) return std::make_unique<SdmRegressor>(spec, spec.substr(5), 0);
     if (spec.rfind("sdm@", 0) == 0) {

@@ -10,15 +10,9 @@ namespace facesynth::train {
 
 namespace {
 
-// Faces of each cascade, the profile ones in nose-left orientation.
-struct SplitFaces {
-    std::vector<TrainingFace> frontal, profile;
-    ViewCascadeCounts counts;
-};
-
 // With `copy_faces` false only the counts are filled.
-SplitFaces split_faces(std::span<const TrainingFace> faces, const ViewSplit& split, bool copy_faces) {
-    SplitFaces out;
+ViewFaceSets split_faces(std::span<const TrainingFace> faces, const ViewSplit& split, bool copy_faces) {
+    ViewFaceSets out;
     ViewCascadeCounts& c = out.counts;
     // Nose-left orientation of a profile-cascade face: nose-right faces are mirrored; a frontal-view face
     // in the overlap band by where its nose points (the sign of its true yaw).
@@ -61,10 +55,14 @@ ViewCascadeCounts count_view_split(std::span<const TrainingFace> faces, const Vi
     return split_faces(faces, split, false).counts;
 }
 
+ViewFaceSets split_view_faces(std::span<const TrainingFace> faces, const ViewSplit& split) {
+    return split_faces(faces, split, true);
+}
+
 SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStatistics& boxes, const SdmTrainOptions& options,
                              const ViewSplit& split, ViewCascadeCounts* counts,
                              const std::function<void(const char* cascade, const SdmStageReport&)>& on_stage) {
-    const SplitFaces sets = split_faces(faces, split, true);
+    const ViewFaceSets sets = split_view_faces(faces, split);
     const ViewCascadeCounts& c = sets.counts;
     if (counts) *counts = c;
 

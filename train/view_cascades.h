@@ -9,6 +9,7 @@
 
 #include <functional>
 #include <span>
+#include <vector>
 
 namespace facesynth::train {
 
@@ -33,6 +34,14 @@ inline constexpr int kMinViewCascadeFaces = 100;
 
 // How `train_view_cascades` would divide the faces, without training.
 [[nodiscard]] ViewCascadeCounts count_view_split(std::span<const TrainingFace> faces, const ViewSplit& split);
+
+// The faces of each cascade, the profile ones in nose-left orientation (nose-right faces mirrored):
+// what `train_view_cascades` trains on, for the baselines' view-specific models.
+struct ViewFaceSets {
+    std::vector<TrainingFace> frontal, profile;
+    ViewCascadeCounts counts;
+};
+[[nodiscard]] ViewFaceSets split_view_faces(std::span<const TrainingFace> faces, const ViewSplit& split);
 
 // Trains both cascades with `options` (the same stages, λ and rank candidates, validation share) into
 // one model: `stages` is the frontal cascade, `profile` the profile one, and the view mean shapes are

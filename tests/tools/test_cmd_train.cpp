@@ -90,6 +90,57 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     EXPECT_TRUE(wrote_pts);
 }
 
+// The baselines train on the same faces and boxes as our cascade (the multi-view detector's, with the
+// same synthesised boxes where it misses) and are evaluated on the same detections in one run.
+TEST(CmdTrain, ErtAndLbfBaselinesTrainAndEvaluateOnTheSameBoxesAsTheCascade) {
+    const auto dir = fresh_temp_dir("cmd_train_baselines");
+    const auto train = make_dataset(dir, "train", 60, 3);
+    const auto test = make_dataset(dir, "test", 20, 4);
+    std::string out;
+    const auto train_with = [&](const std::string& name, const std::string& options) {
+        const std::string cmd = cli_path().string() + " train --data " + train.string() + " --out " + (dir / name).string() +
+                                " --augment 2 --threads 2 --quiet --json " + (dir / (name + ".json")).string() + " " + options;
+        EXPECT_EQ(run_command(cmd, &out), 0) << cmd << "\n" << out;
+        return read_json(dir / (name + ".json"));
+    };
+    const auto sdm = train_with("sdm.sdm", "--stages 2 --hog-cells 2");
+    const auto ert = train_with("ert.dat", "--method ert");
+    const auto lbf = train_with("lbf.yaml", "--method lbf --lbf-stages 2 --lbf-trees 3 --lbf-depth 3 --lbf-features 50,50 "
+                                            "--lbf-radii 0.3,0.2");
+    EXPECT_EQ(ert["method"], "ert");
+    EXPECT_EQ(lbf["method"], "lbf");
+    for (const auto* report : {&ert, &lbf}) {
+        for (const char* key : {"detector", "faces", "detector_matched", "detector_missed", "detector_matched_frontal",
+                                "detector_matched_nose_left", "detector_matched_nose_right"})
+            EXPECT_EQ((*report)[key], sdm[key]) << key;
+        EXPECT_GT((*report)["cpu_seconds"].get<double>(), 0.0);
+    }
+    EXPECT_EQ(ert["detector"], "multiview");
+    EXPECT_GT(ert["detector_matched"].get<int>(), 0);
+    EXPECT_EQ(lbf["lbf_faces_used"].get<int>() + lbf["lbf_faces_outside_box"].get<int>(), lbf["faces"].get<int>());
+
+    // The baselines first: --detector auto still takes the detector recorded in the SDM model.
+    const auto eval_json = dir / "eval.json";
+    const std::string eval_cmd = cli_path().string() + " eval landmarks --regressor ert:" + (dir / "ert.dat").string() +
+                                 " --regressor lbf:" + (dir / "lbf.yaml").string() + " --regressor " +
+                                 (dir / "sdm.sdm").string() + " --regressor mean:" + (dir / "sdm.sdm").string() +
+                                 " --data " + test.string() + " --quiet --json " + eval_json.string() + " --nme-csv " +
+                                 (dir / "nme.csv").string();
+    ASSERT_EQ(run_command(eval_cmd, &out), 0) << out;
+    const auto j = read_json(eval_json);
+    EXPECT_EQ(j["detector"], "multiview");
+    EXPECT_EQ(j["count"].get<int>(), 20);
+    ASSERT_LT(j["detector_misses"].get<int>(), 20);
+    for (const char* key : {"nme_mean", "regressor2_nme_mean", "regressor3_nme_mean", "regressor4_nme_mean"})
+        EXPECT_GT(j[key].get<double>(), 0.0) << key;
+    // ERT learned something: better than the cascade's mean shape in the same boxes.
+    EXPECT_LT(j["nme_mean"].get<double>(), j["regressor4_nme_mean"].get<double>());
+    std::ifstream nme_csv(dir / "nme.csv");
+    std::string header;
+    ASSERT_TRUE(std::getline(nme_csv, header));
+    EXPECT_EQ(header, "key,yaw_deg,detected,view,regressor1,regressor2,regressor3,regressor4");
+}
+
 TEST(CmdTrain, BadRegressorFileAndUsageErrors) {
     const auto dir = fresh_temp_dir("cmd_train_errors");
     std::ofstream(dir / "bad.sdm") << "garbage that is not a regressor";

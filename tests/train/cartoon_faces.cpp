@@ -149,4 +149,20 @@ std::vector<train::TrainingFace> cartoon_training_faces(std::uint64_t seed, int 
     return faces;
 }
 
+std::vector<train::TrainingFace> three_view_faces(std::uint64_t seed, int per_view) {
+    const auto frontal = cartoon_training_faces(seed, per_view);
+    const auto left = cartoon_training_faces(seed + 1, per_view, -45);
+    const auto right = cartoon_training_faces(seed + 2, per_view, 45);
+    std::vector<train::TrainingFace> faces;
+    for (int i = 0; i < per_view; ++i)
+        for (const auto* set : {&frontal, &left, &right}) faces.push_back((*set)[static_cast<std::size_t>(i)]);
+    return faces;
+}
+
+std::vector<train::TrainingFace> concatenate(std::initializer_list<std::vector<train::TrainingFace>> parts) {
+    std::vector<train::TrainingFace> all;
+    for (const auto& part : parts) all.insert(all.end(), part.begin(), part.end());
+    return all;
+}
+
 }  // namespace facesynth::testkit

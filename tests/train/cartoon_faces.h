@@ -7,6 +7,7 @@
 #include "train/sdm.h"
 
 #include <cstdint>
+#include <initializer_list>
 #include <vector>
 
 namespace facesynth::testkit {
@@ -27,5 +28,11 @@ struct CartoonFace {
 // by yaw ± 5° (recorded in yaw_deg) and gets the view of a multi-view detector: frontal below 20°,
 // else nose-left (negative yaw) or nose-right.
 [[nodiscard]] std::vector<train::TrainingFace> cartoon_training_faces(std::uint64_t seed, int count, double yaw_deg = 0);
+
+// Frontal, nose-left (yaw -45°) and nose-right (+45°) cartoon faces interleaved, `per_view` of each,
+// as a multi-view detector would label them.
+[[nodiscard]] std::vector<train::TrainingFace> three_view_faces(std::uint64_t seed, int per_view);
+
+[[nodiscard]] std::vector<train::TrainingFace> concatenate(std::initializer_list<std::vector<train::TrainingFace>> parts);
 
 }  // namespace facesynth::testkit

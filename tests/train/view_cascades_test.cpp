@@ -19,22 +19,8 @@ namespace {
 
 using testkit::cartoon_training_faces;
 
-std::vector<TrainingFace> concatenate(std::initializer_list<std::vector<TrainingFace>> parts) {
-    std::vector<TrainingFace> all;
-    for (const auto& part : parts) all.insert(all.end(), part.begin(), part.end());
-    return all;
-}
-
-// Frontal, nose-left and nose-right cartoon faces interleaved, as a multi-view detector would label them.
-std::vector<TrainingFace> three_view_faces(std::uint64_t seed, int per_view) {
-    const auto frontal = cartoon_training_faces(seed, per_view);
-    const auto left = cartoon_training_faces(seed + 1, per_view, -45);
-    const auto right = cartoon_training_faces(seed + 2, per_view, 45);
-    std::vector<TrainingFace> faces;
-    for (int i = 0; i < per_view; ++i)
-        for (const auto* set : {&frontal, &left, &right}) faces.push_back((*set)[static_cast<std::size_t>(i)]);
-    return faces;
-}
+using testkit::concatenate;
+using testkit::three_view_faces;
 
 SdmTrainOptions small_options() {
     SdmTrainOptions options;
