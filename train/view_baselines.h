@@ -3,8 +3,8 @@
 // trained twice, as our view-specific cascades are, on the faces of the frontal detector view and on
 // the profile views (nose-right faces mirrored into nose-left orientation), and run at test time by
 // the view of the detector box. The two trained model files are kept unchanged inside one bundle file:
-//   magic "FSYNVWB\0", uint32 version (1), uint32 method (1 ERT, 2 LBF), detector name (uint64 length
-//   + bytes), frontal and profile model sizes (uint64 × 2), FNV-1a 64 of everything after it, then the
+//   magic "FSYNVWB\0", uint32 version (1), uint32 method (1 ERT, 2 LBF), FNV-1a 64 of everything after
+//   it, detector name (uint64 length + bytes), frontal and profile model sizes (uint64 × 2), then the
 //   frontal model's bytes and the profile model's bytes. Little-endian.
 #include "train/face_box.h"
 #include "train/sdm.h"

@@ -117,6 +117,9 @@ TEST(CmdTrain, ErtAndLbfBaselinesTrainAndEvaluateOnTheSameBoxesAsTheCascade) {
     }
     EXPECT_EQ(ert["detector"], "multiview");
     EXPECT_GT(ert["detector_matched"].get<int>(), 0);
+    // --cascades auto: near-frontal faces give the profile views too few faces, so one model each.
+    EXPECT_EQ(ert["view_cascades"], false);
+    EXPECT_EQ(lbf["view_cascades"], false);
     EXPECT_EQ(lbf["lbf_faces_used"].get<int>() + lbf["lbf_faces_outside_box"].get<int>(), lbf["faces"].get<int>());
 
     // The baselines first: --detector auto still takes the detector recorded in the SDM model.
@@ -159,6 +162,9 @@ TEST(CmdTrain, BadRegressorFileAndUsageErrors) {
     EXPECT_EQ(run_command(train_here + " --cascades single --view-overlap 35,20", &out), 2) << out;
     EXPECT_EQ(run_command(train_here + " --view-overlap 35", &out), 2) << out;
     EXPECT_EQ(run_command(train_here + " --cascades both", &out), 2) << out;
+    EXPECT_EQ(run_command(train_here + " --method ert --cascades views --detector frontal", &out), 2) << out;
+    EXPECT_EQ(run_command(train_here + " --method lbf --view-overlap 35,20", &out), 2) << out;
+    EXPECT_NE(out.find("--view-overlap"), std::string::npos) << out;
     EXPECT_FALSE(fs::exists(dir / "m.sdm"));
     EXPECT_EQ(run_command(cli_path().string() + " eval landmarks --regressor sdm@x:" + (dir / "bad.sdm").string() +
                               " --data " + dir.string(),
