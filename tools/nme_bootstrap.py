@@ -1,0 +1,80 @@
+#!/usr/bin/env python3
+"""Paired bootstrap of per-face NMEs from `facesynth eval landmarks --nme-csv` (docs/train.md).
+
+For the faces the detector found (all regressors share the boxes), prints each regressor's mean NME
+with a 95 % percentile interval, and for the reference column against every other one the mean paired
+difference (other - reference), its 95 % interval and on how many faces the reference is better.
+With yaw in the CSV the paired differences are also given per |yaw| bin (0-15, 15-30, 30-45, 45-60)
+and per detector view. Standard library only.
+
+    tools/nme_bootstrap.py F.csv [--reference 1] [--names ours,dlib,...] [--resamples 5000] [--seed 1]
+"""
+import argparse
+import csv
+import math
+import random
+import sys
+
+
+def percentile(sorted_values, q):
+    position = q * (len(sorted_values) - 1)
+    low = math.floor(position)
+    high = min(low + 1, len(sorted_values) - 1)
+    return sorted_values[low] + (sorted_values[high] - sorted_values[low]) * (position - low)
+
+
+def bootstrap_mean(values, resamples, rng):
+    n = len(values)
+    means = sorted(sum(values[rng.randrange(n)] for _ in range(n)) / n for _ in range(resamples))
+    return percentile(means, 0.025), percentile(means, 0.975)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("csv")
+    parser.add_argument("--reference", type=int, default=1, help="regressor column (1-based) the others are compared with")
+    parser.add_argument("--names", default="", help="comma-separated names of the regressor columns")
+    parser.add_argument("--resamples", type=int, default=5000)
+    parser.add_argument("--seed", type=int, default=1)
+    args = parser.parse_args()
+
+    with open(args.csv, newline="") as f:
+        rows = list(csv.DictReader(f))
+    columns = [c for c in rows[0].keys() if c.startswith("regressor")]
+    names = args.names.split(",") if args.names else columns
+    if len(names) != len(columns):
+        sys.exit(f"{args.csv}: {len(columns)} regressor columns, {len(names)} names")
+    found = [r for r in rows if r["detected"] == "1"]
+    ref = columns[args.reference - 1]
+    rng = random.Random(args.seed)
+    print(f"{args.csv}: {len(rows)} faces, {len(found)} detected; {args.resamples} resamples")
+    for column, name in zip(columns, names):
+        values = [float(r[column]) for r in found]
+        low, high = bootstrap_mean(values, args.resamples, rng)
+        print(f"  {name:>14}: mean {sum(values) / len(values):.4f} [{low:.4f}, {high:.4f}]")
+
+    def paired(subset, label):
+        if not subset:
+            return
+        for column, name in zip(columns, names):
+            if column == ref:
+                continue
+            diffs = [float(r[column]) - float(r[ref]) for r in subset]
+            low, high = bootstrap_mean(diffs, args.resamples, rng)
+            better = sum(d > 0 for d in diffs)
+            print(f"  {label:>12} {name:>14} - {names[args.reference - 1]}: {sum(diffs) / len(diffs):+.4f} "
+                  f"[{low:+.4f}, {high:+.4f}], reference better on {better} of {len(diffs)}; "
+                  f"means {sum(float(r[column]) for r in subset) / len(subset):.4f} vs "
+                  f"{sum(float(r[ref]) for r in subset) / len(subset):.4f}")
+
+    paired(found, "all")
+    if found and found[0]["yaw_deg"]:
+        for low, high in ((0, 15), (15, 30), (30, 45), (45, 60)):
+            paired([r for r in found if low <= abs(float(r["yaw_deg"])) < high or (high == 60 and abs(float(r["yaw_deg"])) == 60)],
+                   f"yaw {low}-{high}")
+    for view in ("frontal", "nose_left", "nose_right"):
+        paired([r for r in found if r["view"] == view], view)
+
+
+if __name__ == "__main__":
+    main()
