@@ -268,13 +268,22 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
     Eigen::Matrix3Xf region_points(3, static_cast<Eigen::Index>(region.vertices.size()));
     for (std::size_t r = 0; r < region.vertices.size(); ++r) region_points.col(static_cast<Eigen::Index>(r)) = mesh.vertices.col(region.vertices[r]);
     const Eigen::Matrix2Xd projected = project_points(camera, region_points);
+    std::vector<int> far_points;  // near side and chin keep the fixed points
+    std::vector<JawContourQuery> queries;
     for (int i = 0; i < kNumJawLandmarks; ++i) {
-        if (!jaw_on_side(i, side)) continue;  // near side and chin: the fixed points
+        if (!jaw_on_side(i, side)) continue;
         const Eigen::Vector3d x = out.model_points.col(i);
         const Eigen::Vector2d toward_left = (project_point(camera, x + Eigen::Vector3d::UnitX()) - out.pixels.col(i)).normalized();
         // Points 0-7 are on the subject's right (model -x), 9-16 on the left.
         const Eigen::Vector2d outward = i < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
-        const auto hit = jaw_contour_point(region, projected, out.pixels.col(i), outward);
+        far_points.push_back(i);
+        queries.push_back({out.pixels.col(i), outward});
+    }
+    // One pass over the region's edges for all far-side points (the same hits as one search each).
+    const auto hits = jaw_contour_points(region, projected, queries);
+    for (std::size_t q = 0; q < far_points.size(); ++q) {
+        const int i = far_points[q];
+        const auto& hit = hits[q];
         if (!hit) continue;
         const std::size_t s = static_cast<std::size_t>(i);
         const Eigen::Vector3d p = hit->point.position(mesh.vertices).cast<double>();

@@ -215,7 +215,7 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"render.shadow_map_size", &c.render.shadow_map_size, "shadow-map texels per side, per light (with shadows)"});
     f.push_back({"output.formats", &c.output.formats, "comma-separated: folder, wds, coco"});
     f.push_back({"output.image_format", &c.output.image_format, "\"png\" or \"jpg\""});
-    f.push_back({"output.png_compression", &c.output.png_compression, "PNG zlib level 0-9 (low = fast, larger files)"});
+    f.push_back({"output.png_compression", &c.output.png_compression, "PNG deflate level 0-9 (low = fast, larger files; 0 = uncompressed)"});
     f.push_back({"output.jpeg_quality", &c.output.jpeg_quality, "JPEG quality for image_format = \"jpg\""});
     f.push_back({"output.depth", &c.output.depth, "write depth/ (EXR, camera-space mm)"});
     f.push_back({"output.mask", &c.output.mask, "write mask/ (PNG, 255 = face)"});

@@ -4,6 +4,7 @@
 #include "morph/error.h"
 #include "morph/landmarks.h"
 #include "synth/exr.h"
+#include "synth/png.h"
 #include "synth/tar.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -66,34 +67,26 @@ std::optional<std::int64_t> index_of_key(std::string_view name) {
     return index;
 }
 
-std::string encode_image(const cv::Mat& rgb, const SynthConfig& config, const std::string& context) {
+std::string encode_image(const cv::Mat& rgb, const SynthConfig& config, PngEncoder& png, const std::string& context) {
+    if (config.output.image_format != "jpg") return png.encode(rgb, context);
     cv::Mat bgr;
     cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
     std::vector<uchar> bytes;
-    const bool ok = config.output.image_format == "jpg"
-                        ? cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, config.output.jpeg_quality})
-                        : cv::imencode(".png", bgr, bytes, {cv::IMWRITE_PNG_COMPRESSION, config.output.png_compression});
-    if (!ok) throw Error(context + ": image encoding failed");
-    return {bytes.begin(), bytes.end()};
-}
-
-std::string encode_png(const cv::Mat& image, int compression, const std::string& context) {
-    std::vector<uchar> bytes;
-    if (!cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, compression})) throw Error(context + ": PNG encoding failed");
+    if (!cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, config.output.jpeg_quality})) throw Error(context + ": image encoding failed");
     return {bytes.begin(), bytes.end()};
 }
 
 // Unit normals n as 8-bit RGB (n + 1) / 2; background (zero normal) stays black.
-std::string encode_normals(const cv::Mat& normals, int compression, const std::string& context) {
-    cv::Mat bgr(normals.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+std::string encode_normals(const cv::Mat& normals, PngEncoder& png, const std::string& context) {
+    cv::Mat rgb(normals.size(), CV_8UC3, cv::Scalar(0, 0, 0));
     for (int y = 0; y < normals.rows; ++y) {
         const auto* n = normals.ptr<cv::Vec3f>(y);
-        auto* o = bgr.ptr<cv::Vec3b>(y);
+        auto* o = rgb.ptr<cv::Vec3b>(y);
         for (int x = 0; x < normals.cols; ++x)
             if (n[x] != cv::Vec3f(0, 0, 0))
-                for (int c = 0; c < 3; ++c) o[x][2 - c] = cv::saturate_cast<uchar>(127.5 * (n[x][c] + 1.0f));
+                for (int c = 0; c < 3; ++c) o[x][c] = cv::saturate_cast<uchar>(127.5 * (n[x][c] + 1.0f));
     }
-    return encode_png(bgr, compression, context);
+    return png.encode(rgb, context);
 }
 
 nlohmann::json points_json(const Eigen::Matrix2Xd& p) {
@@ -476,6 +469,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                 std::lock_guard lock(mutex);
                 renderer_name = generator.renderer_description();
             }
+            PngEncoder png(config.output.png_compression);
             StageTimes times;
             for (;;) {
                 const std::size_t slot = next.fetch_add(1);
@@ -484,20 +478,19 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                 const std::string key = sample_key(index);
                 try {
                     Sample sample = generator.generate(index, &times);
-                    auto clock = Clock::now();
+                    StageClock clock;
                     std::vector<std::string> contents;
                     contents.reserve(files.size());
                     for (const auto& file : files) {
-                        if (file.folder == "images") contents.push_back(encode_image(sample.image, config, key));
+                        if (file.folder == "images") contents.push_back(encode_image(sample.image, config, png, key));
                         else if (file.folder == "landmarks") contents.push_back(format_pts(chosen_landmarks(sample.labels, config.landmarks.mode)));
                         else if (file.folder == "depth") contents.push_back(encode_depth_exr(sample.depth, key));
-                        else if (file.folder == "mask") contents.push_back(encode_png(sample.mask, config.output.png_compression, key));
-                        else if (file.folder == "normals") contents.push_back(encode_normals(sample.normals, config.output.png_compression, key));
-                        else if (file.folder == "labels") contents.push_back(encode_png(sample.regions, config.output.png_compression, key));
+                        else if (file.folder == "mask") contents.push_back(png.encode(sample.mask, key));
+                        else if (file.folder == "normals") contents.push_back(encode_normals(sample.normals, png, key));
+                        else if (file.folder == "labels") contents.push_back(png.encode(sample.regions, key));
                         else contents.push_back(sample_meta(sample, config, model, checksum).dump() + "\n");
                     }
-                    const auto encoded = Clock::now();
-                    times.encode += std::chrono::duration<double>(encoded - clock).count();
+                    clock.lap(times.encode);
                     for (std::size_t f = 0; f < files.size(); ++f)
                         write_file_atomically(root / files[f].folder / (key + files[f].suffix), contents[f]);
                     bool tar_ready = false;
@@ -515,7 +508,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                         std::lock_guard lock(mutex);
                         ++tars_written;
                     }
-                    times.write += std::chrono::duration<double>(Clock::now() - encoded).count();
+                    clock.lap(times.write);
                 } catch (const Error& e) {
                     throw Error("sample " + key + ": " + e.what());
                 } catch (const std::exception& e) {

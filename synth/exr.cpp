@@ -16,6 +16,9 @@ std::string encode_depth_exr(const cv::Mat& depth, const std::string& context) {
     OIIO::ImageSpec spec(depth.cols, depth.rows, 1, OIIO::TypeDesc::FLOAT);
     spec.channelnames = {"Z"};
     spec.attribute("compression", "zip");
+    // OpenImageIO stamps the current time into the header (capDate) unless DateTime is given: an
+    // empty one keeps sample i's file the same bytes in every run.
+    spec.attribute("DateTime", "");
     output->set_ioproxy(&proxy);
     if (!output->open("depth.exr", spec) || !output->write_image(OIIO::TypeDesc::FLOAT, depth.ptr<float>()) || !output->close())
         throw Error(context + ": EXR encoding failed: " + output->geterror());

@@ -11,17 +11,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 
 namespace facesynth::synth {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point& start) {
-    const auto now = Clock::now();
-    const double s = std::chrono::duration<double>(now - start).count();
-    start = now;
-    return s;
+double thread_cpu_seconds() {
+    timespec t{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
 cv::Scalar to_scalar(const Eigen::Vector3d& rgb01) { return {rgb01.x() * 255.0, rgb01.y() * 255.0, rgb01.z() * 255.0}; }
@@ -166,6 +164,12 @@ std::vector<int> occluded_by(const Eigen::Matrix2Xd& pixels, const cv::Mat& cove
 
 }  // namespace
 
+StageTimes::Stage& StageTimes::Stage::operator+=(const Stage& o) {
+    wall += o.wall;
+    cpu += o.cpu;
+    return *this;
+}
+
 StageTimes& StageTimes::operator+=(const StageTimes& o) {
     sample += o.sample;
     render += o.render;
@@ -173,6 +177,17 @@ StageTimes& StageTimes::operator+=(const StageTimes& o) {
     encode += o.encode;
     write += o.write;
     return *this;
+}
+
+StageClock::StageClock() : wall_(std::chrono::steady_clock::now()), cpu_(thread_cpu_seconds()) {}
+
+void StageClock::lap(StageTimes::Stage& stage) {
+    const auto wall = std::chrono::steady_clock::now();
+    const double cpu = thread_cpu_seconds();
+    stage.wall += std::chrono::duration<double>(wall - wall_).count();
+    stage.cpu += cpu - cpu_;
+    wall_ = wall;
+    cpu_ = cpu;
 }
 
 ImageLibrary::ImageLibrary(const std::filesystem::path& folder, const std::string& kind) {
@@ -200,6 +215,8 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel
                                  const ImageLibrary& textures, const render::RendererOptions& renderer_options)
     : config_(config), model_(model), backgrounds_(backgrounds), textures_(textures),
       contour_region_(jaw_contour_region(model)), albedo_check_(make_albedo_check(config, model)), renderer_(renderer_options) {
+    mesh_.triangles = model.triangles;
+    mesh_.uv = model.uv;
     if (config.background.type == "images" && backgrounds.empty())
         throw Error("background.type = \"images\" needs a background folder with readable images");
     if (!config.albedo.texture_folder.empty() && textures.empty())
@@ -209,13 +226,14 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel
 std::string SampleGenerator::renderer_description() const { return renderer_.backend() + " | " + renderer_.renderer_string(); }
 
 Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
-    auto clock = Clock::now();
+    StageClock clock;
     StageTimes local;
     Sample s;
-    s.spec = sample_scene(config_, model_, index, albedo_check_ ? &*albedo_check_ : nullptr);
-    Mesh mesh = model_.instance(s.spec.alpha, s.spec.psi, s.spec.beta);
+    s.spec = sample_scene(config_, model_, index, albedo_check_ ? &*albedo_check_ : nullptr, &mesh_.vertices);
+    Mesh& mesh = mesh_;
     if (s.spec.skin_tone) mesh.colours = s.spec.skin_tone->cast<float>().replicate(1, mesh.num_vertices());
-    local.sample = seconds_since(clock);
+    else mesh.colours = model_.albedo_instance(s.spec.beta);
+    clock.lap(local.sample);
 
     render::Camera camera{s.spec.intrinsics, s.spec.pose, render::Projection::kPerspective};
     render::RenderSettings settings;
@@ -232,7 +250,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
         s.texture = textures_.name(*s.spec.texture_choice);
     }
     renderer_.render(mesh, camera, settings, frame_, extras);
-    local.render = seconds_since(clock);
+    clock.lap(local.render);
 
     // Landmarks in both jaw modes with self-occlusion from the depth buffer (render/landmarks.h).
     const auto projected = render::project_landmarks(model_.landmarks, mesh, camera, frame_, {}, &contour_region_);
@@ -258,7 +276,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
         s.regions = frame_.labels.clone();
         if (!occluder_coverage.empty()) s.regions.setTo(0, occluder_coverage);
     }
-    local.composite = seconds_since(clock);
+    clock.lap(local.composite);
     if (times) *times += local;
     return s;
 }

@@ -39,14 +39,33 @@ struct Sample {
     std::string texture;  // file name of the UV texture map used; empty without albedo.texture_folder
 };
 
-// Where time goes, summed over samples (seconds).
+// Where time goes, summed over samples (seconds): wall time and CPU time of the worker thread. The
+// CPU time excludes llvmpipe's rasteriser threads unless LP_NUM_THREADS=0 makes it render on the
+// calling thread; the wall time of a loaded machine includes waiting for a core.
 struct StageTimes {
-    double sample = 0;     // scene sampling + mesh instance
-    double render = 0;     // GL draw + readback
-    double composite = 0;  // background, occluders, degradations, landmarks
-    double encode = 0;     // PNG/JPEG/EXR encoding, .pts and JSON text
-    double write = 0;      // files, renames, manifest
+    struct Stage {
+        double wall = 0;
+        double cpu = 0;
+        Stage& operator+=(const Stage& other);
+    };
+    Stage sample;     // scene sampling + mesh instance
+    Stage render;     // GL draw + readback
+    Stage composite;  // background, occluders, degradations, landmarks
+    Stage encode;     // PNG/JPEG/EXR encoding, .pts and JSON text
+    Stage write;      // files, renames, manifest
     StageTimes& operator+=(const StageTimes& other);
+};
+
+// Splits a thread's time into StageTimes stages: each lap() adds the wall and thread CPU time since
+// the previous lap (or construction) to one stage.
+class StageClock {
+public:
+    StageClock();
+    void lap(StageTimes::Stage& stage);
+
+private:
+    std::chrono::steady_clock::time_point wall_;
+    double cpu_;
 };
 
 // A folder of images read once and shared read-only between threads: backgrounds for
@@ -84,6 +103,7 @@ private:
     std::optional<SkinColourCheck> albedo_check_;  // albedo.reject_implausible
     render::Renderer renderer_;
     render::Frame frame_;
+    Mesh mesh_;  // the model's triangles and uv, set once; vertices and colours per sample
 };
 
 // Landmarks of the mode named in config.landmarks.mode, with their visibility.

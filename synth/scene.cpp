@@ -232,7 +232,8 @@ AlbedoDraw sample_albedo(const SynthConfig& config, const MorphableModel& model,
                        kMaxAlbedoRedraws);
 }
 
-SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index, const SkinColourCheck* albedo_check) {
+SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index, const SkinColourCheck* albedo_check,
+                        Eigen::Matrix3Xf* shape) {
     const auto i = static_cast<std::uint64_t>(index);
     SampleSpec s;
     s.seed = config.seed;
@@ -283,7 +284,7 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
 
     // Place the face: the landmarks' box in rotated camera axes gives the size in mm; a first
     // distance from the pinhole scale, then one correction from the true perspective projection.
-    const Eigen::Matrix3Xf vertices = model.shape_instance(s.alpha, s.psi);
+    Eigen::Matrix3Xf vertices = model.shape_instance(s.alpha, s.psi);
     const Eigen::Matrix3Xf landmarks = model.landmark_positions(vertices);
     if (landmarks.cols() == 0) throw Error("model '" + model.name + "' has no landmarks; synth needs the 68 iBUG landmarks");
     const Eigen::Matrix3Xd rotated = (model_to_camera_flip() * s.pose.rotation) * landmarks.cast<double>();
@@ -307,6 +308,7 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
     s.background = sample_background(config, index);
     s.degradation = sample_degradation(config, index);
     s.occluders = sample_occluders(config, index, projected);
+    if (shape) *shape = std::move(vertices);
     return s;
 }
 

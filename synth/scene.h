@@ -80,9 +80,11 @@ struct SampleSpec {
 
 // Draws the scene of sample `index`. The camera distance and translation are chosen so that the
 // sampled face (its 68 landmarks) has the sampled size and position in the image. `albedo_check` is
-// make_albedo_check's result, made once per model; without it, it is made here when needed.
+// make_albedo_check's result, made once per model; without it, it is made here when needed. With
+// `shape`, the sampled shape (identity and expression, model space) that placed the face is moved
+// there, so that a renderer need not evaluate the model a second time.
 [[nodiscard]] SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index,
-                                      const SkinColourCheck* albedo_check = nullptr);
+                                      const SkinColourCheck* albedo_check = nullptr, Eigen::Matrix3Xf* shape = nullptr);
 
 // Redraws per sample before falling back to shrinking the first draw (albedo.reject_implausible).
 inline constexpr int kMaxAlbedoRedraws = 16;

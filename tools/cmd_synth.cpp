@@ -12,8 +12,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <thread>
+#include <utility>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -126,7 +128,10 @@ void run_bench(BenchArgs& b) {
     const std::filesystem::path work = b.work.empty() ? std::filesystem::temp_directory_path() / ("facesynth-bench-synth-" + std::to_string(::getpid())) : std::filesystem::path(b.work);
     nlohmann::json report = {{"model", model.name}, {"vertices", model.num_vertices()}, {"width", config.camera.width},
                              {"height", config.camera.height}, {"count", config.count}, {"image_format", config.output.image_format},
-                             {"png_compression", config.output.png_compression}};
+                             {"png_compression", config.output.png_compression}, {"msaa", config.render.msaa_samples},
+                             {"supersampling", config.render.supersampling}};
+    const char* lp_threads = std::getenv("LP_NUM_THREADS");
+    report["lp_num_threads"] = lp_threads ? lp_threads : "";
     const int all = a.threads;
     for (const int threads : {1, all}) {
         synth::RunOptions options;
@@ -146,18 +151,23 @@ void run_bench(BenchArgs& b) {
         report["cpu_ms_per_sample" + suffix] = cpu_ms;
         report["renderer"] = r.renderer;
         if (threads == 1) {
-            report["ms_sample"] = 1e3 * r.times.sample / n;
-            report["ms_render"] = 1e3 * r.times.render / n;
-            report["ms_composite"] = 1e3 * r.times.composite / n;
-            report["ms_encode"] = 1e3 * r.times.encode / n;
-            report["ms_write"] = 1e3 * r.times.write / n;
+            const std::pair<const char*, const synth::StageTimes::Stage*> stages[] = {
+                {"sample", &r.times.sample}, {"render", &r.times.render}, {"composite", &r.times.composite},
+                {"encode", &r.times.encode}, {"write", &r.times.write}};
+            for (const auto& [name, stage] : stages) {
+                report[std::string("ms_") + name] = 1e3 * stage->wall / n;
+                report[std::string("cpu_ms_") + name] = 1e3 * stage->cpu / n;
+            }
         }
         if (!a.quiet) {
             std::printf("bench synth: %d thread(s): %.1f samples/s (%zu samples, %.2f s), process CPU %.2f ms/sample\n", threads, rate,
                         r.generated, r.seconds, cpu_ms);
-            std::printf("  per sample (thread time): sample %.2f ms, render+readback %.2f ms, composite+labels %.2f ms, encode %.2f ms, write %.2f ms\n",
-                        1e3 * r.times.sample / n, 1e3 * r.times.render / n, 1e3 * r.times.composite / n, 1e3 * r.times.encode / n,
-                        1e3 * r.times.write / n);
+            const auto& t = r.times;
+            std::printf("  per sample, worker thread wall / CPU ms: sample %.2f / %.2f, render+readback %.2f / %.2f, composite+labels %.2f / %.2f, "
+                        "encode %.2f / %.2f, write %.2f / %.2f\n",
+                        1e3 * t.sample.wall / n, 1e3 * t.sample.cpu / n, 1e3 * t.render.wall / n, 1e3 * t.render.cpu / n,
+                        1e3 * t.composite.wall / n, 1e3 * t.composite.cpu / n, 1e3 * t.encode.wall / n, 1e3 * t.encode.cpu / n,
+                        1e3 * t.write.wall / n, 1e3 * t.write.cpu / n);
         }
         if (threads == all) break;
     }

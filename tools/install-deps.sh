@@ -11,7 +11,7 @@ packages=(
   libglm-dev libtinygltf-dev libopenimageio-dev openimageio-tools python3-imath
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libtoml11-dev libspdlog-dev libfmt-dev
-  libarchive-dev libhdf5-dev libpng-dev
+  libarchive-dev libdeflate-dev libhdf5-dev libpng-dev
   libdlib-dev libdlib-data
 )
 
