@@ -101,7 +101,10 @@ void composite(const cv::Mat& face, const cv::Mat& mask, const cv::Mat& backgrou
     }
 }
 
+// `coverage` stays empty when there are no occluders (most samples by default).
 void draw_occluders(const std::vector<OccluderSpec>& occluders, cv::Mat& image, cv::Mat& coverage) {
+    coverage.release();
+    if (occluders.empty()) return;
     coverage = cv::Mat::zeros(image.size(), CV_8UC1);
     for (const auto& o : occluders) {
         const cv::RotatedRect box(cv::Point2f(static_cast<float>(o.centre.x()), static_cast<float>(o.centre.y())),
@@ -267,7 +270,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     s.mask = frame_.mask.clone();
     cv::Mat occluder_coverage;
     draw_occluders(s.spec.occluders, s.image, occluder_coverage);
-    s.mask.setTo(0, occluder_coverage);
+    if (!occluder_coverage.empty()) s.mask.setTo(0, occluder_coverage);  // an empty mask would clear it all
     labels.occluded = occluded_by(chosen_landmarks(labels, config_.landmarks.mode), occluder_coverage);
     degrade(s.image, s.spec.degradation, s.spec.seed, index);
     if (config_.output.depth) s.depth = frame_.depth.clone();
