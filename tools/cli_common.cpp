@@ -74,9 +74,10 @@ CLI::Option* add_detector_option(CLI::App& command, std::string& value) {
     return command
         .add_option("--detector", value,
                     "Face detector: frontal (OpenCV's Haar frontal cascade), multiview (frontal + profile cascades on the "
-                    "image and its mirror, overlapping boxes merged), or auto (the one recorded in the first SDM model "
-                    "given, else multiview)")
-        ->check(CLI::IsMember({"auto", "frontal", "multiview"}))
+                    "image and its mirror, overlapping boxes merged), dlib (dlib's HOG detector), dlib+profile (dlib, plus "
+                    "the Haar profile cascades where dlib finds nothing), or auto (the one recorded in the first SDM "
+                    "model given, else multiview)")
+        ->check(CLI::IsMember({"auto", "frontal", "multiview", "dlib", "dlib+profile"}))
         ->capture_default_str();
 }
 

@@ -43,8 +43,8 @@ CLI::App& bench_group(CLI::App& app);
 // The "eval" command group, the same way.
 CLI::App& eval_group(CLI::App& app);
 
-// The --detector option of detect, eval landmarks, frontalise and eval frontalise: auto, frontal or
-// multiview (train/regressor.h choose_detector).
+// The --detector option of detect, eval landmarks, frontalise and eval frontalise: auto, frontal,
+// multiview, dlib or dlib+profile (train/regressor.h choose_detector).
 CLI::Option* add_detector_option(CLI::App& command, std::string& value);
 
 // Creates an output folder (and its parents); throws facesynth::Error naming it when it cannot.

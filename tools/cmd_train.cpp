@@ -52,7 +52,7 @@ struct TrainArgs {
     double validation_share = SdmTrainOptions{}.validation_share;
     std::vector<int> ranks = SdmTrainOptions{}.ranks;
     int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
-    std::string detector = "multiview";
+    std::string detector = "dlib";
     std::string cascades = "auto";  // auto, views or single
     std::vector<double> view_overlap;  // frontal max |yaw|, profile min |yaw|
     LbfTrainOptions lbf;
@@ -64,8 +64,8 @@ void run_train(const TrainArgs& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::clock_t cpu_start = std::clock();
     if (args.method == "lbf") check_lbf_options(args.lbf);  // before the long preparation
-    if (args.cascades == "views" && args.detector != "multiview")
-        throw CLI::ValidationError("--cascades", "views needs --detector multiview");
+    if (args.cascades == "views" && !detector_has_views(parse_detector_kind(args.detector)))
+        throw CLI::ValidationError("--cascades", "views needs a detector with views (not frontal)");
     if (!args.view_overlap.empty() && args.method != "sdm")
         throw CLI::ValidationError("--view-overlap", "only applies to --method sdm");
     if (!args.view_overlap.empty() && args.cascades == "single")
@@ -108,10 +108,10 @@ void run_train(const TrainArgs& args) {
         split.frontal_max_yaw_deg = args.view_overlap[0];
         split.profile_min_yaw_deg = args.view_overlap[1];
     }
-    // auto: view-specific models (SDM cascades, or ERT/LBF models) when the multi-view detector gives
+    // auto: view-specific models (SDM cascades, or ERT/LBF models) when a detector with views gives
     // each view enough faces.
     bool views = args.cascades == "views";
-    if (args.cascades == "auto" && boxes.detector == DetectorKind::kMultiView) {
+    if (args.cascades == "auto" && detector_has_views(boxes.detector)) {
         const ViewCascadeCounts planned = count_view_split(prepared.faces, split);
         views = planned.frontal_faces >= kMinViewCascadeFaces && planned.profile_faces >= kMinViewCascadeFaces;
         if (!views && !args.quiet)
@@ -529,15 +529,17 @@ void register_train_commands(CLI::App& app) {
             ->check(CLI::Range(1, 136))
             ->capture_default_str();
         cmd->add_option("--detector", args->detector,
-                        "Face detector for the training boxes, recorded in the model: frontal (Haar frontal cascade) or "
-                        "multiview (frontal + profile cascades, one mean shape per view)")
-            ->check(CLI::IsMember({"frontal", "multiview"}))
+                        "Face detector for the training boxes, recorded in the model: frontal (Haar frontal cascade), "
+                        "multiview (frontal + profile cascades, one mean shape per view), dlib (dlib's HOG detector, "
+                        "views from its filters) or dlib+profile (dlib, plus the Haar profile cascades where dlib "
+                        "finds nothing)")
+            ->check(CLI::IsMember({"frontal", "multiview", "dlib", "dlib+profile"}))
             ->capture_default_str();
         cmd->add_option("--cascades", args->cascades,
                         "views (one cascade, or ERT/LBF model, for the frontal view and one for the profile views, "
-                        "nose-right faces mirrored, chosen at detection by the detector's view; needs --detector "
-                        "multiview), single (one for all views), or auto (views with the multi-view detector when each "
-                        "view gets at least 100 faces)")
+                        "nose-right faces mirrored, chosen at detection by the detector's view; needs a "
+                        "detector with views, not frontal), single (one for all views), or auto (views with such a "
+                        "detector when each view gets at least 100 faces)")
             ->check(CLI::IsMember({"auto", "views", "single"}))
             ->capture_default_str();
         cmd->add_option("--view-overlap", args->view_overlap,

@@ -1,6 +1,7 @@
 #include "train/face_box.h"
 
 #include "morph/error.h"
+#include "train/dlib_face_detector.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -27,13 +28,23 @@ const char* view_name(FaceView view) {
     return "frontal";
 }
 
-const char* detector_name(DetectorKind kind) { return kind == DetectorKind::kMultiView ? "multiview" : "frontal"; }
+const char* detector_name(DetectorKind kind) {
+    switch (kind) {
+        case DetectorKind::kMultiView: return "multiview";
+        case DetectorKind::kDlib: return "dlib";
+        case DetectorKind::kDlibProfile: return "dlib+profile";
+        case DetectorKind::kFrontal: break;
+    }
+    return "frontal";
+}
 
 DetectorKind parse_detector_kind(const std::string& name) {
-    if (name == "frontal") return DetectorKind::kFrontal;
-    if (name == "multiview") return DetectorKind::kMultiView;
-    throw Error("unknown face detector '" + name + "' (expected frontal or multiview)");
+    for (const auto kind : {DetectorKind::kFrontal, DetectorKind::kMultiView, DetectorKind::kDlib, DetectorKind::kDlibProfile})
+        if (name == detector_name(kind)) return kind;
+    throw Error("unknown face detector '" + name + "' (expected frontal, multiview, dlib or dlib+profile)");
 }
+
+bool detector_has_views(DetectorKind kind) { return kind != DetectorKind::kFrontal; }
 
 namespace {
 
@@ -95,20 +106,27 @@ cv::Rect2d rect_from_face_box(const FaceBox& box) {
     return {box.centre.x() - half, box.centre.y() - half, box.width, box.width};
 }
 
-FaceDetector::FaceDetector(DetectorKind kind)
-    : FaceDetector(default_face_cascade_path(),
-                   kind == DetectorKind::kMultiView ? default_profile_cascade_path() : std::filesystem::path()) {}
+FaceDetector::FaceDetector(DetectorKind kind) : kind_(kind) {
+    if (kind == DetectorKind::kFrontal || kind == DetectorKind::kMultiView) frontal_ = load_cascade(default_face_cascade_path());
+    if (kind != DetectorKind::kFrontal && kind != DetectorKind::kDlib) profile_ = load_cascade(default_profile_cascade_path());
+    if (kind == DetectorKind::kDlib || kind == DetectorKind::kDlibProfile) dlib_ = std::make_unique<DlibHogDetector>();
+}
 
 FaceDetector::FaceDetector(const std::filesystem::path& frontal_cascade, const std::filesystem::path& profile_cascade)
-    : frontal_(load_cascade(frontal_cascade)) {
+    : kind_(profile_cascade.empty() ? DetectorKind::kFrontal : DetectorKind::kMultiView), frontal_(load_cascade(frontal_cascade)) {
     if (!profile_cascade.empty()) profile_ = load_cascade(profile_cascade);
 }
 
+FaceDetector::~FaceDetector() = default;
+FaceDetector::FaceDetector(FaceDetector&&) noexcept = default;
+FaceDetector& FaceDetector::operator=(FaceDetector&&) noexcept = default;
+
 std::vector<ScoredBox> FaceDetector::detect_unmerged(const cv::Mat& gray) const {
+    if (gray.type() != CV_8UC1 || gray.empty()) throw Error("face detector: expected a non-empty 8-bit grey image");
     cv::Mat equalised;
     cv::equalizeHist(gray, equalised);
     std::vector<ScoredBox> found;
-    run_cascade(frontal_, equalised, FaceView::kFrontal, false, found);
+    if (frontal_) run_cascade(*frontal_, equalised, FaceView::kFrontal, false, found);
     if (profile_) {
         run_cascade(*profile_, equalised, FaceView::kNoseLeft, false, found);
         cv::Mat mirrored;
@@ -119,6 +137,15 @@ std::vector<ScoredBox> FaceDetector::detect_unmerged(const cv::Mat& gray) const 
 }
 
 std::vector<FaceBox> FaceDetector::detect(const cv::Mat& gray) const {
+    if (dlib_) {
+        // dlib's boxes (its own non-maximum suppression already made them one per face); with
+        // dlib+profile the Haar profile cascades look only at images where dlib finds nothing.
+        std::vector<FaceBox> boxes;
+        for (const auto& d : dlib_->detect(gray)) boxes.push_back(d.box);
+        if (boxes.empty() && profile_) boxes = merge_detections(detect_unmerged(gray));
+        std::stable_sort(boxes.begin(), boxes.end(), [](const FaceBox& a, const FaceBox& b) { return a.width > b.width; });
+        return boxes;
+    }
     if (!profile_) {  // the frontal detector as it always was: every detection, largest first
         std::vector<FaceBox> boxes;
         for (const auto& d : detect_unmerged(gray)) boxes.push_back(d.box);

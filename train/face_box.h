@@ -1,6 +1,6 @@
 #pragma once
 // Face boxes and the canonical face frame. Every face, in training and at test time, is cut out of
-// its image around a box from OpenCV's Haar cascade (or, in training where the detector misses, a
+// its image around a box from a face detector (OpenCV's Haar cascades or dlib's HOG detector; or, in training where the detector misses, a
 // box synthesised from the landmarks with the detector's measured offset and spread) and resampled
 // so that the box is kCanonicalBoxWidth pixels wide at the centre of a kCanonicalCropSide square.
 #include <Eigen/Core>
@@ -8,6 +8,7 @@
 #include <opencv2/objdetect.hpp>
 
 #include <filesystem>
+#include <memory>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -36,12 +37,18 @@ struct FaceBox {
     FaceView view = FaceView::kFrontal;
 };
 
-// The face detectors: OpenCV's frontal Haar cascade alone, or multi-view (frontal + profile on the
-// image and on its mirror image, overlapping detections merged). Recorded in SDM model files.
-enum class DetectorKind : std::uint8_t { kFrontal = 0, kMultiView = 1 };
-[[nodiscard]] const char* detector_name(DetectorKind kind);  // "frontal", "multiview"
-// "frontal" or "multiview"; throws facesynth::Error for anything else.
+// The face detectors: OpenCV's frontal Haar cascade alone; multi-view (frontal + profile on the
+// image and on its mirror image, overlapping detections merged); dlib's HOG detector (five filters,
+// the turned-face ones giving the profile views); or dlib plus the Haar profile cascades for faces
+// dlib does not find. Recorded in SDM model files.
+enum class DetectorKind : std::uint8_t { kFrontal = 0, kMultiView = 1, kDlib = 2, kDlibProfile = 3 };
+inline constexpr DetectorKind kLastDetectorKind = DetectorKind::kDlibProfile;
+// "frontal", "multiview", "dlib", "dlib+profile"
+[[nodiscard]] const char* detector_name(DetectorKind kind);
+// One of the names above; throws facesynth::Error for anything else.
 [[nodiscard]] DetectorKind parse_detector_kind(const std::string& name);
+// Whether the detector's boxes carry profile views (all but the frontal Haar cascade).
+[[nodiscard]] bool detector_has_views(DetectorKind kind);
 
 // One detection before merging: its box and the cascade's neighbour count (how many raw windows
 // grouped into it, OpenCV's confidence).
@@ -58,21 +65,32 @@ struct ScoredBox {
 [[nodiscard]] FaceBox face_box_from_rect(const cv::Rect& rect);
 [[nodiscard]] cv::Rect2d rect_from_face_box(const FaceBox& box);
 
-// Cascade face detector; one per thread (cv::CascadeClassifier is not shared across threads).
+class DlibHogDetector;
+
+// The face detector of one DetectorKind; one per thread (neither cv::CascadeClassifier nor dlib's
+// detector is shared across threads).
 class FaceDetector {
 public:
     explicit FaceDetector(DetectorKind kind = DetectorKind::kFrontal);
-    // Explicit cascades; an empty profile path gives the frontal-only detector.
+    // Explicit Haar cascades; an empty profile path gives the frontal-only detector.
     FaceDetector(const std::filesystem::path& frontal_cascade, const std::filesystem::path& profile_cascade);
+    ~FaceDetector();
+    FaceDetector(FaceDetector&&) noexcept;
+    FaceDetector& operator=(FaceDetector&&) noexcept;
+    FaceDetector(const FaceDetector&) = delete;
+    FaceDetector& operator=(const FaceDetector&) = delete;
+
     // All faces in an 8-bit grey image, largest first, each with the view that found it.
     [[nodiscard]] std::vector<FaceBox> detect(const cv::Mat& gray) const;
-    // Every detection of every cascade before merging (diagnosis and tests).
+    // Every detection of every Haar cascade before merging (diagnosis and tests; empty for dlib).
     [[nodiscard]] std::vector<ScoredBox> detect_unmerged(const cv::Mat& gray) const;
-    [[nodiscard]] DetectorKind kind() const { return profile_.has_value() ? DetectorKind::kMultiView : DetectorKind::kFrontal; }
+    [[nodiscard]] DetectorKind kind() const { return kind_; }
 
 private:
-    mutable cv::CascadeClassifier frontal_;
+    DetectorKind kind_;
+    mutable std::optional<cv::CascadeClassifier> frontal_;
     mutable std::optional<cv::CascadeClassifier> profile_;
+    std::unique_ptr<DlibHogDetector> dlib_;
 };
 
 // The detection belonging to a ground-truth shape: its centre lies inside the landmarks' bounding

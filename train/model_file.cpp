@@ -189,7 +189,7 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
     b.init_rotation_std_deg = stats[8];
     if (version >= 3) {
         const auto detector = r.read<std::uint32_t>("face detector");
-        if (detector > static_cast<std::uint32_t>(DetectorKind::kMultiView))
+        if (detector > static_cast<std::uint32_t>(kLastDetectorKind))
             throw r.error("unknown face detector " + std::to_string(detector) + " (corrupt file or a newer build's model)");
         b.detector = static_cast<DetectorKind>(detector);
         const auto views = r.read<std::uint32_t>("view count");

@@ -38,7 +38,7 @@ private:
 // Throws facesynth::Error naming the file for unreadable models.
 [[nodiscard]] std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec);
 
-// The commands' --detector option: "frontal" or "multiview", or "auto": the detector recorded in the
+// The commands' --detector option: a detector_name, or "auto": the detector recorded in the
 // first regressor that records one (SDM models; version 1-2 files say frontal), else multi-view.
 [[nodiscard]] DetectorKind choose_detector(const std::string& option, std::span<const LandmarkRegressor* const> regressors);
 

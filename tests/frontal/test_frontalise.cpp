@@ -266,6 +266,35 @@ TEST_F(FrontaliseTest, MultiViewDetectorFindsFacesAtYaw60ThatTheFrontalCascadeMi
     }
 }
 
+// dlib's HOG detector (train/dlib_face_detector.h) on renders of several identities: a frontal face
+// comes from a frontal filter, a face turned 45° from the turned-face filter whose view says where
+// the nose points (negative yaw: the image's left).
+TEST_F(FrontaliseTest, DlibDetectorFindsFrontalAnd45DegreeFacesWithTheirViews) {
+    const train::FaceDetector dlib_detector(train::DetectorKind::kDlib);
+    constexpr int kFaces = 4;
+    std::vector<TexturedFace> faces;
+    for (int index = 0; index < kFaces; ++index)
+        faces.push_back(make_textured_face(*model_, *frontaliser_, 11, static_cast<std::uint64_t>(index), kIsomapSize));
+    for (const double yaw : {0.0, -45.0, 45.0}) {
+        const train::FaceView expected =
+            yaw == 0 ? train::FaceView::kFrontal : (yaw < 0 ? train::FaceView::kNoseLeft : train::FaceView::kNoseRight);
+        int found_with_view = 0;
+        for (int index = 0; index < kFaces; ++index) {
+            const TexturedFace& face = faces[static_cast<std::size_t>(index)];
+            ViewOptions whole_head;
+            whole_head.framing = 2.5;
+            const SyntheticView v = render_view(frontaliser_->renderer(), *model_, face, yaw, whole_head, region_.get());
+            keep("dlib_yaw" + std::to_string(static_cast<int>(yaw)) + "_" + std::to_string(index) + ".png", v.image);
+            const auto found = train::match_detection(dlib_detector.detect(train::to_gray8(v.image)), v.landmarks);
+            if (!found || found->view != expected) continue;
+            ++found_with_view;
+            EXPECT_LT((found->centre - v.landmarks.rowwise().mean()).norm(), 0.3 * found->width) << "yaw " << yaw << ", face " << index;
+        }
+        std::printf("yaw %+.0f: dlib found %d of %d faces with view %s\n", yaw, found_with_view, kFaces, train::view_name(expected));
+        EXPECT_GE(found_with_view, kFaces - 1) << "yaw " << yaw;
+    }
+}
+
 TEST_F(FrontaliseTest, FramingIsTheSameForEveryFace) {
     const render::Camera a = frontaliser_->frontal_camera(256);
     const render::Camera b = frontaliser_->frontal_camera(256);

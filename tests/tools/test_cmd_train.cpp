@@ -45,7 +45,7 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     for (const char* key : {"stage1_nme", "stage1_validation_nme", "stage1_lambda_factor", "stage1_rank", "stage3_rank",
                             "detector_matched_frontal", "detector_matched_nose_left", "detector_matched_nose_right"})
         EXPECT_TRUE(train_report.contains(key)) << key;
-    EXPECT_EQ(train_report["detector"], "multiview");  // the default
+    EXPECT_EQ(train_report["detector"], "dlib");  // the default
     // --cascades auto: these near-frontal faces give the profile cascade too few faces, so one cascade.
     EXPECT_EQ(train_report["view_cascades"], false);
 
@@ -62,7 +62,7 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
                             "detector_view_frontal", "detector_view_nose_left", "detector_view_nose_right",
                             "detector_misses_yaw_00_10", "faces_yaw_00_10"})
         EXPECT_TRUE(j.contains(key)) << key;
-    EXPECT_EQ(j["detector"], "multiview");  // auto: the one recorded in the model
+    EXPECT_EQ(j["detector"], "dlib");  // auto: the one recorded in the model
     EXPECT_EQ(j["count"].get<int>(), 30);
     EXPECT_LT(j["detector_misses"].get<int>(), 30);
     // The cascade must improve on its own starting point (the mean shape in the same boxes).
@@ -115,7 +115,7 @@ TEST(CmdTrain, ErtAndLbfBaselinesTrainAndEvaluateOnTheSameBoxesAsTheCascade) {
             EXPECT_EQ((*report)[key], sdm[key]) << key;
         EXPECT_GT((*report)["cpu_seconds"].get<double>(), 0.0);
     }
-    EXPECT_EQ(ert["detector"], "multiview");
+    EXPECT_EQ(ert["detector"], "dlib");  // the default
     EXPECT_GT(ert["detector_matched"].get<int>(), 0);
     // --cascades auto: near-frontal faces give the profile views too few faces, so one model each.
     EXPECT_EQ(ert["view_cascades"], false);
@@ -131,7 +131,7 @@ TEST(CmdTrain, ErtAndLbfBaselinesTrainAndEvaluateOnTheSameBoxesAsTheCascade) {
                                  (dir / "nme.csv").string();
     ASSERT_EQ(run_command(eval_cmd, &out), 0) << out;
     const auto j = read_json(eval_json);
-    EXPECT_EQ(j["detector"], "multiview");
+    EXPECT_EQ(j["detector"], "dlib");
     EXPECT_EQ(j["count"].get<int>(), 20);
     ASSERT_LT(j["detector_misses"].get<int>(), 20);
     for (const char* key : {"nme_mean", "regressor2_nme_mean", "regressor3_nme_mean", "regressor4_nme_mean"})

@@ -1,5 +1,6 @@
 #include "train/dataset.h"
 #include "train/dlib_baseline.h"
+#include "train/dlib_face_detector.h"
 #include "train/face_box.h"
 #include "train/metrics.h"
 #include "train/training_data.h"
@@ -121,18 +122,62 @@ TEST(FaceBox, MergingKeepsOneBoxPerFaceFromTheMostConfidentCascade) {
 }
 
 TEST(FaceBox, DetectorNamesRoundTripAndUnknownOnesAreRefused) {
-    for (const auto kind : {DetectorKind::kFrontal, DetectorKind::kMultiView})
+    for (const auto kind : {DetectorKind::kFrontal, DetectorKind::kMultiView, DetectorKind::kDlib, DetectorKind::kDlibProfile}) {
         EXPECT_EQ(parse_detector_kind(detector_name(kind)), kind);
+        EXPECT_EQ(FaceDetector(kind).kind(), kind);
+        EXPECT_EQ(detector_has_views(kind), kind != DetectorKind::kFrontal);
+    }
+    EXPECT_EQ(std::string(detector_name(DetectorKind::kDlibProfile)), "dlib+profile");
     EXPECT_THROW((void)parse_detector_kind("profile"), Error);
-    EXPECT_EQ(FaceDetector(DetectorKind::kMultiView).kind(), DetectorKind::kMultiView);
     EXPECT_EQ(FaceDetector().kind(), DetectorKind::kFrontal);
 }
 
 TEST(FaceBox, NoFaceInABlankOrNoiseImage) {
-    const FaceDetector detector;
     cv::Mat blank(240, 320, CV_8UC1, cv::Scalar(128));
-    EXPECT_TRUE(detector.detect(blank).empty());
-    EXPECT_TRUE(FaceDetector(DetectorKind::kMultiView).detect(blank).empty());
+    cv::Mat noise(240, 320, CV_8UC1);
+    cv::randu(noise, 0, 256);
+    for (const auto kind : {DetectorKind::kFrontal, DetectorKind::kMultiView, DetectorKind::kDlib, DetectorKind::kDlibProfile}) {
+        const FaceDetector detector(kind);
+        EXPECT_TRUE(detector.detect(blank).empty()) << detector_name(kind);
+        EXPECT_TRUE(detector.detect(noise).empty()) << detector_name(kind);
+    }
+}
+
+TEST(FaceBox, EveryDetectorRefusesAnEmptyOrNonGreyImageWithAnError) {
+    const cv::Mat colour(64, 64, CV_8UC3, cv::Scalar(10, 20, 30));
+    for (const auto kind : {DetectorKind::kFrontal, DetectorKind::kMultiView, DetectorKind::kDlib, DetectorKind::kDlibProfile}) {
+        const FaceDetector detector(kind);
+        EXPECT_THROW((void)detector.detect(cv::Mat()), Error) << detector_name(kind);
+        EXPECT_THROW((void)detector.detect(colour), Error) << detector_name(kind);
+    }
+}
+
+TEST(DlibFaceDetector, FiltersMapToViews) {
+    // dlib's filter order: frontal, left-looking, right-looking, frontal rotated left and right; the
+    // turned-face filters' yaw sign was measured on synthetic faces of known yaw (docs/train.md).
+    EXPECT_EQ(view_of_dlib_filter(0), FaceView::kFrontal);
+    EXPECT_EQ(view_of_dlib_filter(1), FaceView::kNoseLeft);
+    EXPECT_EQ(view_of_dlib_filter(2), FaceView::kNoseRight);
+    EXPECT_EQ(view_of_dlib_filter(3), FaceView::kFrontal);
+    EXPECT_EQ(view_of_dlib_filter(4), FaceView::kFrontal);
+}
+
+TEST(DlibFaceDetector, FindsTheAnnotatedFaceOnARealPhotoWithAFilterAndScore) {
+    FACESYNTH_REQUIRE_SHARED_DATA(dir, "real/lfpw_superviseddescent");
+    const cv::Mat gray = to_gray8(cv::imread((dir / "image_0001.png").string(), cv::IMREAD_UNCHANGED));
+    const Eigen::Matrix2Xd truth = read_pts(dir / "image_0001.pts");
+    const DlibHogDetector dlib_detector;
+    const auto detections = dlib_detector.detect(gray);
+    ASSERT_FALSE(detections.empty());
+    for (const auto& d : detections) {
+        EXPECT_GE(d.filter, 0);
+        EXPECT_LT(d.filter, 5);
+        EXPECT_GE(d.confidence, kDlibAdjustThreshold);
+        EXPECT_EQ(d.box.view, view_of_dlib_filter(d.filter));
+    }
+    const auto match = match_detection(FaceDetector(DetectorKind::kDlib).detect(gray), truth);
+    ASSERT_TRUE(match.has_value());
+    EXPECT_LT((match->centre - truth.rowwise().mean()).norm(), 0.3 * match->width);
 }
 
 TEST(FaceBox, DetectsTheAnnotatedFaceOnARealPhoto) {

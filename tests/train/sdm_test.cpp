@@ -1,5 +1,6 @@
 #include "train/hog.h"
 #include "train/model_file.h"
+#include "train/regressor.h"
 #include "train/sdm.h"
 
 #include "cartoon_faces.h"
@@ -227,6 +228,21 @@ TEST(SdmModelFile, DetectorAndViewMeanShapesRoundTrip) {
     for (std::size_t v = 0; v < kFaceViews; ++v) EXPECT_TRUE(back.view_mean_shapes[v] == model.view_mean_shapes[v]) << v;
     EXPECT_TRUE(back.mean_shape == model.mean_shape);
     EXPECT_TRUE(back.stages[0].weights == model.stages[0].weights);
+}
+
+// A model trained on dlib's boxes records that detector, and `--detector auto` picks it up.
+TEST(SdmModelFile, DlibDetectorKindRoundTripsAndIsChosenAtDetection) {
+    for (const auto kind : {DetectorKind::kDlib, DetectorKind::kDlibProfile}) {
+        SdmModel model = model_with_views();
+        model.boxes.detector = kind;
+        const auto dir = testkit::fresh_temp_dir("sdm_model_dlib");
+        write_sdm_model(dir / "dlib.sdm", model);
+        EXPECT_EQ(read_sdm_model(dir / "dlib.sdm").boxes.detector, kind);
+        const auto regressor = open_regressor((dir / "dlib.sdm").string());
+        const std::vector<const LandmarkRegressor*> regressors{regressor.get()};
+        EXPECT_EQ(choose_detector("auto", regressors), kind);
+        EXPECT_EQ(choose_detector("multiview", regressors), DetectorKind::kMultiView);
+    }
 }
 
 using testkit::expect_sdm_error_naming;
