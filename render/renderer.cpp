@@ -3,6 +3,7 @@
 #include "morph/error.h"
 #include "render/gl_context.h"
 #include "render/gl_functions.h"
+#include "render/gl_program.h"
 #include "render/shaders.h"
 
 #include <Eigen/Geometry>
@@ -68,10 +69,32 @@ void warn_egl_fallback(const std::string& egl_failure) {
         std::fprintf(stderr, "facesynth: warning: EGL unavailable (%s); rendering with OSMesa\n", egl_failure.c_str());
 }
 
-// Names of vertex attribute locations (shaders.h).
-enum Attribute : GLuint { kPosition = 0, kNormal = 1, kAlbedo = 2, kUv = 3, kTriangle = 4, kNumAttributes = 5 };
+}  // namespace
 
-constexpr float kDefaultAlbedo = 0.7f;
+namespace detail {
+
+std::unique_ptr<GlContext> open_context(Backend backend, bool allow_gpu_device) {
+    std::unique_ptr<GlContext> context;
+    std::string failures;
+    if (backend != Backend::kOsmesa) {
+        try {
+            context = create_egl_context(allow_gpu_device);
+        } catch (const Error& e) {
+            if (backend == Backend::kEgl) throw;
+            failures = e.what();
+        }
+    }
+    if (!context) {
+        try {
+            context = create_osmesa_context();
+        } catch (const Error& e) {
+            if (backend == Backend::kOsmesa) throw;
+            throw Error("render: no OpenGL backend available (" + failures + "; " + e.what() + ")");
+        }
+        if (!failures.empty()) warn_egl_fallback(failures);
+    }
+    return context;
+}
 
 // The clip matrix for a pinhole (or orthographic) camera given in OpenCV pixels. Window x = u + 0.5
 // (pixel u's centre), window y = v + 0.5 with GL row 0 holding image row 0, so read-back needs no
@@ -100,19 +123,15 @@ Eigen::Matrix4d clip_from_camera(const Camera& camera, double near, double far) 
     return p;
 }
 
-// The same view `factor` times larger: pixel (u, v) covers fine pixels factor·u .. factor·u + factor − 1,
-// i.e. fine = factor · (coarse + 0.5) − 0.5 in OpenCV pixel coordinates (centre of pixel 0 at 0).
-Camera supersampled_camera(const Camera& camera, int factor) {
-    Camera fine = camera;
-    Intrinsics& k = fine.intrinsics;
-    const double f = factor;
-    k.width *= factor;
-    k.height *= factor;
-    k.fx *= f;
-    k.fy *= f;
-    k.cx = f * (k.cx + 0.5) - 0.5;
-    k.cy = f * (k.cy + 0.5) - 0.5;
-    return fine;
+DepthRange depth_range(const Camera& camera, const Eigen::Vector3f& low, const Eigen::Vector3f& high) {
+    const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
+    const double radius = 0.5 * (high - low).cast<double>().norm();
+    const double centre_z = (model_to_camera_rotation(camera.pose) * centre + camera.pose.translation).z();
+    const double margin = 1.0 + 0.01 * radius;
+    double far = centre_z + radius + margin, near = centre_z - radius - margin;
+    if (camera.projection == Projection::kPerspective) near = std::max(near, std::max(1e-3, far * 1e-4));
+    if (far <= near) far = near + 1.0;
+    return {near, far};
 }
 
 GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& source) {
@@ -131,27 +150,22 @@ GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& sou
     return shader;
 }
 
-// Shader variants: bit flags compiled in with #define (shaders.h).
-enum Variant : unsigned {
-    kWithColour = 1, kWithNormals = 2, kWithIds = 4, kWithBarycentrics = 8, kWithTexture = 16, kWithLights = 32,
-    kTwoSided = 64, kWithShadows = 128, kNumVariants = 256
-};
-// No outputs: the depth-only pass that fills a shadow map.
-constexpr unsigned kDepthOnly = 0;
+std::string load_functions(const GlContext& context, GlFunctions& gl) {
+    gl.load([&context](const char* name) { return context.get_proc_address(name); }, context.backend_name());
+    return std::string(reinterpret_cast<const char*>(gl.GetString(GL_RENDERER))) + " | " +
+           reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
+}
 
-GLuint link_program(const GlFunctions& gl, unsigned variant) {
-    const bool with_barycentrics = (variant & kWithBarycentrics) != 0;
-    std::string header = "#version 330 core\n";
-    const std::pair<Variant, const char*> defines[] = {
-        {kWithColour, "WITH_COLOUR"}, {kWithNormals, "WITH_NORMALS"}, {kWithIds, "WITH_IDS"},
-        {kWithBarycentrics, "WITH_BARYCENTRICS"}, {kWithTexture, "WITH_TEXTURE"}, {kWithLights, "WITH_LIGHTS"},
-        {kTwoSided, "TWO_SIDED"}, {kWithShadows, "WITH_SHADOWS"}};
-    for (const auto& [bit, name] : defines)
-        if (variant & bit) header += std::string("#define ") + name + "\n";
-    header += detail::kCommonHeader;
-    std::vector<GLuint> shaders{compile_shader(gl, GL_VERTEX_SHADER, header + detail::kVertexShader),
-                                compile_shader(gl, GL_FRAGMENT_SHADER, header + detail::kFragmentShader)};
-    if (with_barycentrics) shaders.push_back(compile_shader(gl, GL_GEOMETRY_SHADER, header + detail::kGeometryShader));
+void check_gl(const GlFunctions& gl, const char* stage) {
+    const GLenum error = gl.GetError();
+    if (error != GL_NO_ERROR) {
+        char code[16];
+        std::snprintf(code, sizeof code, "0x%04x", error);
+        throw Error(std::string("render: OpenGL error ") + code + " during " + stage);
+    }
+}
+
+GLuint link_shaders(const GlFunctions& gl, std::span<const GLuint> shaders) {
     const GLuint program = gl.CreateProgram();
     for (GLuint s : shaders) gl.AttachShader(program, s);
     gl.LinkProgram(program);
@@ -165,6 +179,55 @@ GLuint link_program(const GlFunctions& gl, unsigned variant) {
         throw Error(std::string("render: shader program link failed: ") + log.data());
     }
     return program;
+}
+
+}  // namespace detail
+
+namespace {
+
+// Names of vertex attribute locations (shaders.h).
+enum Attribute : GLuint { kPosition = 0, kNormal = 1, kAlbedo = 2, kUv = 3, kTriangle = 4, kNumAttributes = 5 };
+
+constexpr float kDefaultAlbedo = 0.7f;
+
+// The same view `factor` times larger: pixel (u, v) covers fine pixels factor·u .. factor·u + factor − 1,
+// i.e. fine = factor · (coarse + 0.5) − 0.5 in OpenCV pixel coordinates (centre of pixel 0 at 0).
+Camera supersampled_camera(const Camera& camera, int factor) {
+    Camera fine = camera;
+    Intrinsics& k = fine.intrinsics;
+    const double f = factor;
+    k.width *= factor;
+    k.height *= factor;
+    k.fx *= f;
+    k.fy *= f;
+    k.cx = f * (k.cx + 0.5) - 0.5;
+    k.cy = f * (k.cy + 0.5) - 0.5;
+    return fine;
+}
+
+// Shader variants: bit flags compiled in with #define (shaders.h).
+enum Variant : unsigned {
+    kWithColour = 1, kWithNormals = 2, kWithIds = 4, kWithBarycentrics = 8, kWithTexture = 16, kWithLights = 32,
+    kTwoSided = 64, kWithShadows = 128, kPerPixelColour = 256, kNumVariants = 512
+};
+// No outputs: the depth-only pass that fills a shadow map.
+constexpr unsigned kDepthOnly = 0;
+
+GLuint link_program(const GlFunctions& gl, unsigned variant) {
+    const bool with_barycentrics = (variant & kWithBarycentrics) != 0;
+    std::string header = "#version 330 core\n";
+    const std::pair<Variant, const char*> defines[] = {
+        {kWithColour, "WITH_COLOUR"}, {kWithNormals, "WITH_NORMALS"}, {kWithIds, "WITH_IDS"},
+        {kWithBarycentrics, "WITH_BARYCENTRICS"}, {kWithTexture, "WITH_TEXTURE"}, {kWithLights, "WITH_LIGHTS"},
+        {kTwoSided, "TWO_SIDED"}, {kWithShadows, "WITH_SHADOWS"}, {kPerPixelColour, "PER_PIXEL_COLOUR"}};
+    for (const auto& [bit, name] : defines)
+        if (variant & bit) header += std::string("#define ") + name + "\n";
+    header += detail::kCommonHeader;
+    std::vector<GLuint> shaders{detail::compile_shader(gl, GL_VERTEX_SHADER, header + detail::kVertexShader),
+                                detail::compile_shader(gl, GL_FRAGMENT_SHADER, header + detail::kFragmentShader)};
+    if (with_barycentrics)
+        shaders.push_back(detail::compile_shader(gl, GL_GEOMETRY_SHADER, header + detail::kGeometryShader));
+    return detail::link_shaders(gl, shaders);
 }
 
 // The mesh's triangle list re-indexed so that every triangle has a provoking vertex of its own
@@ -214,9 +277,10 @@ struct ProvokingTopology {
         out.resize(static_cast<std::size_t>(rows) * static_cast<std::size_t>(slots()));
         std::copy(values, values + n, out.begin());
         float* copy = out.data() + n;
+        // An element loop: std::copy of 2 or 3 floats becomes a memmove call per copied vertex.
         for (int from : copied_from) {
             const float* src = values + static_cast<std::ptrdiff_t>(rows) * from;
-            copy = std::copy(src, src + rows, copy);
+            for (int r = 0; r < rows; ++r) *copy++ = src[r];
         }
     }
 };
@@ -318,11 +382,25 @@ constexpr std::array<float, 9> kShBandScale{1.0f, 2.0f / 3.0f, 2.0f / 3.0f, 2.0f
 // (5 % of a 256² render); cvtColor's SIMD path and a loop the compiler vectorises cost about one.
 void split_colour_and_coverage(const cv::Mat& rgba, cv::Mat& rgb, cv::Mat& alpha) {
     cv::cvtColor(rgba, rgb, cv::COLOR_RGBA2RGB);
-    for (int y = 0; y < rgba.rows; ++y) {
+    const int rows = rgba.rows, columns = rgba.cols;  // not reloaded through the aliasing byte stores
+    for (int y = 0; y < rows; ++y) {
         const std::uint8_t* in = rgba.ptr<std::uint8_t>(y);
         std::uint8_t* coverage = alpha.ptr<std::uint8_t>(y);
-        for (int x = 0; x < rgba.cols; ++x) coverage[x] = in[4 * x + 3];
+        for (int x = 0; x < columns; ++x) coverage[x] = in[4 * x + 3];
     }
+}
+
+// No mesh colours (the default grey) or the same colour at every vertex: then only the smooth SH
+// irradiance varies across a triangle, and the encoded colour may be interpolated from the vertices
+// (shaders.h COLOUR_PER_VERTEX). Where the albedo varies, interpolating it after the per-vertex power
+// shifts sharp features (the built-in model's iris, lids and hairline: up to 64 levels under strong
+// light), so those meshes keep the per-pixel encoding.
+bool uniform_albedo(const Mesh& mesh) {
+    if (mesh.colours.cols() == 0) return true;
+    const Eigen::Vector3f first = mesh.colours.col(0);
+    for (Eigen::Index i = 1; i < mesh.colours.cols(); ++i)
+        if (mesh.colours.col(i) != first) return false;
+    return true;
 }
 
 // Texture unit of the shadow maps (unit 0 holds the albedo texture).
@@ -375,29 +453,9 @@ struct Renderer::Impl {
     bool perspective = true;
 
     explicit Impl(const RendererOptions& options) {
-        std::string failures;
-        if (options.backend != Backend::kOsmesa) {
-            try {
-                context = detail::create_egl_context(options.allow_gpu_device);
-            } catch (const Error& e) {
-                if (options.backend == Backend::kEgl) throw;
-                failures = e.what();
-            }
-        }
-        if (!context) {
-            try {
-                context = detail::create_osmesa_context();
-            } catch (const Error& e) {
-                if (options.backend == Backend::kOsmesa) throw;
-                throw Error("render: no OpenGL backend available (" + failures + "; " + e.what() + ")");
-            }
-            if (!failures.empty()) warn_egl_fallback(failures);
-        }
+        context = detail::open_context(options.backend, options.allow_gpu_device);
         context->make_current();
-        const detail::GlContext* ctx = context.get();
-        gl.load([ctx](const char* name) { return ctx->get_proc_address(name); }, context->backend_name());
-        renderer_string = std::string(reinterpret_cast<const char*>(gl.GetString(GL_RENDERER))) + " | " +
-                          reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
+        renderer_string = detail::load_functions(*context, gl);
         gl.GetIntegerv(GL_MAX_SAMPLES, &max_samples);
         gl.GetIntegerv(GL_MAX_TEXTURE_SIZE, &max_texture_size);
         (void)program(kWithColour | kWithIds);
@@ -455,14 +513,7 @@ struct Renderer::Impl {
         return p;
     }
 
-    void check(const char* stage) const {
-        const GLenum error = gl.GetError();
-        if (error != GL_NO_ERROR) {
-            char code[16];
-            std::snprintf(code, sizeof code, "0x%04x", error);
-            throw Error(std::string("render: OpenGL error ") + code + " during " + stage);
-        }
-    }
+    void check(const char* stage) const { detail::check_gl(gl, stage); }
 
     void release_targets() {
         for (GLuint& t : targets)
@@ -620,18 +671,11 @@ struct Renderer::Impl {
     }
 
     // Near and far planes from the bounding sphere of the uploaded mesh (upload_positions), with a margin.
-    void choose_depth_range(const Camera& camera, const Eigen::Matrix3d& rotation) {
-        const Eigen::Vector3f low = mesh_low, high = mesh_high;
-        const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
-        const double radius = 0.5 * (high - low).cast<double>().norm();
-        const double centre_z = (rotation * centre + camera.pose.translation).z();
-        const double margin = 1.0 + 0.01 * radius;
-        double far = centre_z + radius + margin, near = centre_z - radius - margin;
+    void choose_depth_range(const Camera& camera) {
         perspective = camera.projection == Projection::kPerspective;
-        if (perspective) near = std::max(near, std::max(1e-3, far * 1e-4));
-        if (far <= near) far = near + 1.0;
-        near_plane = near;
-        far_plane = far;
+        const detail::DepthRange range = detail::depth_range(camera, mesh_low, mesh_high);
+        near_plane = range.near;
+        far_plane = range.far;
     }
 
     void set_uniforms(const Program& program, const Camera& camera, const Lighting& lighting) {
@@ -639,8 +683,8 @@ struct Renderer::Impl {
         Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
         model_to_camera.topLeftCorner<3, 3>() = rotation;
         model_to_camera.topRightCorner<3, 1>() = camera.pose.translation;
-        choose_depth_range(camera, rotation);
-        const Eigen::Matrix4f model_to_clip = (clip_from_camera(camera, near_plane, far_plane) * model_to_camera).cast<float>();
+        choose_depth_range(camera);
+        const Eigen::Matrix4f model_to_clip = (detail::clip_from_camera(camera, near_plane, far_plane) * model_to_camera).cast<float>();
         const Eigen::Matrix4f model_to_camera_f = model_to_camera.cast<float>();
         gl.UseProgram(program.id);
         gl.UniformMatrix4fv(program.model_to_clip, 1, GL_FALSE, model_to_clip.data());
@@ -778,7 +822,8 @@ struct Renderer::Impl {
             gl.Disable(GL_CULL_FACE);
         gl.Viewport(0, 0, w, h);
         const unsigned shading = (with_texture ? kWithTexture : 0u) | (settings.lighting.lights.empty() ? 0u : kWithLights) |
-                                 (settings.cull_back_faces ? 0u : kTwoSided) | (with_shadows ? kWithShadows : 0u);
+                                 (settings.cull_back_faces ? 0u : kTwoSided) | (with_shadows ? kWithShadows : 0u) |
+                                 (settings.per_pixel_colour || !uniform_albedo(mesh) ? kPerPixelColour : 0u);
         const bool multisampled = samples > 1;
         const bool separate_colour_pass = multisampled || supersampled;
         const bool with_normals = settings.geometry && settings.normals;
@@ -823,7 +868,7 @@ struct Renderer::Impl {
         }
         if (supersampled) render_supersampled_colour(camera, settings, shading);
         gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
-        read_back(settings, with_normals, with_ids, !supersampled, frame);
+        read_back(settings, with_normals, with_ids, !supersampled, !separate_colour_pass, frame);
         check("rendering");
     }
 
@@ -913,34 +958,44 @@ struct Renderer::Impl {
         auto keep_mask = [](float d) {
             return (std::bit_cast<std::uint32_t>(d) & 0x7fffffffu) < std::bit_cast<std::uint32_t>(1.0f) ? ~0u : 0u;
         };
-        for (int y = 0; y < height; ++y) {
+        const int rows = height, columns = width;
+        for (int y = 0; y < rows; ++y) {
             float* row = depth.ptr<float>(y);
             if (perspective)
-                for (int x = 0; x < width; ++x) {
+                for (int x = 0; x < columns; ++x) {
                     const float z = fn / (f_ - range * row[x]);
                     row[x] = std::bit_cast<float>(std::bit_cast<std::uint32_t>(z) & keep_mask(row[x]));
                 }
             else
-                for (int x = 0; x < width; ++x) {
+                for (int x = 0; x < columns; ++x) {
                     const float z = n_ + range * row[x];
                     row[x] = std::bit_cast<float>(std::bit_cast<std::uint32_t>(z) & keep_mask(row[x]));
                 }
         }
     }
 
-    // Triangle ids (written + 1, 0 = background) and the labels of their triangles.
-    void read_ids(cv::Mat& triangle_ids, cv::Mat& labels) {
+    // Triangle ids (written + 1, 0 = background) and the labels of their triangles; with `mask`, also
+    // the coverage of a single-sample colour pass, 255 exactly where a triangle was drawn (the colour
+    // and id targets are written by the same fragments), which spares a pass over the RGBA alpha.
+    void read_ids(cv::Mat& triangle_ids, cv::Mat& labels, cv::Mat* mask) {
         triangle_ids.create(height, width, CV_32SC1);
         labels.create(height, width, CV_8UC1);
         gl.ReadBuffer(GL_COLOR_ATTACHMENT0 + kIdTarget);
         gl.ReadPixels(0, 0, width, height, GL_RED_INTEGER, GL_UNSIGNED_INT, triangle_ids.data);
         // triangle_labels[0] is the background's label, so the written id (triangle + 1) indexes it directly.
         const std::uint8_t* label_of_written_id = triangle_labels.data();
-        for (int y = 0; y < height; ++y) {
+        // Local bounds: the byte stores may alias the members, which would be reloaded every pixel
+        // and keep the loops from being vectorised.
+        const int rows = height, columns = width;
+        for (int y = 0; y < rows; ++y) {
             int* id = triangle_ids.ptr<int>(y);
             std::uint8_t* label = labels.ptr<std::uint8_t>(y);
-            for (int x = 0; x < width; ++x) label[x] = label_of_written_id[id[x]];
-            for (int x = 0; x < width; ++x) id[x] -= 1;
+            for (int x = 0; x < columns; ++x) label[x] = label_of_written_id[id[x]];
+            if (mask != nullptr) {
+                std::uint8_t* coverage = mask->ptr<std::uint8_t>(y);
+                for (int x = 0; x < columns; ++x) coverage[x] = id[x] != 0 ? 255 : 0;
+            }
+            for (int x = 0; x < columns; ++x) id[x] -= 1;
         }
     }
 
@@ -955,7 +1010,9 @@ struct Renderer::Impl {
     }
 
     // `read_colour`: false when `rgba` already holds the colour (the supersampled pass).
-    void read_back(const RenderSettings& settings, bool with_normals, bool with_ids, bool read_colour, Frame& frame) {
+    // `single_sample_colour`: the colour was drawn in the pass that wrote the ids, without MSAA.
+    void read_back(const RenderSettings& settings, bool with_normals, bool with_ids, bool read_colour,
+                   bool single_sample_colour, Frame& frame) {
         if (read_colour) {
             rgba.create(height, width, CV_8UC4);
             gl.ReadBuffer(GL_COLOR_ATTACHMENT0 + kColourTarget);
@@ -963,11 +1020,15 @@ struct Renderer::Impl {
         }
         frame.rgb.create(height, width, CV_8UC3);
         frame.mask.create(height, width, CV_8UC1);
-        split_colour_and_coverage(rgba, frame.rgb, frame.mask);
+        const bool mask_from_ids = with_ids && single_sample_colour;
+        if (mask_from_ids)
+            cv::cvtColor(rgba, frame.rgb, cv::COLOR_RGBA2RGB);
+        else
+            split_colour_and_coverage(rgba, frame.rgb, frame.mask);
         if (settings.geometry) read_depth(frame.depth);
         else frame.depth.release();
         if (with_ids) {
-            read_ids(frame.triangle_ids, frame.labels);
+            read_ids(frame.triangle_ids, frame.labels, mask_from_ids ? &frame.mask : nullptr);
         } else {
             frame.triangle_ids.release();
             frame.labels.release();

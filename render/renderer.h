@@ -59,6 +59,11 @@ struct RenderSettings {
     bool normals = true;           // with geometry: camera-space normals (an extra float target)
     bool barycentrics = false;     // per-pixel barycentrics and triangle ids (a slower geometry-shader pass)
     bool cull_back_faces = true;
+    // With a uniform albedo (no mesh colours, or one colour at every vertex) and no texture,
+    // directional lights or two-sided drawing, the gamma-encoded colour is computed per vertex and
+    // interpolated (a sqrt per pixel instead of a pow): within a few levels of encoding per pixel
+    // (docs/render.md "Shading"). true: always encode per pixel, as for varying albedo.
+    bool per_pixel_colour = false;
     // Only the z-buffer (frame.depth; every other map is left empty): no shading, no colour, id or
     // normal targets, no MSAA. For visibility passes, which need the nearest surface and nothing else.
     bool depth_only = false;

@@ -13,6 +13,15 @@
 //   TWO_SIDED          back faces are drawn: SH irradiance per pixel on the flipped normal;
 //                      otherwise it is evaluated per vertex (a quadratic in n: interpolating it
 //                      differs from per-pixel evaluation by far less than one 8-bit level)
+//   PER_PIXEL_COLOUR   albedo · irradiance and the gamma encoding per pixel even where they could be
+//                      per vertex (RenderSettings::per_pixel_colour; the reference for the test below)
+// Without a texture, lights or TWO_SIDED (and for a uniform albedo: the renderer sets PER_PIXEL_COLOUR
+// otherwise) the colour is per vertex (COLOUR_PER_VERTEX): the vertex stage raises albedo · irradiance
+// to 2/gamma, and the fragment stage interpolates that and takes its square root, one sqrt instead of a
+// pow per pixel and one varying instead of two. For gamma near 2 the interpolated quantity is nearly
+// linear in the colour, so this stays within a few levels of per-pixel encoding (at most 7 on random
+// views and SH lightings, mean 0.03; tests/render/test_colour_per_vertex.cpp); the write to the 8-bit
+// target clamps, as the per-pixel clamp did.
 // Camera-space position and depth are not varyings: depth comes from the depth buffer and the
 // view ray from gl_FragCoord.
 namespace facesynth::render::detail {
@@ -28,16 +37,23 @@ inline constexpr const char* kCommonHeader = R"(
 #if defined(WITH_COLOUR) && defined(WITH_TEXTURE)
 #define NEEDS_UV
 #endif
-#if defined(WITH_COLOUR) && !defined(WITH_TEXTURE)
+#if defined(SH_PER_VERTEX) && !defined(WITH_TEXTURE) && !defined(WITH_LIGHTS) && !defined(PER_PIXEL_COLOUR)
+#define COLOUR_PER_VERTEX
+#endif
+#if defined(WITH_COLOUR) && !defined(WITH_TEXTURE) && !defined(COLOUR_PER_VERTEX)
 #define NEEDS_ALBEDO
+#endif
+#if defined(SH_PER_VERTEX) && !defined(COLOUR_PER_VERTEX)
+#define NEEDS_IRRADIANCE
 #endif
 #if defined(WITH_COLOUR) && defined(WITH_LIGHTS) && defined(WITH_SHADOWS)
 #define NEEDS_POSITION
 #endif
 // Members a variant does not use are never written nor read, so the linker drops them.
-#define VARYINGS vec3 camera_normal; vec3 albedo; vec2 uv; vec3 irradiance; flat uint triangle; vec3 camera_position;
+#define VARYINGS vec3 camera_normal; vec3 albedo; vec2 uv; vec3 irradiance; vec3 colour; flat uint triangle; vec3 camera_position;
 uniform vec3 sh[9];            // L_lm · Â_l / π: the sum over Y_lm(n) is irradiance / π
 uniform vec3 ambient;
+uniform float inverse_gamma;
 vec3 sh_irradiance_over_pi(vec3 n) {   // n in view space (x right, y up, z toward the camera)
     return sh[0] * 0.282095
          + sh[1] * (0.488603 * n.y) + sh[2] * (0.488603 * n.z) + sh[3] * (0.488603 * n.x)
@@ -71,7 +87,13 @@ void main() {
     vs_out.uv = uv;
 #endif
 #ifdef SH_PER_VERTEX
-    vs_out.irradiance = ambient + max(sh_irradiance_over_pi(view_from_camera(normalize(camera_normal))), vec3(0.0));
+    vec3 irradiance = ambient + max(sh_irradiance_over_pi(view_from_camera(normalize(camera_normal))), vec3(0.0));
+#endif
+#ifdef NEEDS_IRRADIANCE
+    vs_out.irradiance = irradiance;
+#endif
+#ifdef COLOUR_PER_VERTEX
+    vs_out.colour = pow(max(albedo * irradiance, vec3(0.0)), vec3(2.0 * inverse_gamma));
 #endif
 #ifdef WITH_IDS
     vs_out.triangle = triangle;
@@ -95,6 +117,7 @@ void main() {
         gs_out.albedo = gs_in[i].albedo;
         gs_out.uv = gs_in[i].uv;
         gs_out.irradiance = gs_in[i].irradiance;
+        gs_out.colour = gs_in[i].colour;
         gs_out.triangle = gs_in[i].triangle;
         gs_out.camera_position = gs_in[i].camera_position;
         barycentric = vec3(i == 0, i == 1, i == 2);
@@ -114,7 +137,6 @@ uniform vec3 light_direction[4];  // camera space, unit, toward the light
 uniform vec3 light_colour[4];
 uniform float specular;
 uniform float shininess;
-uniform float inverse_gamma;
 uniform int perspective;
 uniform vec4 window_to_ray;       // (1/fx, 1/fy, cx + 0.5, cy + 0.5): camera ray through a window point
 uniform sampler2D albedo_texture;
@@ -161,7 +183,9 @@ void main() {
     vec3 n = normalize(fs_in.camera_normal);
     if (!gl_FrontFacing) n = -n;
 #endif
-#ifdef WITH_COLOUR
+#ifdef COLOUR_PER_VERTEX
+    out_colour = vec4(sqrt(fs_in.colour), 1.0);
+#elif defined(WITH_COLOUR)
 #ifdef WITH_TEXTURE
     vec3 albedo = texture(albedo_texture, fs_in.uv).rgb;
 #else

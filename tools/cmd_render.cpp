@@ -9,6 +9,7 @@
 #include "morph/random.h"
 #include "morph/regions.h"
 #include "morph/sampling.h"
+#include "render/bare_renderer.h"
 #include "render/landmarks.h"
 #include "render/renderer.h"
 #include "synth/exr.h"
@@ -61,6 +62,7 @@ struct BenchArgs {
     bool barycentrics = false;
     bool colour_only = false;
     bool no_normals = false;
+    bool bare = false;
     std::string json;
     bool quiet = false;
 };
@@ -290,7 +292,19 @@ struct BenchResult {
     std::string backend, renderer;
 };
 
+// --bare draws positions only, without anti-aliasing, shading or extra outputs.
+void check_bare_options(const BenchArgs& b) {
+    if (!b.bare) return;
+    if (b.view.msaa > 1 || b.view.supersample > 1)
+        throw CLI::ValidationError("--bare", "draws without anti-aliasing: give --msaa 0 (and no --supersample)");
+    if (!b.view.lighting_file.empty() || b.view.shadows)
+        throw CLI::ValidationError("--bare", "draws a constant colour: --lighting and --shadows do not apply");
+    if (b.barycentrics || b.colour_only || b.no_normals)
+        throw CLI::ValidationError("--bare", "reads back RGBA only: --barycentrics, --colour-only and --no-normals do not apply");
+}
+
 void run_bench(const BenchArgs& b) {
+    check_bare_options(b);
     const MorphableModel model = load_model(b.view.model);
     const Mesh mesh = model.instance({});
     const int threads = std::max(1, b.threads);
@@ -298,10 +312,16 @@ void run_bench(const BenchArgs& b) {
     std::vector<std::string> errors(static_cast<std::size_t>(threads));
     std::vector<std::string> backends(static_cast<std::size_t>(threads)), renderers(static_cast<std::size_t>(threads));
     std::vector<double> seconds(static_cast<std::size_t>(threads), 0.0);
-    std::vector<render::Renderer> pool;
-    pool.reserve(static_cast<std::size_t>(threads));
     // Contexts are created (and warmed up) before timing: the benchmark measures steady-state renders.
-    for (int t = 0; t < threads; ++t) pool.emplace_back(render::RendererOptions{render::parse_backend(b.view.backend), true});
+    const render::RendererOptions options{render::parse_backend(b.view.backend), true};
+    std::vector<render::Renderer> pool;
+    std::vector<render::BareRenderer> bare_pool;
+    for (int t = 0; t < threads; ++t) {
+        if (b.bare)
+            bare_pool.emplace_back(mesh, options);
+        else
+            pool.emplace_back(options);
+    }
     render::RenderSettings settings = view_settings(b.view);
     if (settings.lighting.shadows && settings.lighting.lights.empty())
         throw Error("bench render: --shadows needs directional lights to measure (--lighting FILE with \"lights\")");
@@ -312,10 +332,16 @@ void run_bench(const BenchArgs& b) {
     std::mutex progress_mutex;
     auto worker = [&](int t) {
         try {
-            render::Renderer& renderer = pool[static_cast<std::size_t>(t)];
             render::Frame frame;
+            cv::Mat bare_rgba;
+            auto render_one = [&](const render::Camera& camera) {
+                if (b.bare)
+                    bare_pool[static_cast<std::size_t>(t)].render(camera, bare_rgba);
+                else
+                    pool[static_cast<std::size_t>(t)].render(mesh, camera, settings, frame);
+            };
             ViewArgs view = b.view;
-            for (int i = 0; i < 5; ++i) renderer.render(mesh, frame_camera(view, mesh), settings, frame);
+            for (int i = 0; i < 5; ++i) render_one(frame_camera(view, mesh));
             std::vector<render::Camera> cameras;
             for (int i = 0; i < per_thread; ++i) {
                 Rng rng = make_rng(1, static_cast<std::uint64_t>(t) * static_cast<std::uint64_t>(per_thread) + static_cast<std::uint64_t>(i), RandomStream::kPose);
@@ -326,16 +352,24 @@ void run_bench(const BenchArgs& b) {
             }
             const auto start = std::chrono::steady_clock::now();
             for (int i = 0; i < per_thread; ++i) {
-                renderer.render(mesh, cameras[static_cast<std::size_t>(i)], settings, frame);
+                render_one(cameras[static_cast<std::size_t>(i)]);
                 if (i % 50 == 49) {
                     std::lock_guard lock(progress_mutex);
                     progress.advance(50);
                 }
             }
             seconds[static_cast<std::size_t>(t)] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            backends[static_cast<std::size_t>(t)] = renderer.backend();
-            renderers[static_cast<std::size_t>(t)] = renderer.renderer_string();
-            renderer.detach();
+            if (b.bare) {
+                render::BareRenderer& renderer = bare_pool[static_cast<std::size_t>(t)];
+                backends[static_cast<std::size_t>(t)] = renderer.backend();
+                renderers[static_cast<std::size_t>(t)] = renderer.renderer_string();
+                renderer.detach();
+            } else {
+                render::Renderer& renderer = pool[static_cast<std::size_t>(t)];
+                backends[static_cast<std::size_t>(t)] = renderer.backend();
+                renderers[static_cast<std::size_t>(t)] = renderer.renderer_string();
+                renderer.detach();
+            }
         } catch (const std::exception& e) {
             errors[static_cast<std::size_t>(t)] = e.what();
         }
@@ -377,12 +411,13 @@ void run_bench(const BenchArgs& b) {
     j["shadows"] = settings.lighting.shadows;
     j["shadow_map_size"] = settings.shadow_map_size;
     j["barycentrics"] = b.barycentrics;
-    j["geometry"] = !b.colour_only;
-    j["normals"] = !b.colour_only && !b.no_normals;
+    j["geometry"] = !b.colour_only && !b.bare;
+    j["normals"] = !b.colour_only && !b.no_normals && !b.bare;
+    j["bare"] = b.bare;
     j["lp_num_threads"] = lp_threads ? lp_threads : "";
     if (!b.json.empty()) write_json_file(b.json, j);
-    std::printf("bench render: %s (%d vertices) %dx%d, %d thread(s), msaa %d, %zu light(s), shadows %s: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
-                model.name.c_str(), mesh.num_vertices(), j["width"].get<int>(), j["height"].get<int>(), threads, b.view.msaa,
+    std::printf("bench render%s: %s (%d vertices) %dx%d, %d thread(s), msaa %d, %zu light(s), shadows %s: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
+                b.bare ? " (bare)" : "", model.name.c_str(), mesh.num_vertices(), j["width"].get<int>(), j["height"].get<int>(), threads, b.view.msaa,
                 settings.lighting.lights.size(), settings.lighting.shadows ? "on" : "off", rate, j["ms_per_render"].get<double>(), j["cpu_ms_per_render"].get<double>(), backends[0].c_str(), renderers[0].c_str());
 }
 
@@ -407,6 +442,8 @@ void register_render_commands(CLI::App& app) {
     bench->add_flag("--barycentrics", bench_args->barycentrics, "also render and read back barycentrics");
     bench->add_flag("--colour-only", bench_args->colour_only, "RGB and mask only (no depth, normals, ids, labels)");
     bench->add_flag("--no-normals", bench_args->no_normals, "everything but normals (what synth renders by default)");
+    bench->add_flag("--bare", bench_args->bare,
+                    "the floor: positions only, constant colour, RGBA8 + 24-bit depth, RGBA read back (needs --msaa 0)");
     bench->add_option("--json", bench_args->json, "write the result (renders_per_s, ms_per_render, backend, renderer, ...) here");
     bench->add_flag("--quiet,-q", bench_args->quiet, "no progress output");
     bench->callback([bench_args] { run_bench(*bench_args); });
