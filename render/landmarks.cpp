@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <string>
 #include <vector>
 
 namespace facesynth::render {
@@ -40,17 +42,9 @@ bool inside_image(const cv::Mat& image, const Eigen::Vector2d& p) {
 // The exact ray test behind is_unoccluded, with what it needs per mesh and camera computed once.
 class RayOcclusion {
 public:
-    RayOcclusion(const Mesh& mesh, const Camera& camera)
-        : camera_(camera), triangles_(mesh.triangles), vertices_(to_camera(camera.pose, mesh.vertices)) {
-        // Triangles around each vertex, compressed rows.
-        first_.assign(static_cast<std::size_t>(mesh.num_vertices()) + 1, 0);
-        for (const Triangle& t : triangles_)
-            for (const int v : t) ++first_[static_cast<std::size_t>(v) + 1];
-        for (std::size_t v = 1; v < first_.size(); ++v) first_[v] += first_[v - 1];
-        around_.resize(static_cast<std::size_t>(first_.back()));
-        std::vector<int> next(first_.begin(), first_.end() - 1);
-        for (std::size_t t = 0; t < triangles_.size(); ++t)
-            for (const int v : triangles_[t]) around_[static_cast<std::size_t>(next[static_cast<std::size_t>(v)]++)] = static_cast<int>(t);
+    RayOcclusion(const Mesh& mesh, const Camera& camera, const LandmarkTopology& topology)
+        : camera_(camera), triangles_(mesh.triangles), vertices_(to_camera(camera.pose, mesh.vertices)), first_(topology.first),
+          around_(topology.around) {
         seen_.assign(triangles_.size(), 0);
         tested_.assign(triangles_.size(), 0);
     }
@@ -118,8 +112,8 @@ private:
     const Camera& camera_;
     const std::vector<Triangle>& triangles_;
     Eigen::Matrix3Xd vertices_;  // camera space
-    std::vector<int> first_;     // around_[first_[v] .. first_[v + 1]): the triangles around vertex v
-    std::vector<int> around_;
+    const std::vector<int>& first_;  // around_[first_[v] .. first_[v + 1]): the triangles around vertex v
+    const std::vector<int>& around_;
     // Per triangle, the last query that took it from the window (seen_) or ray-tested it (tested_).
     std::vector<int> seen_, tested_;
     int query_ = 0;
@@ -176,7 +170,40 @@ bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_
 
 bool is_unoccluded(const Mesh& mesh, const Camera& camera, const Frame& frame, const Eigen::Vector2d& pixel,
                    const Eigen::Vector3d& camera_point, const LandmarkOptions& options) {
-    return RayOcclusion(mesh, camera).unoccluded(frame, pixel, camera_point, options);
+    const LandmarkTopology topology = landmark_topology(mesh.triangles, mesh.num_vertices());
+    return RayOcclusion(mesh, camera, topology).unoccluded(frame, pixel, camera_point, options);
+}
+
+LandmarkTopology landmark_topology(const std::vector<Triangle>& triangles, int num_vertices, const JawContourRegion* contour_region) {
+    LandmarkTopology topology;
+    // Triangles around each vertex, compressed rows.
+    topology.first.assign(static_cast<std::size_t>(num_vertices) + 1, 0);
+    for (const Triangle& t : triangles)
+        for (const int v : t) {
+            if (v < 0 || v >= num_vertices)
+                throw Error("render: a triangle refers to vertex " + std::to_string(v) + " of a " + std::to_string(num_vertices) + "-vertex mesh");
+            ++topology.first[static_cast<std::size_t>(v) + 1];
+        }
+    for (std::size_t v = 1; v < topology.first.size(); ++v) topology.first[v] += topology.first[v - 1];
+    topology.around.resize(static_cast<std::size_t>(topology.first.back()));
+    std::vector<int> next(topology.first.begin(), topology.first.end() - 1);
+    for (std::size_t t = 0; t < triangles.size(); ++t)
+        for (const int v : triangles[t]) topology.around[static_cast<std::size_t>(next[static_cast<std::size_t>(v)]++)] = static_cast<int>(t);
+    if (contour_region && !contour_region->vertices.empty()) {
+        // The jaw points lie on the face's outline: decided against the face region's own triangles.
+        std::vector<char> in_region(static_cast<std::size_t>(num_vertices), 0);
+        for (const int v : contour_region->vertices) {
+            if (v < 0 || v >= num_vertices) throw Error("render: contour region refers to a vertex outside the mesh");
+            in_region[static_cast<std::size_t>(v)] = 1;
+        }
+        topology.face_triangles.resize(triangles.size());
+        for (std::size_t t = 0; t < triangles.size(); ++t) {
+            const Triangle& tri = triangles[t];
+            topology.face_triangles[t] = static_cast<char>(in_region[static_cast<std::size_t>(tri[0])] || in_region[static_cast<std::size_t>(tri[1])] ||
+                                                           in_region[static_cast<std::size_t>(tri[2])]);
+        }
+    }
+    return topology;
 }
 
 bool is_outline_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z, double pixels_per_mm,
@@ -209,7 +236,7 @@ bool is_outline_visible(const Frame& frame, const Eigen::Vector2d& pixel, double
 
 ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, const Mesh& mesh, const Camera& camera,
                                      const Frame& frame, const LandmarkOptions& options,
-                                     const JawContourRegion* contour_region) {
+                                     const JawContourRegion* contour_region, const LandmarkTopology* topology) {
     if (frame.mask.empty() || frame.depth.empty())
         throw Error("render: landmarks need a frame rendered with geometry (depth and mask)");
     const int count = static_cast<int>(landmarks.size());
@@ -218,7 +245,15 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
     out.model_points.resize(3, count);
     out.camera_points.resize(3, count);
     out.visible.assign(static_cast<std::size_t>(count), 0);
-    RayOcclusion occlusion(mesh, camera);
+    const bool jaw = count == kNumIbugLandmarks && contour_region && !contour_region->vertices.empty();
+    std::optional<LandmarkTopology> own_topology;
+    if (!topology) topology = &own_topology.emplace(landmark_topology(mesh.triangles, mesh.num_vertices(), jaw ? contour_region : nullptr));
+    if (topology->first.size() != static_cast<std::size_t>(mesh.num_vertices()) + 1 ||
+        (jaw && topology->face_triangles.size() != mesh.triangles.size()))
+        throw Error("render: landmark topology of another mesh (" + std::to_string(topology->first.size() - 1) + " vertices, " +
+                    std::to_string(topology->face_triangles.size()) + " face triangles) for a " + std::to_string(mesh.num_vertices()) +
+                    "-vertex, " + std::to_string(mesh.triangles.size()) + "-triangle mesh");
+    RayOcclusion occlusion(mesh, camera, *topology);
     for (int i = 0; i < count; ++i) {
         const SurfacePoint& point = landmarks[static_cast<std::size_t>(i)];
         for (int v : point.vertices)
@@ -236,21 +271,8 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
             jaw_point ? is_visible(frame, out.pixels.col(i), out.camera_points(2, i), options)
                       : occlusion.unoccluded(frame, out.pixels.col(i), out.camera_points.col(i), options);
     }
-    const bool jaw = count == kNumIbugLandmarks && contour_region && !contour_region->vertices.empty();
-    std::vector<char> face_triangles;
+    const std::vector<char>& face_triangles = topology->face_triangles;
     if (jaw) {
-        // The jaw points lie on the face's outline: decided against the face region's own triangles.
-        std::vector<char> in_region(static_cast<std::size_t>(mesh.num_vertices()), 0);
-        for (const int v : contour_region->vertices) {
-            if (v < 0 || v >= mesh.num_vertices()) throw Error("render: contour region refers to a vertex outside the mesh");
-            in_region[static_cast<std::size_t>(v)] = 1;
-        }
-        face_triangles.resize(mesh.triangles.size());
-        for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-            const Triangle& tri = mesh.triangles[t];
-            face_triangles[t] = static_cast<char>(in_region[static_cast<std::size_t>(tri[0])] || in_region[static_cast<std::size_t>(tri[1])] ||
-                                                  in_region[static_cast<std::size_t>(tri[2])]);
-        }
         for (int i = 0; i < kNumJawLandmarks; ++i) {
             const double z = out.camera_points(2, i);
             out.visible[static_cast<std::size_t>(i)] =

@@ -46,12 +46,27 @@ struct ProjectedLandmarks {
     std::vector<std::uint8_t> contour_visible;
 };
 
+// What project_landmarks derives from a mesh's triangles alone: the triangles around each vertex (the
+// exact ray test's candidates) and, with a contour region, which triangles touch the face region
+// (outline visibility). Callers that project many instances of one model build it once.
+struct LandmarkTopology {
+    std::vector<int> first;   // around[first[v] .. first[v + 1]): the triangles around vertex v
+    std::vector<int> around;
+    std::vector<char> face_triangles;  // per triangle, 1 = has a vertex in the contour region; empty without one
+};
+// Throws facesynth::Error when the contour region names a vertex outside the mesh.
+[[nodiscard]] LandmarkTopology landmark_topology(const std::vector<Triangle>& triangles, int num_vertices,
+                                                 const JawContourRegion* contour_region = nullptr);
+
 // Needs frame.depth (settings.geometry) and frame.mask from a render of `mesh` with `camera`.
 // `contour_region` (jaw_contour_region of the model `mesh` is an instance of) enables contour mode.
+// `topology`, when given, is landmark_topology of the mesh's triangles and the same contour region
+// (the result is the same as without it; a topology of another size is an error).
 [[nodiscard]] ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, const Mesh& mesh,
                                                    const Camera& camera, const Frame& frame,
                                                    const LandmarkOptions& options = {},
-                                                   const JawContourRegion* contour_region = nullptr);
+                                                   const JawContourRegion* contour_region = nullptr,
+                                                   const LandmarkTopology* topology = nullptr);
 
 // Whether a camera-space depth `camera_z` at `pixel` is unoccluded in the frame's depth buffer.
 [[nodiscard]] bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z,

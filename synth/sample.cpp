@@ -217,7 +217,8 @@ ImageLibrary::ImageLibrary(const std::filesystem::path& folder, const std::strin
 SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel& model, const ImageLibrary& backgrounds,
                                  const ImageLibrary& textures, const render::RendererOptions& renderer_options)
     : config_(config), model_(model), backgrounds_(backgrounds), textures_(textures),
-      contour_region_(jaw_contour_region(model)), albedo_check_(make_albedo_check(config, model)), renderer_(renderer_options) {
+      contour_region_(jaw_contour_region(model)),
+      landmark_topology_(render::landmark_topology(model.triangles, model.num_vertices(), &contour_region_)), albedo_check_(make_albedo_check(config, model)), renderer_(renderer_options) {
     mesh_.triangles = model.triangles;
     mesh_.uv = model.uv;
     if (config.background.type == "images" && backgrounds.empty())
@@ -256,7 +257,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     clock.lap(local.render);
 
     // Landmarks in both jaw modes with self-occlusion from the depth buffer (render/landmarks.h).
-    const auto projected = render::project_landmarks(model_.landmarks, mesh, camera, frame_, {}, &contour_region_);
+    const auto projected = render::project_landmarks(model_.landmarks, mesh, camera, frame_, {}, &contour_region_, &landmark_topology_);
     auto& labels = s.labels;
     labels.landmarks_fixed = projected.pixels;
     labels.landmarks_3d_fixed = projected.model_points;

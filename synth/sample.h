@@ -3,6 +3,7 @@
 // apply occluders and degradations, and compute the landmarks (both jaw modes) with visibility.
 #include "morph/jaw_contour.h"
 #include "morph/model.h"
+#include "render/landmarks.h"
 #include "render/renderer.h"
 #include "synth/config.h"
 #include "synth/scene.h"
@@ -100,6 +101,7 @@ private:
     const ImageLibrary& backgrounds_;
     const ImageLibrary& textures_;
     JawContourRegion contour_region_;  // the face region of the jaw contour definition
+    render::LandmarkTopology landmark_topology_;  // the model's, for project_landmarks
     std::optional<SkinColourCheck> albedo_check_;  // albedo.reject_implausible
     render::Renderer renderer_;
     render::Frame frame_;

@@ -6,6 +6,7 @@
 #include "render_fixtures.h"
 
 #include "morph/builtin.h"
+#include "morph/error.h"
 #include "morph/jaw_contour.h"
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
@@ -13,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -109,6 +111,40 @@ TEST(JawVisibility, SurreyFrontalNearSideAndBehindTheNoseAndLips) {
     // (15, 16) hidden at 60°; at 75° everything from the nostrils up is behind the nose.
     expect_flags(model, "surrey", 60, {{12, 15, 16}, {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11}});
     expect_flags(model, "surrey", 75, {{14, 15, 16, 17}, {1, 2, 3, 4, 5, 6, 7, 8, 9, 10}});
+}
+
+// A topology built once per model (as synth keeps per worker) gives exactly what project_landmarks
+// computes from the mesh itself; one of another mesh is refused.
+TEST(LandmarkTopology, SameResultAsPerCallAndRefusesAnotherMesh) {
+    const MorphableModel& model = builtin_model();
+    const JawContourRegion region = jaw_contour_region(model);
+    const render::LandmarkTopology topology = render::landmark_topology(model.triangles, model.num_vertices(), &region);
+    std::vector<float> alpha(static_cast<std::size_t>(model.num_shape_components()), 0.0f);
+    alpha[0] = 1.5f;
+    alpha[2] = -1.0f;
+    const Mesh mesh = model.instance(alpha);
+    render::RenderSettings settings;
+    settings.msaa_samples = 0;
+    for (const double yaw : {-70.0, -20.0, 0.0, 45.0}) {
+        const render::Camera camera = make_camera(yaw, 10, -5, 256, 256, 30.0, 600.0);
+        const render::Frame frame = shared_renderer().render(mesh, camera, settings);
+        const auto plain = render::project_landmarks(model.landmarks, mesh, camera, frame, {}, &region);
+        const auto cached = render::project_landmarks(model.landmarks, mesh, camera, frame, {}, &region, &topology);
+        EXPECT_EQ(plain.pixels, cached.pixels) << yaw;
+        EXPECT_EQ(plain.contour_pixels, cached.contour_pixels) << yaw;
+        EXPECT_EQ(plain.contour_model_points, cached.contour_model_points) << yaw;
+        EXPECT_EQ(plain.visible, cached.visible) << yaw;
+        EXPECT_EQ(plain.contour_visible, cached.contour_visible) << yaw;
+        if (yaw == -70.0) {
+            EXPECT_GT(std::count(plain.visible.begin(), plain.visible.end(), 0), 0) << "nothing hidden: a weak test";
+        }
+    }
+    Mesh smaller = mesh;
+    smaller.vertices.conservativeResize(3, mesh.num_vertices() - 1);
+    smaller.triangles.clear();
+    const render::Camera camera = make_camera(0, 0, 0, 64, 64, 30.0, 600.0);
+    const render::Frame frame = shared_renderer().render(mesh, camera, settings);
+    EXPECT_THROW((void)render::project_landmarks(model.landmarks, smaller, camera, frame, {}, &region, &topology), Error);
 }
 
 }  // namespace
