@@ -56,10 +56,7 @@ void train_dlib_ert(std::span<const TrainingFace> faces, const ErtTrainOptions& 
     if (faces.empty()) throw Error("dlib ERT training needs at least one face");
     dlib::array<dlib::array2d<unsigned char>> images(faces.size());
     std::vector<std::vector<dlib::full_object_detection>> shapes(faces.size());
-    FaceBox canonical_box;
-    canonical_box.centre = Eigen::Vector2d::Constant((kCanonicalCropSide - 1) / 2.0);
-    canonical_box.width = kCanonicalBoxWidth;
-    const dlib::rectangle rect = to_dlib_rect(canonical_box);
+    const dlib::rectangle rect = to_dlib_rect(canonical_face_box());
     for (std::size_t i = 0; i < faces.size(); ++i) {
         dlib::assign_image(images[i], dlib::cv_image<unsigned char>(faces[i].crop));
         std::vector<dlib::point> parts;

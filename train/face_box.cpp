@@ -101,6 +101,14 @@ FaceBox face_box_from_rect(const cv::Rect& rect) {
     return box;
 }
 
+FaceBox canonical_face_box(FaceView view) {
+    FaceBox box;
+    box.centre = Eigen::Vector2d::Constant((kCanonicalCropSide - 1) / 2.0);
+    box.width = kCanonicalBoxWidth;
+    box.view = view;
+    return box;
+}
+
 cv::Rect2d rect_from_face_box(const FaceBox& box) {
     const double half = (box.width - 1) / 2.0;
     return {box.centre.x() - half, box.centre.y() - half, box.width, box.width};

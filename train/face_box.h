@@ -64,6 +64,8 @@ struct ScoredBox {
 [[nodiscard]] std::vector<FaceBox> merge_detections(std::vector<ScoredBox> detections);
 [[nodiscard]] FaceBox face_box_from_rect(const cv::Rect& rect);
 [[nodiscard]] cv::Rect2d rect_from_face_box(const FaceBox& box);
+// The box every face is resampled to: kCanonicalBoxWidth wide at the centre of the canonical crop.
+[[nodiscard]] FaceBox canonical_face_box(FaceView view = FaceView::kFrontal);
 
 class DlibHogDetector;
 

@@ -40,13 +40,6 @@ private:
     DlibShapePredictor predictor_;
 };
 
-FaceBox canonical_face_box() {
-    FaceBox canonical;
-    canonical.centre = Eigen::Vector2d::Constant((kCanonicalCropSide - 1) / 2.0);
-    canonical.width = kCanonicalBoxWidth;
-    return canonical;
-}
-
 // A baseline that runs on our canonical crop: one model for all views (a plain dlib or LBF file), or
 // a view-specific bundle (train/view_baselines.h) run by the detector box's view.
 template <typename Predictor>

@@ -30,13 +30,6 @@ ErtTrainOptions small_ert(int threads) {
     return options;
 }
 
-FaceBox canonical_box() {
-    FaceBox box;
-    box.centre = Eigen::Vector2d::Constant((kCanonicalCropSide - 1) / 2.0);
-    box.width = kCanonicalBoxWidth;
-    return box;
-}
-
 std::string read_bytes(const std::filesystem::path& path) {
     std::ifstream in(path, std::ios::binary);
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -58,7 +51,7 @@ TEST(Ert, BeatsTheMeanShapeOnHeldOutFacesThroughTheRegressorSpec) {
     // regressor's crop of it is the identity.
     for (const auto& face : test) {
         mean_shape_nme += landmark_nme(mean, face.truth) / static_cast<double>(test.size());
-        ert_nme += landmark_nme(regressor->predict(face.crop, canonical_box()), face.truth) / static_cast<double>(test.size());
+        ert_nme += landmark_nme(regressor->predict(face.crop, canonical_face_box()), face.truth) / static_cast<double>(test.size());
     }
     RecordProperty("mean_shape_nme", std::to_string(mean_shape_nme));
     RecordProperty("ert_nme", std::to_string(ert_nme));

@@ -21,14 +21,6 @@ using testkit::cartoon_training_faces;
 using testkit::concatenate;
 using testkit::three_view_faces;
 
-FaceBox canonical_box(FaceView view) {
-    FaceBox box;
-    box.centre = Eigen::Vector2d::Constant((kCanonicalCropSide - 1) / 2.0);
-    box.width = kCanonicalBoxWidth;
-    box.view = view;
-    return box;
-}
-
 ErtTrainOptions small_ert() {
     ErtTrainOptions options;
     options.threads = 2;
@@ -42,7 +34,7 @@ ErtTrainOptions small_ert() {
 // Mean NME of a regressor on canonical crops, each in its own view's box.
 double mean_nme(const LandmarkRegressor& regressor, const std::vector<TrainingFace>& faces) {
     double sum = 0;
-    for (const auto& face : faces) sum += landmark_nme(regressor.predict(face.crop, canonical_box(face.view)), face.truth);
+    for (const auto& face : faces) sum += landmark_nme(regressor.predict(face.crop, canonical_face_box(face.view)), face.truth);
     return sum / static_cast<double>(faces.size());
 }
 
@@ -139,7 +131,7 @@ TEST(ViewBaselines, LbfBundleRoundTripsThroughTheRegressorSpec) {
     const LbfPredictor profile(profile_file.path());
     const TrainingFace& left = train[1];
     ASSERT_EQ(left.view, FaceView::kNoseLeft);
-    EXPECT_TRUE(regressor->predict(left.crop, canonical_box(FaceView::kNoseLeft)).isApprox(profile.predict(left.crop)));
+    EXPECT_TRUE(regressor->predict(left.crop, canonical_face_box(FaceView::kNoseLeft)).isApprox(profile.predict(left.crop)));
     // An LBF bundle is not an ERT model.
     expect_error_naming("ert:" + (dir / "views.lbf").string(), "views.lbf");
 }
