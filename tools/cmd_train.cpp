@@ -11,6 +11,7 @@
 #include "train/dlib_baseline.h"
 #include "train/evaluate.h"
 #include "train/face_box.h"
+#include "train/hog.h"
 #include "train/lbf_baseline.h"
 #include "train/model_file.h"
 #include "train/regressor.h"
@@ -52,6 +53,7 @@ struct TrainArgs {
     double validation_share = SdmTrainOptions{}.validation_share;
     std::vector<int> ranks = SdmTrainOptions{}.ranks;
     int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
+    int feature_pca = SdmTrainOptions{}.feature_components;
     std::string detector = "dlib";
     std::string cascades = "auto";  // auto, views or single
     std::vector<double> view_overlap;  // frontal max |yaw|, profile min |yaw|
@@ -70,6 +72,11 @@ void run_train(const TrainArgs& args) {
         throw CLI::ValidationError("--view-overlap", "only applies to --method sdm");
     if (!args.view_overlap.empty() && args.cascades == "single")
         throw CLI::ValidationError("--view-overlap", "only applies to view-specific cascades");
+    if (args.feature_pca > 0 && args.method != "sdm") throw CLI::ValidationError("--feature-pca", "only applies to --method sdm");
+    if (const int dims = kNumIbugLandmarks * hog_dims(args.hog_cells); args.feature_pca > dims)
+        throw CLI::ValidationError("--feature-pca", std::to_string(args.feature_pca) + " is more than the feature dimension " +
+                                                        std::to_string(dims) + " (68 * " + std::to_string(args.hog_cells) +
+                                                        "^2 cells * 16)");
     const auto images = list_labelled_images(split_folder_list(args.data));
     PreparedFaces prepared;
     {
@@ -131,6 +138,8 @@ void run_train(const TrainArgs& args) {
         options.validation_share = args.validation_share;
         options.ranks = args.ranks;
         options.jaw_features_from = args.jaw_features_from;
+        options.feature_components = args.feature_pca;
+        report["feature_pca"] = args.feature_pca;
         std::unique_ptr<Progress> progress;
         std::size_t reported = 0;
         options.on_progress = [&](std::size_t done, std::size_t total) {
@@ -154,10 +163,10 @@ void run_train(const TrainArgs& args) {
             if (!args.quiet)
                 std::fprintf(stderr,
                              "\n%sstage %d/%d: training NME %.4f -> %.4f, validation NME %.4f -> %.4f (lambda factor %g, "
-                             "lambda %.4g, rank %d, %.1f s)\n",
+                             "lambda %.4g, rank %d, feature components %d, %.1f s)\n",
                              profile ? "profile cascade " : "", r.stage,
                              args.stages, r.nme_before, r.nme_after, r.validation_nme_before, r.validation_nme_after,
-                             r.lambda_factor, r.lambda, r.rank, r.seconds);
+                             r.lambda_factor, r.lambda, r.rank, r.feature_components, r.seconds);
             const std::string stage = std::string(profile ? "profile_" : "") + "stage" + std::to_string(r.stage);
             if (profile && r.stage == 1) report["profile_train_nme_initial"] = r.nme_before;
             if (profile) report["profile_train_nme_final"] = r.nme_after;
@@ -165,6 +174,7 @@ void run_train(const TrainArgs& args) {
             report[stage + "_validation_nme"] = r.validation_nme_after;
             report[stage + "_lambda_factor"] = r.lambda_factor;
             report[stage + "_rank"] = r.rank;
+            report[stage + "_feature_components"] = r.feature_components;
         };
         SdmModel model;
         if (views) {
@@ -521,6 +531,11 @@ void register_train_commands(CLI::App& app) {
         cmd->add_option("--jaw-features-from", args->jaw_features_from,
                         "SDM: first stage (1-based) whose features include the 17 jaw points' HOG")
             ->check(CLI::Range(1, 9))
+            ->capture_default_str();
+        cmd->add_option("--feature-pca", args->feature_pca,
+                        "SDM: regress each stage on this many leading principal components of its features (folded "
+                        "into the stored weights; at most 68 * hog-cells^2 * 16); 0 = off")
+            ->check(CLI::NonNegativeNumber)
             ->capture_default_str();
         cmd->add_option("--ranks", args->ranks,
                         "SDM: candidate ranks of each stage's update (1-136, comma-separated); validation keeps the "

@@ -3,6 +3,7 @@
 #include "morph/error.h"
 #include "morph/landmarks.h"
 #include "morph/random.h"
+#include "train/feature_pca.h"
 #include "train/hog.h"
 #include "train/parallel.h"
 
@@ -179,6 +180,10 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
     for (double f : options.lambda_factors)
         if (!(f > 0) || !std::isfinite(f)) throw Error("SDM training: λ factors must be positive");
     if (options.ranks.empty()) throw Error("SDM training: no rank candidate given");
+    if (options.feature_components < 0 || options.feature_components > kNumIbugLandmarks * hog_dims(options.hog_cells))
+        throw Error("SDM training: --feature-pca must be between 0 and the feature dimension " +
+                    std::to_string(kNumIbugLandmarks * hog_dims(options.hog_cells)) + ", got " +
+                    std::to_string(options.feature_components));
     for (int r : options.ranks)
         if (r < 1 || r > 2 * kNumIbugLandmarks)
             throw Error("SDM training: ranks must be between 1 and " + std::to_string(2 * kNumIbugLandmarks));
@@ -332,6 +337,8 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
         Eigen::RowVectorXd mean_y;
         Eigen::MatrixXd target_scatter;  // centred Yᵀ Y of the training rows, 2L x 2L
         Eigen::RowVectorXf shift;
+        std::optional<LeadingEigenpairs> feature_pca;
+        const std::uint64_t pca_seed = options.seed + k;
         if (dual) {
             // Dual form: W = A_cᵀ (A_c A_cᵀ + λI)⁻¹ Y_c, cheaper when there are fewer rows than features.
             extract_rows(0, train_rows, settings[k], a);
@@ -342,11 +349,22 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
             gram_dual = (a * a.transpose()).cast<double>();
             y_centred = y.rowwise() - mean_y;
             target_scatter = y_centred.transpose() * y_centred;
+            // The Gram matrix's leading eigenvectors are the features' principal components seen
+            // from the rows, with the same eigenvalues (docs/train.md, "Feature PCA").
+            if (options.feature_components > 0)
+                feature_pca = leading_eigenpairs(gram_dual, std::min<int>(options.feature_components, static_cast<int>(train_rows)),
+                                                 pca_seed);
             solve = [&](double factor, double& lambda) {
-                lambda = factor * gram_dual.norm() / n;
-                Eigen::MatrixXd regularised = gram_dual;
-                regularised.diagonal().array() += lambda;
-                const Eigen::MatrixXd alpha = regularised.llt().solve(y_centred);
+                Eigen::MatrixXd alpha;
+                if (feature_pca) {
+                    lambda = factor * feature_pca->values.norm() / n;
+                    alpha = projected_ridge(*feature_pca, y_centred, lambda);
+                } else {
+                    lambda = factor * gram_dual.norm() / n;
+                    Eigen::MatrixXd regularised = gram_dual;
+                    regularised.diagonal().array() += lambda;
+                    alpha = regularised.llt().solve(y_centred);
+                }
                 FullSolution full;
                 full.weights = (a.transpose() * alpha.cast<float>()).transpose();
                 full.bias = mean_y.transpose().cast<float>() - full.weights * mean_x_dual.transpose();
@@ -379,11 +397,19 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
             gram.resize(0, 0);
             centred.noalias() -= n * mean_x * mean_x.transpose();
             xty.noalias() -= n * mean_x * mean_y;
+            if (options.feature_components > 0)
+                feature_pca = leading_eigenpairs(centred, std::min(options.feature_components, dims), pca_seed);
             solve = [&](double factor, double& lambda) {
-                lambda = factor * centred.norm() / n;
-                Eigen::MatrixXd regularised = centred;
-                regularised.diagonal().array() += lambda;
-                const Eigen::MatrixXd w = regularised.llt().solve(xty);
+                Eigen::MatrixXd w;
+                if (feature_pca) {
+                    lambda = factor * feature_pca->values.norm() / n;
+                    w = projected_ridge(*feature_pca, xty, lambda);
+                } else {
+                    lambda = factor * centred.norm() / n;
+                    Eigen::MatrixXd regularised = centred;
+                    regularised.diagonal().array() += lambda;
+                    w = regularised.llt().solve(xty);
+                }
                 FullSolution full;
                 full.weights = w.transpose().cast<float>();
                 full.bias = (mean_y.transpose() - w.transpose() * (mean_x + shift.transpose().cast<double>())).cast<float>();
@@ -453,6 +479,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
         report.lambda_factor = options.lambda_factors[chosen->factor_index];
         report.lambda = lambdas[chosen->factor_index];
         report.rank = chosen->rank;
+        report.feature_components = feature_pca ? static_cast<int>(feature_pca->values.size()) : 0;
         solutions.clear();
 
         if (dual) {

@@ -144,6 +144,7 @@ struct SdmStageReport {
     double lambda_factor = 0;          // the candidates chosen (by validation when there are several)
     int rank = 0;
     double lambda = 0;
+    int feature_components = 0;  // principal components of the features regressed on (0: PCA off)
     double seconds = 0;
 };
 
@@ -164,6 +165,10 @@ struct SdmTrainOptions {
     // the smallest rank whose validation NME is within `rank_tolerance` (relative) of the best pair.
     std::vector<int> ranks = {8, 16, 24, 32, 48, 136};
     double rank_tolerance = 0.01;
+    // Feature PCA: each stage regresses on this many leading principal components of its centred
+    // training features (capped at the stage's feature dimension D and, in the dual form, at the
+    // training rows) and folds the projection into its weights; 0: off (plain ridge on all D features).
+    int feature_components = 0;
     int jaw_features_from = 3;  // first stage (1-based) whose features include the jaw points
     std::vector<SdmStageSettings> stage_settings;  // empty: default_stage_settings(stages, jaw_features_from)
     std::function<void(const SdmStageReport&)> on_stage;

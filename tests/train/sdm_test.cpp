@@ -1,3 +1,4 @@
+#include "train/feature_pca.h"
 #include "train/hog.h"
 #include "train/model_file.h"
 #include "train/regressor.h"
@@ -13,7 +14,12 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <string>
 #include <vector>
 
 namespace facesynth::train {
@@ -78,6 +84,144 @@ TEST(Sdm, PrimalFormReducesErrorAndIsThreadIndependent) {
     for (std::size_t k = 0; k < one.stages.size(); ++k) {
         EXPECT_TRUE(one.stages[k].weights == two.stages[k].weights) << "stage " << k;
         EXPECT_TRUE(one.stages[k].bias == two.stages[k].bias) << "stage " << k;
+    }
+}
+
+// Features with decaying spread per dimension, so that the leading principal components are well separated.
+Eigen::MatrixXd decaying_features(int rows, int dims, std::uint64_t seed) {
+    Rng rng(seed, 0);
+    Eigen::MatrixXd a(rows, dims);
+    for (int j = 0; j < dims; ++j)
+        for (int i = 0; i < rows; ++i) a(i, j) = rng.normal() * std::pow(0.9, j) + 0.5;
+    return a.rowwise() - a.colwise().mean();
+}
+
+TEST(FeaturePca, FoldedWeightsReproduceTheProjectedRegressionInPrimalAndDualForm) {
+    const Eigen::MatrixXd a = decaying_features(300, 120, 5);  // centred
+    Rng rng(6, 0);
+    Eigen::MatrixXd y(300, 3);
+    for (Eigen::Index i = 0; i < y.size(); ++i) y(i) = rng.normal();
+    y = (y.rowwise() - y.colwise().mean()).eval();
+    const double lambda = 2.5;
+    const int k = 6;  // 4 · (6 + 16) < 120: the randomised solver
+    const LeadingEigenpairs primal = leading_eigenpairs(a.transpose() * a, k, 1);
+    ASSERT_EQ(primal.vectors.cols(), k);
+    EXPECT_TRUE((primal.vectors.transpose() * primal.vectors).isIdentity(1e-10));
+    // Ridge regression on the projected features Z = A V, then folded: W = V R.
+    const Eigen::MatrixXd z = a * primal.vectors;
+    Eigen::MatrixXd regularised = z.transpose() * z;
+    regularised.diagonal().array() += lambda;
+    const Eigen::MatrixXd r = regularised.ldlt().solve(z.transpose() * y);
+    const Eigen::MatrixXd w = projected_ridge(primal, a.transpose() * y, lambda);
+    EXPECT_LT((w - primal.vectors * r).norm(), 1e-9 * r.norm());
+    EXPECT_LT((a * w - z * r).norm(), 1e-9 * (z * r).norm());
+    // The randomised eigenpairs agree with the exact ones.
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> exact(a.transpose() * a);
+    const Eigen::VectorXd exact_values = exact.eigenvalues().tail(k).reverse();
+    EXPECT_LT((primal.values - exact_values).norm(), 1e-8 * exact_values.norm());
+    // The dual form (eigenpairs of the Gram matrix A Aᵀ) gives the same weights through W = Aᵀα.
+    const LeadingEigenpairs dual = leading_eigenpairs(a * a.transpose(), k, 2);
+    const Eigen::MatrixXd w_dual = a.transpose() * projected_ridge(dual, y, lambda);
+    EXPECT_LT((w_dual - w).norm(), 1e-6 * w.norm());
+}
+
+TEST(FeaturePca, AllComponentsGiveThePlainRidgeSolution) {
+    const Eigen::MatrixXd a = decaying_features(80, 30, 7);
+    const Eigen::MatrixXd y = decaying_features(80, 2, 8);
+    const double lambda = 0.7;
+    Eigen::MatrixXd regularised = a.transpose() * a;
+    regularised.diagonal().array() += lambda;
+    const Eigen::MatrixXd plain = regularised.llt().solve(a.transpose() * y);
+    const Eigen::MatrixXd pca = projected_ridge(leading_eigenpairs(a.transpose() * a, 30, 1), a.transpose() * y, lambda);
+    EXPECT_LT((pca - plain).norm(), 1e-9 * plain.norm());
+    EXPECT_THROW((void)leading_eigenpairs(a.transpose() * a, 31, 1), Error);
+    EXPECT_THROW((void)leading_eigenpairs(a.transpose() * a, 0, 1), Error);
+}
+
+// The largest difference between two models' landmarks on `faces`, in crop pixels.
+double largest_shape_difference(const SdmModel& one, const SdmModel& two, const std::vector<TrainingFace>& faces) {
+    double largest = 0;
+    for (const auto& face : faces)
+        largest = std::max(largest, (sdm_refine(one, face.crop, one.mean_shape) - sdm_refine(two, face.crop, two.mean_shape))
+                                        .cwiseAbs()
+                                        .maxCoeff());
+    return largest;
+}
+
+TEST(Sdm, FeaturePcaWithAllComponentsGivesThePlainStagesInPrimalAndDualForm) {
+    const auto test = cartoon_training_faces(4, 10);
+    SdmTrainOptions options;
+    options.validation_share = 0;
+    options.lambda_factors = {1.0};
+    options.ranks = {136};
+    options.stages = 2;
+    options.jaw_features_from = 2;  // stage 1: 51 · 16 = 816 features, capped there
+    {
+        const auto train = cartoon_training_faces(3, 40);
+        options.augment = 32;  // 1280 rows > 1088 features: the primal form
+        options.hog_cells = 1;
+        const SdmModel plain = train_sdm(train, BoxStatistics{}, options);
+        options.feature_components = 68 * 16;
+        std::vector<SdmStageReport> reports;
+        options.on_stage = [&](const SdmStageReport& r) { reports.push_back(r); };
+        const SdmModel pca = train_sdm(train, BoxStatistics{}, options);
+        ASSERT_EQ(reports.size(), 2u);
+        EXPECT_EQ(reports[0].feature_components, 51 * 16);
+        EXPECT_EQ(reports[1].feature_components, 68 * 16);
+        // Stage 1 alone (later stages see features at shapes that already differ by rounding).
+        EXPECT_LT((plain.stages[0].weights - pca.stages[0].weights).norm(), 1e-3 * plain.stages[0].weights.norm());
+        EXPECT_LT(largest_shape_difference(plain, pca, test), 0.01);
+    }
+    {
+        const auto train = cartoon_training_faces(1, 30);
+        options.augment = 3;  // 90 rows < 3264 features: the dual form, capped at the 90 rows
+        options.hog_cells = 2;
+        options.feature_components = 0;
+        options.on_stage = nullptr;
+        const SdmModel plain = train_sdm(train, BoxStatistics{}, options);
+        options.feature_components = 68 * 64;
+        const SdmModel pca = train_sdm(train, BoxStatistics{}, options);
+        // Stage 1 alone (later stages see features at shapes that already differ by rounding).
+        EXPECT_LT((plain.stages[0].weights - pca.stages[0].weights).norm(), 1e-3 * plain.stages[0].weights.norm());
+        EXPECT_LT(largest_shape_difference(plain, pca, test), 0.01);
+    }
+}
+
+TEST(Sdm, FewFeatureComponentsStillReduceErrorStageByStageAndGeneralise) {
+    const auto train = cartoon_training_faces(3, 40);
+    const auto test = cartoon_training_faces(4, 15);
+    SdmTrainOptions options;
+    options.augment = 32;
+    options.hog_cells = 1;
+    options.stages = 3;
+    options.lambda_factors = {0.3, 3.0};
+    options.feature_components = 24;  // randomised solver: 4 · (24 + 16) < 816
+    std::vector<SdmStageReport> reports;
+    options.on_stage = [&](const SdmStageReport& r) { reports.push_back(r); };
+    const SdmModel model = train_sdm(train, BoxStatistics{}, options);
+    ASSERT_EQ(reports.size(), 3u);
+    for (const auto& r : reports) {
+        EXPECT_EQ(r.feature_components, 24);
+        EXPECT_LT(r.nme_after, r.nme_before) << "stage " << r.stage;
+        EXPECT_LT(r.validation_nme_after, r.validation_nme_before) << "stage " << r.stage;
+    }
+    const HeldOutErrors e = held_out_errors(model, test);
+    EXPECT_LT(e.after_stage[0], e.initial);
+    EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+}
+
+TEST(Sdm, RejectsFeatureComponentsOutsideTheFeatureDimension) {
+    const auto train = cartoon_training_faces(1, 8);
+    SdmTrainOptions options;
+    options.hog_cells = 1;
+    for (int bad : {-1, 68 * 16 + 1}) {
+        options.feature_components = bad;
+        try {
+            (void)train_sdm(train, BoxStatistics{}, options);
+            ADD_FAILURE() << bad << " accepted";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("--feature-pca"), std::string::npos) << e.what();
+        }
     }
 }
 
