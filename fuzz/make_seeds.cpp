@@ -10,6 +10,7 @@
 #include "synth/dataset.h"
 #include "train/model_file.h"
 #include "train/hog.h"
+#include "train/view_baselines.h"
 
 #include <nlohmann/json.hpp>
 
@@ -114,6 +115,17 @@ int main(int argc, char** argv) {
         sdm.stages.push_back(stage);
         fs::create_directories(out / "sdm");
         train::write_sdm_model(out / "sdm" / "one_stage.sdm", sdm);
+
+        train::ViewBaselineBundle bundle;
+        bundle.method = train::BaselineMethod::kLbf;
+        bundle.detector = train::DetectorKind::kDlib;
+        bundle.frontal_model = "frontal model bytes";
+        bundle.profile_model = "profile";
+        fs::create_directories(out / "view_bundle");
+        train::write_view_baseline_bundle(out / "view_bundle" / "lbf_dlib.bundle", bundle);
+        bundle.method = train::BaselineMethod::kErt;
+        bundle.detector = train::DetectorKind::kMultiView;
+        train::write_view_baseline_bundle(out / "view_bundle" / "ert_multiview.bundle", bundle);
 
         synth::RunOptions run;
         run.config.count = 2;
