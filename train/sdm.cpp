@@ -18,6 +18,7 @@
 #include <limits>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 namespace facesynth::train {
 namespace {
@@ -66,6 +67,21 @@ void apply_update(Eigen::Matrix2Xd& shape, const float* delta) {
         shape(0, i) += ied * delta[2 * i];
         shape(1, i) += ied * delta[2 * i + 1];
     }
+}
+
+// Ridge solution X of (S + λI) X = rhs for a centred scatter S (the features' in primal form, the
+// rows' Gram matrix in dual form), or on S's leading eigenpairs with feature PCA; λ = factor · ‖S‖ / n,
+// with ‖S‖ taken over the kept eigenvalues under PCA.
+Eigen::MatrixXd ridge_solution(const Eigen::MatrixXd& scatter, const std::optional<LeadingEigenpairs>& pca,
+                               const Eigen::MatrixXd& rhs, double factor, double n, double& lambda) {
+    if (pca) {
+        lambda = factor * pca->values.norm() / n;
+        return projected_ridge(*pca, rhs, lambda);
+    }
+    lambda = factor * scatter.norm() / n;
+    Eigen::MatrixXd regularised = scatter;
+    regularised.diagonal().array() += lambda;
+    return regularised.llt().solve(rhs);
 }
 
 }  // namespace
@@ -355,16 +371,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
                 feature_pca = leading_eigenpairs(gram_dual, std::min<int>(options.feature_components, static_cast<int>(train_rows)),
                                                  pca_seed);
             solve = [&](double factor, double& lambda) {
-                Eigen::MatrixXd alpha;
-                if (feature_pca) {
-                    lambda = factor * feature_pca->values.norm() / n;
-                    alpha = projected_ridge(*feature_pca, y_centred, lambda);
-                } else {
-                    lambda = factor * gram_dual.norm() / n;
-                    Eigen::MatrixXd regularised = gram_dual;
-                    regularised.diagonal().array() += lambda;
-                    alpha = regularised.llt().solve(y_centred);
-                }
+                const Eigen::MatrixXd alpha = ridge_solution(gram_dual, feature_pca, y_centred, factor, n, lambda);
                 FullSolution full;
                 full.weights = (a.transpose() * alpha.cast<float>()).transpose();
                 full.bias = mean_y.transpose().cast<float>() - full.weights * mean_x_dual.transpose();
@@ -400,16 +407,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
             if (options.feature_components > 0)
                 feature_pca = leading_eigenpairs(centred, std::min(options.feature_components, dims), pca_seed);
             solve = [&](double factor, double& lambda) {
-                Eigen::MatrixXd w;
-                if (feature_pca) {
-                    lambda = factor * feature_pca->values.norm() / n;
-                    w = projected_ridge(*feature_pca, xty, lambda);
-                } else {
-                    lambda = factor * centred.norm() / n;
-                    Eigen::MatrixXd regularised = centred;
-                    regularised.diagonal().array() += lambda;
-                    w = regularised.llt().solve(xty);
-                }
+                const Eigen::MatrixXd w = ridge_solution(centred, feature_pca, xty, factor, n, lambda);
                 FullSolution full;
                 full.weights = w.transpose().cast<float>();
                 full.bias = (mean_y.transpose() - w.transpose() * (mean_x + shift.transpose().cast<double>())).cast<float>();
