@@ -1,6 +1,7 @@
 #include "render/renderer.h"
 
 #include "morph/error.h"
+#include "render/edge_antialiasing.h"
 #include "render/gl_context.h"
 #include "render/gl_functions.h"
 #include "render/gl_program.h"
@@ -432,6 +433,8 @@ struct Renderer::Impl {
     std::array<GLuint, 2> supersample_targets{};
     int supersample_width = 0, supersample_height = 0;
     cv::Mat fine_rgba;  // its read-back before the box filter
+    EdgeAntialiasing edge_antialiasing;  // silhouette edges of the last triangle list, with scratch
+    cv::Mat edge_depth;                  // the depth it needs when the frame has none (geometry off)
     int width = 0, height = 0;  // this render's image: the bottom-left corner of the targets
     int target_width = 0, target_height = 0, samples = 0, max_samples = 0, max_texture_size = 0;
     ProvokingTopology topology;
@@ -869,7 +872,15 @@ struct Renderer::Impl {
         if (supersampled) render_supersampled_colour(camera, settings, shading);
         gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
         read_back(settings, with_normals, with_ids, !supersampled, !separate_colour_pass, frame);
+        if (settings.edge_antialiasing) antialias_edges(mesh, camera, settings, frame);
         check("rendering");
+    }
+
+    // After the single-sample read-back: blends the pixels cut by visible silhouette edges.
+    void antialias_edges(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame) {
+        if (!settings.geometry) read_depth(edge_depth);
+        (void)edge_antialiasing.apply(mesh, camera, settings.cull_back_faces, settings.geometry ? frame.depth : edge_depth,
+                                      frame.rgb, frame.mask);
     }
 
     // Colour and coverage at `factor`² samples per pixel (an ordered grid): the image rendered
@@ -1048,6 +1059,8 @@ struct Renderer::Impl {
                         std::to_string(kMaxSupersampling) + "]");
         if (settings.supersampling > 1 && settings.msaa_samples > 1)
             throw Error("render: supersampling and msaa_samples are alternatives; set msaa_samples to 0 with supersampling");
+        if (settings.edge_antialiasing && (settings.msaa_samples > 1 || settings.supersampling > 1))
+            throw Error("render: edge_antialiasing works on a single-sample render; set msaa_samples to 0 and supersampling to 1 with it");
         if (static_cast<long>(settings.supersampling) * std::max(k.width, k.height) > max_texture_size)
             throw Error("render: a " + std::to_string(k.width) + "x" + std::to_string(k.height) + " image supersampled " +
                         std::to_string(settings.supersampling) + "x exceeds the largest render target (" +

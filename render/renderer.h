@@ -55,6 +55,11 @@ struct RenderSettings {
     // an ordered grid, shading included; 1 = off, at most 4. Geometry maps stay single-sampled.
     // On llvmpipe 2 costs about 60 % of MSAA 4's colour pass (docs/render.md "Anti-aliasing").
     int supersampling = 1;
+    // Analytic anti-aliasing of silhouette edges on the CPU after a single-sample render (needs
+    // msaa_samples 0 and supersampling 1): outline pixels get fractional coverage, pixels where the
+    // face lies over itself a blend of both surfaces; geometry maps unchanged (render/edge_antialiasing.h,
+    // docs/render.md "Anti-aliasing").
+    bool edge_antialiasing = false;
     bool geometry = true;          // depth, triangle ids and labels (and normals when `normals`)
     bool normals = true;           // with geometry: camera-space normals (an extra float target)
     bool barycentrics = false;     // per-pixel barycentrics and triangle ids (a slower geometry-shader pass)
@@ -78,7 +83,7 @@ struct RenderSettings {
 // One render's outputs. Buffers are reused between renders of the same size (no reallocation).
 struct Frame {
     cv::Mat rgb;           // CV_8UC3, R G B order, sRGB-encoded, face over black (premultiplied by mask)
-    cv::Mat mask;          // CV_8UC1, face coverage 0..255 (anti-aliased with MSAA)
+    cv::Mat mask;          // CV_8UC1, face coverage 0..255 (anti-aliased with MSAA, supersampling or edge AA)
     cv::Mat depth;         // CV_32FC1, camera-space z in mm at the pixel centre; 0 = background
     cv::Mat normals;       // CV_32FC3, unit normals in OpenCV camera axes (x right, y down, z forward)
     cv::Mat triangle_ids;  // CV_32SC1, triangle index covering the pixel centre; -1 = background

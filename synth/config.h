@@ -111,6 +111,7 @@ struct OccluderConfig {
 struct RenderConfig {
     int msaa_samples = 4;  // colour anti-aliasing samples (0 or 1 = none; fewer is faster)
     int supersampling = 1;  // instead of MSAA (with msaa_samples 0): colour drawn N times larger, box-filtered
+    bool edge_antialiasing = false;  // instead of MSAA (with msaa_samples 0): silhouette edges blended on the CPU
     int shadow_map_size = 512;  // shadow-map texels per side, per light (render::RenderSettings)
 };
 

@@ -41,6 +41,7 @@ struct ViewArgs {
     std::string backend = "auto";
     int msaa = 4;
     int supersample = 1;
+    bool edge_aa = false;
     std::string lighting_file;
     bool shadows = false;
     int shadow_map_size = render::RenderSettings{}.shadow_map_size;
@@ -84,17 +85,22 @@ void add_view_options(CLI::App* cmd, ViewArgs& v) {
     cmd->add_option("--msaa", v.msaa, "multisample anti-aliasing samples (0 = off)")->check(CLI::Range(0, 16))->capture_default_str();
     cmd->add_option("--supersample", v.supersample, "anti-aliasing by N x N supersampling instead of MSAA (1 = off; needs --msaa 0)")
         ->check(CLI::Range(1, 4))->capture_default_str();
+    cmd->add_flag("--edge-aa", v.edge_aa,
+                  "anti-aliasing of silhouette edges on the CPU after a single-sample render (needs --msaa 0, no --supersample)");
     cmd->add_option("--lighting", v.lighting_file, "lighting JSON (docs/render.md)")->check(CLI::ExistingFile);
     cmd->add_flag("--shadows", v.shadows, "directional lights cast shadows (shadow maps; sets the lighting's \"shadows\")");
     cmd->add_option("--shadow-map-size", v.shadow_map_size, "shadow map texels per side, per light")
         ->check(CLI::Range(16, 16384))->capture_default_str();
 }
 
-// The render settings the view options ask for: MSAA, the lighting file and shadows.
+// The render settings the view options ask for: anti-aliasing, the lighting file and shadows.
 render::RenderSettings view_settings(const ViewArgs& v) {
+    if (v.edge_aa && (v.msaa > 1 || v.supersample > 1))
+        throw CLI::ValidationError("--edge-aa", "works on a single-sample render: give --msaa 0 (and no --supersample)");
     render::RenderSettings settings;
     settings.msaa_samples = v.msaa;
     settings.supersampling = v.supersample;
+    settings.edge_antialiasing = v.edge_aa;
     settings.shadow_map_size = v.shadow_map_size;
     if (!v.lighting_file.empty()) {
         try {
@@ -269,6 +275,7 @@ void run_render(const RenderArgs& a) {
     j["lighting"] = settings.lighting;
     j["msaa"] = settings.msaa_samples;
     j["supersampling"] = settings.supersampling;
+    j["edge_antialiasing"] = settings.edge_antialiasing;
     j["shadow_map_size"] = settings.shadow_map_size;
     j["landmarks_fixed"] = points_json(lm.pixels);
     j["landmarks_contour"] = points_json(lm.contour_pixels);
@@ -295,8 +302,8 @@ struct BenchResult {
 // --bare draws positions only, without anti-aliasing, shading or extra outputs.
 void check_bare_options(const BenchArgs& b) {
     if (!b.bare) return;
-    if (b.view.msaa > 1 || b.view.supersample > 1)
-        throw CLI::ValidationError("--bare", "draws without anti-aliasing: give --msaa 0 (and no --supersample)");
+    if (b.view.msaa > 1 || b.view.supersample > 1 || b.view.edge_aa)
+        throw CLI::ValidationError("--bare", "draws without anti-aliasing: give --msaa 0 (and no --supersample or --edge-aa)");
     if (!b.view.lighting_file.empty() || b.view.shadows)
         throw CLI::ValidationError("--bare", "draws a constant colour: --lighting and --shadows do not apply");
     if (b.barycentrics || b.colour_only || b.no_normals)
@@ -407,6 +414,7 @@ void run_bench(const BenchArgs& b) {
     j["threads"] = threads;
     j["msaa"] = b.view.msaa;
     j["supersampling"] = b.view.supersample;
+    j["edge_antialiasing"] = b.view.edge_aa;
     j["lights"] = settings.lighting.lights.size();
     j["shadows"] = settings.lighting.shadows;
     j["shadow_map_size"] = settings.shadow_map_size;
@@ -416,9 +424,9 @@ void run_bench(const BenchArgs& b) {
     j["bare"] = b.bare;
     j["lp_num_threads"] = lp_threads ? lp_threads : "";
     if (!b.json.empty()) write_json_file(b.json, j);
-    std::printf("bench render%s: %s (%d vertices) %dx%d, %d thread(s), msaa %d, %zu light(s), shadows %s: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
+    std::printf("bench render%s: %s (%d vertices) %dx%d, %d thread(s), msaa %d%s, %zu light(s), shadows %s: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
                 b.bare ? " (bare)" : "", model.name.c_str(), mesh.num_vertices(), j["width"].get<int>(), j["height"].get<int>(), threads, b.view.msaa,
-                settings.lighting.lights.size(), settings.lighting.shadows ? "on" : "off", rate, j["ms_per_render"].get<double>(), j["cpu_ms_per_render"].get<double>(), backends[0].c_str(), renderers[0].c_str());
+                b.view.edge_aa ? " + edge AA" : "", settings.lighting.lights.size(), settings.lighting.shadows ? "on" : "off", rate, j["ms_per_render"].get<double>(), j["cpu_ms_per_render"].get<double>(), backends[0].c_str(), renderers[0].c_str());
 }
 
 }  // namespace

@@ -249,6 +249,20 @@ TEST(SynthConfig, SupersamplingReplacesMsaaAndIsBounded) {
     EXPECT_NE(error_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
 }
 
+TEST(SynthConfig, EdgeAntialiasingReplacesMsaaAndSupersampling) {
+    SynthConfig config;
+    EXPECT_FALSE(config.render.edge_antialiasing);
+    apply_override(config, "render.edge_antialiasing=true");
+    EXPECT_TRUE(config.render.edge_antialiasing);
+    EXPECT_NE(error_of([&] { validate(config); }).find("render.edge_antialiasing"), std::string::npos);  // MSAA 4
+    config.render.msaa_samples = 0;
+    EXPECT_NO_THROW(validate(config));
+    config.render.supersampling = 2;
+    EXPECT_NE(error_of([&] { validate(config); }).find("render.edge_antialiasing"), std::string::npos);
+    config.render.supersampling = 1;
+    EXPECT_TRUE(config_from_json(to_json(config)).render.edge_antialiasing);
+}
+
 TEST(SynthScene, ColourTemperatureIsWhiteAtDaylightAndWarmBelow) {
     const auto daylight = colour_of_temperature(6500);
     EXPECT_NEAR(daylight.x(), 1.0, 1e-9);

@@ -187,6 +187,20 @@ TEST(Robustness, OutOfRangeParametersAreRefusedNamingThem) {
     EXPECT_FALSE(fs::exists(dir / "r"));
 }
 
+TEST(Robustness, EdgeAntialiasingNeedsASingleSampleRenderAndIsRecorded) {
+    const auto dir = fresh_temp_dir("robust_edge_aa");
+    std::string log;
+    EXPECT_EQ(run("render --size 64 --edge-aa -o " + (dir / "r").string(), &log), 2) << log;  // MSAA 4 by default
+    EXPECT_TRUE(contains(log, "--edge-aa")) << log;
+    EXPECT_EQ(run("render --size 64 --msaa 0 --supersample 2 --edge-aa -o " + (dir / "r").string(), &log), 2) << log;
+    EXPECT_FALSE(fs::exists(dir / "r"));
+    EXPECT_EQ(run("bench render --size 64 -n 5 --msaa 0 --bare --edge-aa --quiet", &log), 2) << log;
+    EXPECT_EQ(run("synth -o " + (dir / "s").string() + " -n 1 --set render.edge_antialiasing=true", &log), 1) << log;
+    EXPECT_TRUE(contains(log, "render.edge_antialiasing")) << log;
+    ASSERT_EQ(run("render --size 64 --msaa 0 --edge-aa --quiet -o " + (dir / "r").string(), &log), 0) << log;
+    EXPECT_EQ(read_json(dir / "r" / "render.json")["edge_antialiasing"], true);
+}
+
 TEST(Robustness, UnwritableOutputIsAOneLineErrorNamingThePath) {
     const auto dir = fresh_temp_dir("robust_unwritable");
     // A path below a regular file cannot be created by anyone (permission bits do not stop root).
