@@ -4,10 +4,12 @@
 #include "morph/error.h"
 
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <numeric>
 #include <sstream>
+#include <string>
 
 namespace facesynth {
 namespace {
@@ -169,12 +171,20 @@ Eigen::Matrix2Xd read_pts(const std::filesystem::path& path) {
 }
 
 std::string format_pts(const Eigen::Matrix2Xd& points) {
-    std::ostringstream out;
-    out.precision(9);
-    out << "version: 1\nn_points: " << points.cols() << "\n{\n";
-    for (Eigen::Index i = 0; i < points.cols(); ++i) out << points(0, i) + 1.0 << ' ' << points(1, i) + 1.0 << '\n';
-    out << "}\n";
-    return out.str();
+    std::string out = "version: 1\nn_points: " + std::to_string(points.cols()) + "\n{\n";
+    // 9 significant digits, as printf's %.9g (an ostream's precision(9)) writes them.
+    const auto append = [&out](double value, char separator) {
+        char text[32];
+        const auto end = std::to_chars(text, text + sizeof text, value, std::chars_format::general, 9).ptr;
+        out.append(text, end);
+        out += separator;
+    };
+    for (Eigen::Index i = 0; i < points.cols(); ++i) {
+        append(points(0, i) + 1.0, ' ');
+        append(points(1, i) + 1.0, '\n');
+    }
+    out += "}\n";
+    return out;
 }
 
 void write_pts(const std::filesystem::path& path, const Eigen::Matrix2Xd& points) {

@@ -7,6 +7,7 @@
 #include "synth/png.h"
 #include "synth/tar.h"
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -220,6 +221,20 @@ void remove_stale_temporaries(const fs::path& out, const fs::path& root, const S
         }
     }
 }
+
+// While it lives, OpenCV runs its functions (the background blur, resizes) on the calling thread.
+// Synth's workers already keep the cores busy; OpenCV's own thread pool only added hand-offs to
+// pool threads (and CPU time outside the worker's stage clocks). The results are the same.
+class OpenCvOnCallingThread {
+public:
+    OpenCvOnCallingThread() : previous_(cv::getNumThreads()) { cv::setNumThreads(1); }
+    ~OpenCvOnCallingThread() { cv::setNumThreads(previous_); }
+    OpenCvOnCallingThread(const OpenCvOnCallingThread&) = delete;
+    OpenCvOnCallingThread& operator=(const OpenCvOnCallingThread&) = delete;
+
+private:
+    int previous_;
+};
 
 nlohmann::json manifest_entry(std::int64_t index, const SynthConfig& config) {
     const auto formats = parse_formats(config.output.formats);
@@ -460,6 +475,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
     std::size_t generated = 0;
     std::size_t tars_written = 0;
     std::string renderer_name;
+    const OpenCvOnCallingThread opencv_threads;
     const auto start = Clock::now();
 
     const auto worker = [&](int worker_index) {

@@ -78,25 +78,35 @@ void image_crop(cv::Mat& out, const BackgroundSpec& b, const ImageLibrary& libra
     if (rng.uniform() < 0.5) cv::flip(out, out, 1);
 }
 
-cv::Mat make_background(const cv::Size& size, const BackgroundSpec& b, const ImageLibrary& library) {
-    cv::Mat out(size, CV_8UC3);
+// Into `out`, whose buffer is reused when it has the size already.
+void make_background(const cv::Size& size, const BackgroundSpec& b, const ImageLibrary& library, cv::Mat& out) {
+    out.create(size, CV_8UC3);
     if (b.type == "solid") out.setTo(to_scalar(b.colour));
     else if (b.type == "images") image_crop(out, b, library);
     else procedural(out, b);
-    return out;
 }
 
-// face (premultiplied by coverage) + background · (1 - coverage)
+// face (premultiplied by coverage) + background · (1 - coverage), over runs of equal coverage: a
+// covered run is the face's, an uncovered one face + background, the same values as the blend.
 void composite(const cv::Mat& face, const cv::Mat& mask, const cv::Mat& background, cv::Mat& out) {
     out.create(face.size(), CV_8UC3);
+    const auto saturated = [](int value) { return static_cast<uchar>(std::min(value, 255)); };
     for (int y = 0; y < face.rows; ++y) {
-        const auto* f = face.ptr<cv::Vec3b>(y);
-        const auto* m = mask.ptr<uchar>(y);
-        const auto* b = background.ptr<cv::Vec3b>(y);
-        auto* o = out.ptr<cv::Vec3b>(y);
-        for (int x = 0; x < face.cols; ++x) {
+        const uchar* f = face.ptr<uchar>(y);
+        const uchar* m = mask.ptr<uchar>(y);
+        const uchar* b = background.ptr<uchar>(y);
+        uchar* o = out.ptr<uchar>(y);
+        for (int x = 0, end = 0; x < face.cols; x = end) {
+            for (end = x + 1; end < face.cols && m[end] == m[x];) ++end;
+            const int first = 3 * x, last = 3 * end;
             const int keep = 255 - m[x];
-            for (int c = 0; c < 3; ++c) o[x][c] = cv::saturate_cast<uchar>(f[x][c] + (b[x][c] * keep + 127) / 255);
+            if (keep == 0) {
+                std::copy(f + first, f + last, o + first);
+            } else if (keep == 255) {
+                for (int i = first; i < last; ++i) o[i] = saturated(f[i] + b[i]);
+            } else {
+                for (int i = first; i < last; ++i) o[i] = saturated(f[i] + (b[i] * keep + 127) / 255);
+            }
         }
     }
 }
@@ -267,8 +277,8 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     labels.landmarks_3d_contour = projected.contour_model_points;
     labels.visible_contour.assign(projected.contour_visible.begin(), projected.contour_visible.end());
 
-    const cv::Mat background = make_background(frame_.rgb.size(), s.spec.background, backgrounds_);
-    composite(frame_.rgb, frame_.mask, background, s.image);
+    make_background(frame_.rgb.size(), s.spec.background, backgrounds_, background_);
+    composite(frame_.rgb, frame_.mask, background_, s.image);
     s.mask = frame_.mask.clone();
     cv::Mat occluder_coverage;
     draw_occluders(s.spec.occluders, s.image, occluder_coverage);
