@@ -209,7 +209,7 @@ Camera supersampled_camera(const Camera& camera, int factor) {
 // Shader variants: bit flags compiled in with #define (shaders.h).
 enum Variant : unsigned {
     kWithColour = 1, kWithNormals = 2, kWithIds = 4, kWithBarycentrics = 8, kWithTexture = 16, kWithLights = 32,
-    kTwoSided = 64, kWithShadows = 128, kPerPixelColour = 256, kNumVariants = 512
+    kTwoSided = 64, kWithShadows = 128, kPerPixelColour = 256, kLightsPerVertex = 512, kNumVariants = 1024
 };
 // No outputs: the depth-only pass that fills a shadow map.
 constexpr unsigned kDepthOnly = 0;
@@ -220,7 +220,8 @@ GLuint link_program(const GlFunctions& gl, unsigned variant) {
     const std::pair<Variant, const char*> defines[] = {
         {kWithColour, "WITH_COLOUR"}, {kWithNormals, "WITH_NORMALS"}, {kWithIds, "WITH_IDS"},
         {kWithBarycentrics, "WITH_BARYCENTRICS"}, {kWithTexture, "WITH_TEXTURE"}, {kWithLights, "WITH_LIGHTS"},
-        {kTwoSided, "TWO_SIDED"}, {kWithShadows, "WITH_SHADOWS"}, {kPerPixelColour, "PER_PIXEL_COLOUR"}};
+        {kTwoSided, "TWO_SIDED"}, {kWithShadows, "WITH_SHADOWS"}, {kPerPixelColour, "PER_PIXEL_COLOUR"},
+        {kLightsPerVertex, "LIGHTS_PER_VERTEX"}};
     for (const auto& [bit, name] : defines)
         if (variant & bit) header += std::string("#define ") + name + "\n";
     header += detail::kCommonHeader;
@@ -824,9 +825,13 @@ struct Renderer::Impl {
         else
             gl.Disable(GL_CULL_FACE);
         gl.Viewport(0, 0, w, h);
+        // Gouraud lights only where the vertex stage shades: shadows and two-sided drawing keep them per pixel.
+        const bool lights_per_vertex = settings.lights_per_vertex && !settings.lighting.lights.empty() && !with_shadows &&
+                                       settings.cull_back_faces;
         const unsigned shading = (with_texture ? kWithTexture : 0u) | (settings.lighting.lights.empty() ? 0u : kWithLights) |
                                  (settings.cull_back_faces ? 0u : kTwoSided) | (with_shadows ? kWithShadows : 0u) |
-                                 (settings.per_pixel_colour || !uniform_albedo(mesh) ? kPerPixelColour : 0u);
+                                 (settings.per_pixel_colour || !uniform_albedo(mesh) ? kPerPixelColour : 0u) |
+                                 (lights_per_vertex ? kLightsPerVertex : 0u);
         const bool multisampled = samples > 1;
         const bool separate_colour_pass = multisampled || supersampled;
         const bool with_normals = settings.geometry && settings.normals;

@@ -69,6 +69,11 @@ struct RenderSettings {
     // interpolated (a sqrt per pixel instead of a pow): within a few levels of encoding per pixel
     // (docs/render.md "Shading"). true: always encode per pixel, as for varying albedo.
     bool per_pixel_colour = false;
+    // Directional lights (diffuse and specular) evaluated per vertex and interpolated (Gouraud)
+    // instead of per pixel: about half a lit 256² render's CPU, with narrow highlights on ridges and
+    // creases softened (docs/render.md "Shading": error and cost). Ignored with shadows or when back
+    // faces are drawn (cull_back_faces false): those keep the per-pixel lights.
+    bool lights_per_vertex = false;
     // Only the z-buffer (frame.depth; every other map is left empty): no shading, no colour, id or
     // normal targets, no MSAA. For visibility passes, which need the nearest surface and nothing else.
     bool depth_only = false;

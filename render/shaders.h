@@ -15,7 +15,14 @@
 //                      differs from per-pixel evaluation by far less than one 8-bit level)
 //   PER_PIXEL_COLOUR   albedo · irradiance and the gamma encoding per pixel even where they could be
 //                      per vertex (RenderSettings::per_pixel_colour; the reference for the test below)
-// Without a texture, lights or TWO_SIDED (and for a uniform albedo: the renderer sets PER_PIXEL_COLOUR
+//   LIGHTS_PER_VERTEX  (with WITH_LIGHTS, one-sided, no shadows: VERTEX_LIGHTS) Gouraud shading of the
+//                      directional lights: their diffuse irradiance and specular highlight computed
+//                      per vertex and interpolated (RenderSettings::lights_per_vertex). The per-pixel
+//                      specular (a normalize and a pow per light and pixel) and the normal varying
+//                      were most of a lit render's fragment cost; the albedo and the gamma encoding
+//                      stay per pixel, or with a uniform albedo the colour is per vertex as below.
+//                      Narrow highlights (nose ridge, lid creases) soften: docs/render.md "Shading".
+// Without a texture, per-pixel lights or TWO_SIDED (and for a uniform albedo: the renderer sets PER_PIXEL_COLOUR
 // otherwise) the colour is per vertex (COLOUR_PER_VERTEX): the vertex stage raises albedo · irradiance
 // to 2/gamma, and the fragment stage interpolates that and takes its square root, one sqrt instead of a
 // pow per pixel and one varying instead of two. For gamma near 2 the interpolated quantity is nearly
@@ -31,13 +38,16 @@ inline constexpr const char* kCommonHeader = R"(
 #if defined(WITH_COLOUR) && !defined(TWO_SIDED)
 #define SH_PER_VERTEX
 #endif
-#if defined(WITH_NORMALS) || defined(WITH_LIGHTS) || (defined(WITH_COLOUR) && defined(TWO_SIDED))
+#if defined(SH_PER_VERTEX) && defined(WITH_LIGHTS) && defined(LIGHTS_PER_VERTEX) && !defined(WITH_SHADOWS)
+#define VERTEX_LIGHTS
+#endif
+#if defined(WITH_NORMALS) || (defined(WITH_LIGHTS) && !defined(VERTEX_LIGHTS)) || (defined(WITH_COLOUR) && defined(TWO_SIDED))
 #define NEEDS_NORMAL
 #endif
 #if defined(WITH_COLOUR) && defined(WITH_TEXTURE)
 #define NEEDS_UV
 #endif
-#if defined(SH_PER_VERTEX) && !defined(WITH_TEXTURE) && !defined(WITH_LIGHTS) && !defined(PER_PIXEL_COLOUR)
+#if defined(SH_PER_VERTEX) && !defined(WITH_TEXTURE) && (!defined(WITH_LIGHTS) || defined(VERTEX_LIGHTS)) && !defined(PER_PIXEL_COLOUR)
 #define COLOUR_PER_VERTEX
 #endif
 #if defined(WITH_COLOUR) && !defined(WITH_TEXTURE) && !defined(COLOUR_PER_VERTEX)
@@ -46,14 +56,23 @@ inline constexpr const char* kCommonHeader = R"(
 #if defined(SH_PER_VERTEX) && !defined(COLOUR_PER_VERTEX)
 #define NEEDS_IRRADIANCE
 #endif
+#if defined(VERTEX_LIGHTS) && !defined(COLOUR_PER_VERTEX)
+#define NEEDS_HIGHLIGHT
+#endif
 #if defined(WITH_COLOUR) && defined(WITH_LIGHTS) && defined(WITH_SHADOWS)
 #define NEEDS_POSITION
 #endif
 // Members a variant does not use are never written nor read, so the linker drops them.
-#define VARYINGS vec3 camera_normal; vec3 albedo; vec2 uv; vec3 irradiance; vec3 colour; flat uint triangle; vec3 camera_position;
+#define VARYINGS vec3 camera_normal; vec3 albedo; vec2 uv; vec3 irradiance; vec3 highlight; vec3 colour; flat uint triangle; vec3 camera_position;
 uniform vec3 sh[9];            // L_lm · Â_l / π: the sum over Y_lm(n) is irradiance / π
 uniform vec3 ambient;
 uniform float inverse_gamma;
+uniform int light_count;
+uniform vec3 light_direction[4];  // camera space, unit, toward the light
+uniform vec3 light_colour[4];
+uniform float specular;
+uniform float shininess;
+uniform int perspective;
 vec3 sh_irradiance_over_pi(vec3 n) {   // n in view space (x right, y up, z toward the camera)
     return sh[0] * 0.282095
          + sh[1] * (0.488603 * n.y) + sh[2] * (0.488603 * n.z) + sh[3] * (0.488603 * n.x)
@@ -89,11 +108,31 @@ void main() {
 #ifdef SH_PER_VERTEX
     vec3 irradiance = ambient + max(sh_irradiance_over_pi(view_from_camera(normalize(camera_normal))), vec3(0.0));
 #endif
+#ifdef VERTEX_LIGHTS
+    // Gouraud: the directional lights' diffuse and specular terms at the vertex, interpolated.
+    vec3 n = normalize(camera_normal);
+    vec3 to_eye = perspective != 0 ? -normalize((model_to_camera * vec4(position, 1.0)).xyz) : vec3(0.0, 0.0, -1.0);
+    vec3 highlight = vec3(0.0);
+    for (int i = 0; i < light_count; ++i) {
+        float n_dot_l = dot(n, light_direction[i]);
+        if (n_dot_l <= 0.0) continue;
+        irradiance += light_colour[i] * n_dot_l;
+        vec3 h = normalize(light_direction[i] + to_eye);
+        highlight += light_colour[i] * (specular * pow(max(dot(n, h), 0.0), shininess));
+    }
+#endif
 #ifdef NEEDS_IRRADIANCE
     vs_out.irradiance = irradiance;
 #endif
+#ifdef NEEDS_HIGHLIGHT
+    vs_out.highlight = highlight;
+#endif
 #ifdef COLOUR_PER_VERTEX
-    vs_out.colour = pow(max(albedo * irradiance, vec3(0.0)), vec3(2.0 * inverse_gamma));
+    vec3 linear_rgb = albedo * irradiance;
+#ifdef VERTEX_LIGHTS
+    linear_rgb += highlight;
+#endif
+    vs_out.colour = pow(max(linear_rgb, vec3(0.0)), vec3(2.0 * inverse_gamma));
 #endif
 #ifdef WITH_IDS
     vs_out.triangle = triangle;
@@ -117,6 +156,7 @@ void main() {
         gs_out.albedo = gs_in[i].albedo;
         gs_out.uv = gs_in[i].uv;
         gs_out.irradiance = gs_in[i].irradiance;
+        gs_out.highlight = gs_in[i].highlight;
         gs_out.colour = gs_in[i].colour;
         gs_out.triangle = gs_in[i].triangle;
         gs_out.camera_position = gs_in[i].camera_position;
@@ -132,12 +172,6 @@ in Varyings { VARYINGS } fs_in;
 #ifdef WITH_BARYCENTRICS
 in vec3 barycentric;
 #endif
-uniform int light_count;
-uniform vec3 light_direction[4];  // camera space, unit, toward the light
-uniform vec3 light_colour[4];
-uniform float specular;
-uniform float shininess;
-uniform int perspective;
 uniform vec4 window_to_ray;       // (1/fx, 1/fy, cx + 0.5, cy + 0.5): camera ray through a window point
 uniform sampler2D albedo_texture;
 #ifdef WITH_COLOUR
@@ -196,8 +230,12 @@ void main() {
 #else
     vec3 diffuse = ambient + max(sh_irradiance_over_pi(view_from_camera(n)), vec3(0.0));
 #endif
+#ifdef NEEDS_HIGHLIGHT
+    vec3 highlight = fs_in.highlight;
+#else
     vec3 highlight = vec3(0.0);
-#ifdef WITH_LIGHTS
+#endif
+#if defined(WITH_LIGHTS) && !defined(VERTEX_LIGHTS)
     vec3 to_eye = perspective != 0
         ? -normalize(vec3((gl_FragCoord.xy - window_to_ray.zw) * window_to_ray.xy, 1.0))
         : vec3(0.0, 0.0, -1.0);

@@ -215,6 +215,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"render.edge_antialiasing", &c.render.edge_antialiasing,
                  "anti-aliasing of silhouette edges on the CPU after a single-sample render (needs msaa_samples = 0, supersampling = 1)"});
     f.push_back({"render.shadow_map_size", &c.render.shadow_map_size, "shadow-map texels per side, per light (with shadows)"});
+    f.push_back({"render.lights_per_vertex", &c.render.lights_per_vertex,
+                 "directional lights shaded per vertex (Gouraud): cheaper, narrow highlights softened; not with shadows"});
     f.push_back({"output.formats", &c.output.formats, "comma-separated: folder, wds, coco"});
     f.push_back({"output.image_format", &c.output.image_format, "\"png\" or \"jpg\""});
     f.push_back({"output.png_compression", &c.output.png_compression, "PNG deflate level 0-9 (low = fast, larger files; 0 = uncompressed)"});

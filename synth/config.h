@@ -113,6 +113,9 @@ struct RenderConfig {
     int supersampling = 1;  // instead of MSAA (with msaa_samples 0): colour drawn N times larger, box-filtered
     bool edge_antialiasing = false;  // instead of MSAA (with msaa_samples 0): silhouette edges blended on the CPU
     int shadow_map_size = 512;  // shadow-map texels per side, per light (render::RenderSettings)
+    // Directional lights shaded per vertex (Gouraud; render::RenderSettings::lights_per_vertex): about
+    // half a lit render's CPU, narrow highlights softened. Off by default: images stay byte-identical.
+    bool lights_per_vertex = false;
 };
 
 struct LandmarkConfig {

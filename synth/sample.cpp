@@ -258,6 +258,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     settings.supersampling = config_.render.supersampling;
     settings.edge_antialiasing = config_.render.edge_antialiasing;
     settings.shadow_map_size = config_.render.shadow_map_size;
+    settings.lights_per_vertex = config_.render.lights_per_vertex;
     render::MeshExtras extras;
     extras.vertex_labels = model_.vertex_labels;
     if (s.spec.texture_choice) {

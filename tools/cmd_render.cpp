@@ -45,6 +45,7 @@ struct ViewArgs {
     std::string lighting_file;
     bool shadows = false;
     int shadow_map_size = render::RenderSettings{}.shadow_map_size;
+    bool lights_per_vertex = false;
 };
 
 struct RenderArgs {
@@ -91,6 +92,9 @@ void add_view_options(CLI::App* cmd, ViewArgs& v) {
     cmd->add_flag("--shadows", v.shadows, "directional lights cast shadows (shadow maps; sets the lighting's \"shadows\")");
     cmd->add_option("--shadow-map-size", v.shadow_map_size, "shadow map texels per side, per light")
         ->check(CLI::Range(16, 16384))->capture_default_str();
+    cmd->add_flag("--lights-per-vertex", v.lights_per_vertex,
+                  "directional lights (diffuse and specular) evaluated per vertex and interpolated: cheaper, "
+                  "within a few levels at 256^2 (docs/render.md \"Shading\"); not with --shadows");
 }
 
 // The render settings the view options ask for: anti-aliasing, the lighting file and shadows.
@@ -102,6 +106,7 @@ render::RenderSettings view_settings(const ViewArgs& v) {
     settings.supersampling = v.supersample;
     settings.edge_antialiasing = v.edge_aa;
     settings.shadow_map_size = v.shadow_map_size;
+    settings.lights_per_vertex = v.lights_per_vertex;
     if (!v.lighting_file.empty()) {
         try {
             settings.lighting = nlohmann::json::parse(read_file(v.lighting_file)).get<render::Lighting>();
@@ -277,6 +282,7 @@ void run_render(const RenderArgs& a) {
     j["supersampling"] = settings.supersampling;
     j["edge_antialiasing"] = settings.edge_antialiasing;
     j["shadow_map_size"] = settings.shadow_map_size;
+    j["lights_per_vertex"] = settings.lights_per_vertex;
     j["landmarks_fixed"] = points_json(lm.pixels);
     j["landmarks_contour"] = points_json(lm.contour_pixels);
     j["landmarks_3d_fixed"] = points_json(lm.model_points);
@@ -418,6 +424,7 @@ void run_bench(const BenchArgs& b) {
     j["lights"] = settings.lighting.lights.size();
     j["shadows"] = settings.lighting.shadows;
     j["shadow_map_size"] = settings.shadow_map_size;
+    j["lights_per_vertex"] = settings.lights_per_vertex;
     j["barycentrics"] = b.barycentrics;
     j["geometry"] = !b.colour_only && !b.bare;
     j["normals"] = !b.colour_only && !b.no_normals && !b.bare;

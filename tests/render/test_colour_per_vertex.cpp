@@ -3,6 +3,7 @@
 // poses, SH lightings and skin tones on the built-in and Surrey models; and the bare benchmark renderer.
 #include "render_fixtures.h"
 
+#include "common/colour_difference.h"
 #include "common/test_data.h"
 #include "morph/camera.h"
 #include "morph/model_io.h"
@@ -39,25 +40,16 @@ render::Lighting random_lighting(std::mt19937& rng) {
     return lighting;
 }
 
-struct ColourDifference {
-    int max_level = 0;          // largest channel difference, 8-bit levels
-    double mean_level = 0;      // mean channel difference over face pixels
-    long differing_pixels = 0;  // face pixels with any channel differing
-    long over_two_levels = 0;   // face pixels with a channel more than 2 levels apart
-    long face_pixels = 0;
-};
-
 // Renders `count` random views of `model`'s mean shape with one random skin tone each (none for
 // every other view: the default grey) per vertex and per pixel, and compares the colours; every
 // other output must be identical.
 enum class Albedo { kUniform, kModel };
 
-ColourDifference compare_encodings(const MorphableModel& model, int count, int size, unsigned seed, Albedo albedo) {
+testkit::ColourDifference compare_encodings(const MorphableModel& model, int count, int size, unsigned seed, Albedo albedo) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> yaw(-70, 70), pitch(-25, 25), roll(-15, 15);
     std::uniform_real_distribution<float> red(0.45f, 0.95f), share(0.55f, 0.85f);
-    ColourDifference result;
-    double sum = 0;
+    testkit::ColourDifference result;
     render::Frame per_vertex, per_pixel;
     for (int i = 0; i < count; ++i) {
         Mesh mesh = model.instance({});
@@ -85,40 +77,25 @@ ColourDifference compare_encodings(const MorphableModel& model, int count, int s
         EXPECT_EQ(cv::norm(per_vertex.mask, per_pixel.mask, cv::NORM_INF), 0.0) << "view " << i;
         EXPECT_EQ(cv::norm(per_vertex.triangle_ids, per_pixel.triangle_ids, cv::NORM_INF), 0.0) << "view " << i;
         EXPECT_EQ(cv::norm(per_vertex.depth, per_pixel.depth, cv::NORM_INF), 0.0) << "view " << i;
-        for (int y = 0; y < size; ++y)
-            for (int x = 0; x < size; ++x) {
-                if (per_vertex.mask.at<std::uint8_t>(y, x) == 0) continue;
-                ++result.face_pixels;
-                const cv::Vec3b a = per_vertex.rgb.at<cv::Vec3b>(y, x), b = per_pixel.rgb.at<cv::Vec3b>(y, x);
-                int largest = 0;
-                for (int c = 0; c < 3; ++c) {
-                    const int d = std::abs(int(a[c]) - int(b[c]));
-                    largest = std::max(largest, d);
-                    sum += d;
-                }
-                result.max_level = std::max(result.max_level, largest);
-                if (largest > 0) ++result.differing_pixels;
-                if (largest > 2) ++result.over_two_levels;
-            }
+        result.add(per_vertex.rgb, per_pixel.rgb, per_vertex.mask);
         if (i == 0) {
             testkit::save_for_inspection(per_vertex.rgb, "colour_per_vertex_" + model.name + ".png");
             testkit::save_for_inspection(per_pixel.rgb, "colour_per_pixel_" + model.name + ".png");
         }
     }
-    result.mean_level = sum / (3.0 * static_cast<double>(std::max(result.face_pixels, 1L)));
     std::printf("%s at %d², %s albedo: %d views, max %d levels, mean %.4f, %ld of %ld face pixels differ, %ld by more than 2\n",
                 model.name.c_str(), size, albedo == Albedo::kModel ? "own" : "uniform", count, result.max_level,
-                result.mean_level, result.differing_pixels, result.face_pixels, result.over_two_levels);
+                result.mean_level(), result.differing_pixels, result.face_pixels, result.over_two_levels);
     return result;
 }
 
 // Measured (seeds as below): built-in 256² max 7 levels, mean 0.025, 0.09 % of face pixels over 2 levels;
 // Surrey 256² max 4, mean 0.010, 0.003 %; Surrey 512² max 3, mean 0.014, 0.006 %. The largest
 // differences are on the shading terminator, where the SH irradiance falls to zero at one corner.
-void expect_within_tolerance(const ColourDifference& d, int views) {
+void expect_within_tolerance(const testkit::ColourDifference& d, int views) {
     EXPECT_GT(d.face_pixels, views * 10000L);
     EXPECT_LE(d.max_level, 8);
-    EXPECT_LT(d.mean_level, 0.05);
+    EXPECT_LT(d.mean_level(), 0.05);
     EXPECT_LT(static_cast<double>(d.over_two_levels), 0.002 * static_cast<double>(d.face_pixels));
 }
 
