@@ -39,9 +39,14 @@ void gradient(cv::Mat& out, const BackgroundSpec& b) {
     }
 }
 
-// A colour gradient with random soft shapes over it: clutter without meaning.
-void procedural(cv::Mat& out, const BackgroundSpec& b) {
-    gradient(out, b);
+// A colour gradient with random soft shapes over it: clutter without meaning. Drawn and blurred at
+// half the size (a quarter of the pixels), then scaled up to `out`: the same gradient, shapes and
+// blur, for about a third of the CPU (docs/synth.md, "Speed"). The draws are those of full-size
+// coordinates, so the pattern does not depend on the canvas.
+void procedural(cv::Mat& out, const BackgroundSpec& b, cv::Mat& canvas) {
+    canvas.create((out.rows + 1) / 2, (out.cols + 1) / 2, CV_8UC3);
+    gradient(canvas, b);
+    constexpr int kHalf = 1;  // OpenCV drawing's fractional bits: full-size coordinates land at half
     Rng rng(b.pattern_seed, 0, 0);
     const int shapes = rng.uniform_int(3, 12);
     const int side = std::max(out.cols, out.rows);
@@ -50,17 +55,21 @@ void procedural(cv::Mat& out, const BackgroundSpec& b) {
         const cv::Scalar colour(rng.uniform(0, 255), rng.uniform(0, 255), rng.uniform(0, 255));
         const int size = std::max(2, static_cast<int>(rng.uniform(0.03, 0.3) * side));
         switch (rng.uniform_int(0, 2)) {
-            case 0: cv::circle(out, centre, size, colour, cv::FILLED, cv::LINE_8); break;
-            case 1:
-                cv::rectangle(out, cv::Rect(centre.x - size / 2, centre.y - size / 3, size, std::max(1, 2 * size / 3)), colour, cv::FILLED);
+            case 0: cv::circle(canvas, centre, size, colour, cv::FILLED, cv::LINE_AA, kHalf); break;
+            case 1: {
+                const cv::Point corner(centre.x - size / 2, centre.y - size / 3);
+                const cv::Point opposite(corner.x + size - 1, corner.y + std::max(1, 2 * size / 3) - 1);
+                cv::rectangle(canvas, corner, opposite, colour, cv::FILLED, cv::LINE_AA, kHalf);
                 break;
+            }
             default:
-                cv::line(out, centre, cv::Point(rng.uniform_int(0, out.cols - 1), rng.uniform_int(0, out.rows - 1)), colour,
-                         std::max(1, size / 6), cv::LINE_8);
+                cv::line(canvas, centre, cv::Point(rng.uniform_int(0, out.cols - 1), rng.uniform_int(0, out.rows - 1)), colour,
+                         std::max(1, size / 12), cv::LINE_AA, kHalf);
         }
     }
-    const double sigma = rng.uniform(0.5, 4.0) * side / 256.0;
-    cv::GaussianBlur(out, out, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
+    const double sigma = 0.5 * rng.uniform(0.5, 4.0) * side / 256.0;
+    cv::GaussianBlur(canvas, canvas, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
+    cv::resize(canvas, out, out.size(), 0, 0, cv::INTER_LINEAR);
 }
 
 void image_crop(cv::Mat& out, const BackgroundSpec& b, const ImageLibrary& library) {
@@ -78,12 +87,12 @@ void image_crop(cv::Mat& out, const BackgroundSpec& b, const ImageLibrary& libra
     if (rng.uniform() < 0.5) cv::flip(out, out, 1);
 }
 
-// Into `out`, whose buffer is reused when it has the size already.
-void make_background(const cv::Size& size, const BackgroundSpec& b, const ImageLibrary& library, cv::Mat& out) {
+// Into `out`, whose buffer (and the procedural background's `canvas`) is reused when it has the size.
+void make_background(const cv::Size& size, const BackgroundSpec& b, const ImageLibrary& library, cv::Mat& out, cv::Mat& canvas) {
     out.create(size, CV_8UC3);
     if (b.type == "solid") out.setTo(to_scalar(b.colour));
     else if (b.type == "images") image_crop(out, b, library);
-    else procedural(out, b);
+    else procedural(out, b, canvas);
 }
 
 // face (premultiplied by coverage) + background · (1 - coverage), over runs of equal coverage: a
@@ -256,7 +265,6 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     settings.normals = config_.output.normals;  // an extra float target: only when written
     settings.msaa_samples = config_.render.msaa_samples;
     settings.supersampling = config_.render.supersampling;
-    settings.edge_antialiasing = config_.render.edge_antialiasing;
     settings.shadow_map_size = config_.render.shadow_map_size;
     settings.lights_per_vertex = config_.render.lights_per_vertex;
     render::MeshExtras extras;
@@ -278,7 +286,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     labels.landmarks_3d_contour = projected.contour_model_points;
     labels.visible_contour.assign(projected.contour_visible.begin(), projected.contour_visible.end());
 
-    make_background(frame_.rgb.size(), s.spec.background, backgrounds_, background_);
+    make_background(frame_.rgb.size(), s.spec.background, backgrounds_, background_, background_canvas_);
     composite(frame_.rgb, frame_.mask, background_, s.image);
     s.mask = frame_.mask.clone();
     cv::Mat occluder_coverage;

@@ -106,7 +106,7 @@ private:
     render::Renderer renderer_;
     render::Frame frame_;
     Mesh mesh_;  // the model's triangles and uv, set once; vertices and colours per sample
-    cv::Mat background_;  // per sample, in a buffer kept between samples
+    cv::Mat background_, background_canvas_;  // per sample, in buffers kept between samples
 };
 
 // Landmarks of the mode named in config.landmarks.mode, with their visibility.
