@@ -46,6 +46,9 @@ void EdgeTopology::build(const Mesh& mesh) {
         }
         i = end;
     }
+    sides.clear();
+    sides.reserve(edges.size());
+    for (const Edge& edge : edges) sides.push_back({edge.triangle[0] + 1, edge.triangle[1] + 1});
     source = mesh.triangles;
     source_vertices = vertex_count;
 }
@@ -73,32 +76,45 @@ EdgeAntialiasingStats EdgeAntialiasing::apply(const Mesh& mesh, const Camera& ca
     const Intrinsics& k = camera.intrinsics;
     const bool perspective = camera.projection == Projection::kPerspective;
     const Eigen::Matrix3d rotation = model_to_camera_flip() * camera.pose.rotation;
+    const Eigen::Vector3d& translation = camera.pose.translation;
     const auto vertex_count = static_cast<std::size_t>(mesh.num_vertices());
     screen_x_.resize(vertex_count);
     screen_y_.resize(vertex_count);
     camera_z_.resize(vertex_count);
+    bool any_behind = false;
+    const float* model = mesh.vertices.data();
     for (std::size_t i = 0; i < vertex_count; ++i) {
-        const Eigen::Vector3d c = rotation * mesh.vertices.col(static_cast<Eigen::Index>(i)).cast<double>() + camera.pose.translation;
-        camera_z_[i] = c.z();
+        const double x = model[3 * i], y = model[3 * i + 1], z = model[3 * i + 2];
+        const double cx = rotation(0, 0) * x + rotation(0, 1) * y + rotation(0, 2) * z + translation.x();
+        const double cy = rotation(1, 0) * x + rotation(1, 1) * y + rotation(1, 2) * z + translation.y();
+        const double cz = rotation(2, 0) * x + rotation(2, 1) * y + rotation(2, 2) * z + translation.z();
+        camera_z_[i] = cz;
+        any_behind = any_behind || cz <= 0;
         if (perspective) {
-            screen_x_[i] = k.fx * c.x() / c.z() + k.cx;
-            screen_y_[i] = k.fy * c.y() / c.z() + k.cy;
+            screen_x_[i] = k.fx * cx / cz + k.cx;
+            screen_y_[i] = k.fy * cy / cz + k.cy;
         } else {
-            screen_x_[i] = k.fx * c.x() + k.cx;
-            screen_y_[i] = k.fy * c.y() + k.cy;
+            screen_x_[i] = k.fx * cx + k.cx;
+            screen_y_[i] = k.fy * cy + k.cy;
         }
     }
+    any_behind = any_behind && perspective;
     // Facing as the GL culls: image y runs down, so counter-clockwise (outside) triangles have a
-    // negative signed area in pixel coordinates (glFrontFace(GL_CW) in the renderer).
-    facing_.resize(mesh.triangles.size());
+    // negative signed area in pixel coordinates (glFrontFace(GL_CW) in the renderer). Entry t + 1 holds
+    // triangle t; entry 0 (no triangle, an open border) is never drawn.
+    facing_.resize(mesh.triangles.size() + 1);
+    facing_[0] = 0;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const auto [a, b, c] = mesh.triangles[t];
         const auto ua = static_cast<std::size_t>(a), ub = static_cast<std::size_t>(b), uc = static_cast<std::size_t>(c);
         const double area = (screen_x_[ub] - screen_x_[ua]) * (screen_y_[uc] - screen_y_[ua]) -
                             (screen_y_[ub] - screen_y_[ua]) * (screen_x_[uc] - screen_x_[ua]);
-        const bool behind = perspective && (camera_z_[ua] <= 0 || camera_z_[ub] <= 0 || camera_z_[uc] <= 0);
-        facing_[t] = behind ? std::int8_t{0} : area < 0 ? std::int8_t{1} : area > 0 ? std::int8_t{-1} : std::int8_t{0};
+        facing_[t + 1] = static_cast<std::int8_t>(static_cast<int>(area < 0) - static_cast<int>(area > 0 && !cull_back_faces));
     }
+    if (any_behind)  // a triangle reaching behind the camera is clipped by the GL: not a surface to outline
+        for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+            for (int v : mesh.triangles[t])
+                if (camera_z_[static_cast<std::size_t>(v)] <= 0) facing_[t + 1] = 0;
 
     EdgeAntialiasingStats stats;
     blends_.clear();
@@ -144,20 +160,17 @@ EdgeAntialiasingStats EdgeAntialiasing::apply(const Mesh& mesh, const Camera& ca
         }
     };
 
-    const bool back_faces_drawn = !cull_back_faces;
-    for (const EdgeTopology::Edge& edge : topology_.edges) {
-        const std::int8_t f0 = facing_[static_cast<std::size_t>(edge.triangle[0])];
-        const std::int8_t f1 = edge.triangle[1] >= 0 ? facing_[static_cast<std::size_t>(edge.triangle[1])] : std::int8_t{0};
-        const bool drawn0 = back_faces_drawn ? f0 != 0 : f0 > 0;
-        const bool drawn1 = back_faces_drawn ? f1 != 0 : f1 > 0;
-        // One side drawn, or (back faces drawn) a fold between opposite facings: both on one side.
-        const bool silhouette = drawn0 != drawn1 || (drawn0 && drawn1 && f0 != f1);
-        if (!silhouette) continue;
+    for (std::size_t i = 0; i < topology_.sides.size(); ++i) {
+        // Drawn on one side only, or (back faces drawn) a fold between opposite facings, whose two
+        // triangles lie on the same side of the edge.
+        const std::int8_t f0 = facing_[static_cast<std::size_t>(topology_.sides[i][0])];
+        const std::int8_t f1 = facing_[static_cast<std::size_t>(topology_.sides[i][1])];
+        if (f0 == f1) continue;
+        const EdgeTopology::Edge& edge = topology_.edges[i];
         ++stats.silhouette_edges;
-        const int opposite = drawn0 ? edge.opposite[0] : edge.opposite[1];
+        const int opposite = f0 != 0 ? edge.opposite[0] : edge.opposite[1];
         const auto a = static_cast<std::size_t>(edge.a), b = static_cast<std::size_t>(edge.b),
                    c = static_cast<std::size_t>(opposite);
-        if (perspective && (camera_z_[a] <= 0 || camera_z_[b] <= 0)) continue;
         const double dx = screen_x_[b] - screen_x_[a], dy = screen_y_[b] - screen_y_[a];
         const bool x_major = std::abs(dx) >= std::abs(dy);
         const double ua = x_major ? screen_x_[a] : screen_y_[a], va = x_major ? screen_y_[a] : screen_x_[a];
@@ -190,7 +203,7 @@ EdgeAntialiasingStats EdgeAntialiasing::apply(const Mesh& mesh, const Camera& ca
         deltas_[4 * i + 3] = w * (static_cast<float>(coverage[n]) - static_cast<float>(coverage[p]));
     }
     auto add = [](std::uint8_t& value, float delta) {
-        value = static_cast<std::uint8_t>(std::clamp(std::lround(static_cast<float>(value) + delta), 0L, 255L));
+        value = static_cast<std::uint8_t>(std::lround(std::clamp(static_cast<float>(value) + delta, 0.0f, 255.0f)));
     };
     for (std::size_t i = 0; i < blends_.size(); ++i) {
         const auto p = static_cast<std::size_t>(blends_[i].pixel);

@@ -322,6 +322,22 @@ TEST(EdgeAntialiasing, SurfaceOverSurfaceBlendsColoursAndKeepsFullCoverage) {
     testkit::save_for_inspection(edge.rgb, "edge_aa_quads.png");
 }
 
+TEST(EdgeAntialiasing, WithBackFacesDrawnTheOutlineOfABackFacingSurfaceIsAntialiased) {
+    Mesh quad;
+    add_quad(quad, 0, 0, 0, 40, Eigen::Vector3f(0.5f, 0.5f, 0.5f));
+    const render::Camera camera = make_camera(180, 0, 23, 96, 96);  // seen from behind
+    render::RenderSettings settings = edge_settings(true);
+    EXPECT_EQ(cv::countNonZero(testkit::shared_renderer().render(quad, camera, settings).mask), 0);  // culled
+    settings.cull_back_faces = false;
+    const render::Frame edge = testkit::shared_renderer().render(quad, camera, settings);
+    settings.edge_antialiasing = false;
+    const render::Frame plain = testkit::shared_renderer().render(quad, camera, settings);
+    EXPECT_GT(cv::countNonZero((edge.mask > 0) & (edge.mask < 255)), 60);  // a 24-pixel square: 84
+    cv::Mat inside;
+    cv::erode(plain.mask, inside, cv::Mat::ones(3, 3, CV_8U));
+    EXPECT_EQ(cv::countNonZero((inside == 255) & (edge.mask != 255)), 0);
+}
+
 TEST(EdgeAntialiasing, TopologyPairsEdgesWithTheirTriangles) {
     Mesh quad;
     add_quad(quad, 0, 0, 0, 1, Eigen::Vector3f::Zero());
