@@ -15,12 +15,15 @@
 #include <atomic>
 #include <cerrno>
 #include <charconv>
+#include <cmath>
+#include <concepts>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <sstream>
+#include <string_view>
 #include <map>
 #include <mutex>
 #include <set>
@@ -90,19 +93,93 @@ std::string encode_normals(const cv::Mat& normals, PngEncoder& png, const std::s
     return png.encode(rgb, context);
 }
 
-nlohmann::json points_json(const Eigen::Matrix2Xd& p) {
-    nlohmann::json out = nlohmann::json::array();
-    for (Eigen::Index i = 0; i < p.cols(); ++i) out.push_back({p(0, i), p(1, i)});
-    return out;
-}
+// JSON text in nlohmann's compact form (what json::dump() writes: no spaces, numbers in its shortest
+// round-trip format, integers in decimal, strings escaped by nlohmann), written as it goes instead of
+// built as an object tree: a meta file holds about 900 numbers. Members are written in the order
+// given; callers give them sorted, as nlohmann's objects are.
+class CompactJson {
+public:
+    CompactJson& key(std::string_view name) {
+        element();
+        text_ += '"';
+        text_ += name;  // plain ASCII names: nothing to escape
+        text_ += "\":";
+        after_key_ = true;
+        return *this;
+    }
+    void begin_object() { open('{'); }
+    void end_object() { close('}'); }
+    void begin_array() { open('['); }
+    void end_array() { close(']'); }
+    void number(double value) {
+        element();
+        if (!std::isfinite(value)) {
+            text_ += "null";
+            return;
+        }
+        char digits[64];
+        text_.append(digits, nlohmann::detail::to_chars(digits, digits + sizeof digits, value));
+    }
+    void integer(std::integral auto value) {
+        element();
+        char digits[24];
+        text_.append(digits, std::to_chars(digits, digits + sizeof digits, value).ptr);
+    }
+    void string(const std::string& value) { raw(nlohmann::json(value).dump()); }
+    void null() { raw("null"); }
+    void raw(std::string_view json) {
+        element();
+        text_ += json;
+    }
+    template <typename Range>
+    void numbers(const Range& values) {
+        begin_array();
+        for (const auto v : values) number(static_cast<double>(v));
+        end_array();
+    }
+    void integers(const std::vector<int>& values) {
+        begin_array();
+        for (const int v : values) integer(v);
+        end_array();
+    }
+    template <typename Derived>
+    void point(const Eigen::MatrixBase<Derived>& p) {
+        begin_array();
+        for (Eigen::Index i = 0; i < p.size(); ++i) number(static_cast<double>(p(i)));
+        end_array();
+    }
+    template <int Rows>
+    void points(const Eigen::Matrix<double, Rows, Eigen::Dynamic>& p) {
+        begin_array();
+        for (Eigen::Index i = 0; i < p.cols(); ++i) point(p.col(i));
+        end_array();
+    }
+    [[nodiscard]] std::string text() const { return text_ + "\n"; }
 
-nlohmann::json points_json(const Eigen::Matrix3Xd& p) {
-    nlohmann::json out = nlohmann::json::array();
-    for (Eigen::Index i = 0; i < p.cols(); ++i) out.push_back({p(0, i), p(1, i), p(2, i)});
-    return out;
-}
+private:
+    // A comma before every element but the first of its container; none right after a key.
+    void element() {
+        if (after_key_) {
+            after_key_ = false;
+            return;
+        }
+        if (!first_.empty() && !first_.back()) text_ += ',';
+        if (!first_.empty()) first_.back() = false;
+    }
+    void open(char bracket) {
+        element();
+        text_ += bracket;
+        first_.push_back(true);
+    }
+    void close(char bracket) {
+        text_ += bracket;
+        first_.pop_back();
+    }
 
-nlohmann::json vector_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+    std::string text_;
+    std::vector<bool> first_;  // per open container: nothing written in it yet
+    bool after_key_ = false;
+};
 
 // [x, y, width, height] of the points, clipped to the image.
 std::array<double, 4> bounding_box(const Eigen::Matrix2Xd& p, int width, int height) {
@@ -310,13 +387,12 @@ std::string wds_tar_name(const SynthConfig& config, std::int64_t tar_index) {
     return config.output.wds_prefix + "-" + number + ".tar";
 }
 
-nlohmann::json sample_meta(const Sample& sample, const SynthConfig& config, const MorphableModel& model, const std::string& checksum) {
+std::string sample_meta(const Sample& sample, const SynthConfig& config, const MorphableModel& model, const std::string& checksum) {
     const auto& s = sample.spec;
     const auto& k = s.intrinsics;
     const auto& labels = sample.labels;
     const std::string& mode = config.landmarks.mode;
-    nlohmann::json rotation = nlohmann::json::array();
-    for (int r = 0; r < 3; ++r) rotation.push_back({s.pose.rotation(r, 0), s.pose.rotation(r, 1), s.pose.rotation(r, 2)});
+    // The lighting (its keys are render::Lighting's) is the one part built as a JSON object.
     nlohmann::json lighting = s.lighting.lighting;
     lighting["environment_radiance"] = s.lighting.environment_radiance;
     lighting["environment_temperature"] = s.lighting.environment_temperature;
@@ -324,51 +400,84 @@ nlohmann::json sample_meta(const Sample& sample, const SynthConfig& config, cons
     lighting["white_balance_gain"] = s.lighting.white_balance_gain;
     const auto& b = s.background;
     const auto& d = s.degradation;
-    nlohmann::json occluders = nlohmann::json::array();
-    for (const auto& o : s.occluders)
-        occluders.push_back({{"shape", o.shape}, {"centre", {o.centre.x(), o.centre.y()}}, {"half_size", {o.half_size.x(), o.half_size.y()}},
-                             {"angle", o.angle}, {"colour", vector_json(o.colour)}});
     const auto box = bounding_box(chosen_landmarks(labels, mode), k.width, k.height);
-    return {
-        {"key", s.key},
-        {"index", s.index},
-        {"seed", s.seed},
-        {"model_name", model.name},
-        {"model_checksum", checksum},
-        {"alpha", s.alpha},
-        {"psi", s.psi},
-        {"beta", s.beta},
-        {"albedo_redraws", s.albedo_redraws},
-        {"albedo_shrink", s.albedo_shrink},
-        {"skin_tone", s.skin_tone ? vector_json(*s.skin_tone) : nlohmann::json(nullptr)},
-        {"texture", sample.texture.empty() ? nlohmann::json(nullptr) : nlohmann::json(sample.texture)},
-        {"rotation", rotation},
-        {"yaw", s.angles.yaw},
-        {"pitch", s.angles.pitch},
-        {"roll", s.angles.roll},
-        {"translation", vector_json(s.pose.translation)},
-        {"intrinsics", {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"width", k.width}, {"height", k.height}}},
-        {"fov", s.fov},
-        {"image_width", k.width},
-        {"image_height", k.height},
-        {"lighting", lighting},
-        {"background", {{"type", b.type}, {"colour", vector_json(b.colour)}, {"colour2", vector_json(b.colour2)},
-                        {"gradient_angle", b.gradient_angle}, {"pattern_seed", b.pattern_seed}}},
-        {"degradation", {{"blur_sigma", d.blur_sigma}, {"noise_sigma", d.noise_sigma}, {"jpeg_quality", d.jpeg_quality},
-                         {"gamma", d.gamma}, {"gains", vector_json(d.gains)}, {"downscale", d.downscale}}},
-        {"occluders", occluders},
-        {"landmark_mode", mode},
-        {"landmarks", points_json(chosen_landmarks(labels, mode))},
-        {"visibility", chosen_visibility(labels, mode)},
-        {"occluded", labels.occluded},
-        {"landmarks_fixed", points_json(labels.landmarks_fixed)},
-        {"landmarks_contour", points_json(labels.landmarks_contour)},
-        {"visibility_fixed", labels.visible_fixed},
-        {"visibility_contour", labels.visible_contour},
-        {"landmarks_3d_fixed", points_json(labels.landmarks_3d_fixed)},
-        {"landmarks_3d_contour", points_json(labels.landmarks_3d_contour)},
-        {"bbox", box},
-    };
+    // Keys in sorted order, as nlohmann's std::map objects wrote them.
+    CompactJson j;
+    j.begin_object();
+    j.key("albedo_redraws").integer(s.albedo_redraws);
+    j.key("albedo_shrink").number(s.albedo_shrink);
+    j.key("alpha").numbers(s.alpha);
+    j.key("background").begin_object();
+    j.key("colour").point(b.colour);
+    j.key("colour2").point(b.colour2);
+    j.key("gradient_angle").number(b.gradient_angle);
+    j.key("pattern_seed").integer(b.pattern_seed);
+    j.key("type").string(b.type);
+    j.end_object();
+    j.key("bbox").numbers(box);
+    j.key("beta").numbers(s.beta);
+    j.key("degradation").begin_object();
+    j.key("blur_sigma").number(d.blur_sigma);
+    j.key("downscale").number(d.downscale);
+    j.key("gains").point(d.gains);
+    j.key("gamma").number(d.gamma);
+    j.key("jpeg_quality").integer(d.jpeg_quality);
+    j.key("noise_sigma").number(d.noise_sigma);
+    j.end_object();
+    j.key("fov").number(s.fov);
+    j.key("image_height").integer(k.height);
+    j.key("image_width").integer(k.width);
+    j.key("index").integer(s.index);
+    j.key("intrinsics").begin_object();
+    j.key("cx").number(k.cx);
+    j.key("cy").number(k.cy);
+    j.key("fx").number(k.fx);
+    j.key("fy").number(k.fy);
+    j.key("height").integer(k.height);
+    j.key("width").integer(k.width);
+    j.end_object();
+    j.key("key").string(s.key);
+    j.key("landmark_mode").string(mode);
+    j.key("landmarks").points(chosen_landmarks(labels, mode));
+    j.key("landmarks_3d_contour").points(labels.landmarks_3d_contour);
+    j.key("landmarks_3d_fixed").points(labels.landmarks_3d_fixed);
+    j.key("landmarks_contour").points(labels.landmarks_contour);
+    j.key("landmarks_fixed").points(labels.landmarks_fixed);
+    j.key("lighting").raw(lighting.dump());
+    j.key("model_checksum").string(checksum);
+    j.key("model_name").string(model.name);
+    j.key("occluded").integers(labels.occluded);
+    j.key("occluders").begin_array();
+    for (const auto& o : s.occluders) {
+        j.begin_object();
+        j.key("angle").number(o.angle);
+        j.key("centre").point(o.centre);
+        j.key("colour").point(o.colour);
+        j.key("half_size").point(o.half_size);
+        j.key("shape").string(o.shape);
+        j.end_object();
+    }
+    j.end_array();
+    j.key("pitch").number(s.angles.pitch);
+    j.key("psi").numbers(s.psi);
+    j.key("roll").number(s.angles.roll);
+    j.key("rotation").begin_array();
+    for (int r = 0; r < 3; ++r) j.point(Eigen::Vector3d(s.pose.rotation.row(r).transpose()));
+    j.end_array();
+    j.key("seed").integer(s.seed);
+    j.key("skin_tone");
+    if (s.skin_tone) j.point(*s.skin_tone);
+    else j.null();
+    j.key("texture");
+    if (sample.texture.empty()) j.null();
+    else j.string(sample.texture);
+    j.key("translation").point(s.pose.translation);
+    j.key("visibility").integers(chosen_visibility(labels, mode));
+    j.key("visibility_contour").integers(labels.visible_contour);
+    j.key("visibility_fixed").integers(labels.visible_fixed);
+    j.key("yaw").number(s.angles.yaw);
+    j.end_object();
+    return j.text();
 }
 
 RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
@@ -504,7 +613,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                         else if (file.folder == "mask") contents.push_back(png.encode(sample.mask, key));
                         else if (file.folder == "normals") contents.push_back(encode_normals(sample.normals, png, key));
                         else if (file.folder == "labels") contents.push_back(png.encode(sample.regions, key));
-                        else contents.push_back(sample_meta(sample, config, model, checksum).dump() + "\n");
+                        else contents.push_back(sample_meta(sample, config, model, checksum));
                     }
                     clock.lap(times.encode);
                     for (std::size_t f = 0; f < files.size(); ++f)

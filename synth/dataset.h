@@ -66,9 +66,10 @@ struct RunResult {
 // the file or sample on failure; completed samples stay intact.
 RunResult run_synth(const RunOptions& options, const MorphableModel& model);
 
-// The meta JSON of one sample (docs/synth.md lists the keys).
-[[nodiscard]] nlohmann::json sample_meta(const Sample& sample, const SynthConfig& config, const MorphableModel& model,
-                                         const std::string& model_checksum);
+// The meta file of one sample: compact JSON text with a final newline, keys sorted (docs/synth.md
+// lists them).
+[[nodiscard]] std::string sample_meta(const Sample& sample, const SynthConfig& config, const MorphableModel& model,
+                                      const std::string& model_checksum);
 
 struct MergeResult {
     std::size_t samples = 0;

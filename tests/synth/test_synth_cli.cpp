@@ -136,6 +136,22 @@ TEST(SynthCli, MetaCarriesGroundTruthConsistentWithPts) {
     EXPECT_EQ(std::count(manifest.begin(), manifest.end(), '\n'), 3);
 }
 
+// Meta files are written as text directly (no object tree); they must stay exactly what nlohmann's
+// compact dump() of their content writes: keys sorted, its number format, no spaces. Occluders and a
+// texture-free toy model give every key content (occluders, skin_tone, null texture).
+TEST(SynthCli, MetaFilesAreNlohmannsCompactDumpOfTheirContent) {
+    const auto dir = testkit::fresh_temp_dir("synth_meta_text");
+    std::string log;
+    ASSERT_EQ(synth(" -o " + dir.string() + base_args(4) + " --threads 1 --set occluders.probability=1", &log), 0) << log;
+    for (int i = 0; i < 4; ++i) {
+        const std::string text = read_file(dir / "meta" / (sample_key(i) + ".json"));
+        const auto meta = nlohmann::json::parse(text);
+        EXPECT_EQ(meta.dump() + "\n", text) << sample_key(i);
+        EXPECT_FALSE(meta["occluders"].empty()) << sample_key(i);
+        EXPECT_EQ(meta.size(), 36u) << sample_key(i);
+    }
+}
+
 TEST(SynthCli, ShadowProbabilityShadowsTheSamplesWithLightsAndRecordsIt) {
     const auto plain = testkit::fresh_temp_dir("synth_shadows_off"), shadowed = testkit::fresh_temp_dir("synth_shadows_on");
     const std::string args = " --model " + toy_model_file().string() + " -n 8 --size 96 --seed 3 --threads 1 --quiet" +
