@@ -209,11 +209,12 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"occluders.max_count", &c.occluders.max_count, "1..n occluding shapes"});
     f.push_back({"occluders.max_size", &c.occluders.max_size, "largest occluder extent, share of the face size"});
     f.push_back({"landmarks.mode", &c.landmarks.mode, "jaw points written to .pts: \"contour\" (300-W style) or \"fixed\""});
-    f.push_back({"render.msaa_samples", &c.render.msaa_samples, "multisample anti-aliasing samples (0 or 1 = none)"});
-    f.push_back({"render.supersampling", &c.render.supersampling,
-                 "anti-aliasing by supersampling instead of MSAA: N x N samples per pixel (1 = off; needs msaa_samples = 0)"});
     f.push_back({"render.edge_antialiasing", &c.render.edge_antialiasing,
-                 "anti-aliasing of silhouette edges on the CPU after a single-sample render (needs msaa_samples = 0, supersampling = 1)"});
+                 "anti-aliasing of silhouette edges on the CPU after a single-sample render (off for MSAA or supersampling)"});
+    f.push_back({"render.msaa_samples", &c.render.msaa_samples,
+                 "multisample anti-aliasing samples instead of edge anti-aliasing (0 or 1 = none; needs edge_antialiasing = false)"});
+    f.push_back({"render.supersampling", &c.render.supersampling,
+                 "anti-aliasing by supersampling instead: N x N samples per pixel (1 = off; needs msaa_samples = 0, edge_antialiasing = false)"});
     f.push_back({"render.shadow_map_size", &c.render.shadow_map_size, "shadow-map texels per side, per light (with shadows)"});
     f.push_back({"render.lights_per_vertex", &c.render.lights_per_vertex,
                  "directional lights shaded per vertex (Gouraud): cheaper, narrow highlights softened; not with shadows"});
@@ -303,8 +304,10 @@ void validate(const SynthConfig& c) {
     require(c.render.supersampling >= 1 && c.render.supersampling <= 4, "render.supersampling", "must be in [1, 4]");
     require(c.render.supersampling == 1 || c.render.msaa_samples <= 1, "render.supersampling",
             "replaces MSAA: set render.msaa_samples = 0 with it");
-    require(!c.render.edge_antialiasing || (c.render.msaa_samples <= 1 && c.render.supersampling == 1), "render.edge_antialiasing",
-            "replaces MSAA and supersampling: set render.msaa_samples = 0 and render.supersampling = 1 with it");
+    require(!c.render.edge_antialiasing || c.render.msaa_samples <= 1, "render.msaa_samples",
+            "replaces edge anti-aliasing (on by default): set render.edge_antialiasing = false with it");
+    require(!c.render.edge_antialiasing || c.render.supersampling == 1, "render.supersampling",
+            "replaces edge anti-aliasing (on by default): set render.edge_antialiasing = false with it");
     require(c.render.shadow_map_size >= 16 && c.render.shadow_map_size <= 8192, "render.shadow_map_size", "must be in [16, 8192]");
     (void)parse_formats(c.output.formats);
     require(c.output.image_format == "png" || c.output.image_format == "jpg", "output.image_format", "must be \"png\" or \"jpg\"");

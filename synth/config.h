@@ -109,13 +109,16 @@ struct OccluderConfig {
 };
 
 struct RenderConfig {
-    int msaa_samples = 4;  // colour anti-aliasing samples (0 or 1 = none; fewer is faster)
-    int supersampling = 1;  // instead of MSAA (with msaa_samples 0): colour drawn N times larger, box-filtered
-    bool edge_antialiasing = false;  // instead of MSAA (with msaa_samples 0): silhouette edges blended on the CPU
+    // Anti-aliasing: one of edge anti-aliasing (the default: better outlines than MSAA 4 for ~2 % of its
+    // CPU on llvmpipe, docs/render.md "Edge anti-aliasing"), MSAA or supersampling.
+    bool edge_antialiasing = true;  // silhouette edges blended on the CPU after a single-sample render
+    int msaa_samples = 0;  // multisample anti-aliasing samples instead (0 or 1 = none; needs edge_antialiasing off)
+    int supersampling = 1;  // instead of MSAA: colour drawn N times larger, box-filtered (needs both others off)
     int shadow_map_size = 512;  // shadow-map texels per side, per light (render::RenderSettings)
     // Directional lights shaded per vertex (Gouraud; render::RenderSettings::lights_per_vertex): about
-    // half a lit render's CPU, narrow highlights softened. Off by default: images stay byte-identical.
-    bool lights_per_vertex = false;
+    // half a lit render's CPU; within a mean 0.13 levels of per-pixel lights on synth's lightings, narrow
+    // highlights softened (docs/render.md "Lights per vertex").
+    bool lights_per_vertex = true;
 };
 
 struct LandmarkConfig {

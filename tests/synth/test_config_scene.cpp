@@ -241,7 +241,9 @@ TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
 
 TEST(SynthConfig, SupersamplingReplacesMsaaAndIsBounded) {
     SynthConfig config;
-    config.render.supersampling = 2;  // with the default MSAA 4
+    config.render.edge_antialiasing = false;
+    config.render.msaa_samples = 4;
+    config.render.supersampling = 2;
     EXPECT_NE(error_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
     config.render.msaa_samples = 0;
     EXPECT_NO_THROW(validate(config));
@@ -249,18 +251,26 @@ TEST(SynthConfig, SupersamplingReplacesMsaaAndIsBounded) {
     EXPECT_NE(error_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
 }
 
-TEST(SynthConfig, EdgeAntialiasingReplacesMsaaAndSupersampling) {
+TEST(SynthConfig, EdgeAntialiasingIsTheDefaultAndMsaaOrSupersamplingReplaceIt) {
     SynthConfig config;
-    EXPECT_FALSE(config.render.edge_antialiasing);
-    apply_override(config, "render.edge_antialiasing=true");
     EXPECT_TRUE(config.render.edge_antialiasing);
-    EXPECT_NE(error_of([&] { validate(config); }).find("render.edge_antialiasing"), std::string::npos);  // MSAA 4
-    config.render.msaa_samples = 0;
+    EXPECT_EQ(config.render.msaa_samples, 0);
+    EXPECT_EQ(config.render.supersampling, 1);
     EXPECT_NO_THROW(validate(config));
+    apply_override(config, "render.msaa_samples=4");
+    const std::string msaa_error = error_of([&] { validate(config); });
+    EXPECT_NE(msaa_error.find("render.msaa_samples"), std::string::npos) << msaa_error;
+    EXPECT_NE(msaa_error.find("render.edge_antialiasing = false"), std::string::npos) << msaa_error;
+    apply_override(config, "render.edge_antialiasing=false");
+    EXPECT_NO_THROW(validate(config));
+    config.render.msaa_samples = 0;
+    config.render.edge_antialiasing = true;
     config.render.supersampling = 2;
-    EXPECT_NE(error_of([&] { validate(config); }).find("render.edge_antialiasing"), std::string::npos);
-    config.render.supersampling = 1;
-    EXPECT_TRUE(config_from_json(to_json(config)).render.edge_antialiasing);
+    EXPECT_NE(error_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
+    config.render.edge_antialiasing = false;
+    EXPECT_NO_THROW(validate(config));
+    EXPECT_FALSE(config_from_json(to_json(config)).render.edge_antialiasing);
+    EXPECT_EQ(config_from_json(to_json(config)).render.supersampling, 2);
 }
 
 TEST(SynthScene, ColourTemperatureIsWhiteAtDaylightAndWarmBelow) {

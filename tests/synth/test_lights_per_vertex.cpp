@@ -125,7 +125,7 @@ TEST(LightsPerVertex, SynthKeyShadesLitSamplesPerVertexOnly) {
     const MorphableModel model = load_model("builtin");
     SynthConfig per_pixel;
     per_pixel.camera.width = per_pixel.camera.height = 128;
-    per_pixel.render.msaa_samples = 0;
+    per_pixel.render.lights_per_vertex = false;
     SynthConfig per_vertex = per_pixel;
     apply_override(per_vertex, "render.lights_per_vertex=true");
     ASSERT_TRUE(per_vertex.render.lights_per_vertex);

@@ -195,8 +195,10 @@ TEST(Robustness, EdgeAntialiasingNeedsASingleSampleRenderAndIsRecorded) {
     EXPECT_EQ(run("render --size 64 --msaa 0 --supersample 2 --edge-aa -o " + (dir / "r").string(), &log), 2) << log;
     EXPECT_FALSE(fs::exists(dir / "r"));
     EXPECT_EQ(run("bench render --size 64 -n 5 --msaa 0 --bare --edge-aa --quiet", &log), 2) << log;
-    EXPECT_EQ(run("synth -o " + (dir / "s").string() + " -n 1 --set render.edge_antialiasing=true", &log), 1) << log;
-    EXPECT_TRUE(contains(log, "render.edge_antialiasing")) << log;
+    // synth anti-aliases edges by default: MSAA asks for edge anti-aliasing off.
+    EXPECT_EQ(run("synth -o " + (dir / "s").string() + " -n 1 --set render.msaa_samples=4", &log), 1) << log;
+    EXPECT_TRUE(contains(log, "render.msaa_samples") && contains(log, "render.edge_antialiasing = false")) << log;
+    EXPECT_FALSE(fs::exists(dir / "s" / "manifest.jsonl"));
     ASSERT_EQ(run("render --size 64 --msaa 0 --edge-aa --quiet -o " + (dir / "r").string(), &log), 0) << log;
     EXPECT_EQ(read_json(dir / "r" / "render.json")["edge_antialiasing"], true);
 }
