@@ -129,7 +129,8 @@ void run_bench(BenchArgs& b) {
     nlohmann::json report = {{"model", model.name}, {"vertices", model.num_vertices()}, {"width", config.camera.width},
                              {"height", config.camera.height}, {"count", config.count}, {"image_format", config.output.image_format},
                              {"png_compression", config.output.png_compression}, {"msaa", config.render.msaa_samples},
-                             {"supersampling", config.render.supersampling}, {"edge_antialiasing", config.render.edge_antialiasing}};
+                             {"supersampling", config.render.supersampling}, {"edge_antialiasing", config.render.edge_antialiasing},
+                             {"lights_per_vertex", config.render.lights_per_vertex}};
     const char* lp_threads = std::getenv("LP_NUM_THREADS");
     report["lp_num_threads"] = lp_threads ? lp_threads : "";
     const int all = a.threads;

@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <csignal>
+#include <fstream>
 #include <map>
 #include <set>
 #include <sys/resource.h>
@@ -588,6 +589,29 @@ TEST(SynthDatasetFiles, MergeNamesADamagedDatasetJsonOrMetaFile) {
                         "invalid JSON");
     EXPECT_FALSE(fs::exists(dir / "merged" / "manifest.jsonl"));
     EXPECT_FALSE(fs::exists(dir / "merged" / "coco.json"));
+}
+
+// bench synth's JSON carries the keys README lists, with the anti-aliasing and lighting settings it ran.
+TEST(SynthCli, BenchJsonHasTheListedKeysAndTheSettingsItRan) {
+    const auto dir = testkit::fresh_temp_dir("synth_bench_json");
+    const fs::path json = dir / "bench.json";
+    std::string log;
+    ASSERT_EQ(testkit::run_command(testkit::cli_path().string() + " bench synth --model " + toy_model_file().string() +
+                                       " -n 2 --size 32 --threads 2 --set render.lights_per_vertex=false --json " + json.string() +
+                                       " --quiet",
+                                   &log),
+              0)
+        << log;
+    std::ifstream in(json);
+    const nlohmann::json report = nlohmann::json::parse(in);
+    for (const char* key : {"samples_per_s_1_thread", "samples_per_s_all_threads", "cpu_ms_per_sample_1_thread",
+                            "cpu_ms_per_sample_all_threads", "cpu_ms_render", "cpu_ms_render_all_threads", "ms_write_all_threads",
+                            "msaa", "supersampling", "edge_antialiasing", "lights_per_vertex", "lp_num_threads", "renderer"})
+        EXPECT_TRUE(report.contains(key)) << key;
+    EXPECT_EQ(report["edge_antialiasing"], true);
+    EXPECT_EQ(report["lights_per_vertex"], false);
+    EXPECT_EQ(report["msaa"], 0);
+    EXPECT_EQ(report["count"], 2);
 }
 
 }  // namespace
