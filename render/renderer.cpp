@@ -191,6 +191,8 @@ namespace {
 enum Attribute : GLuint { kPosition = 0, kNormal = 1, kAlbedo = 2, kUv = 3, kTriangle = 4, kNumAttributes = 5 };
 
 constexpr float kDefaultAlbedo = 0.7f;
+// The gamma whose per-pixel encoding has a cheaper exact-enough form (shaders.h GAMMA_2_2).
+constexpr float kFastGamma = 2.2f;
 
 // The same view `factor` times larger: pixel (u, v) covers fine pixels factor·u .. factor·u + factor − 1,
 // i.e. fine = factor · (coarse + 0.5) − 0.5 in OpenCV pixel coordinates (centre of pixel 0 at 0).
@@ -210,7 +212,8 @@ Camera supersampled_camera(const Camera& camera, int factor) {
 // Shader variants: bit flags compiled in with #define (shaders.h).
 enum Variant : unsigned {
     kWithColour = 1, kWithNormals = 2, kWithIds = 4, kWithBarycentrics = 8, kWithTexture = 16, kWithLights = 32,
-    kTwoSided = 64, kWithShadows = 128, kPerPixelColour = 256, kLightsPerVertex = 512, kNumVariants = 1024
+    kTwoSided = 64, kWithShadows = 128, kPerPixelColour = 256, kLightsPerVertex = 512, kGamma22 = 1024,
+    kNumVariants = 2048
 };
 // No outputs: the depth-only pass that fills a shadow map.
 constexpr unsigned kDepthOnly = 0;
@@ -222,7 +225,7 @@ GLuint link_program(const GlFunctions& gl, unsigned variant) {
         {kWithColour, "WITH_COLOUR"}, {kWithNormals, "WITH_NORMALS"}, {kWithIds, "WITH_IDS"},
         {kWithBarycentrics, "WITH_BARYCENTRICS"}, {kWithTexture, "WITH_TEXTURE"}, {kWithLights, "WITH_LIGHTS"},
         {kTwoSided, "TWO_SIDED"}, {kWithShadows, "WITH_SHADOWS"}, {kPerPixelColour, "PER_PIXEL_COLOUR"},
-        {kLightsPerVertex, "LIGHTS_PER_VERTEX"}};
+        {kLightsPerVertex, "LIGHTS_PER_VERTEX"}, {kGamma22, "GAMMA_2_2"}};
     for (const auto& [bit, name] : defines)
         if (variant & bit) header += std::string("#define ") + name + "\n";
     header += detail::kCommonHeader;
@@ -834,7 +837,8 @@ struct Renderer::Impl {
         const unsigned shading = (with_texture ? kWithTexture : 0u) | (settings.lighting.lights.empty() ? 0u : kWithLights) |
                                  (settings.cull_back_faces ? 0u : kTwoSided) | (with_shadows ? kWithShadows : 0u) |
                                  (settings.per_pixel_colour || !uniform_albedo(mesh) ? kPerPixelColour : 0u) |
-                                 (lights_per_vertex ? kLightsPerVertex : 0u);
+                                 (lights_per_vertex ? kLightsPerVertex : 0u) |
+                                 (settings.lighting.gamma == kFastGamma ? kGamma22 : 0u);
         const bool multisampled = samples > 1;
         const bool separate_colour_pass = multisampled || supersampled;
         const bool with_normals = settings.geometry && settings.normals;

@@ -22,6 +22,9 @@
 //                      were most of a lit render's fragment cost; the albedo and the gamma encoding
 //                      stay per pixel, or with a uniform albedo the colour is per vertex as below.
 //                      Narrow highlights (nose ridge, lid creases) soften: docs/render.md "Shading".
+//   GAMMA_2_2          the lighting's gamma is 2.2 (the default): the per-pixel encoding takes three
+//                      square roots instead of a pow (~0.2 of 3.65 CPU ms of the built-in model's lit
+//                      256² render); within one level of pow (tests/render/test_fast_gamma.cpp)
 // Without a texture, per-pixel lights or TWO_SIDED (and for a uniform albedo: the renderer sets PER_PIXEL_COLOUR
 // otherwise) the colour is per vertex (COLOUR_PER_VERTEX): the vertex stage raises albedo · irradiance
 // to 2/gamma, and the fragment stage interpolates that and takes its square root, one sqrt instead of a
@@ -212,6 +215,18 @@ float light_visibility(int i, vec3 p, float n_dot_l) {
 }
 #endif
 
+// linear^(1/gamma) of a value in [0, 1].
+#ifdef GAMMA_2_2
+// For gamma 2.2, a sum of powers of x^(1/8) fitted to x^(1/2.2) (minimax by reweighted least squares on
+// [1e-8, 1]): three square roots instead of llvmpipe's log2 + exp2, at most 0.017 of an 8-bit level off.
+vec3 encode_gamma(vec3 x) {
+    vec3 x_half = sqrt(x), x_quarter = sqrt(x_half), x_eighth = sqrt(x_quarter);
+    return x_quarter * (-0.0198336506 + 0.286753863 * x_eighth) + x_half * (0.853105568 - 0.120092194 * x_eighth);
+}
+#else
+vec3 encode_gamma(vec3 x) { return pow(x, vec3(inverse_gamma)); }
+#endif
+
 void main() {
 #ifdef NEEDS_NORMAL
     vec3 n = normalize(fs_in.camera_normal);
@@ -253,7 +268,7 @@ void main() {
     }
 #endif
     vec3 linear_rgb = clamp(albedo * diffuse + highlight, 0.0, 1.0);
-    out_colour = vec4(pow(linear_rgb, vec3(inverse_gamma)), 1.0);
+    out_colour = vec4(encode_gamma(linear_rgb), 1.0);
 #endif
 #ifdef WITH_NORMALS
     out_normal = vec4(n, 0.0);
