@@ -10,7 +10,7 @@
 namespace facesynth::render {
 
 void EdgeTopology::build(const Mesh& mesh) {
-    const int vertex_count = mesh.num_vertices();
+    source.assign(mesh);
     struct HalfEdge {
         int low, high, triangle, opposite;
     };
@@ -18,9 +18,6 @@ void EdgeTopology::build(const Mesh& mesh) {
     half_edges.reserve(3 * mesh.triangles.size());
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const Triangle& tri = mesh.triangles[t];
-        for (int i : tri)
-            if (i < 0 || i >= vertex_count)
-                throw Error("render: triangle vertex index " + std::to_string(i) + " out of range");
         for (int k = 0; k < 3; ++k) {
             const int a = tri[static_cast<std::size_t>(k)], b = tri[static_cast<std::size_t>((k + 1) % 3)];
             half_edges.push_back({std::min(a, b), std::max(a, b), static_cast<int>(t), tri[static_cast<std::size_t>((k + 2) % 3)]});
@@ -49,8 +46,6 @@ void EdgeTopology::build(const Mesh& mesh) {
     sides.clear();
     sides.reserve(edges.size());
     for (const Edge& edge : edges) sides.push_back({edge.triangle[0] + 1, edge.triangle[1] + 1});
-    source = mesh.triangles;
-    source_vertices = vertex_count;
 }
 
 namespace {

@@ -13,12 +13,12 @@
 // itself (nose over cheek, ears, chin over neck). Geometry maps are not touched.
 #include "morph/mesh.h"
 #include "render/renderer.h"
+#include "render/triangle_list.h"
 
 #include <opencv2/core.hpp>
 
 #include <array>
 #include <cstdint>
-#include <cstring>
 #include <vector>
 
 namespace facesynth::render {
@@ -30,18 +30,13 @@ struct EdgeTopology {
         int triangle[2] = {-1, -1};          // -1: none (open border)
         int opposite[2] = {-1, -1};          // each triangle's third vertex
     };
-    std::vector<Triangle> source;  // the triangle list it was built from
-    int source_vertices = 0;
+    detail::TriangleListKey source;  // the triangle list it was built from
     std::vector<Edge> edges;       // edges of more than two triangles are left out (not a surface border)
     // Per edge, its triangles + 1 (0: none): all the per-render pass over every edge reads, 8 bytes an
     // edge instead of the 24 of `edges` (a synth worker finds them out of cache at every sample).
     std::vector<std::array<int, 2>> sides;
 
-    // One memcmp over the list: vector's operator== calls memcmp once per triangle (~30 instructions each).
-    [[nodiscard]] bool matches(const Mesh& mesh) const {
-        return source_vertices == mesh.num_vertices() && source.size() == mesh.triangles.size() &&
-               std::memcmp(source.data(), mesh.triangles.data(), source.size() * sizeof(Triangle)) == 0;
-    }
+    [[nodiscard]] bool matches(const Mesh& mesh) const { return source.matches(mesh); }
     // Throws facesynth::Error on a vertex index out of range.
     void build(const Mesh& mesh);
 };

@@ -6,6 +6,7 @@
 #include "render/gl_functions.h"
 #include "render/gl_program.h"
 #include "render/shaders.h"
+#include "render/triangle_list.h"
 
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
@@ -16,7 +17,6 @@
 #include <bit>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <limits>
 #include <numbers>
 #include <vector>
@@ -242,32 +242,23 @@ GLuint link_program(const GlFunctions& gl, unsigned variant) {
 // vertex serves when no earlier triangle took it; otherwise a copy of that vertex is appended, so
 // positions (and rasterisation) are unchanged. Built once per distinct triangle list.
 struct ProvokingTopology {
-    std::vector<Triangle> source;        // the mesh's triangles it was built from
-    int source_vertices = 0;
+    detail::TriangleListKey source;      // the mesh's triangle list it was built from
     std::vector<GLuint> indices;         // 3 per triangle, same order and corner order as `source`
-    std::vector<int> copied_from;        // for vertex slot source_vertices + i: the vertex it copies
+    std::vector<int> copied_from;        // for vertex slot source.vertices() + i: the vertex it copies
     std::vector<GLuint> triangle_of_slot;  // id + 1 of the triangle a slot provokes, 0 if none
 
-    // One memcmp over the list: vector's operator== calls memcmp once per triangle (~30 instructions each).
-    [[nodiscard]] bool matches(const Mesh& mesh) const {
-        return source_vertices == mesh.num_vertices() && source.size() == mesh.triangles.size() &&
-               std::memcmp(source.data(), mesh.triangles.data(), source.size() * sizeof(Triangle)) == 0;
-    }
-    [[nodiscard]] int slots() const { return source_vertices + static_cast<int>(copied_from.size()); }
+    [[nodiscard]] bool matches(const Mesh& mesh) const { return source.matches(mesh); }
+    [[nodiscard]] int slots() const { return source.vertices() + static_cast<int>(copied_from.size()); }
 
     void build(const Mesh& mesh) {
-        const int v = mesh.num_vertices();
-        for (const Triangle& t : mesh.triangles)
-            for (int i : t)
-                if (i < 0 || i >= v) throw Error("render: triangle vertex index " + std::to_string(i) + " out of range");
-        source = mesh.triangles;
-        source_vertices = v;
+        source.assign(mesh);
+        const std::vector<Triangle>& triangles = source.triangles();
         indices.clear();
-        indices.reserve(3 * source.size());
+        indices.reserve(3 * triangles.size());
         copied_from.clear();
-        triangle_of_slot.assign(static_cast<std::size_t>(v), 0u);
-        for (std::size_t t = 0; t < source.size(); ++t) {
-            const Triangle& tri = source[t];
+        triangle_of_slot.assign(static_cast<std::size_t>(source.vertices()), 0u);
+        for (std::size_t t = 0; t < triangles.size(); ++t) {
+            const Triangle& tri = triangles[t];
             GLuint provoking = static_cast<GLuint>(tri[2]);
             if (triangle_of_slot[provoking] != 0) {
                 provoking = static_cast<GLuint>(triangle_of_slot.size());
@@ -279,9 +270,9 @@ struct ProvokingTopology {
         }
     }
 
-    // Per-vertex columns of `values` (rows x source_vertices, column-major) extended to every slot.
+    // Per-vertex columns of `values` (rows x source.vertices(), column-major) extended to every slot.
     void expand(const float* values, int rows, std::vector<float>& out) const {
-        const std::size_t n = static_cast<std::size_t>(rows) * static_cast<std::size_t>(source_vertices);
+        const std::size_t n = static_cast<std::size_t>(rows) * static_cast<std::size_t>(source.vertices());
         out.resize(static_cast<std::size_t>(rows) * static_cast<std::size_t>(slots()));
         std::copy(values, values + n, out.begin());
         float* copy = out.data() + n;
