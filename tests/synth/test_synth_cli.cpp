@@ -336,7 +336,7 @@ TEST(SynthCli, LabelMapsHoldTheModelsRegionIds) {
     std::string log;
     const std::string args = " --model " + labelled_toy_model_file().string() +
                              " -n 4 --size 64 --seed 5 --format folder,wds --set output.labels=true --set output.mask=true"
-                             " --set render.msaa_samples=0 --quiet";
+                             " --set render.edge_antialiasing=false --quiet";  // no anti-aliasing
     ASSERT_EQ(synth(" -o " + dir.string() + args, &log), 0) << log;
     for (int i = 0; i < 4; ++i) {
         const std::string key = "s0000000" + std::to_string(i);
