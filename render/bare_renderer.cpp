@@ -39,7 +39,7 @@ struct BareRenderer::Impl {
             for (int i : t)
                 if (i < 0 || i >= mesh.num_vertices())
                     throw Error("render: triangle vertex index " + std::to_string(i) + " out of range");
-        context = detail::open_context(options.backend, options.allow_gpu_device);
+        context = detail::open_context(options);
         context->make_current();
         renderer_string = detail::load_functions(*context, gl);
         const std::array<GLuint, 2> shaders{detail::compile_shader(gl, GL_VERTEX_SHADER, kBareVertexShader),

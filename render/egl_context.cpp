@@ -25,8 +25,11 @@ bool has_extension(const char* extensions, const char* name) {
     return false;
 }
 
-// A display on a hardware EGL device (e.g. NVIDIA's EGL), or EGL_NO_DISPLAY when there is none.
-EGLDisplay hardware_device_display() {
+enum class DeviceKind { kHardware, kSoftware };
+
+// An initialised display on the first EGL device of that kind (a GPU from e.g. NVIDIA's EGL, or
+// Mesa's software rasteriser listed as a device), or EGL_NO_DISPLAY when there is none.
+EGLDisplay device_display(DeviceKind kind) {
     const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
     if (!has_extension(client, "EGL_EXT_platform_device") || !has_extension(client, "EGL_EXT_device_enumeration"))
         return EGL_NO_DISPLAY;
@@ -39,9 +42,8 @@ EGLDisplay hardware_device_display() {
     std::vector<EGLDeviceEXT> devices(static_cast<std::size_t>(count));
     if (!query_devices(count, devices.data(), &count)) return EGL_NO_DISPLAY;
     for (EGLint i = 0; i < count; ++i) {
-        // Mesa lists its software rasteriser as a device too; that one is what surfaceless gives.
         const char* extensions = query_device_string(devices[static_cast<std::size_t>(i)], EGL_EXTENSIONS);
-        if (has_extension(extensions, "EGL_MESA_device_software")) continue;
+        if (has_extension(extensions, "EGL_MESA_device_software") != (kind == DeviceKind::kSoftware)) continue;
         EGLDisplay display = get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[static_cast<std::size_t>(i)], nullptr);
         if (display == EGL_NO_DISPLAY) continue;
         EGLint major = 0, minor = 0;
@@ -53,16 +55,11 @@ EGLDisplay hardware_device_display() {
 
 class EglContext final : public GlContext {
 public:
-    explicit EglContext(bool allow_device) {
-        if (allow_device) {
-            display_ = hardware_device_display();
-            if (display_ != EGL_NO_DISPLAY) {
-                name_ = "egl-device";
-                if (try_create_context()) return;
-                eglTerminate(display_);
-                display_ = EGL_NO_DISPLAY;
-            }
-        }
+    EglContext(bool allow_device, bool software_device) {
+        if (allow_device && try_device(DeviceKind::kHardware, "egl-device")) return;
+        // Mesa's software device is a display of its own, separate from the surfaceless one (each
+        // display has its own llvmpipe screen and rasteriser), with the same driver.
+        if (software_device && try_device(DeviceKind::kSoftware, "egl-software-device")) return;
         const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
         if (!has_extension(client, "EGL_MESA_platform_surfaceless"))
             throw Error("EGL: the surfaceless platform (EGL_MESA_platform_surfaceless) is not available");
@@ -108,6 +105,16 @@ public:
     std::string backend_name() const override { return name_; }
 
 private:
+    bool try_device(DeviceKind kind, const char* name) {
+        display_ = device_display(kind);
+        if (display_ == EGL_NO_DISPLAY) return false;
+        name_ = name;
+        if (try_create_context()) return true;
+        eglTerminate(display_);
+        display_ = EGL_NO_DISPLAY;
+        return false;
+    }
+
     bool try_create_context() {
         if (!eglBindAPI(EGL_OPENGL_API)) return false;
         const EGLint config_attributes[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, 0, EGL_NONE};
@@ -142,6 +149,8 @@ const GlContext*& last_bound_context() {
     return bound;
 }
 
-std::unique_ptr<GlContext> create_egl_context(bool allow_device) { return std::make_unique<EglContext>(allow_device); }
+std::unique_ptr<GlContext> create_egl_context(bool allow_device, bool software_device) {
+    return std::make_unique<EglContext>(allow_device, software_device);
+}
 
 }  // namespace facesynth::render::detail

@@ -14,13 +14,15 @@ public:
     // Unbinds the context from the calling thread (if bound there) so another thread may bind it.
     virtual void release() = 0;
     [[nodiscard]] virtual void* get_proc_address(const char* name) const = 0;
-    // "egl-device", "egl-surfaceless" or "osmesa".
+    // "egl-device", "egl-surfaceless", "egl-software-device" or "osmesa".
     [[nodiscard]] virtual std::string backend_name() const = 0;
 };
 
 // EGL: a GPU device from the EGL device platform when a driver offers one (and `allow_device`),
-// else Mesa's surfaceless platform. Throws facesynth::Error saying what failed.
-[[nodiscard]] std::unique_ptr<GlContext> create_egl_context(bool allow_device);
+// else Mesa's software rasteriser on the surfaceless platform, or on its software device when
+// `software_device` and Mesa lists one (a second display, so a second llvmpipe screen). Throws
+// facesynth::Error saying what failed.
+[[nodiscard]] std::unique_ptr<GlContext> create_egl_context(bool allow_device, bool software_device);
 // Mesa's classic off-screen path. Throws facesynth::Error saying what failed.
 [[nodiscard]] std::unique_ptr<GlContext> create_osmesa_context();
 

@@ -15,7 +15,7 @@ namespace facesynth::render::detail {
 
 // EGL then OSMesa for Backend::kAuto (one warning per process when OSMesa takes over), or the one
 // asked for; throws facesynth::Error saying what failed.
-[[nodiscard]] std::unique_ptr<GlContext> open_context(Backend backend, bool allow_gpu_device);
+[[nodiscard]] std::unique_ptr<GlContext> open_context(const RendererOptions& options);
 
 // Camera space to clip space for a pinhole (or orthographic) camera in OpenCV pixels: window
 // x = u + 0.5, GL row 0 holds image row 0, z_ndc from -1 at `near` to +1 at `far` (docs/render.md).

@@ -75,12 +75,13 @@ void warn_egl_fallback(const std::string& egl_failure) {
 
 namespace detail {
 
-std::unique_ptr<GlContext> open_context(Backend backend, bool allow_gpu_device) {
+std::unique_ptr<GlContext> open_context(const RendererOptions& options) {
+    const Backend backend = options.backend;
     std::unique_ptr<GlContext> context;
     std::string failures;
     if (backend != Backend::kOsmesa) {
         try {
-            context = create_egl_context(allow_gpu_device);
+            context = create_egl_context(options.allow_gpu_device, options.software_display % 2 != 0);
         } catch (const Error& e) {
             if (backend == Backend::kEgl) throw;
             failures = e.what();
@@ -454,7 +455,7 @@ struct Renderer::Impl {
     bool perspective = true;
 
     explicit Impl(const RendererOptions& options) {
-        context = detail::open_context(options.backend, options.allow_gpu_device);
+        context = detail::open_context(options);
         context->make_current();
         renderer_string = detail::load_functions(*context, gl);
         gl.GetIntegerv(GL_MAX_SAMPLES, &max_samples);

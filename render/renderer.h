@@ -99,6 +99,12 @@ struct Frame {
 struct RendererOptions {
     Backend backend = Backend::kAuto;  // auto: EGL, then OSMesa
     bool allow_gpu_device = true;      // EGL device platform first when a GPU driver offers one
+    // Which of Mesa's two software EGL displays renders when no GPU device is used: even numbers
+    // the surfaceless platform, odd ones the software device (EGL_MESA_device_software), or
+    // surfaceless where Mesa offers no such device. llvmpipe rasterises one scene at a time per
+    // display, so renderers working in parallel on threads render faster on different displays
+    // (docs/render.md). The images are the same on either.
+    int software_display = 0;
 };
 
 class Renderer {

@@ -583,17 +583,19 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
     std::exception_ptr first_error;
     std::size_t generated = 0;
     std::size_t tars_written = 0;
-    std::string renderer_name;
+    const int thread_count = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(options.threads), std::max<std::size_t>(todo.size(), 1)));
+    std::vector<std::string> worker_renderers(static_cast<std::size_t>(thread_count));
     const OpenCvOnCallingThread opencv_threads;
     const auto start = Clock::now();
 
     const auto worker = [&](int worker_index) {
         try {
-            SampleGenerator generator(config, model, backgrounds, textures, options.renderer);
-            if (worker_index == 0) {
-                std::lock_guard lock(mutex);
-                renderer_name = generator.renderer_description();
-            }
+            // Workers alternate between Mesa's two software displays: llvmpipe rasterises one scene
+            // at a time per display, and two workers on one display waited for each other.
+            render::RendererOptions renderer_options = options.renderer;
+            renderer_options.software_display = worker_index;
+            SampleGenerator generator(config, model, backgrounds, textures, renderer_options);
+            worker_renderers[static_cast<std::size_t>(worker_index)] = generator.renderer_description();
             PngEncoder png(config.output.png_compression);
             StageTimes times;
             for (;;) {
@@ -648,7 +650,6 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
             if (!first_error) first_error = std::current_exception();
         }
     };
-    const int thread_count = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(options.threads), std::max<std::size_t>(todo.size(), 1)));
     std::vector<std::thread> threads;
     for (int t = 1; t < thread_count; ++t) threads.emplace_back(worker, t);
     worker(0);
@@ -657,7 +658,10 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
     result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     result.generated = generated;
     result.tars_written += tars_written;
-    result.renderer = renderer_name;
+    for (std::size_t w = 0; w < worker_renderers.size(); ++w)
+        if (std::find(worker_renderers.begin(), worker_renderers.begin() + static_cast<std::ptrdiff_t>(w), worker_renderers[w]) ==
+            worker_renderers.begin() + static_cast<std::ptrdiff_t>(w))
+            result.renderer += (result.renderer.empty() ? "" : " + ") + worker_renderers[w];
 
     // The final manifest and COCO file list this shard's samples in index order, whatever the
     // order they finished in.

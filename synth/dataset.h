@@ -59,7 +59,7 @@ struct RunResult {
     std::size_t tars_written = 0;
     double seconds = 0;            // wall time of the generation phase
     StageTimes times;              // summed over threads
-    std::string renderer;          // backend and GL renderer string of worker 0
+    std::string renderer;          // backend and GL renderer string, each distinct one the workers used joined by " + "
 };
 
 // Generates (or completes) this shard of the dataset in options.out. Throws facesynth::Error naming

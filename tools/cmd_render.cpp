@@ -330,10 +330,12 @@ void run_bench(const BenchArgs& b) {
     std::vector<render::Renderer> pool;
     std::vector<render::BareRenderer> bare_pool;
     for (int t = 0; t < threads; ++t) {
+        render::RendererOptions worker_options = options;
+        worker_options.software_display = t;  // as synth's workers: one llvmpipe rasteriser each for two threads
         if (b.bare)
-            bare_pool.emplace_back(mesh, options);
+            bare_pool.emplace_back(mesh, worker_options);
         else
-            pool.emplace_back(options);
+            pool.emplace_back(worker_options);
     }
     render::RenderSettings settings = view_settings(b.view);
     if (settings.lighting.shadows && settings.lighting.lights.empty())

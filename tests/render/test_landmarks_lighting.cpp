@@ -202,5 +202,44 @@ TEST(Resources, RenderersMoveBetweenThreads) {
     EXPECT_GT(cv::countNonZero(pool[0].render(mesh, make_camera(0, 0, 0, 48, 48)).mask), 300);
 }
 
+// Mesa lists its software rasteriser as an EGL device as well as offering the surfaceless platform:
+// two displays, each with its own llvmpipe screen, so renderers on threads do not queue behind one
+// rasteriser. Both must give the same bytes: synth's workers alternate between them.
+TEST(Resources, TheSecondSoftwareDisplayRendersTheSameBytesInParallel) {
+    const Mesh mesh = toy().instance({});
+    render::RenderSettings lit;
+    lit.lighting.lights.push_back({{0.5f, 0.5f, 1.0f}, {0.6f, 0.6f, 0.6f}});
+    lit.lighting.specular = 0.3f;
+    lit.msaa_samples = 0;
+    lit.edge_antialiasing = true;
+    std::vector<render::Renderer> pool;
+    for (int display = 0; display < 2; ++display) pool.emplace_back(render::RendererOptions{render::Backend::kEgl, false, display});
+    EXPECT_EQ(pool[0].backend(), "egl-surfaceless");
+    EXPECT_EQ(pool[1].backend(), "egl-software-device");
+    EXPECT_EQ(render::Renderer(render::RendererOptions{render::Backend::kEgl, false, 2}).backend(), "egl-surfaceless");
+    for (auto& renderer : pool) renderer.detach();
+
+    constexpr int kViews = 12;
+    std::vector<std::vector<render::Frame>> frames(2);
+    std::vector<std::thread> workers;
+    for (int t = 0; t < 2; ++t)
+        workers.emplace_back([&, t] {
+            for (int v = 0; v < kViews; ++v)
+                frames[static_cast<std::size_t>(t)].push_back(pool[static_cast<std::size_t>(t)].render(mesh, make_camera(10.0 * v - 60, 5, 0, 64, 64), lit));
+            pool[static_cast<std::size_t>(t)].detach();
+        });
+    for (auto& w : workers) w.join();
+    ASSERT_EQ(frames[0].size(), static_cast<std::size_t>(kViews));
+    ASSERT_EQ(frames[1].size(), static_cast<std::size_t>(kViews));
+    for (int v = 0; v < kViews; ++v) {
+        const auto& a = frames[0][static_cast<std::size_t>(v)];
+        const auto& b = frames[1][static_cast<std::size_t>(v)];
+        EXPECT_GT(cv::countNonZero(a.mask), 300) << "view " << v;
+        EXPECT_EQ(cv::norm(a.rgb, b.rgb, cv::NORM_INF), 0.0) << "view " << v;
+        EXPECT_EQ(cv::norm(a.mask, b.mask, cv::NORM_INF), 0.0) << "view " << v;
+        EXPECT_EQ(cv::norm(a.depth, b.depth, cv::NORM_INF), 0.0) << "view " << v;
+    }
+}
+
 }  // namespace
 }  // namespace facesynth

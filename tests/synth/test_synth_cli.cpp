@@ -612,6 +612,13 @@ TEST(SynthCli, BenchJsonHasTheListedKeysAndTheSettingsItRan) {
     EXPECT_EQ(report["lights_per_vertex"], false);
     EXPECT_EQ(report["msaa"], 0);
     EXPECT_EQ(report["count"], 2);
+    // The two workers render on Mesa's two software displays (a GPU device, where one is offered,
+    // serves both instead).
+    const std::string renderer = report["renderer"];
+    if (renderer.find("egl-device") == std::string::npos) {
+        EXPECT_EQ(renderer.rfind("egl-surfaceless | ", 0), 0u) << renderer;
+        EXPECT_NE(renderer.find(" + egl-software-device | "), std::string::npos) << renderer;
+    }
 }
 
 }  // namespace
