@@ -110,7 +110,7 @@ private:
         if (display_ == EGL_NO_DISPLAY) return false;
         name_ = name;
         if (try_create_context()) return true;
-        eglTerminate(display_);
+        // Not terminated: other renderers of this process may have contexts on the same display.
         display_ = EGL_NO_DISPLAY;
         return false;
     }

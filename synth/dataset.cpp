@@ -593,7 +593,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
             // Workers alternate between Mesa's two software displays: llvmpipe rasterises one scene
             // at a time per display, and two workers on one display waited for each other.
             render::RendererOptions renderer_options = options.renderer;
-            renderer_options.software_display = worker_index;
+            renderer_options.software_display = options.renderer.software_display + worker_index;
             SampleGenerator generator(config, model, backgrounds, textures, renderer_options);
             worker_renderers[static_cast<std::size_t>(worker_index)] = generator.renderer_description();
             PngEncoder png(config.output.png_compression);
@@ -658,10 +658,12 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
     result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     result.generated = generated;
     result.tars_written += tars_written;
-    for (std::size_t w = 0; w < worker_renderers.size(); ++w)
-        if (std::find(worker_renderers.begin(), worker_renderers.begin() + static_cast<std::ptrdiff_t>(w), worker_renderers[w]) ==
-            worker_renderers.begin() + static_cast<std::ptrdiff_t>(w))
-            result.renderer += (result.renderer.empty() ? "" : " + ") + worker_renderers[w];
+    std::vector<std::string> distinct_renderers;
+    for (const auto& name : worker_renderers)
+        if (std::find(distinct_renderers.begin(), distinct_renderers.end(), name) == distinct_renderers.end()) {
+            result.renderer += (distinct_renderers.empty() ? "" : " + ") + name;
+            distinct_renderers.push_back(name);
+        }
 
     // The final manifest and COCO file list this shard's samples in index order, whatever the
     // order they finished in.
