@@ -331,7 +331,7 @@ void run_bench(const BenchArgs& b) {
     std::vector<render::BareRenderer> bare_pool;
     for (int t = 0; t < threads; ++t) {
         render::RendererOptions worker_options = options;
-        worker_options.software_display = t;  // as synth's workers: one llvmpipe rasteriser each for two threads
+        worker_options.software_display = options.software_display + t;  // as synth's workers: one llvmpipe rasteriser each for two threads
         if (b.bare)
             bare_pool.emplace_back(mesh, worker_options);
         else
