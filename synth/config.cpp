@@ -164,6 +164,10 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
                  "redraw colour draws whose mean skin colour is implausible (too dark, light or red, wrong hue, clamped; docs/builtin-model.md); the others are unchanged"});
     f.push_back({"albedo.texture_folder", &c.albedo.texture_folder,
                  "folder of UV texture maps (images, sampled with the model's uv); each sample renders with one, chosen from (seed, index); empty = off"});
+    f.push_back({"albedo.texture_bank", &c.albedo.texture_bank,
+                 "texture bank made by `facesynth textures` for this model; each sample renders with one of its textures, chosen from (seed, index); empty = off"});
+    f.push_back({"albedo.texture_tone_jitter", &c.albedo.texture_tone_jitter,
+                 "with a texture: its linear albedo times a per-channel gain uniform in [1 - x, 1 + x] per sample (0 = as in the texture)"});
     add_angle(f, "yaw", c.pose.yaw);
     add_angle(f, "pitch", c.pose.pitch);
     add_angle(f, "roll", c.pose.roll);
@@ -258,6 +262,8 @@ void validate(const SynthConfig& c) {
     require(c.expression.min_weight <= c.expression.max_weight, "expression.min_weight", "must not exceed expression.max_weight");
     require(c.expression.truncation >= 0, "expression.truncation", "must not be negative");
     require(c.albedo.truncation >= 0, "albedo.truncation", "must not be negative");
+    require(c.albedo.texture_folder.empty() || c.albedo.texture_bank.empty(), "albedo.texture_bank", "cannot be combined with albedo.texture_folder: set one");
+    require(c.albedo.texture_tone_jitter >= 0 && c.albedo.texture_tone_jitter < 1, "albedo.texture_tone_jitter", "must be in [0, 1)");
     validate_angle(c.pose.yaw, "yaw");
     validate_angle(c.pose.pitch, "pitch");
     validate_angle(c.pose.roll, "roll");

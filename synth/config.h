@@ -43,6 +43,8 @@ struct AlbedoConfig {
     // their own random stream, so that the samples that pass keep their bytes.
     bool reject_implausible = true;
     std::string texture_folder;  // folder of UV texture maps; each sample renders with one of them
+    std::string texture_bank;    // texture bank (`facesynth textures`); each sample renders with one of its textures
+    double texture_tone_jitter = 0;  // texture's linear albedo times a per-channel gain uniform in [1 - x, 1 + x]
 };
 
 struct PoseConfig {

@@ -6,6 +6,7 @@
 #include "synth/exr.h"
 #include "synth/png.h"
 #include "synth/tar.h"
+#include "synth/texture_bank.h"
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -471,6 +472,7 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const M
     j.key("texture");
     if (sample.texture.empty()) j.null();
     else j.string(sample.texture);
+    j.key("texture_gain").point(s.texture_gain);
     j.key("translation").point(s.pose.translation);
     j.key("visibility").integers(chosen_visibility(labels, mode));
     j.key("visibility_contour").integers(labels.visible_contour);
@@ -571,10 +573,12 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
 
     ImageLibrary backgrounds, textures;
     if (config.background.type == "images") backgrounds = ImageLibrary(config.background.folder, "background");
-    if (!config.albedo.texture_folder.empty()) {
+    if (!config.albedo.texture_folder.empty() || !config.albedo.texture_bank.empty()) {
+        const std::string key = config.albedo.texture_bank.empty() ? "albedo.texture_folder" : "albedo.texture_bank";
         if (model.uv.cols() != model.num_vertices())
-            throw Error("albedo.texture_folder: model '" + model.name + "' has no uv coordinates to map a texture with");
-        textures = ImageLibrary(config.albedo.texture_folder, "texture");
+            throw Error(key + ": model '" + model.name + "' has no uv coordinates to map a texture with");
+        textures = config.albedo.texture_bank.empty() ? ImageLibrary(config.albedo.texture_folder, "texture")
+                                                      : load_texture_bank(config.albedo.texture_bank, model);
     }
 
     std::atomic<std::size_t> next{0};

@@ -83,7 +83,9 @@ void image_crop(cv::Mat& out, const BackgroundSpec& b, const ImageLibrary& libra
     crop_h = std::min(crop_h, source.rows);
     const int x = rng.uniform_int(0, source.cols - crop_w);
     const int y = rng.uniform_int(0, source.rows - crop_h);
-    cv::resize(source(cv::Rect(x, y, crop_w, crop_h)), out, out.size(), 0, 0, cv::INTER_AREA);
+    // Area averaging when shrinking; bilinear when enlarging (area averaging would repeat pixels in blocks).
+    const int interpolation = crop_w >= out.cols ? cv::INTER_AREA : cv::INTER_LINEAR;
+    cv::resize(source(cv::Rect(x, y, crop_w, crop_h)), out, out.size(), 0, 0, interpolation);
     if (rng.uniform() < 0.5) cv::flip(out, out, 1);
 }
 
@@ -174,6 +176,21 @@ void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::
     }
 }
 
+// sRGB texture values whose linear albedo is multiplied by `gain` per channel (R G B).
+void tone_texture(const cv::Mat& rgb, const Eigen::Vector3d& gain, cv::Mat& out) {
+    cv::Mat lut(1, 256, CV_8UC3);
+    for (int v = 0; v < 256; ++v) {
+        const double x = v / 255.0;
+        const double linear = x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4);
+        for (int c = 0; c < 3; ++c) {
+            const double y = std::min(1.0, linear * gain[c]);
+            const double encoded = y <= 0.0031308 ? 12.92 * y : 1.055 * std::pow(y, 1 / 2.4) - 0.055;
+            lut.at<cv::Vec3b>(v)[c] = cv::saturate_cast<uchar>(255.0 * encoded);
+        }
+    }
+    cv::LUT(rgb, lut, out);
+}
+
 std::vector<int> occluded_by(const Eigen::Matrix2Xd& pixels, const cv::Mat& coverage) {
     std::vector<int> occluded(static_cast<std::size_t>(pixels.cols()), 0);
     for (Eigen::Index i = 0; i < pixels.cols(); ++i) {
@@ -244,6 +261,8 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel
         throw Error("background.type = \"images\" needs a background folder with readable images");
     if (!config.albedo.texture_folder.empty() && textures.empty())
         throw Error("albedo.texture_folder needs a folder with readable texture images");
+    if (!config.albedo.texture_bank.empty() && textures.empty())
+        throw Error("albedo.texture_bank: the bank " + config.albedo.texture_bank + " was not loaded");
 }
 
 std::string SampleGenerator::renderer_description() const { return renderer_.backend() + " | " + renderer_.renderer_string(); }
@@ -273,6 +292,10 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     if (s.spec.texture_choice) {
         extras.texture = &textures_.image(*s.spec.texture_choice);
         s.texture = textures_.name(*s.spec.texture_choice);
+        if (s.spec.texture_gain != Eigen::Vector3d::Ones()) {
+            tone_texture(*extras.texture, s.spec.texture_gain, toned_texture_);
+            extras.texture = &toned_texture_;
+        }
     }
     renderer_.render(mesh, camera, settings, frame_, extras);
     clock.lap(local.render);

@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace facesynth::synth {
@@ -77,6 +78,8 @@ class ImageLibrary {
 public:
     ImageLibrary() = default;
     ImageLibrary(const std::filesystem::path& folder, const std::string& kind);
+    // Images already read (CV_8UC3 RGB), with their names.
+    ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names) : images_(std::move(images)), names_(std::move(names)) {}
     [[nodiscard]] bool empty() const { return images_.empty(); }
     [[nodiscard]] const cv::Mat& image(std::uint64_t choice) const { return images_[choice % images_.size()]; }
     [[nodiscard]] const std::string& name(std::uint64_t choice) const { return names_[choice % names_.size()]; }
@@ -107,6 +110,7 @@ private:
     render::Frame frame_;
     Mesh mesh_;  // the model's triangles and uv, set once; vertices and colours per sample
     cv::Mat background_, background_canvas_;  // per sample, in buffers kept between samples
+    cv::Mat toned_texture_;  // the sample's texture times its albedo.texture_tone_jitter gains
 };
 
 // Landmarks of the mode named in config.landmarks.mode, with their visibility.

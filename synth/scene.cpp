@@ -258,9 +258,12 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
         Rng rng = make_rng(config.seed, i, RandomStream::kAlbedo);
         s.skin_tone = sample_skin_tone(rng);
     }
-    if (!config.albedo.texture_folder.empty()) {
+    if (!config.albedo.texture_folder.empty() || !config.albedo.texture_bank.empty()) {
         Rng rng = make_rng(config.seed, i, RandomStream::kTexture);
         s.texture_choice = rng.next_u64();
+        const double jitter = config.albedo.texture_tone_jitter;
+        if (jitter > 0)
+            for (int c = 0; c < 3; ++c) s.texture_gain[c] = rng.uniform(1 - jitter, 1 + jitter);
     }
     {
         Rng rng = make_rng(config.seed, i, RandomStream::kPose);

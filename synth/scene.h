@@ -63,8 +63,10 @@ struct SampleSpec {
     double albedo_shrink = 1;   // < 1: no redraw passed and the first draw was moved toward the mean
     // Uniform skin colour (linear RGB) for models without a colour model; empty otherwise.
     std::optional<Eigen::Vector3d> skin_tone;
-    // With albedo.texture_folder: which texture map (a draw taken modulo the number of maps).
+    // With albedo.texture_folder or albedo.texture_bank: which texture map (a draw taken modulo the number of maps).
     std::optional<std::uint64_t> texture_choice;
+    // With albedo.texture_tone_jitter: per-channel gain on the texture's linear albedo (R G B).
+    Eigen::Vector3d texture_gain = Eigen::Vector3d::Ones();
     EulerAngles angles;
     CameraPose pose;
     Intrinsics intrinsics;

@@ -5,7 +5,10 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include <cmath>
 #include <cstdio>
+#include <exception>
+#include <string>
 #include <unistd.h>
 
 namespace facesynth::cli {
@@ -79,6 +82,23 @@ CLI::Option* add_detector_option(CLI::App& command, std::string& value) {
                     "model given, else multiview)")
         ->check(CLI::IsMember({"auto", "frontal", "multiview", "dlib", "dlib+profile"}))
         ->capture_default_str();
+}
+
+CLI::Validator finite_range(double min, double max) {
+    return CLI::Validator(
+        [min, max](const std::string& text) -> std::string {
+            double value = 0;
+            std::size_t used = 0;
+            try {
+                value = std::stod(text, &used);
+            } catch (const std::exception&) {
+                return "'" + text + "' is not a number";
+            }
+            if (used != text.size() || !std::isfinite(value)) return "'" + text + "' is not a finite number";
+            if (value < min || value > max) return "'" + text + "' is not in [" + CLI::detail::to_string(min) + ", " + CLI::detail::to_string(max) + "]";
+            return {};
+        },
+        "FLOAT in [" + CLI::detail::to_string(min) + " - " + CLI::detail::to_string(max) + "]");
 }
 
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value) {

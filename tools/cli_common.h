@@ -47,6 +47,9 @@ CLI::App& eval_group(CLI::App& app);
 // multiview, dlib or dlib+profile (train/regressor.h choose_detector).
 CLI::Option* add_detector_option(CLI::App& command, std::string& value);
 
+// A number in [min, max]; NaN and infinities are refused (CLI::Range lets NaN through).
+[[nodiscard]] CLI::Validator finite_range(double min, double max);
+
 // Creates an output folder (and its parents); throws facesynth::Error naming it when it cannot.
 void create_output_folder(const std::filesystem::path& dir);
 

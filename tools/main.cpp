@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
     facesynth::cli::register_report_commands(app);
     facesynth::cli::register_frontal_commands(app);
     facesynth::cli::register_recognition_commands(app);
+    facesynth::cli::register_appearance_commands(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,320 @@
+#include "fit/frontal/photo_texture.h"
+
+#include "morph/error.h"
+#include "morph/landmarks.h"
+#include "morph/mesh.h"
+#include "morph/regions.h"
+
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+namespace facesynth::frontal {
+namespace {
+
+// The renderer shows linear albedo a under unit light as a^(1/2.2); photographs are read the same way.
+constexpr double kGamma = 2.2;
+
+double srgb_encode(double linear) {
+    linear = std::clamp(linear, 0.0, 1.0);
+    return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
+}
+
+// The nine real spherical harmonics of bands 0-2 at unit normal n, without their constants (a least-squares
+// fit absorbs them).
+Eigen::Matrix<double, 9, 1> sh_basis(const Eigen::Vector3d& n) {
+    Eigen::Matrix<double, 9, 1> y;
+    y << 1, n.x(), n.y(), n.z(), n.x() * n.y(), n.x() * n.z(), n.y() * n.z(), n.x() * n.x() - n.y() * n.y(), 3 * n.z() * n.z() - 1;
+    return y;
+}
+
+bool is_face_region(std::uint8_t label) {
+    const auto r = static_cast<Region>(label);
+    return r == Region::kSkin || r == Region::kBrows || r == Region::kEyes || r == Region::kLips || r == Region::kNose;
+}
+
+// Skin in the sense of shading estimation: albedo close to uniform (no brows, eyes, lips or hair).
+bool is_plain_skin(std::uint8_t label) {
+    const auto r = static_cast<Region>(label);
+    return r == Region::kSkin || r == Region::kNose;
+}
+
+// CIELAB of linear RGB colours (one row of CV_32FC3 in, one out).
+cv::Mat lab_of_linear(const std::vector<cv::Vec3f>& rgb_linear) {
+    cv::Mat row(1, static_cast<int>(rgb_linear.size()), CV_32FC3);
+    auto* p = row.ptr<cv::Vec3f>();
+    for (std::size_t i = 0; i < rgb_linear.size(); ++i)
+        for (int c = 0; c < 3; ++c) p[i][c] = static_cast<float>(srgb_encode(rgb_linear[i][c]));
+    cv::cvtColor(row, row, cv::COLOR_RGB2Lab);
+    return row;
+}
+
+double percentile(std::vector<double> values, double q) {
+    if (values.empty()) return 0;
+    const auto k = static_cast<std::size_t>(std::clamp(q, 0.0, 1.0) * static_cast<double>(values.size() - 1));
+    std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+    return values[k];
+}
+
+// Where a face texel's colour in the photograph can be trusted: the 68 landmarks' convex hull, with the
+// brows raised by 0.6 of the nose-tip-to-brow distance to take in the forehead. Beyond the jaw line the
+// fitted head meets hair, ears, neck or background, whatever the fit.
+std::vector<cv::Point2f> trusted_face_polygon(const Eigen::Matrix2Xd& landmarks) {
+    std::vector<cv::Point2f> points;
+    for (Eigen::Index i = 0; i < landmarks.cols(); ++i) points.emplace_back(static_cast<float>(landmarks(0, i)), static_cast<float>(landmarks(1, i)));
+    const Eigen::Vector2d brow_mid = landmarks.middleCols(17, 10).rowwise().mean();
+    const Eigen::Vector2d up = 0.6 * (brow_mid - landmarks.col(30));
+    for (Eigen::Index i = 17; i < 27; ++i)
+        points.emplace_back(static_cast<float>(landmarks(0, i) + up.x()), static_cast<float>(landmarks(1, i) + up.y()));
+    std::vector<cv::Point2f> hull;
+    cv::convexHull(points, hull);
+    return hull;
+}
+
+PhotoTexture rejected(PhotoTexture t, std::string why) {
+    t.rejection = std::move(why);
+    t.texture.release();
+    return t;
+}
+
+}  // namespace
+
+void push_pull_fill(cv::Mat& colour, const cv::Mat& weight) {
+    if (colour.type() != CV_32FC3 || weight.type() != CV_32FC1 || colour.size() != weight.size())
+        throw Error("push-pull fill: expects a CV_32FC3 colour and a CV_32FC1 weight of the same size");
+    if (cv::countNonZero(weight > 0) == 0) throw Error("push-pull fill: no texel has a colour to fill from");
+    if (colour.rows <= 1 && colour.cols <= 1) return;
+    // Pull: the weighted mean of each 2x2 block; a block with any colour counts as known (weight 1) one
+    // level down when its weights add up to one texel's worth.
+    cv::Mat premultiplied;
+    cv::Mat weight3;
+    cv::merge(std::vector<cv::Mat>{weight, weight, weight}, weight3);
+    cv::multiply(colour, weight3, premultiplied);
+    const cv::Size half((colour.cols + 1) / 2, (colour.rows + 1) / 2);
+    cv::Mat coarse_colour, coarse_weight;
+    cv::resize(premultiplied, coarse_colour, half, 0, 0, cv::INTER_AREA);
+    cv::resize(weight, coarse_weight, half, 0, 0, cv::INTER_AREA);
+    for (int r = 0; r < half.height; ++r) {
+        auto* c = coarse_colour.ptr<cv::Vec3f>(r);
+        auto* w = coarse_weight.ptr<float>(r);
+        for (int x = 0; x < half.width; ++x) {
+            if (w[x] > 0) c[x] /= w[x];
+            w[x] = std::min(1.0f, 4.0f * w[x]);
+        }
+    }
+    push_pull_fill(coarse_colour, coarse_weight);
+    // Push: the coarse level, brought back up, fills what the fine level lacks.
+    cv::Mat up;
+    cv::resize(coarse_colour, up, colour.size(), 0, 0, cv::INTER_LINEAR);
+    for (int r = 0; r < colour.rows; ++r) {
+        auto* c = colour.ptr<cv::Vec3f>(r);
+        const auto* u = up.ptr<cv::Vec3f>(r);
+        const auto* w = weight.ptr<float>(r);
+        for (int x = 0; x < colour.cols; ++x) {
+            const float keep = std::clamp(w[x], 0.0f, 1.0f);
+            c[x] = keep * c[x] + (1.0f - keep) * u[x];
+        }
+    }
+}
+
+PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& image, const Eigen::Matrix2Xd& landmarks,
+                                   const PhotoTextureOptions& options) {
+    const MorphableModel& model = frontaliser.model();
+    if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
+        throw Error("texture: model '" + model.name + "' has no symmetry map to fill the hidden side with");
+    if (landmarks.cols() != kNumIbugLandmarks) throw Error("texture: expected 68 landmarks, got " + std::to_string(landmarks.cols()));
+    PhotoTexture out;
+
+    fit::FitOptions fit_options;
+    fit_options.jaw = fit::JawMode::kContour;
+    fit::FitResult fit;
+    try {
+        fit = frontaliser.fitter().fit(landmarks, fit_options);
+    } catch (const Error& e) {
+        return rejected(out, std::string("fit: ") + e.what());
+    }
+    out.yaw_deg = fit.pose.angles.yaw;
+    out.pitch_deg = fit.pose.angles.pitch;
+    out.roll_deg = fit.pose.angles.roll;
+    const double iod = inter_ocular_distance(landmarks);
+    out.fit_error = iod > 0 ? fit.reprojection_rms_px / iod : 1e9;
+    char text[160];
+    if (std::abs(out.yaw_deg) > options.max_abs_yaw_deg) {
+        std::snprintf(text, sizeof text, "pose: yaw %.0f° beyond ±%.0f°", out.yaw_deg, options.max_abs_yaw_deg);
+        return rejected(out, text);
+    }
+    if (!(out.fit_error <= options.max_fit_error)) {
+        std::snprintf(text, sizeof text, "fit: landmark RMS %.3f of the inter-ocular distance, above %.3f", out.fit_error, options.max_fit_error);
+        return rejected(out, text);
+    }
+
+    const Eigen::Matrix3Xf vertices = fit::fitted_shape(model, fit);
+    IsomapOptions isomap_options;
+    isomap_options.size = options.size;
+    cv::Mat isomap = frontaliser.extract_isomap(image, vertices, {fit.camera, fit.pose}, isomap_options);
+    const UvRaster& raster = frontaliser.uv_raster(options.size);
+    const Eigen::Matrix3Xf normals = vertex_normals(vertices, model.triangles);
+    const bool labelled = model.vertex_labels.size() == static_cast<std::size_t>(model.num_vertices());
+
+    // Per covered texel: its region (the label of its heaviest corner) and its normal (model space: the
+    // shading fit below is free in all nine coefficients, so its frame does not matter).
+    const std::size_t texel_count = raster.texels.size();
+    std::vector<std::uint8_t> region(texel_count, static_cast<std::uint8_t>(Region::kSkin));
+    std::vector<Eigen::Vector3d> texel_normal(texel_count);
+    for (const UvRaster::TriangleTexels& tri : raster.triangles) {
+        for (int k = tri.first; k < tri.first + tri.count; ++k) {
+            const UvRaster::Texel& t = raster.texels[static_cast<std::size_t>(k)];
+            Eigen::Vector3f n = Eigen::Vector3f::Zero();
+            std::size_t heaviest = 0;
+            for (std::size_t c = 0; c < 3; ++c) {
+                n += t.weights[c] * normals.col(tri.vertices[c]);
+                if (t.weights[c] > t.weights[heaviest]) heaviest = c;
+            }
+            texel_normal[static_cast<std::size_t>(k)] = n.cast<double>().normalized();
+            if (labelled) region[static_cast<std::size_t>(k)] = model.vertex_labels[static_cast<std::size_t>(tri.vertices[heaviest])];
+        }
+    }
+
+    // Face texels seen outside the face's polygon show something else in the photograph: not seen.
+    const std::vector<cv::Point2f> face_polygon = trusted_face_polygon(landmarks);
+    auto* isomap_px = isomap.ptr<cv::Vec4b>();
+    for (const UvRaster::TriangleTexels& tri : raster.triangles)
+        for (int k = tri.first; k < tri.first + tri.count; ++k) {
+            const UvRaster::Texel& t = raster.texels[static_cast<std::size_t>(k)];
+            if (isomap_px[t.index][3] == 0 || (labelled && !is_face_region(region[static_cast<std::size_t>(k)]))) continue;
+            Eigen::Vector3d position = Eigen::Vector3d::Zero();
+            for (std::size_t c = 0; c < 3; ++c) position += t.weights[c] * vertices.col(tri.vertices[c]).cast<double>();
+            const Eigen::Vector2d p = fit.camera.project(position);
+            if (cv::pointPolygonTest(face_polygon, cv::Point2f(static_cast<float>(p.x()), static_cast<float>(p.y())), false) < 0)
+                isomap_px[t.index][3] = 0;
+        }
+
+    // Linear colours of the seen texels, and the shading fit over the seen plain skin.
+    const auto* pixels = isomap.ptr<cv::Vec4b>();
+    std::vector<double> to_linear(256);
+    for (int v = 0; v < 256; ++v) to_linear[static_cast<std::size_t>(v)] = std::pow(v / 255.0, kGamma);
+    std::vector<std::size_t> skin;
+    int face_texels = 0, face_seen = 0;
+    for (std::size_t k = 0; k < texel_count; ++k) {
+        const bool seen = pixels[raster.texels[k].index][3] > 0;
+        if (!labelled || is_face_region(region[k])) {
+            ++face_texels;
+            face_seen += seen ? 1 : 0;
+        }
+        if (seen && pixels[raster.texels[k].index][3] >= 64 && (!labelled || is_plain_skin(region[k]))) skin.push_back(k);
+    }
+    out.seen_share = face_texels > 0 ? static_cast<double>(face_seen) / face_texels : 0;
+    if (skin.size() < 200) return rejected(out, "coverage: fewer than 200 skin texels seen");
+
+    Eigen::Matrix<double, 9, 3> sh = Eigen::Matrix<double, 9, 3>::Zero();
+    sh(0, 0) = sh(0, 1) = sh(0, 2) = 1;
+    if (options.remove_shading) {
+        Eigen::MatrixXd a(static_cast<Eigen::Index>(skin.size()), 9);
+        Eigen::MatrixXd b(static_cast<Eigen::Index>(skin.size()), 3);
+        for (std::size_t i = 0; i < skin.size(); ++i) {
+            const auto& p = pixels[raster.texels[skin[i]].index];
+            a.row(static_cast<Eigen::Index>(i)) = sh_basis(texel_normal[skin[i]]).transpose();
+            for (int c = 0; c < 3; ++c) b(static_cast<Eigen::Index>(i), c) = to_linear[p[2 - c]];
+        }
+        // A light ridge penalty on bands 1-2 keeps the fit sane when the seen skin spans few normals.
+        Eigen::Matrix<double, 9, 9> normal_matrix = a.transpose() * a;
+        const double ridge = 1e-3 * normal_matrix(0, 0);
+        for (int j = 1; j < 9; ++j) normal_matrix(j, j) += ridge;
+        sh = normal_matrix.ldlt().solve(a.transpose() * b);
+    }
+    const auto shading_of = [&](std::size_t k) -> Eigen::Vector3d { return (sh_basis(texel_normal[k]).transpose() * sh).transpose(); };
+    Eigen::Vector3d mean_shading = Eigen::Vector3d::Zero();
+    std::vector<double> grey_shading;
+    grey_shading.reserve(skin.size());
+    for (std::size_t k : skin) {
+        const Eigen::Vector3d s = shading_of(k);
+        mean_shading += s;
+        grey_shading.push_back(s.mean());
+    }
+    mean_shading /= static_cast<double>(skin.size());
+    if (!(mean_shading.minCoeff() > 0)) return rejected(out, "shading: the fitted light is not positive over the skin");
+    out.shading_range = percentile(grey_shading, 0.9) / std::max(1e-6, percentile(grey_shading, 0.1));
+
+    // Albedo (linear) of every seen texel: its colour over its shading relative to the mean, so that the
+    // skin keeps the photograph's average colour.
+    cv::Mat albedo(options.size, options.size, CV_32FC3, cv::Scalar::all(0));
+    cv::Mat seen(options.size, options.size, CV_8UC4, cv::Scalar::all(0));  // the isomap layout for mirror_fill
+    auto* albedo_px = albedo.ptr<cv::Vec3f>();
+    auto* seen_px = seen.ptr<cv::Vec4b>();
+    for (std::size_t k = 0; k < texel_count; ++k) {
+        const int index = raster.texels[k].index;
+        const cv::Vec4b& p = pixels[index];
+        if (p[3] == 0) continue;
+        const Eigen::Vector3d s = shading_of(k).cwiseMax(options.min_shading * mean_shading).cwiseQuotient(mean_shading);
+        cv::Vec3f linear;
+        for (int c = 0; c < 3; ++c) linear[c] = static_cast<float>(std::min(1.0, to_linear[p[2 - c]] / s[c]));
+        albedo_px[index] = linear;
+        // Stored in the isomap's 8-bit B G R A layout so that the model's mirror fill can move it.
+        for (int c = 0; c < 3; ++c) seen_px[index][2 - c] = cv::saturate_cast<uchar>(255.0 * std::pow(linear[c], 1 / kGamma));
+        seen_px[index][3] = p[3];
+    }
+
+    // Outliers among the seen skin: far from the skin's median colour.
+    std::vector<cv::Vec3f> skin_linear;
+    skin_linear.reserve(skin.size());
+    std::array<std::vector<double>, 3> channels;
+    for (std::size_t k : skin) {
+        const cv::Vec3f& a = albedo_px[raster.texels[k].index];
+        skin_linear.push_back(a);
+        for (std::size_t c = 0; c < 3; ++c) channels[c].push_back(a[static_cast<int>(c)]);
+    }
+    cv::Vec3f median_linear;
+    for (std::size_t c = 0; c < 3; ++c) {
+        median_linear[static_cast<int>(c)] = static_cast<float>(percentile(channels[c], 0.5));
+        out.skin_srgb[c] = 255.0 * srgb_encode(median_linear[static_cast<int>(c)]);
+    }
+    const cv::Vec3f median_lab = lab_of_linear({median_linear}).at<cv::Vec3f>(0);
+    const cv::Mat skin_lab = lab_of_linear(skin_linear);
+    int outliers = 0;
+    for (int i = 0; i < skin_lab.cols; ++i) outliers += cv::norm(skin_lab.at<cv::Vec3f>(i) - median_lab) > kOutlierDeltaE ? 1 : 0;
+    out.skin_outliers = static_cast<double>(outliers) / static_cast<double>(skin_lab.cols);
+
+    // The hidden side from the mirror, then coverage of the face counted after it.
+    frontaliser.mirror_fill(seen);
+    int face_filled = 0;
+    for (std::size_t k = 0; k < texel_count; ++k)
+        if ((!labelled || is_face_region(region[k])) && seen_px[raster.texels[k].index][3] > 0) ++face_filled;
+    out.face_coverage = face_texels > 0 ? static_cast<double>(face_filled) / face_texels : 0;
+    if (out.face_coverage < options.min_face_coverage) {
+        std::snprintf(text, sizeof text, "coverage: %.0f %% of the face seen (with its mirror), below %.0f %%", 100 * out.face_coverage,
+                      100 * options.min_face_coverage);
+        return rejected(out, text);
+    }
+    if (out.skin_outliers > options.max_skin_outliers) {
+        std::snprintf(text, sizeof text, "occlusion: %.0f %% of the seen skin far from its median colour, above %.0f %%", 100 * out.skin_outliers,
+                      100 * options.max_skin_outliers);
+        return rejected(out, text);
+    }
+
+    // Every texel: the seen and mirrored ones, weighted by how squarely they were seen (grazing texels
+    // blend into their neighbours), the rest from the pyramid.
+    cv::Mat weight(options.size, options.size, CV_32FC1, cv::Scalar(0));
+    auto* weight_px = weight.ptr<float>();
+    for (std::size_t k = 0; k < texel_count; ++k) {
+        const int index = raster.texels[k].index;
+        const cv::Vec4b& p = seen_px[index];
+        if (p[3] == 0) continue;
+        for (int c = 0; c < 3; ++c) albedo_px[index][c] = static_cast<float>(to_linear[p[2 - c]]);
+        weight_px[index] = std::min(1.0f, static_cast<float>(p[3]) / 128.0f);
+    }
+    push_pull_fill(albedo, weight);
+    out.texture.create(options.size, options.size, CV_8UC3);
+    for (int r = 0; r < options.size; ++r) {
+        const auto* a = albedo.ptr<cv::Vec3f>(r);
+        auto* t = out.texture.ptr<cv::Vec3b>(r);
+        for (int c = 0; c < options.size; ++c)
+            for (int ch = 0; ch < 3; ++ch) t[c][ch] = cv::saturate_cast<uchar>(255.0 * srgb_encode(a[c][ch]));
+    }
+    return out;
+}
+
+}  // namespace facesynth::frontal

@@ -1,0 +1,61 @@
+#pragma once
+// A model texture (albedo in uv space) taken from one photograph with 68 landmarks, for synth's texture
+// bank (docs/textures.md): fit, isomap with visibility, removal of the photograph's low-frequency
+// shading, mirror fill of the hidden side, then every remaining texel (holes, hidden scalp, borders)
+// filled smoothly from its neighbours. Photographs that give no usable texture are rejected with a
+// reason (pose, coverage, occlusion, fit).
+#include "fit/frontal/frontalise.h"
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <array>
+#include <string>
+
+namespace facesynth::frontal {
+
+struct PhotoTextureOptions {
+    int size = 512;                    // texture side, texels
+    bool remove_shading = true;        // divide by the photograph's fitted shading (off: colours as photographed)
+    // The shading is never taken below this share of its mean over the skin: deep shadows and the
+    // texels facing away from every light keep some of their own colour instead of blowing up.
+    double min_shading = 0.35;
+    double max_abs_yaw_deg = 50;       // steeper faces: rejected (too little of the face is seen)
+    // Share of the face's texels (skin, brows, eyes, lips, nose) seen in the photograph directly or
+    // through their mirror texel; below it the texture is rejected.
+    double min_face_coverage = 0.6;
+    // Share of seen skin texels whose colour lies far (kOutlierDeltaE in CIELAB) from the skin's median
+    // colour after shading removal: hands, glasses, microphones, hair across the face. Above it: rejected.
+    double max_skin_outliers = 0.2;
+    // The fit's landmark RMS over the inter-ocular distance (iBUG 37-46); above it: rejected.
+    double max_fit_error = 0.08;
+};
+
+// Skin texels farther than this from the skin's median colour (CIE76 ΔE) count as outliers.
+inline constexpr double kOutlierDeltaE = 25.0;
+
+struct PhotoTexture {
+    cv::Mat texture;        // CV_8UC3, R G B: the renderer's albedo texture (sRGB-encoded linear albedo), every texel filled
+    std::string rejection;  // empty when usable; otherwise why not ("pose: ...", "coverage: ...", ...)
+    double yaw_deg = 0, pitch_deg = 0, roll_deg = 0;
+    double face_coverage = 0;      // see PhotoTextureOptions::min_face_coverage
+    double seen_share = 0;         // share of the face's texels seen directly (before the mirror fill)
+    double skin_outliers = 0;      // see PhotoTextureOptions::max_skin_outliers
+    double fit_error = 0;          // see PhotoTextureOptions::max_fit_error
+    double shading_range = 0;      // fitted shading over the seen skin: 90th / 10th percentile (1 = flat light)
+    std::array<double, 3> skin_srgb{};  // median skin colour of the texture (sRGB, 0-255, R G B)
+};
+
+// Builds the texture of the face with `landmarks` (68 iBUG points, 0-based pixels) in `image` (8-bit BGR
+// or grey). Throws facesynth::Error when the model has no uv or no symmetry map; a fit that fails
+// (degenerate landmarks) gives a rejection, not an exception.
+[[nodiscard]] PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& image, const Eigen::Matrix2Xd& landmarks,
+                                                 const PhotoTextureOptions& options = {});
+
+// Fills every texel of `colour` (CV_32FC3) whose `weight` (CV_32FC1, in [0, 1]) is below 1 from the
+// weighted colours around it (push-pull over an image pyramid): weight 0 texels take the pyramid's
+// colour, partial weights blend with it, weight 1 texels stay. Throws facesynth::Error when no texel
+// has weight.
+void push_pull_fill(cv::Mat& colour, const cv::Mat& weight);
+
+}  // namespace facesynth::frontal

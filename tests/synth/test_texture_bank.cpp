@@ -1,0 +1,167 @@
+// The texture bank on disk (synth/texture_bank.h) and backgrounds cut from annotated photographs
+// (synth/photo_backgrounds.h).
+#include "common/test_data.h"
+#include "morph/builtin.h"
+#include "morph/error.h"
+#include "morph/random.h"
+#include "synth/photo_backgrounds.h"
+#include "synth/texture_bank.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace facesynth::synth {
+namespace {
+
+namespace fs = std::filesystem;
+
+TextureBankManifest header_for(const MorphableModel& model, int size) {
+    TextureBankManifest h;
+    h.model = model.name;
+    h.model_checksum = model.checksum();
+    h.vertices = model.num_vertices();
+    h.size = size;
+    return h;
+}
+
+cv::Mat solid(int size, uchar r, uchar g, uchar b) { return {size, size, CV_8UC3, cv::Scalar(r, g, b)}; }
+
+std::string error_of(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+class TextureBankTest : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() { model_ = std::make_unique<MorphableModel>(builtin_model()); }
+    static void TearDownTestSuite() { model_.reset(); }
+    static std::unique_ptr<MorphableModel> model_;
+};
+std::unique_ptr<MorphableModel> TextureBankTest::model_;
+
+TEST_F(TextureBankTest, WrittenBankLoadsForItsModelInManifestOrder) {
+    const fs::path dir = testkit::fresh_temp_dir("texture_bank_roundtrip");
+    const fs::path bank = dir / "bank";
+    {
+        TextureBankWriter writer(bank, header_for(*model_, 16));
+        TextureBankEntry e;
+        e.source = "a.jpg";
+        e.yaw_deg = 12.5;
+        e.skin_srgb = {200, 150, 120};
+        writer.add(solid(16, 10, 20, 30), e);
+        e.source = "b.jpg";
+        writer.add(solid(16, 40, 50, 60), e);
+        writer.reject("c.jpg", "pose: yaw 70° beyond ±50°");
+        EXPECT_FALSE(fs::exists(bank));  // nothing in place before commit
+        writer.commit();
+    }
+    ASSERT_TRUE(fs::exists(bank / "bank.json"));
+    const TextureBankManifest m = read_texture_bank_manifest(bank);
+    ASSERT_EQ(m.textures.size(), 2u);
+    EXPECT_EQ(m.textures[0].source, "a.jpg");
+    EXPECT_DOUBLE_EQ(m.textures[0].yaw_deg, 12.5);
+    EXPECT_EQ(m.textures[1].skin_srgb[0], 200);
+    ASSERT_EQ(m.rejected.size(), 1u);
+    EXPECT_EQ(m.rejected[0].source, "c.jpg");
+    const ImageLibrary library = load_texture_bank(bank, *model_);
+    ASSERT_EQ(library.size(), 2u);
+    EXPECT_EQ(library.image(1).at<cv::Vec3b>(0, 0), cv::Vec3b(40, 50, 60));  // R G B as written
+    EXPECT_EQ(library.name(0), m.textures[0].file);
+}
+
+TEST_F(TextureBankTest, UncommittedWriterLeavesNothingAndANonBankFolderIsNeverReplaced) {
+    const fs::path dir = testkit::fresh_temp_dir("texture_bank_partial");
+    {
+        TextureBankWriter writer(dir / "bank", header_for(*model_, 16));
+        writer.add(solid(16, 1, 2, 3), {});
+    }
+    EXPECT_FALSE(fs::exists(dir / "bank"));
+    for (const auto& entry : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << entry.path();
+    fs::create_directories(dir / "photos");
+    const std::string message = error_of([&] { TextureBankWriter writer(dir / "photos", header_for(*model_, 16)); });
+    EXPECT_NE(message.find("is not a texture bank"), std::string::npos) << message;
+    TextureBankWriter writer(dir / "bank", header_for(*model_, 16));
+    EXPECT_THROW(writer.add(solid(8, 1, 2, 3), {}), Error);  // wrong size
+}
+
+TEST_F(TextureBankTest, BadBanksAreRefusedNamingTheFileAndTheProblem) {
+    const fs::path dir = testkit::fresh_temp_dir("texture_bank_bad");
+    const fs::path bank = dir / "bank";
+    {
+        TextureBankWriter writer(bank, header_for(*model_, 16));
+        writer.add(solid(16, 1, 2, 3), {});
+        writer.commit();
+    }
+    // Made for another model.
+    TextureBankManifest other = header_for(*model_, 16);
+    other.model = "surrey";
+    other.model_checksum = "0123456789abcdef";
+    other.vertices = 3448;
+    {
+        TextureBankWriter writer(dir / "other", other);
+        writer.add(solid(16, 1, 2, 3), {});
+        writer.commit();
+    }
+    std::string message = error_of([&] { (void)load_texture_bank(dir / "other", *model_); });
+    EXPECT_NE(message.find("bank.json"), std::string::npos) << message;
+    EXPECT_NE(message.find("made for model 'surrey'"), std::string::npos) << message;
+    // A texture of the wrong size, and one that is not an image.
+    cv::imwrite((bank / "textures" / "000000.png").string(), solid(8, 1, 2, 3));
+    message = error_of([&] { (void)load_texture_bank(bank, *model_); });
+    EXPECT_NE(message.find("000000.png"), std::string::npos) << message;
+    std::ofstream(bank / "textures" / "000000.png") << "not a png";
+    message = error_of([&] { (void)load_texture_bank(bank, *model_); });
+    EXPECT_NE(message.find("cannot read the texture"), std::string::npos) << message;
+    // No manifest, not JSON, not a bank.
+    fs::create_directories(dir / "empty");
+    message = error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    EXPECT_NE(message.find("not a texture bank"), std::string::npos) << message;
+    std::ofstream(dir / "empty" / "bank.json") << "{";
+    message = error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    EXPECT_NE(message.find("not valid JSON"), std::string::npos) << message;
+    std::ofstream(dir / "empty" / "bank.json") << R"({"format": "something else"})";
+    message = error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    EXPECT_NE(message.find("not a texture bank manifest"), std::string::npos) << message;
+    std::ofstream(dir / "empty" / "bank.json") << R"({"format": "facesynth-texture-bank", "version": 1, "model": "builtin",
+        "model_checksum": "x", "vertices": 1, "size": 16, "textures": [{"file": "../../etc/passwd"}]})";
+    message = error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    EXPECT_NE(message.find("relative path inside the bank"), std::string::npos) << message;
+    EXPECT_THROW((void)load_texture_bank(dir / "missing", *model_), Error);
+}
+
+TEST(PhotoBackgrounds, RegionsNeverMeetTheAnnotatedFace) {
+    Rng rng(5, 0, 0);
+    for (int trial = 0; trial < 200; ++trial) {
+        const cv::Size image(rng.uniform_int(100, 900), rng.uniform_int(100, 900));
+        const double w = rng.uniform(20, 300), h = rng.uniform(20, 300);
+        const double x = rng.uniform(-50, image.width), y = rng.uniform(-50, image.height);
+        Eigen::Matrix2Xd landmarks(2, 68);
+        for (int i = 0; i < 68; ++i) landmarks.col(i) << x + rng.uniform(0, w), y + rng.uniform(0, h);
+        const cv::Rect face = face_exclusion_box(image, landmarks);
+        const cv::Rect image_rect(cv::Point(0, 0), image);
+        const Eigen::Vector2d low = landmarks.rowwise().minCoeff(), high = landmarks.rowwise().maxCoeff();
+        for (const cv::Rect& r : background_regions(image, landmarks, 32)) {
+            EXPECT_EQ(r & image_rect, r);
+            EXPECT_GE(std::min(r.width, r.height), 32);
+            EXPECT_EQ((r & face).area(), 0);
+            // Not even the landmarks' own box (with the hair above it) reaches into a region.
+            EXPECT_TRUE(r.x >= high.x() || r.x + r.width <= low.x() || r.y >= high.y() || r.y + r.height <= low.y() - 0.5 * (high.y() - low.y()))
+                << trial;
+        }
+    }
+    EXPECT_THROW((void)background_regions({100, 100}, Eigen::Matrix2Xd(2, 0), 16), Error);
+    Eigen::Matrix2Xd nan_landmarks = Eigen::Matrix2Xd::Zero(2, 68);
+    nan_landmarks(0, 3) = std::nan("");
+    EXPECT_THROW((void)background_regions({100, 100}, nan_landmarks, 16), Error);
+}
+
+}  // namespace
+}  // namespace facesynth::synth

@@ -1,0 +1,171 @@
+// `facesynth textures`, `backgrounds`, synth with albedo.texture_bank and `eval realism` end to end on
+// renders standing in for photographs, with the bad inputs each must refuse.
+#include "common/test_data.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace {
+
+namespace fs = std::filesystem;
+using facesynth::testkit::cli_path;
+using facesynth::testkit::fresh_temp_dir;
+using facesynth::testkit::read_json;
+using facesynth::testkit::run_command;
+
+std::string cli() { return cli_path().string(); }
+
+std::string read_bytes(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+// Near-frontal renders as "photographs": IMAGE.png with IMAGE.pts beside it.
+fs::path make_photos(const fs::path& dir, int count) {
+    const fs::path data = dir / "renders";
+    std::string out;
+    const std::string cmd = cli() + " synth --out " + data.string() + " -n " + std::to_string(count) +
+                            " --seed 3 --set pose.yaw.min=-20 --set pose.yaw.max=20 --set pose.pitch.min=-5 --set pose.pitch.max=5"
+                            " --set camera.face_scale_min=0.3 --set camera.face_scale_max=0.35 --quiet";
+    EXPECT_EQ(run_command(cmd, &out), 0) << out;
+    const fs::path photos = dir / "photos";
+    fs::create_directories(photos);
+    for (const auto& entry : fs::directory_iterator(data / "images")) {
+        const std::string stem = entry.path().stem().string();
+        fs::copy_file(entry.path(), photos / entry.path().filename());
+        fs::copy_file(data / "landmarks" / (stem + ".pts"), photos / (stem + ".pts"));
+    }
+    return photos;
+}
+
+// Each test in its own folder: ctest runs them as separate processes, in parallel.
+class CmdAppearance : public ::testing::Test {
+protected:
+    void SetUp() override {
+        const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+        dir = fresh_temp_dir("cmd_appearance_" + name);
+        photos = make_photos(dir, 6);
+    }
+    fs::path dir, photos;
+};
+
+TEST_F(CmdAppearance, TexturesBuildABankThatSynthDrawsFromDeterministically) {
+    const fs::path with_bad = dir / "photos_with_bad";
+    fs::create_directories(with_bad);
+    for (const auto& entry : fs::directory_iterator(photos)) fs::copy_file(entry.path(), with_bad / entry.path().filename());
+    std::ofstream(with_bad / "broken.png") << "not an image";
+    std::string out;
+    const fs::path bank = dir / "bank";
+    const fs::path summary = dir / "textures.json";
+    ASSERT_EQ(run_command(cli() + " textures --photos " + with_bad.string() + " --out " + bank.string() + " --size 128 -q --json " + summary.string(), &out),
+              0)
+        << out;
+    const auto j = read_json(summary);
+    EXPECT_EQ(j["photos"], 7);
+    EXPECT_EQ(j["rejected_unreadable"], 1);  // broken.png: reported, the others still processed
+    EXPECT_GE(j["textures"].get<int>(), 4);
+    for (const char* key : {"rejected_pose", "rejected_coverage", "rejected_occlusion", "rejected_fit", "with_pts", "detected"})
+        EXPECT_TRUE(j.contains(key)) << key;
+    const auto manifest = read_json(bank / "bank.json");
+    EXPECT_EQ(manifest["model"], "builtin");
+    EXPECT_EQ(manifest["size"], 128);
+    bool broken_listed = false;
+    for (const auto& r : manifest["rejected"]) broken_listed |= r["source"].get<std::string>().find("broken.png") != std::string::npos;
+    EXPECT_TRUE(broken_listed);
+
+    // Sample i is the same with one worker or two, and with the bank it records its texture and gain.
+    const std::string synth = cli() + " synth -n 4 --seed 9 --size 96 -q --set albedo.texture_bank=" + bank.string() +
+                              " --set albedo.texture_tone_jitter=0.1";
+    ASSERT_EQ(run_command(synth + " --threads 1 -o " + (dir / "s1").string(), &out), 0) << out;
+    ASSERT_EQ(run_command(synth + " --threads 2 -o " + (dir / "s2").string(), &out), 0) << out;
+    for (int i = 0; i < 4; ++i) {
+        const std::string key = "s0000000" + std::to_string(i);
+        EXPECT_EQ(read_bytes(dir / "s1" / "images" / (key + ".png")), read_bytes(dir / "s2" / "images" / (key + ".png"))) << key;
+        const auto meta = read_json(dir / "s1" / "meta" / (key + ".json"));
+        EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);
+        EXPECT_NE(meta["texture_gain"], nlohmann::json::array({1.0, 1.0, 1.0}));
+    }
+    // A bank made for another model is refused, naming the bank.
+    auto other = manifest;
+    other["model_checksum"] = "0000000000000000";
+    const fs::path other_bank = dir / "other_bank";
+    fs::copy(bank, other_bank, fs::copy_options::recursive);
+    std::ofstream(other_bank / "bank.json") << other.dump();
+    EXPECT_EQ(run_command(cli() + " synth -n 1 -q -o " + (dir / "s3").string() + " --set albedo.texture_bank=" + other_bank.string(), &out), 1);
+    EXPECT_NE(out.find("made for model"), std::string::npos) << out;
+    EXPECT_NE(out.find("bank.json"), std::string::npos) << out;
+    // texture_folder and texture_bank together: a config error naming the key.
+    EXPECT_EQ(run_command(cli() + " synth -n 1 -q -o " + (dir / "s4").string() + " --set albedo.texture_bank=" + bank.string() +
+                              " --set albedo.texture_folder=" + photos.string(),
+                          &out),
+              1);
+    EXPECT_NE(out.find("albedo.texture_bank"), std::string::npos) << out;
+}
+
+TEST_F(CmdAppearance, TexturesRefuseEmptyFoldersAndLeaveNoPartialBank) {
+    std::string out;
+    fs::create_directories(dir / "empty");
+    EXPECT_EQ(run_command(cli() + " textures --photos " + (dir / "empty").string() + " --out " + (dir / "bank_empty").string(), &out), 1);
+    EXPECT_NE(out.find("no images"), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(dir / "bank_empty"));
+    // Every photograph rejected: no bank either.
+    EXPECT_EQ(run_command(cli() + " textures -q --max-yaw 0.001 --photos " + photos.string() + " --out " + (dir / "bank_none").string(), &out), 1);
+    EXPECT_NE(out.find("no usable texture"), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(dir / "bank_none"));
+    for (const auto& entry : fs::directory_iterator(dir))
+        EXPECT_EQ(entry.path().filename().string().find(".partial"), std::string::npos) << entry.path();
+    EXPECT_EQ(run_command(cli() + " textures --photos " + photos.string(), &out), 2);  // --out missing: usage error
+}
+
+TEST_F(CmdAppearance, BackgroundsCutTheFaceAwayAndNeverOverwrite) {
+    std::string out;
+    const fs::path backgrounds = dir / "backgrounds";
+    const fs::path summary = dir / "backgrounds.json";
+    ASSERT_EQ(run_command(cli() + " backgrounds -q --min-side 24 --photos " + photos.string() + " --out " + backgrounds.string() + " --json " +
+                              summary.string(),
+                          &out),
+              0)
+        << out;
+    const auto j = read_json(summary);
+    EXPECT_GT(j["backgrounds"].get<int>(), 0);
+    int files = 0;
+    for ([[maybe_unused]] const auto& entry : fs::directory_iterator(backgrounds)) ++files;
+    EXPECT_EQ(files, j["backgrounds"].get<int>());
+    EXPECT_EQ(run_command(cli() + " backgrounds -q --photos " + photos.string() + " --out " + backgrounds.string(), &out), 1);
+    EXPECT_NE(out.find("exists already"), std::string::npos) << out;
+    // The backgrounds work as synth's image backgrounds.
+    EXPECT_EQ(run_command(cli() + " synth -n 2 --size 64 -q -o " + (dir / "s_bg").string() + " --set background.type=images --set background.folder=" +
+                              backgrounds.string(),
+                          &out),
+              0)
+        << out;
+}
+
+TEST_F(CmdAppearance, RealismComparesRendersWithPhotographs) {
+    std::string out;
+    const fs::path summary = dir / "realism.json";
+    ASSERT_EQ(run_command(cli() + " eval realism -q --data " + (dir / "renders").string() + " --photos " + photos.string() + " --json " +
+                              summary.string(),
+                          &out),
+              0)
+        << out;
+    const auto j = read_json(summary);
+    EXPECT_EQ(j["renders_faces"], 6);
+    EXPECT_GE(j["photos_faces"].get<int>(), 5);  // the same renders; their yaw fitted from the labels
+    for (const char* key : {"nme_ratio", "renders_nme_mean", "renders_failure_rate_008", "photos_nme_median", "renders_bias_x_01", "photos_bias_y_68"})
+        EXPECT_TRUE(j.contains(key)) << key;
+    if (j["renders_detected"].get<int>() > 0 && j["photos_detected"].get<int>() > 0) {
+        EXPECT_GT(j["nme_ratio"].get<double>(), 0.0);
+    }
+    EXPECT_EQ(run_command(cli() + " eval realism -q --data " + (dir / "renders").string() + " --max-yaw nan", &out), 2);
+    EXPECT_EQ(run_command(cli() + " eval realism -q --data " + photos.string(), &out), 1);  // no meta: no yaw
+    EXPECT_NE(out.find("no render with"), std::string::npos) << out;
+}
+
+}  // namespace

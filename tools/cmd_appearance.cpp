@@ -1,0 +1,393 @@
+// Appearance from photographs for synth: `facesynth textures` (a texture bank: fit/frontal/photo_texture.h
+// for one photograph, synth/texture_bank.h on disk) and `facesynth backgrounds` (the photographs with
+// their annotated face cut away: synth/photo_backgrounds.h; a face detector rejects strips that show
+// another face). docs/textures.md.
+#include "cli_common.h"
+#include "commands.h"
+
+#include "fit/frontal/photo_texture.h"
+#include "morph/error.h"
+#include "morph/image_header.h"
+#include "morph/landmarks.h"
+#include "morph/atomic_file.h"
+#include "morph/model_io.h"
+#include "synth/photo_backgrounds.h"
+#include "synth/texture_bank.h"
+#include "fit/fit.h"
+#include "train/dataset.h"
+#include "train/realism.h"
+#include "train/face_box.h"
+#include "train/regressor.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <initializer_list>
+#include <map>
+#include <memory>
+#include <optional>
+
+namespace facesynth::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TexturesArgs {
+    std::string photos;
+    std::string model = "builtin";
+    std::string out;
+    std::string regressor = "dlib";
+    std::string detector = "auto";
+    int size = 512;
+    bool keep_shading = false;
+    double max_yaw = 50;
+    double min_coverage = 0.6;
+    double max_outliers = 0.2;
+    double max_fit_error = 0.08;
+    std::string json;
+    bool quiet = false;
+};
+
+// The images of a folder, sorted (the bank and the backgrounds must not depend on directory order).
+std::vector<fs::path> photographs_in(const std::string& folder) {
+    const fs::path photos(folder);
+    if (!fs::is_directory(photos)) throw file_error(folder, "photo folder not found");
+    std::vector<fs::path> images;
+    for (const auto& entry : fs::directory_iterator(photos))
+        if (entry.is_regular_file() && is_image_file(entry.path())) images.push_back(entry.path());
+    std::sort(images.begin(), images.end());
+    if (images.empty()) throw file_error(folder, "no images in the folder");
+    return images;
+}
+
+// The reason's first word ("pose", "coverage", ...) for the summary.
+std::string reason_kind(const std::string& reason) { return reason.substr(0, reason.find(':')); }
+
+void run_textures(const TexturesArgs& a) {
+    const std::vector<fs::path> images = photographs_in(a.photos);
+    const fs::path photos(a.photos);
+
+    const MorphableModel model = load_model(a.model);
+    frontal::PhotoTextureOptions options;
+    options.size = a.size;
+    options.remove_shading = !a.keep_shading;
+    options.max_abs_yaw_deg = a.max_yaw;
+    options.min_face_coverage = a.min_coverage;
+    options.max_skin_outliers = a.max_outliers;
+    options.max_fit_error = a.max_fit_error;
+    frontal::Frontaliser frontaliser(model);
+    if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
+        throw Error("textures: model '" + model.name + "' (" + a.model + ") has no symmetry map to fill the hidden side with");
+
+    synth::TextureBankManifest header;
+    header.model = model.name;
+    header.model_checksum = model.checksum();
+    header.vertices = model.num_vertices();
+    header.size = a.size;
+    header.settings = {{"photos", photos.string()},           {"remove_shading", options.remove_shading},
+                       {"min_shading", options.min_shading},  {"max_abs_yaw_deg", options.max_abs_yaw_deg},
+                       {"min_face_coverage", options.min_face_coverage}, {"max_skin_outliers", options.max_skin_outliers},
+                       {"max_fit_error", options.max_fit_error}, {"outlier_delta_e", frontal::kOutlierDeltaE},
+                       {"detector_for_photos_without_pts", a.regressor}};
+    synth::TextureBankWriter bank(a.out, header);
+
+    // Photographs without a .pts: the largest face the regressor's detector finds.
+    std::unique_ptr<train::LandmarkRegressor> regressor;
+    std::unique_ptr<train::FaceDetector> detector;
+    std::map<std::string, int> reasons;
+    int from_pts = 0, detected = 0;
+    Progress progress("textures", images.size(), a.quiet);
+    for (const fs::path& path : images) {
+        std::string source = "pts";
+        try {
+            check_image_not_too_large(path);
+            const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+            if (image.empty()) throw file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
+            fs::path pts = path;
+            pts.replace_extension(".pts");
+            Eigen::Matrix2Xd landmarks;
+            if (fs::exists(pts)) {
+                landmarks = read_pts(pts);
+                if (landmarks.cols() != kNumIbugLandmarks)
+                    throw file_error(pts.string(), "has " + std::to_string(landmarks.cols()) + " points, expected 68 (iBUG)");
+                ++from_pts;
+            } else {
+                if (!regressor) {
+                    regressor = train::open_regressor(a.regressor);
+                    const train::LandmarkRegressor* const regressors[] = {regressor.get()};
+                    detector = std::make_unique<train::FaceDetector>(train::choose_detector(a.detector, regressors));
+                }
+                const cv::Mat gray = train::to_gray8(image);
+                const auto boxes = detector->detect(gray);
+                if (boxes.empty()) throw file_error(path.string(), "no face found (and no .pts beside it)");
+                landmarks = regressor->predict(gray, boxes.front());
+                source = regressor->label();
+                ++detected;
+            }
+            frontal::PhotoTexture t = frontal::extract_photo_texture(frontaliser, image, landmarks, options);
+            if (!t.rejection.empty()) {
+                ++reasons[reason_kind(t.rejection)];
+                bank.reject(path.string(), t.rejection);
+            } else {
+                synth::TextureBankEntry e;
+                e.source = path.string();
+                e.landmarks_source = source;
+                e.yaw_deg = t.yaw_deg, e.pitch_deg = t.pitch_deg, e.roll_deg = t.roll_deg;
+                e.face_coverage = t.face_coverage, e.seen_share = t.seen_share, e.skin_outliers = t.skin_outliers;
+                e.fit_error = t.fit_error, e.shading_range = t.shading_range, e.skin_srgb = t.skin_srgb;
+                bank.add(t.texture, std::move(e));
+            }
+        } catch (const Error& e) {
+            ++reasons["unreadable"];
+            bank.reject(path.string(), e.what());
+            if (!a.quiet) std::fprintf(stderr, "facesynth: warning: %s (skipped)\n", e.what());
+        }
+        progress.advance();
+    }
+    progress.finish();
+    const auto& m = bank.manifest();
+    if (m.textures.empty()) throw file_error(a.photos, "no usable texture in " + std::to_string(images.size()) + " photographs; no bank written");
+    const std::size_t kept = m.textures.size(), rejected = m.rejected.size();
+    bank.commit();
+    if (!a.quiet) {
+        std::printf("%zu textures from %zu photographs -> %s (%d with .pts, %d detected); rejected %zu", kept, images.size(), a.out.c_str(),
+                    from_pts, detected, rejected);
+        for (const auto& [kind, count] : reasons) std::printf(", %s %d", kind.c_str(), count);
+        std::printf("\n");
+    }
+    if (!a.json.empty()) {
+        nlohmann::json j;
+        j["photos"] = images.size();
+        j["textures"] = kept;
+        j["rejected"] = rejected;
+        for (const char* kind : {"pose", "coverage", "occlusion", "fit", "shading", "unreadable"})
+            j[std::string("rejected_") + kind] = reasons.count(kind) ? reasons.at(kind) : 0;
+        j["with_pts"] = from_pts;
+        j["detected"] = detected;
+        j["model"] = model.name;
+        j["size"] = a.size;
+        j["out"] = a.out;
+        write_json_file(a.json, j);
+    }
+}
+
+struct BackgroundsArgs {
+    std::string photos;
+    std::string out;
+    int min_side = 96;
+    std::string json;
+    bool quiet = false;
+};
+
+void run_backgrounds(const BackgroundsArgs& a) {
+    const std::vector<fs::path> images = photographs_in(a.photos);
+    const fs::path out(a.out);
+    if (fs::exists(out)) throw file_error(a.out, "exists already; choose a new folder");
+    fs::path temporary = out;
+    temporary += ".partial";
+    std::error_code error;
+    fs::remove_all(temporary, error);
+    create_output_folder(temporary);
+    // dlib's detector misses faces under about 80 px: strips are searched at twice their size.
+    const train::FaceDetector detector(train::DetectorKind::kDlib);
+    int written = 0, with_face = 0, skipped = 0;
+    Progress progress("backgrounds", images.size(), a.quiet);
+    try {
+        for (const fs::path& path : images) {
+            try {
+                fs::path pts = path;
+                pts.replace_extension(".pts");
+                if (!fs::exists(pts)) throw file_error(path.string(), "no .pts beside it: the face to cut away is not known");
+                const Eigen::Matrix2Xd landmarks = read_pts(pts);
+                check_image_not_too_large(path);
+                const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+                if (image.empty()) throw file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
+                int k = 0;
+                for (const cv::Rect& region : synth::background_regions(image.size(), landmarks, a.min_side)) {
+                    const cv::Mat strip = image(region);
+                    cv::Mat larger;
+                    cv::resize(train::to_gray8(strip), larger, cv::Size(), 2, 2, cv::INTER_LINEAR);
+                    if (!detector.detect(larger).empty()) {
+                        ++with_face;
+                        continue;
+                    }
+                    std::vector<unsigned char> jpeg;
+                    cv::imencode(".jpg", strip, jpeg, {cv::IMWRITE_JPEG_QUALITY, 95});
+                    const fs::path file = temporary / (path.stem().string() + "_" + std::to_string(k++) + ".jpg");
+                    write_file_atomically(file, std::string_view(reinterpret_cast<const char*>(jpeg.data()), jpeg.size()));
+                    ++written;
+                }
+            } catch (const Error& e) {
+                ++skipped;
+                if (!a.quiet) std::fprintf(stderr, "facesynth: warning: %s (skipped)\n", e.what());
+            }
+            progress.advance();
+        }
+        progress.finish();
+        if (written == 0) throw file_error(a.photos, "no background strip of at least " + std::to_string(a.min_side) + " px without a face");
+        fs::rename(temporary, out);
+    } catch (...) {
+        fs::remove_all(temporary, error);
+        throw;
+    }
+    if (!a.quiet)
+        std::printf("%d backgrounds from %zu photographs -> %s (%d strips with a detected face dropped, %d photographs skipped)\n", written,
+                    images.size(), a.out.c_str(), with_face, skipped);
+    if (!a.json.empty())
+        write_json_file(a.json, {{"photos", images.size()}, {"backgrounds", written}, {"dropped_with_face", with_face}, {"skipped", skipped},
+                                 {"min_side", a.min_side}, {"out", a.out}});
+}
+
+struct RealismArgs {
+    std::string data;
+    std::string photos;
+    std::string regressor = "dlib";
+    std::string detector = "dlib";
+    double max_yaw = 20;
+    std::string json;
+    bool quiet = false;
+};
+
+// Near-frontal images: renders by their true yaw (meta), photographs by the yaw of the built-in model
+// fitted to their annotation.
+std::vector<train::LabelledImage> near_frontal(const std::vector<train::LabelledImage>& images, double max_yaw, bool renders,
+                                               const fit::Fitter* fitter) {
+    std::vector<train::LabelledImage> out;
+    for (const auto& image : images) {
+        std::optional<double> yaw;
+        if (renders) {
+            yaw = train::read_meta_yaw(image);
+        } else {
+            try {
+                fit::FitOptions options;
+                options.jaw = fit::JawMode::kContour;
+                yaw = fitter->fit(read_pts(image.pts), options).pose.angles.yaw;
+            } catch (const Error&) {
+                yaw.reset();  // unreadable or degenerate: measure_realism reports it when kept
+            }
+        }
+        if (yaw && std::abs(*yaw) <= max_yaw) out.push_back(image);
+    }
+    return out;
+}
+
+void add_side(nlohmann::json& j, const std::string& prefix, const train::RealismSide& side) {
+    j[prefix + "_faces"] = side.faces;
+    j[prefix + "_detected"] = side.detected;
+    j[prefix + "_nme_mean"] = side.nme.mean;
+    j[prefix + "_nme_median"] = side.nme.median;
+    j[prefix + "_failure_rate_008"] = side.nme.failure_rate_008;
+    j[prefix + "_auc_008"] = side.nme.auc_008;
+    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+        char key[48];
+        std::snprintf(key, sizeof key, "%s_bias_x_%02d", prefix.c_str(), i + 1);
+        j[key] = side.bias(0, i);
+        std::snprintf(key, sizeof key, "%s_bias_y_%02d", prefix.c_str(), i + 1);
+        j[key] = side.bias(1, i);
+    }
+}
+
+void run_realism(const RealismArgs& a) {
+    const auto renders_all = train::list_labelled_images({fs::path(a.data)});
+    const auto renders = near_frontal(renders_all, a.max_yaw, true, nullptr);
+    if (renders.empty())
+        throw file_error(a.data, "no render with |yaw| <= " + std::to_string(a.max_yaw) + "° (needs a facesynth synth dataset with meta/)");
+    std::vector<train::LabelledImage> photos;
+    std::optional<MorphableModel> model;
+    if (!a.photos.empty()) {
+        model = load_model("builtin");
+        const fit::Fitter fitter(*model);
+        photos = near_frontal(train::list_labelled_images({fs::path(a.photos)}), a.max_yaw, false, &fitter);
+        if (photos.empty()) throw file_error(a.photos, "no photograph with |yaw| <= " + std::to_string(a.max_yaw) + "° by its fitted annotation");
+    }
+    const auto regressor = train::open_regressor(a.regressor);
+    const train::LandmarkRegressor* const regressors[] = {regressor.get()};
+    const train::DetectorKind detector = train::choose_detector(a.detector, regressors);
+    Progress progress("realism", renders.size() + photos.size(), a.quiet);
+    const auto tick = [&] { progress.advance(); };
+    const train::RealismSide render_side = train::measure_realism(renders, *regressor, detector, tick);
+    train::RealismSide photo_side;
+    if (!photos.empty()) photo_side = train::measure_realism(photos, *regressor, detector, tick);
+    progress.finish();
+    for (const train::RealismSide* side : std::initializer_list<const train::RealismSide*>{&render_side, &photo_side})
+        for (const auto& w : side->warnings) std::fprintf(stderr, "facesynth: warning: %s\n", w.c_str());
+    const double ratio = photos.empty() || !(photo_side.nme.mean > 0) ? 0 : render_side.nme.mean / photo_side.nme.mean;
+    if (!a.quiet) {
+        std::printf("%s on near-frontal faces (|yaw| <= %.0f°), detector %s\n", regressor->label().c_str(), a.max_yaw, train::detector_name(detector));
+        std::printf("  renders      %4d faces, %4d found: NME mean %.4f, median %.4f, failure@0.08 %.3f\n", render_side.faces, render_side.detected,
+                    render_side.nme.mean, render_side.nme.median, render_side.nme.failure_rate_008);
+        if (!photos.empty()) {
+            std::printf("  photographs  %4d faces, %4d found: NME mean %.4f, median %.4f, failure@0.08 %.3f\n", photo_side.faces, photo_side.detected,
+                        photo_side.nme.mean, photo_side.nme.median, photo_side.nme.failure_rate_008);
+            std::printf("  NME ratio renders / photographs: %.2f\n", ratio);
+        }
+        // The landmarks the predictor places most differently on renders than on photographs.
+        const Eigen::Matrix2Xd gap = photos.empty() ? render_side.bias : Eigen::Matrix2Xd(render_side.bias - photo_side.bias);
+        std::vector<int> order(kNumIbugLandmarks);
+        for (int i = 0; i < kNumIbugLandmarks; ++i) order[static_cast<std::size_t>(i)] = i;
+        std::sort(order.begin(), order.end(), [&](int x, int y) { return gap.col(x).norm() > gap.col(y).norm(); });
+        std::printf("  largest bias gaps (renders%s, face frame, IOD):", photos.empty() ? "" : " - photographs");
+        for (int k = 0; k < 6; ++k) std::printf(" %d (%+.3f, %+.3f)", order[static_cast<std::size_t>(k)] + 1, gap(0, order[static_cast<std::size_t>(k)]), gap(1, order[static_cast<std::size_t>(k)]));
+        std::printf("\n");
+    }
+    if (!a.json.empty()) {
+        nlohmann::json j;
+        j["regressor"] = regressor->label();
+        j["detector"] = train::detector_name(detector);
+        j["max_yaw_deg"] = a.max_yaw;
+        j["nme_ratio"] = ratio;
+        add_side(j, "renders", render_side);
+        if (!photos.empty()) add_side(j, "photos", photo_side);
+        write_json_file(a.json, j);
+    }
+}
+
+}  // namespace
+
+void register_appearance_commands(CLI::App& app) {
+    auto r = std::make_shared<RealismArgs>();
+    auto* realism = eval_group(app).add_subcommand("realism", "How well a real-trained landmark predictor reads near-frontal renders, against near-frontal photographs");
+    realism->add_option("--data", r->data, "A facesynth synth dataset")->required();
+    realism->add_option("--photos", r->photos, "Folder of photographs with .pts (their yaw from fitting the built-in model to the annotation)");
+    realism->add_option("--regressor", r->regressor, "The real-trained predictor: dlib or a .sdm model")->capture_default_str();
+    add_detector_option(*realism, r->detector);
+    realism->add_option("--max-yaw", r->max_yaw, "Near-frontal: |yaw| at most this, degrees")->check(finite_range(0.0, 90.0))->capture_default_str();
+    realism->add_option("--json", r->json, "Write the figures as flat JSON (per-landmark bias as <side>_bias_<x|y>_<NN>)");
+    realism->add_flag("-q,--quiet", r->quiet, "No progress or summary");
+    realism->callback([r] { run_realism(*r); });
+
+    auto b = std::make_shared<BackgroundsArgs>();
+    auto* bg = app.add_subcommand("backgrounds", "Background images for synth (background.type = \"images\") from annotated photographs, their face cut away");
+    bg->add_option("--photos", b->photos, "Folder of photographs, each with IMAGE.pts (68 landmarks, 1-based)")->required();
+    bg->add_option("--out", b->out, "New folder for the backgrounds (JPEG)")->required();
+    bg->add_option("--min-side", b->min_side, "Keep strips at least this many pixels on their shorter side")->check(CLI::Range(16, 4096))->capture_default_str();
+    bg->add_option("--json", b->json, "Write a summary as flat JSON");
+    bg->add_flag("-q,--quiet", b->quiet, "No progress or summary");
+    bg->callback([b] { run_backgrounds(*b); });
+
+    auto a = std::make_shared<TexturesArgs>();
+    auto* cmd = app.add_subcommand("textures", "Build a texture bank for synth (albedo.texture_bank) from photographs: fit, isomap, shading removal, mirror fill");
+    cmd->add_option("--photos", a->photos, "Folder of photographs; IMAGE.pts beside an image gives its 68 landmarks (1-based), else the face is detected")->required();
+    cmd->add_option("--out", a->out, "The bank folder to write (replaced when it is an earlier bank)")->required();
+    cmd->add_option("--model", a->model, "Model: builtin, a model file or folder")->capture_default_str();
+    cmd->add_option("--regressor", a->regressor, "Landmarks for photographs without .pts: dlib or a .sdm model")->capture_default_str();
+    add_detector_option(*cmd, a->detector);
+    cmd->add_option("--size", a->size, "Texture side, texels")->check(CLI::Range(64, 4096))->capture_default_str();
+    cmd->add_flag("--keep-shading", a->keep_shading, "Keep the photograph's shading in the texture (default: divide it out)");
+    cmd->add_option("--max-yaw", a->max_yaw, "Reject faces turned further than this, degrees")->check(finite_range(0.0, 90.0))->capture_default_str();
+    cmd->add_option("--min-coverage", a->min_coverage, "Reject faces with less of the face seen (with the mirror side)")->check(finite_range(0.0, 1.0))->capture_default_str();
+    cmd->add_option("--max-outliers", a->max_outliers, "Reject faces with more of the seen skin far from its median colour (occlusion)")
+        ->check(finite_range(0.0, 1.0))
+        ->capture_default_str();
+    cmd->add_option("--max-fit-error", a->max_fit_error, "Reject fits whose landmark RMS exceeds this share of the inter-ocular distance")
+        ->check(finite_range(0.0, 1.0))
+        ->capture_default_str();
+    cmd->add_option("--json", a->json, "Write a summary (counts per rejection reason) as flat JSON");
+    cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary");
+    cmd->callback([a] { run_textures(*a); });
+}
+
+}  // namespace facesynth::cli
