@@ -212,6 +212,7 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"occluders.probability", &c.occluders.probability, "share of samples with occluders"});
     f.push_back({"occluders.max_count", &c.occluders.max_count, "1..n occluding shapes"});
     f.push_back({"occluders.max_size", &c.occluders.max_size, "largest occluder extent, share of the face size"});
+    f.push_back({"head.neck", &c.head.neck, "a neck under the jaw (an elliptic cylinder placed by the face's landmarks, with the skin under the chin and region label neck); the model and its landmarks are unchanged"});
     f.push_back({"landmarks.mode", &c.landmarks.mode, "jaw points written to .pts: \"contour\" (300-W style) or \"fixed\""});
     f.push_back({"render.edge_antialiasing", &c.render.edge_antialiasing,
                  "anti-aliasing of silhouette edges on the CPU after a single-sample render (off for MSAA or supersampling)"});

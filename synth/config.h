@@ -123,6 +123,12 @@ struct RenderConfig {
     bool lights_per_vertex = true;
 };
 
+struct HeadConfig {
+    // A neck under the jaw (synth/neck.h): an elliptic cylinder placed by the face's landmarks, with the
+    // skin under the chin (darkened for the jaw's shadow without a texture) and region label "neck".
+    bool neck = false;
+};
+
 struct LandmarkConfig {
     std::string mode = "contour";  // jaw points in the .pts files: "contour" or "fixed"
 };
@@ -153,6 +159,7 @@ struct SynthConfig {
     BackgroundConfig background;
     DegradationConfig degrade;
     OccluderConfig occluders;
+    HeadConfig head;
     LandmarkConfig landmarks;
     RenderConfig render;
     OutputConfig output;

@@ -4,6 +4,7 @@
 #include "morph/landmarks.h"
 #include "morph/random.h"
 #include "render/landmarks.h"
+#include "synth/neck.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -254,9 +255,22 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel
                                  const ImageLibrary& textures, const render::RendererOptions& renderer_options)
     : config_(config), model_(model), backgrounds_(backgrounds), textures_(textures),
       contour_region_(jaw_contour_region(model)),
-      landmark_topology_(render::landmark_topology(model.triangles, model.num_vertices(), &contour_region_)), albedo_check_(make_albedo_check(config, model)), renderer_(renderer_options) {
+      albedo_check_(make_albedo_check(config, model)), renderer_(renderer_options) {
     mesh_.triangles = model.triangles;
     mesh_.uv = model.uv;
+    vertex_labels_ = model.vertex_labels;
+    if (config.head.neck) {
+        neck_ = make_neck_template(model);
+        if (!neck_) throw Error("head.neck: model '" + model.name + "' has no 68 landmarks to place a neck by");
+        mesh_.triangles = mesh_triangles_with_neck(model, *neck_);
+        mesh_.uv = uv_with_neck(model, *neck_);
+        vertex_labels_ = labels_with_neck(model, *neck_);
+    }
+    const int vertex_count = model.num_vertices() + (neck_ ? static_cast<int>(neck_->source.size()) : 0);
+    landmark_topology_ = render::landmark_topology(mesh_.triangles, vertex_count, &contour_region_);
+    // The jaw outline is the face's: neck triangles never count as face triangles.
+    if (!landmark_topology_.face_triangles.empty())
+        std::fill(landmark_topology_.face_triangles.begin() + static_cast<std::ptrdiff_t>(model.triangles.size()), landmark_topology_.face_triangles.end(), 0);
     if (config.background.type == "images" && backgrounds.empty())
         throw Error("background.type = \"images\" needs a background folder with readable images");
     if (!config.albedo.texture_folder.empty() && textures.empty())
@@ -273,8 +287,12 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     Sample s;
     s.spec = sample_scene(config_, model_, index, albedo_check_ ? &*albedo_check_ : nullptr, &mesh_.vertices);
     Mesh& mesh = mesh_;
-    if (s.spec.skin_tone) mesh.colours = s.spec.skin_tone->cast<float>().replicate(1, mesh.num_vertices());
+    if (s.spec.skin_tone) mesh.colours = s.spec.skin_tone->cast<float>().replicate(1, model_.num_vertices());
     else mesh.colours = model_.albedo_instance(s.spec.beta);
+    if (neck_) {
+        append_neck_vertices(*neck_, model_, mesh);
+        mesh.colours = colours_with_neck(mesh.colours, *neck_);
+    }
     clock.lap(local.sample);
 
     render::Camera camera{s.spec.intrinsics, s.spec.pose, render::Projection::kPerspective};
@@ -288,7 +306,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     settings.shadow_map_size = config_.render.shadow_map_size;
     settings.lights_per_vertex = config_.render.lights_per_vertex;
     render::MeshExtras extras;
-    extras.vertex_labels = model_.vertex_labels;
+    extras.vertex_labels = vertex_labels_;
     if (s.spec.texture_choice) {
         extras.texture = &textures_.image(*s.spec.texture_choice);
         s.texture = textures_.name(*s.spec.texture_choice);

@@ -6,6 +6,7 @@
 #include "render/landmarks.h"
 #include "render/renderer.h"
 #include "synth/config.h"
+#include "synth/neck.h"
 #include "synth/scene.h"
 
 #include <opencv2/core.hpp>
@@ -106,6 +107,8 @@ private:
     JawContourRegion contour_region_;  // the face region of the jaw contour definition
     render::LandmarkTopology landmark_topology_;  // the model's, for project_landmarks
     std::optional<SkinColourCheck> albedo_check_;  // albedo.reject_implausible
+    std::optional<NeckTemplate> neck_;  // head.neck
+    std::vector<std::uint8_t> vertex_labels_;  // the model's, then the neck's
     render::Renderer renderer_;
     render::Frame frame_;
     Mesh mesh_;  // the model's triangles and uv, set once; vertices and colours per sample
