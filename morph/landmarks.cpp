@@ -112,6 +112,25 @@ double inter_ocular_distance(const Eigen::Matrix2Xd& p) {
     return (p.col(kLeftEyeOuterCorner) - p.col(kRightEyeOuterCorner)).norm();
 }
 
+Eigen::Matrix2Xd face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& reference) {
+    require68(points, "face-frame offsets");
+    require68(reference, "face-frame offsets");
+    const Eigen::Vector2d left = reference.middleCols(36, 6).rowwise().mean();
+    const Eigen::Vector2d right = reference.middleCols(42, 6).rowwise().mean();
+    const double iod = inter_ocular_distance(reference);
+    Eigen::Vector2d x_axis = right - left;
+    if (!(x_axis.norm() > 0) || !(iod > 0)) throw Error("face-frame offsets: degenerate eye landmarks");
+    x_axis.normalize();
+    const Eigen::Vector2d y_axis(-x_axis.y(), x_axis.x());
+    Eigen::Matrix2Xd out(2, kNumIbugLandmarks);
+    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+        const Eigen::Vector2d d = points.col(i) - reference.col(i);
+        out(0, i) = d.dot(x_axis) / iod;
+        out(1, i) = d.dot(y_axis) / iod;
+    }
+    return out;
+}
+
 Eigen::Matrix2Xd read_pts(const std::filesystem::path& path) {
     std::ifstream in(path);
     if (!in) throw file_error(path.string(), "cannot open landmark file");

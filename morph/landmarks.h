@@ -36,6 +36,12 @@ enum class LandmarkSubset { k7, k13, k49, k68 };
 // Distance between the outer eye corners (iBUG 37 and 46): the NME normaliser.
 [[nodiscard]] double inter_ocular_distance(const Eigen::Matrix2Xd& points68);
 
+// (points - reference) in the face frame of `reference` (x along the line from the image-left eye's
+// centre, iBUG 37-42, to the other's, 43-48; y perpendicular to it, pointing down), in inter-ocular
+// distances: 2 x 68. How a predictor or a model places each point against an annotation, whatever the
+// face's size and roll. Throws facesynth::Error for fewer than 68 points or degenerate eyes.
+[[nodiscard]] Eigen::Matrix2Xd face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& reference);
+
 // Reads an iBUG .pts file; returns 0-based pixel coordinates (2 x N). Throws facesynth::Error naming
 // the file and the problem.
 [[nodiscard]] Eigen::Matrix2Xd read_pts(const std::filesystem::path& path);

@@ -3,6 +3,7 @@
 #include "cli_common.h"
 #include "commands.h"
 
+#include "fit/conventions.h"
 #include "fit/dataset_eval.h"
 #include "fit/evaluate.h"
 #include "fit/fit.h"
@@ -354,6 +355,77 @@ void run_eval(const EvalArgs& a) {
     else run_eval_dataset(a);
 }
 
+namespace fs = std::filesystem;
+
+struct ConventionsArgs {
+    std::string photos;
+    std::string model = "builtin";
+    std::string jaw = "contour";
+    double max_yaw = 30;
+    std::string json;
+    bool quiet = false;
+};
+
+void run_conventions(const ConventionsArgs& a) {
+    const fs::path dir(a.photos);
+    if (!fs::is_directory(dir)) throw file_error(a.photos, "folder not found");
+    std::vector<fs::path> files;
+    for (const auto& entry : fs::directory_iterator(dir))
+        if (entry.is_regular_file() && entry.path().extension() == ".pts") files.push_back(entry.path());
+    std::sort(files.begin(), files.end());
+    std::vector<Eigen::Matrix2Xd> annotations;
+    int unreadable = 0;
+    for (const fs::path& file : files) {
+        try {
+            Eigen::Matrix2Xd points = read_pts(file);
+            if (points.cols() != kNumIbugLandmarks) throw file_error(file.string(), "expected 68 points");
+            annotations.push_back(std::move(points));
+        } catch (const Error& e) {
+            ++unreadable;
+            std::fprintf(stderr, "facesynth: warning: %s (skipped)\n", e.what());
+        }
+    }
+    if (annotations.empty()) throw file_error(a.photos, "no readable 68-point .pts files");
+    const MorphableModel model = load_model(a.model);
+    const fit::Fitter fitter(model);
+    fit::FitOptions options;
+    options.jaw = a.jaw == "fixed" ? fit::JawMode::kFixed : fit::JawMode::kContour;
+    const fit::ConventionStudy study = fit::study_conventions(fitter, annotations, options, a.max_yaw);
+    if (study.faces == 0) throw file_error(a.photos, "no annotation fitted within |yaw| <= " + std::to_string(a.max_yaw) + "°");
+    if (!a.quiet) {
+        std::printf("%s fitted to %d annotations (|yaw| <= %.0f°; %d turned further, %d failed, %d unreadable), %s jaw\n", model.name.c_str(),
+                    study.faces, a.max_yaw, study.skipped_pose, study.failed, unreadable, a.jaw.c_str());
+        std::printf("mean (annotation - model point), face frame, inter-ocular distances; largest first:\n");
+        std::vector<int> order(kNumIbugLandmarks);
+        for (int i = 0; i < kNumIbugLandmarks; ++i) order[static_cast<std::size_t>(i)] = i;
+        std::sort(order.begin(), order.end(), [&](int x, int y) { return study.mean.col(x).norm() > study.mean.col(y).norm(); });
+        for (int k = 0; k < 12; ++k) {
+            const int i = order[static_cast<std::size_t>(k)];
+            std::printf("  iBUG %2d: x %+.3f (sd %.3f), y %+.3f (sd %.3f)\n", i + 1, study.mean(0, i), study.stddev(0, i), study.mean(1, i), study.stddev(1, i));
+        }
+    }
+    if (!a.json.empty()) {
+        nlohmann::json j;
+        j["model"] = model.name;
+        j["jaw"] = a.jaw;
+        j["max_yaw_deg"] = a.max_yaw;
+        j["faces"] = study.faces;
+        j["skipped_pose"] = study.skipped_pose;
+        j["failed"] = study.failed;
+        j["unreadable"] = unreadable;
+        for (int i = 0; i < kNumIbugLandmarks; ++i) {
+            char key[32];
+            for (int axis = 0; axis < 2; ++axis) {
+                std::snprintf(key, sizeof key, "mean_%c_%02d", axis == 0 ? 'x' : 'y', i + 1);
+                j[key] = study.mean(axis, i);
+                std::snprintf(key, sizeof key, "sd_%c_%02d", axis == 0 ? 'x' : 'y', i + 1);
+                j[key] = study.stddev(axis, i);
+            }
+        }
+        write_json_file(a.json, j);
+    }
+}
+
 }  // namespace
 
 void register_fit_commands(CLI::App& app) {
@@ -409,6 +481,18 @@ void register_fit_commands(CLI::App& app) {
         eval_args->max_yaw_given = max_yaw->count() > 0;
         run_eval(*eval_args);
     });
+
+    auto conventions_args = std::make_shared<ConventionsArgs>();
+    auto* conventions = eval->add_subcommand("conventions", "Where annotators put each landmark against the model's definition: the model fitted to manual .pts files, mean residual per landmark");
+    conventions->add_option("--photos", conventions_args->photos, "Folder of manual 68-point .pts files (images are not read)")->required();
+    conventions->add_option("--model", conventions_args->model, "Model: builtin, a model file or folder")->capture_default_str();
+    conventions->add_option("--jaw", conventions_args->jaw, "Jaw correspondences: contour (the outline, as 300-W annotates) or fixed vertices")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"contour", "fixed"}));
+    conventions->add_option("--max-yaw", conventions_args->max_yaw, "Only faces whose fitted |yaw| is at most this, degrees")->capture_default_str()->check(finite_range(0.0, 90.0));
+    conventions->add_option("--json", conventions_args->json, "Write counts and per-landmark mean_<x|y>_NN, sd_<x|y>_NN as flat JSON");
+    conventions->add_flag("-q,--quiet", conventions_args->quiet, "Only the JSON");
+    conventions->callback([conventions_args] { run_conventions(*conventions_args); });
 }
 
 }  // namespace facesynth::cli

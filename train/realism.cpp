@@ -11,26 +11,6 @@
 
 namespace facesynth::train {
 
-Eigen::Matrix2Xd face_frame_offsets(const Eigen::Matrix2Xd& predicted, const Eigen::Matrix2Xd& truth) {
-    if (predicted.cols() != kNumIbugLandmarks || truth.cols() != kNumIbugLandmarks)
-        throw Error("realism: expected 68 predicted and 68 true landmarks");
-    // Eye centres: iBUG 37-42 and 43-48 (0-based 36-41, 42-47).
-    const Eigen::Vector2d left = truth.middleCols(36, 6).rowwise().mean();
-    const Eigen::Vector2d right = truth.middleCols(42, 6).rowwise().mean();
-    const double iod = inter_ocular_distance(truth);
-    Eigen::Vector2d x_axis = right - left;
-    if (!(x_axis.norm() > 0) || !(iod > 0)) throw Error("realism: degenerate eye landmarks");
-    x_axis.normalize();
-    const Eigen::Vector2d y_axis(-x_axis.y(), x_axis.x());
-    Eigen::Matrix2Xd out(2, kNumIbugLandmarks);
-    for (int i = 0; i < kNumIbugLandmarks; ++i) {
-        const Eigen::Vector2d d = predicted.col(i) - truth.col(i);
-        out(0, i) = d.dot(x_axis) / iod;
-        out(1, i) = d.dot(y_axis) / iod;
-    }
-    return out;
-}
-
 RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor, DetectorKind detector_kind,
                             const std::function<void()>& on_image) {
     RealismSide side;

@@ -21,9 +21,8 @@ struct RealismSide {
     int detected = 0;   // the detector found the labelled face
     NmeSummary nme;     // misses count as failures (NmeSummary's convention)
     std::vector<double> nmes;  // per image, +inf for a miss
-    // Mean of (prediction - label) over the detected faces in the face frame (x along the line from the
-    // image-left eye's centre to the other's, y perpendicular to it, pointing down), in inter-ocular
-    // distances (iBUG 37-46): 2 x 68.
+    // Mean of (prediction - label) over the detected faces in the label's face frame, in inter-ocular
+    // distances (morph/landmarks.h face_frame_offsets): 2 x 68.
     Eigen::Matrix2Xd bias;
     std::vector<std::string> warnings;  // unreadable images or .pts files (counted as misses)
 };
@@ -31,8 +30,5 @@ struct RealismSide {
 // Runs `regressor` on the faces `detector` finds in `images` (the detection matching each label).
 [[nodiscard]] RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor,
                                           DetectorKind detector, const std::function<void()>& on_image = {});
-
-// (prediction - truth) in the face frame of `truth`, in inter-ocular distances: 2 x 68.
-[[nodiscard]] Eigen::Matrix2Xd face_frame_offsets(const Eigen::Matrix2Xd& predicted, const Eigen::Matrix2Xd& truth);
 
 }  // namespace facesynth::train

@@ -1,0 +1,44 @@
+// The landmark-convention study (fit/conventions.h): no offset on the model's own landmarks, and a
+// point that annotators would place elsewhere shows up in its mean.
+#include "fit/conventions.h"
+#include "fit/evaluate.h"
+#include "morph/builtin.h"
+#include "morph/landmarks.h"
+
+#include <gtest/gtest.h>
+
+namespace facesynth::fit {
+namespace {
+
+TEST(Conventions, ModelsOwnLandmarksHaveNoOffsetAndAShiftedPointIsFound) {
+    const MorphableModel model = builtin_model();
+    const Fitter fitter(model);
+    SyntheticOptions cases;
+    cases.max_yaw_deg = 20;
+    cases.max_pitch_deg = 10;
+    cases.fov_deg = 5;  // a long lens: the affine fit has no perspective to absorb
+    std::vector<Eigen::Matrix2Xd> own, shifted;
+    for (int i = 0; i < 30; ++i) {
+        const SyntheticCase c = make_synthetic_case(model, 4, static_cast<std::uint64_t>(i), cases);
+        own.push_back(c.landmarks);
+        // The outer end of the right brow (iBUG 18) 0.1 inter-ocular distances lower, as if annotated so.
+        Eigen::Matrix2Xd moved = c.landmarks;
+        moved(1, 17) += 0.1 * inter_ocular_distance(c.landmarks);
+        shifted.push_back(moved);
+    }
+    FitOptions options;  // fixed jaw: the synthetic cases' jaw points are the model's fixed ones
+    const ConventionStudy a = study_conventions(fitter, own, options, 30);
+    EXPECT_EQ(a.faces, 30);
+    EXPECT_LT(a.mean.colwise().norm().maxCoeff(), 0.02);
+    const ConventionStudy b = study_conventions(fitter, shifted, options, 30);
+    EXPECT_GT(b.mean(1, 17), 0.05);  // most of the shift stays in the mean: the fit cannot absorb one point
+    Eigen::Matrix2Xd others = b.mean;
+    others.col(17).setZero();
+    EXPECT_LT(others.colwise().norm().maxCoeff(), 0.03);
+    const ConventionStudy none = study_conventions(fitter, own, options, 0.001);
+    EXPECT_EQ(none.faces, 0);
+    EXPECT_EQ(none.skipped_pose, 30);
+}
+
+}  // namespace
+}  // namespace facesynth::fit
