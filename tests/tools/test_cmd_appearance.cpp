@@ -168,4 +168,20 @@ TEST_F(CmdAppearance, RealismComparesRendersWithPhotographs) {
     EXPECT_NE(out.find("no render with"), std::string::npos) << out;
 }
 
+TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
+    std::string out;
+    const fs::path model = dir / "sim2real.sdm";
+    const std::string script = (fs::path(FACESYNTH_SOURCE_DIR) / "tools" / "sim2real.sh").string();
+    const std::string env = "FACESYNTH=" + cli() + " ";
+    ASSERT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --count 60 --threads 2 --min-side 24", &out), 0)
+        << out;
+    EXPECT_TRUE(fs::exists(model));
+    const auto train = read_json(dir / "sim2real-work" / "train.json");
+    EXPECT_TRUE(train.contains("stage1_nme"));
+    const auto meta = read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json");
+    EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);  // rendered with the bank
+    EXPECT_EQ(run_command("bash " + script + " --out " + model.string(), &out), 2);
+    EXPECT_EQ(run_command(env + "bash " + script + " --photos " + (dir / "missing").string() + " --out " + model.string(), &out), 1);
+}
+
 }  // namespace
