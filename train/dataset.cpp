@@ -4,7 +4,11 @@
 #include "morph/atomic_file.h"
 #include "morph/image_header.h"
 
+#include "morph/landmarks.h"
+#include "train/face_box.h"
+
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <sstream>
@@ -65,6 +69,17 @@ std::optional<double> read_meta_yaw(const LabelledImage& image) {
     } catch (const std::exception&) {
     }
     return std::nullopt;
+}
+
+LoadedFace load_labelled_face(const LabelledImage& image) {
+    LoadedFace face;
+    face.truth = read_pts(image.pts);
+    if (face.truth.cols() != kNumIbugLandmarks) throw file_error(image.pts.string(), "expected 68 points");
+    check_image_not_too_large(image.image);
+    const cv::Mat loaded = cv::imread(image.image.string(), cv::IMREAD_UNCHANGED);
+    if (loaded.empty()) throw file_error(image.image.string(), "cannot read image");
+    face.gray = to_gray8(loaded);
+    return face;
 }
 
 }  // namespace facesynth::train

@@ -2,6 +2,7 @@
 // Folders of images with same-stem iBUG .pts files: either side by side (X.png + X.pts) or in the
 // layout `facesynth synth` writes (DIR/images/<key>.png + DIR/landmarks/<key>.pts).
 #include <Eigen/Core>
+#include <opencv2/core.hpp>
 
 #include <filesystem>
 #include <optional>
@@ -20,6 +21,15 @@ struct LabelledImage {
 // each folder, folders in the order given. Throws facesynth::Error for a folder that does not exist
 // or holds no labelled image.
 [[nodiscard]] std::vector<LabelledImage> list_labelled_images(const std::vector<std::filesystem::path>& folders);
+
+// A labelled image read for evaluation: its 68 true landmarks (0-based pixels) and its pixels as 8-bit grey.
+struct LoadedFace {
+    Eigen::Matrix2Xd truth;
+    cv::Mat gray;
+};
+// Throws facesynth::Error naming the file: unreadable .pts, not 68 points, an image over the size limit
+// (morph/image_header.h) or one that cannot be decoded.
+[[nodiscard]] LoadedFace load_labelled_face(const LabelledImage& image);
 
 // The sample's true yaw in degrees from a `facesynth synth` meta file (DIR/meta/<stem>.json beside
 // DIR/landmarks/), or nothing where there is none or it cannot be read.

@@ -41,12 +41,7 @@ Evaluation evaluate_landmarks(const std::vector<LabelledImage>& images, std::spa
         face.key = image.key;
         face.yaw_deg = read_meta_yaw(image);
         try {
-            const Eigen::Matrix2Xd truth = read_pts(image.pts);
-            if (truth.cols() != kNumIbugLandmarks) throw file_error(image.pts.string(), "expected 68 points");
-            check_image_not_too_large(image.image);
-            const cv::Mat loaded = cv::imread(image.image.string(), cv::IMREAD_UNCHANGED);
-            if (loaded.empty()) throw file_error(image.image.string(), "cannot read image");
-            const cv::Mat gray = to_gray8(loaded);
+            const auto [truth, gray] = load_labelled_face(image);
             const auto start = Clock::now();
             const auto box = match_detection(detector.detect(gray), truth);
             detect_ms += ms_since(start);

@@ -1,11 +1,8 @@
 #include "train/realism.h"
 
 #include "morph/error.h"
-#include "morph/image_header.h"
 #include "morph/landmarks.h"
 #include "train/sdm.h"
-
-#include <opencv2/imgcodecs.hpp>
 
 #include <limits>
 
@@ -20,12 +17,7 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
         ++side.faces;
         double nme = std::numeric_limits<double>::infinity();
         try {
-            const Eigen::Matrix2Xd truth = read_pts(image.pts);
-            if (truth.cols() != kNumIbugLandmarks) throw file_error(image.pts.string(), "expected 68 points");
-            check_image_not_too_large(image.image);
-            const cv::Mat loaded = cv::imread(image.image.string(), cv::IMREAD_UNCHANGED);
-            if (loaded.empty()) throw file_error(image.image.string(), "cannot read image");
-            const cv::Mat gray = to_gray8(loaded);
+            const auto [truth, gray] = load_labelled_face(image);
             if (const auto box = match_detection(detector.detect(gray), truth)) {
                 const Eigen::Matrix2Xd predicted = regressor.predict(gray, *box);
                 nme = landmark_nme(predicted, truth);
