@@ -112,22 +112,45 @@ double inter_ocular_distance(const Eigen::Matrix2Xd& p) {
     return (p.col(kLeftEyeOuterCorner) - p.col(kRightEyeOuterCorner)).norm();
 }
 
-Eigen::Matrix2Xd face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& reference) {
-    require68(points, "face-frame offsets");
-    require68(reference, "face-frame offsets");
+namespace {
+
+struct FaceFrame {
+    Eigen::Vector2d x_axis, y_axis;
+    double iod = 0;
+};
+
+FaceFrame face_frame_of(const Eigen::Matrix2Xd& reference) {
+    require68(reference, "face frame");
     const Eigen::Vector2d left = reference.middleCols(36, 6).rowwise().mean();
     const Eigen::Vector2d right = reference.middleCols(42, 6).rowwise().mean();
-    const double iod = inter_ocular_distance(reference);
-    Eigen::Vector2d x_axis = right - left;
-    if (!(x_axis.norm() > 0) || !(iod > 0)) throw Error("face-frame offsets: degenerate eye landmarks");
-    x_axis.normalize();
-    const Eigen::Vector2d y_axis(-x_axis.y(), x_axis.x());
+    FaceFrame f;
+    f.iod = inter_ocular_distance(reference);
+    f.x_axis = right - left;
+    if (!(f.x_axis.norm() > 0) || !(f.iod > 0)) throw Error("face frame: degenerate eye landmarks");
+    f.x_axis.normalize();
+    f.y_axis = Eigen::Vector2d(-f.x_axis.y(), f.x_axis.x());
+    return f;
+}
+
+}  // namespace
+
+Eigen::Matrix2Xd face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& reference) {
+    require68(points, "face-frame offsets");
+    const FaceFrame f = face_frame_of(reference);
     Eigen::Matrix2Xd out(2, kNumIbugLandmarks);
     for (int i = 0; i < kNumIbugLandmarks; ++i) {
         const Eigen::Vector2d d = points.col(i) - reference.col(i);
-        out(0, i) = d.dot(x_axis) / iod;
-        out(1, i) = d.dot(y_axis) / iod;
+        out(0, i) = d.dot(f.x_axis) / f.iod;
+        out(1, i) = d.dot(f.y_axis) / f.iod;
     }
+    return out;
+}
+
+Eigen::Matrix2Xd apply_face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& offsets) {
+    if (offsets.cols() != kNumIbugLandmarks || offsets.rows() != 2) throw Error("face-frame offsets: expected 2 x 68 offsets");
+    const FaceFrame f = face_frame_of(points);
+    Eigen::Matrix2Xd out = points;
+    for (int i = 0; i < kNumIbugLandmarks; ++i) out.col(i) += f.iod * (offsets(0, i) * f.x_axis + offsets(1, i) * f.y_axis);
     return out;
 }
 

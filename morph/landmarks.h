@@ -42,6 +42,9 @@ enum class LandmarkSubset { k7, k13, k49, k68 };
 // face's size and roll. Throws facesynth::Error for fewer than 68 points or degenerate eyes.
 [[nodiscard]] Eigen::Matrix2Xd face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& reference);
 
+// The inverse: `points` moved by `offsets` (2 x 68, face frame of `points`, inter-ocular distances).
+[[nodiscard]] Eigen::Matrix2Xd apply_face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& offsets);
+
 // Reads an iBUG .pts file; returns 0-based pixel coordinates (2 x N). Throws facesynth::Error naming
 // the file and the problem.
 [[nodiscard]] Eigen::Matrix2Xd read_pts(const std::filesystem::path& path);

@@ -58,9 +58,32 @@ struct TrainArgs {
     std::string cascades = "auto";  // auto, views or single
     std::vector<double> view_overlap;  // frontal max |yaw|, profile min |yaw|
     LbfTrainOptions lbf;
+    std::filesystem::path label_offsets;  // eval conventions --json
     std::filesystem::path json;
     bool quiet = false;
 };
+
+// The mean_x_NN / mean_y_NN keys of an `eval conventions --json` file as 2 x 68 offsets.
+Eigen::Matrix2Xd read_label_offsets(const std::filesystem::path& path) {
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(read_file(path));
+    } catch (const nlohmann::json::exception& e) {
+        throw file_error(path.string(), std::string("not valid JSON: ") + e.what());
+    }
+    Eigen::Matrix2Xd offsets(2, kNumIbugLandmarks);
+    for (int i = 0; i < kNumIbugLandmarks; ++i)
+        for (int axis = 0; axis < 2; ++axis) {
+            char key[16];
+            std::snprintf(key, sizeof key, "mean_%c_%02d", axis == 0 ? 'x' : 'y', i + 1);
+            if (!j.is_object() || !j.contains(key) || !j[key].is_number())
+                throw file_error(path.string(), std::string("no number '") + key + "' (expected the --json of eval conventions)");
+            offsets(axis, i) = j[key].get<double>();
+            if (!std::isfinite(offsets(axis, i)) || std::abs(offsets(axis, i)) > 1)
+                throw file_error(path.string(), std::string("'") + key + "' is not a finite offset within one inter-ocular distance");
+        }
+    return offsets;
+}
 
 void run_train(const TrainArgs& args) {
     const auto start = std::chrono::steady_clock::now();
@@ -85,6 +108,7 @@ void run_train(const TrainArgs& args) {
         options.threads = args.threads;
         options.seed = args.seed;
         options.detector = parse_detector_kind(args.detector);
+        if (!args.label_offsets.empty()) options.label_offsets = read_label_offsets(args.label_offsets);
         std::size_t reported = 0;
         options.on_progress = [&](std::size_t done, std::size_t) {
             progress.advance(done - reported);
@@ -107,7 +131,8 @@ void run_train(const TrainArgs& args) {
                              {"skipped_images", prepared.warnings.size()},
                              {"detector", detector_name(boxes.detector)},
                              {"detector_matched", boxes.detector_matched},
-                             {"detector_missed", boxes.detector_missed}};
+                             {"detector_missed", boxes.detector_missed},
+                             {"label_offsets", args.label_offsets.string()}};
     for (std::size_t v = 0; v < kFaceViews; ++v)
         report[std::string("detector_matched_") + view_name(static_cast<FaceView>(v))] = boxes.view_matched[v];
     ViewSplit split;
@@ -585,6 +610,10 @@ void register_train_commands(CLI::App& app) {
             ->capture_default_str();
         cmd->add_flag("--lbf-verbose", args->lbf.verbose,
                       "LBF: OpenCV's own print-out (per-stage forest and regression times, liblinear iterations)");
+        cmd->add_option("--label-offsets", args->label_offsets,
+                        "Label adaptation: move every training label by the per-landmark mean offsets (face frame) of an "
+                        "`eval conventions --json` file before training (the regressor then predicts the annotators' convention)")
+            ->check(CLI::ExistingFile);
         cmd->add_option("--json", args->json, "Write a JSON summary here");
         cmd->add_flag("--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_train(*args); });

@@ -86,6 +86,7 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
             if (image.empty()) throw file_error(images[i].image.string(), "cannot read image");
             item.gray = to_gray8(image);
             item.detected = match_detection(detectors[worker].detect(item.gray), item.truth);
+            if (options.label_offsets.size() > 0) item.truth = apply_face_frame_offsets(item.truth, options.label_offsets);
             if (item.detected) {
                 item.crop = canonical_crop(item.gray, FaceFrame{*item.detected});
                 item.gray.release();

@@ -26,6 +26,10 @@ struct PrepareOptions {
     DetectorKind detector = DetectorKind::kFrontal;
     int threads = 1;
     std::uint64_t seed = 1;
+    // Label adaptation: every label moved by these offsets (2 x 68, face frame, inter-ocular distances;
+    // morph/landmarks.h apply_face_frame_offsets) before training; empty: labels as they are. The
+    // detector's box is matched to the label as it was.
+    Eigen::Matrix2Xd label_offsets;
     std::function<void(std::size_t done, std::size_t total)> on_progress;
 };
 

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 
 using namespace facesynth;
@@ -79,4 +80,28 @@ TEST(Landmarks, ReadsEveryRealAnnotation) {
         ++count;
     }
     EXPECT_EQ(count, 5);
+}
+
+TEST(FaceFrameOffsets, AreMeasuredInTheFacesOwnFrameAndApplyingThemInverts) {
+    // A face of 68 points, rolled by 30° and scaled: offsets are in its frame, in inter-ocular distances.
+    Eigen::Matrix2Xd face(2, 68);
+    for (int i = 0; i < 68; ++i) face.col(i) << 10.0 * std::cos(0.37 * i) + i, 8.0 * std::sin(0.51 * i) - 0.3 * i;
+    for (int i = 36; i < 42; ++i) face.col(i) << -20.0 + i - 36, 0.0;
+    for (int i = 42; i < 48; ++i) face.col(i) << 15.0 + i - 42, 0.0;
+    const double angle = 30.0 * 3.14159265358979 / 180.0;
+    Eigen::Matrix2d rotation;
+    rotation << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+    const Eigen::Matrix2Xd rolled = 3.0 * rotation * face;
+    Eigen::Matrix2Xd offsets = Eigen::Matrix2Xd::Zero(2, 68);
+    offsets(1, 17) = 0.1;   // iBUG 18 lower by a tenth of the inter-ocular distance
+    offsets(0, 30) = -0.05;
+    const Eigen::Matrix2Xd moved = apply_face_frame_offsets(rolled, offsets);
+    const Eigen::Matrix2Xd measured = face_frame_offsets(moved, rolled);
+    EXPECT_LT((measured - offsets).cwiseAbs().maxCoeff(), 1e-9);
+    // "Down" in the face frame is the rolled image's down: perpendicular to the eye line.
+    const Eigen::Vector2d step = moved.col(17) - rolled.col(17);
+    EXPECT_NEAR(step.norm(), 0.1 * inter_ocular_distance(rolled), 1e-9);
+    EXPECT_NEAR(step.dot(rotation.col(0)), 0.0, 1e-9);
+    EXPECT_THROW((void)apply_face_frame_offsets(rolled, Eigen::Matrix2Xd::Zero(2, 5)), Error);
+    EXPECT_THROW((void)face_frame_offsets(Eigen::Matrix2Xd::Zero(2, 68), Eigen::Matrix2Xd::Zero(2, 68)), Error);
 }
