@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -182,6 +183,27 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);  // rendered with the bank
     EXPECT_EQ(run_command("bash " + script + " --out " + model.string(), &out), 2);
     EXPECT_EQ(run_command(env + "bash " + script + " --photos " + (dir / "missing").string() + " --out " + model.string(), &out), 1);
+}
+
+TEST_F(CmdAppearance, ConventionsWriteOffsetsThatTrainReadsAndBadOffsetFilesAreNamed) {
+    std::string out;
+    const fs::path conventions = dir / "conventions.json";
+    ASSERT_EQ(run_command(cli() + " eval conventions -q --photos " + photos.string() + " --json " + conventions.string(), &out), 0) << out;
+    const auto j = read_json(conventions);
+    EXPECT_EQ(j["faces"], 6);
+    for (const char* key : {"mean_x_01", "mean_y_68", "sd_x_18", "skipped_pose", "failed"}) EXPECT_TRUE(j.contains(key)) << key;
+    // The renders' own labels: the model's definitions, so small offsets (the fit's own error).
+    EXPECT_LT(std::abs(j["mean_y_18"].get<double>()), 0.05);
+    const fs::path bad = dir / "bad.json";
+    std::ofstream(bad) << R"({"mean_x_01": 0.1})";
+    EXPECT_EQ(run_command(cli() + " train --quiet --data " + (dir / "renders").string() + " --out " + (dir / "m.sdm").string() + " --label-offsets " +
+                              bad.string(),
+                          &out),
+              1);
+    EXPECT_NE(out.find("bad.json"), std::string::npos) << out;
+    EXPECT_NE(out.find("mean_y_01"), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(dir / "m.sdm"));
+    EXPECT_EQ(run_command(cli() + " eval conventions -q --photos " + (dir / "nothing").string(), &out), 1);
 }
 
 }  // namespace
