@@ -32,7 +32,7 @@ jobs=${FACESYNTH_TIDY_JOBS:-2}
 export TIDY_ROOT=$PWD TIDY_BUILD=$build_dir
 # tests/ is on the include path for fuzz/make_seeds.cpp, which reuses the tests' model writers.
 export TIDY_EXTRA=-I$PWD/tests
-export TIDY_CACHE=${FACESYNTH_TIDY_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/facesynth-tidy}
+export TIDY_CACHE=${FACESYNTH_TIDY_CACHE:-${XDG_CACHE_HOME:-${HOME:-/tmp}/.cache}/facesynth-tidy}
 [[ $TIDY_CACHE == off ]] && TIDY_CACHE=
 tidy_one() {
     local file=$1
