@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake ninja-build pkg-config git clang-tidy
+  build-essential cmake ninja-build pkg-config git clang-tidy ccache
   libeigen3-dev libceres-dev
   libopencv-dev libopencv-contrib-dev opencv-data
   libegl-dev libegl1 libegl-mesa0 libgl1-mesa-dri libgl-dev libgles-dev libosmesa6-dev libgbm-dev

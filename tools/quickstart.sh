@@ -8,7 +8,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+source tools/ccache.sh  # ccache when installed: shares compiled objects with tools/test.sh's Release pass
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release "${cmake_launcher[@]}"
 cmake --build build -j2
 
 fs=build/facesynth

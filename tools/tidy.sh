@@ -8,12 +8,18 @@
 # the nearest file that is (same include paths), which is all they need.
 # FACESYNTH_TIDY_JOBS sets the parallel clang-tidy processes (default 2).
 # Exits non-zero when any check fires (WarningsAsErrors).
+#
+# Result cache (like ccache's direct mode): a file that passed is not checked again while the
+# clang-tidy binary, every .clang-tidy, its compile command and every file it read (the includes
+# clang-tidy itself listed, system headers too) are byte-identical, since clang-tidy would then
+# print the same. Only passes are kept; a file with findings is checked every time.
+# FACESYNTH_TIDY_CACHE sets the folder (default ~/.cache/facesynth-tidy); FACESYNTH_TIDY_CACHE=off
+# checks every file afresh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${FACESYNTH_BUILD_DIR:-build}
+# Configuring writes the generated headers (the compiled-in completion table) that clang-tidy parses.
 [[ -f $build_dir/compile_commands.json ]] || cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
-# Generated headers (the compiled-in completion table) must exist before clang-tidy parses.
-cmake --build "$build_dir" -j2 --target facesynth_morph >/dev/null
 if [[ $# -gt 0 ]]; then
     files=("$@")
 elif git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
@@ -22,6 +28,50 @@ else
     mapfile -t files < <(find morph render synth fit train report tools bench fuzz -name '*.cpp' 2>/dev/null | sort)
 fi
 jobs=${FACESYNTH_TIDY_JOBS:-2}
-echo "tidy: clang-tidy on ${#files[@]} files, $jobs at a time" >&2
+
+export TIDY_ROOT=$PWD TIDY_BUILD=$build_dir
 # tests/ is on the include path for fuzz/make_seeds.cpp, which reuses the tests' model writers.
-printf '%s\n' "${files[@]}" | xargs -P "$jobs" -n 1 clang-tidy -p "$build_dir" --quiet --extra-arg=-I"$PWD/tests"
+export TIDY_EXTRA=-I$PWD/tests
+export TIDY_CACHE=${FACESYNTH_TIDY_CACHE:-${XDG_CACHE_HOME:-${HOME:-/tmp}/.cache}/facesynth-tidy}
+[[ $TIDY_CACHE == off ]] && TIDY_CACHE=
+tidy_one() {
+    local file=$1
+    if [[ -z $TIDY_CACHE ]]; then
+        clang-tidy -p "$TIDY_BUILD" --quiet --extra-arg="$TIDY_EXTRA" "$file"
+        return
+    fi
+    local abs rel key manifest deps rc=0
+    abs=$(realpath -m "$file")
+    rel=${abs#"$TIDY_ROOT"/}
+    # The file's compile command with the checkout's folder taken out (a clone elsewhere hits too);
+    # a file missing from the database gets the flags of another, so then the whole database counts.
+    local db=$TIDY_BUILD/compile_commands.json cmd
+    cmd=$(awk -v f="$abs" -F'"command": ' '/"command": /{c=$2} index($0, "\"file\": \"" f "\""){print c; n++} END{if(!n) print "missing"}' "$db")
+    key=$( { printf '%s\n%s\n%s\n' "$TIDY_SALT" "$rel" "$cmd"; if [[ $cmd == missing ]]; then cat "$db"; fi; } |
+           sed "s|$TIDY_ROOT|.|g" | sha256sum | cut -c1-64)
+    manifest=$TIDY_CACHE/$key
+    if [[ -f $manifest ]] && (cd "$TIDY_ROOT" && sha256sum --check --status "$manifest" 2>/dev/null); then
+        touch "$manifest"
+        return 0
+    fi
+    deps=$(mktemp)
+    clang-tidy -p "$TIDY_BUILD" --quiet --extra-arg="$TIDY_EXTRA" --extra-arg=-Wp,-MD,"$deps" "$file" || rc=$?
+    if [[ $rc == 0 && -s $deps ]]; then
+        # Make's dependency syntax -> one path a line (relative inside the checkout) -> sha256sum lines.
+        sed -e 's/^[^:]*://' -e 's/\\$//' "$deps" | tr ' ' '\n' | sed '/^$/d' | sed "s|^$TIDY_ROOT/||" | sort -u |
+            (cd "$TIDY_ROOT" && xargs -d '\n' sha256sum) > "$manifest.$$" && mv "$manifest.$$" "$manifest"
+    fi
+    rm -f "$deps" "$manifest.$$"
+    return $rc
+}
+if [[ -n $TIDY_CACHE ]]; then
+    mkdir -p "$TIDY_CACHE"
+    find "$TIDY_CACHE" -type f -mtime +30 -delete  # entries unused for a month
+    TIDY_SALT=$( { sha256sum "$(readlink -f "$(command -v clang-tidy)")" | cut -c1-64
+                   git ls-files -z '*.clang-tidy' 2>/dev/null | xargs -0 -r cat; cat .clang-tidy; echo "$TIDY_EXTRA"
+                 } | sed "s|$TIDY_ROOT|.|g" | sha256sum | cut -c1-64)
+    export TIDY_SALT
+fi
+export -f tidy_one
+echo "tidy: clang-tidy on ${#files[@]} files, $jobs at a time${TIDY_CACHE:+ (unchanged files that passed before are skipped: $TIDY_CACHE)}" >&2
+printf '%s\n' "${files[@]}" | xargs -d '\n' -P "$jobs" -n 1 bash -c 'tidy_one "$1"' tidy_one

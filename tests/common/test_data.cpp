@@ -22,6 +22,10 @@ bool running_in_ci() {
 
 std::filesystem::path cli_path() { return FACESYNTH_CLI; }
 
+std::filesystem::path test_files_dir() { return FACESYNTH_TEST_FILES; }
+
+std::filesystem::path source_dir() { return FACESYNTH_SOURCE_DIR; }
+
 std::filesystem::path fresh_temp_dir(const std::string& name) {
     std::filesystem::path base = std::filesystem::temp_directory_path() / "facesynth-tests";
     if (const char* env = std::getenv("FACESYNTH_TEST_TMP"); env && *env) base = env;

@@ -16,6 +16,12 @@ std::optional<std::filesystem::path> shared_data_dir();
 bool running_in_ci();
 // Path to the facesynth executable built with the tests.
 std::filesystem::path cli_path();
+// tests/data: small input files made by us (fuzzer findings kept as regression tests). A function,
+// not a macro in every test file, so that only test_data.cpp's object holds the checkout's path
+// (the other objects stay the same in every clone, for ccache).
+std::filesystem::path test_files_dir();
+// The repository's root (for tests that run its scripts, such as tools/sim2real.sh).
+std::filesystem::path source_dir();
 // A fresh empty temporary folder for one test (removed at the start of the next run).
 std::filesystem::path fresh_temp_dir(const std::string& name);
 // Runs a shell command, returns its exit status and captures stdout+stderr into `output`.

@@ -165,9 +165,9 @@ void expect_refused_without_open_handles(const std::filesystem::path& path) {
 }
 
 TEST(BfmIo, FuzzFindingsAreRefusedWithoutOpenHdf5Handles) {
-    expect_refused_without_open_handles(FACESYNTH_TEST_FILES "/fuzz_regressions/bfm-hdf5-leak-a551cfd6.h5");
-    expect_refused_without_open_handles(FACESYNTH_TEST_FILES "/fuzz_regressions/bfm-hdf5-huge-cache-entry-15009034.h5");
-    const std::filesystem::path crashing = FACESYNTH_TEST_FILES "/fuzz_regressions/bfm-hdf5-segv-local-heap-14948c8b.h5";
+    expect_refused_without_open_handles(testkit::test_files_dir() / "fuzz_regressions/bfm-hdf5-leak-a551cfd6.h5");
+    expect_refused_without_open_handles(testkit::test_files_dir() / "fuzz_regressions/bfm-hdf5-huge-cache-entry-15009034.h5");
+    const std::filesystem::path crashing = testkit::test_files_dir() / "fuzz_regressions/bfm-hdf5-segv-local-heap-14948c8b.h5";
     expect_refused_without_open_handles(crashing);
     try {
         (void)read_bfm2017(crashing);

@@ -32,7 +32,7 @@ Mesh toy_mesh() {
     return m.instance(alpha);
 }
 
-void expect_error_naming(const std::function<void()>& call, const std::filesystem::path& path, const char* what) {
+void expect_mesh_error_naming(const std::function<void()>& call, const std::filesystem::path& path, const char* what) {
     try {
         call();
         ADD_FAILURE() << "no error: " << what;
@@ -125,7 +125,7 @@ TEST(MeshIo, BadMeshFiles) {
     const auto dir = testkit::fresh_temp_dir("mesh_bad");
     const auto check = [&](const char* name, const std::string& text, const char* what) {
         std::ofstream(dir / name, std::ios::binary) << text;
-        expect_error_naming([&] { (void)read_mesh(dir / name); }, dir / name, what);
+        expect_mesh_error_naming([&] { (void)read_mesh(dir / name); }, dir / name, what);
     };
     check("empty.obj", "", "empty obj");
     check("range.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n", "index out of range");
@@ -146,7 +146,7 @@ TEST(MeshIo, BadMeshFiles) {
     // Writing: a texture without uv, and an unwritable folder.
     Mesh no_uv = toy_mesh();
     no_uv.uv.resize(2, 0);
-    expect_error_naming([&] { write_glb(no_uv, dir / "tex.glb", kTinyPng); }, dir / "tex.glb", "texture without uv");
+    expect_mesh_error_naming([&] { write_glb(no_uv, dir / "tex.glb", kTinyPng); }, dir / "tex.glb", "texture without uv");
     EXPECT_THROW(write_obj(toy_mesh(), dir / "missing" / "x.obj"), Error);
     EXPECT_FALSE(std::filesystem::exists(dir / "tex.glb"));
 }

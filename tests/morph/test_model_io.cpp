@@ -31,7 +31,7 @@ std::string with_fixed_trailer(std::string bytes) {
     return bytes;
 }
 
-void expect_error_naming(const std::function<void()>& call, const std::filesystem::path& path, const char* what) {
+void expect_model_error_naming(const std::function<void()>& call, const std::filesystem::path& path, const char* what) {
     try {
         call();
         ADD_FAILURE() << "no error: " << what;
@@ -40,7 +40,7 @@ void expect_error_naming(const std::function<void()>& call, const std::filesyste
     }
 }
 
-testkit::ToyModelOptions small_toy() {
+testkit::ToyModelOptions small_io_toy() {
     testkit::ToyModelOptions o;
     o.shape_components = 5;
     o.latitude_steps = 12;
@@ -76,7 +76,7 @@ void expect_same_model(const MorphableModel& a, const MorphableModel& b) {
 
 TEST(ModelIo, FsmRoundTripsEveryField) {
     const auto dir = testkit::fresh_temp_dir("fsm_round_trip");
-    MorphableModel toy = testkit::make_toy_model(small_toy());
+    MorphableModel toy = testkit::make_toy_model(small_io_toy());
     toy.name = "toy with blendshapes";
     toy.landmarks[5] = SurfacePoint{{1, 2, 3}, {0.2f, 0.3f, 0.5f}};  // a barycentric landmark
     toy.vertex_labels.resize(static_cast<std::size_t>(toy.num_vertices()));
@@ -105,7 +105,7 @@ TEST(ModelIo, FsmRoundTripsEveryField) {
 
 TEST(ModelIo, LoadModelDispatchesByExtensionAndContent) {
     const auto dir = testkit::fresh_temp_dir("fsm_dispatch");
-    const MorphableModel toy = testkit::make_toy_model(small_toy());
+    const MorphableModel toy = testkit::make_toy_model(small_io_toy());
     write_model(toy, dir / "toy.fsm");
     EXPECT_EQ(load_model((dir / "toy.fsm").string()).checksum(), toy.checksum());
     std::filesystem::copy_file(dir / "toy.fsm", dir / "toy.model");  // sniffed by its magic bytes
@@ -116,14 +116,14 @@ TEST(ModelIo, LoadModelDispatchesByExtensionAndContent) {
     std::filesystem::copy_file(dir / "toy.fsm", folder / "toy.fsm");
     EXPECT_EQ(load_model(folder.string()).checksum(), toy.checksum());
     std::filesystem::copy_file(dir / "toy.fsm", folder / "second.fsm");
-    expect_error_naming([&] { (void)load_model(folder.string()); }, folder, "two models in a folder");
+    expect_model_error_naming([&] { (void)load_model(folder.string()); }, folder, "two models in a folder");
 
-    expect_error_naming([&] { (void)load_model((dir / "nothing.fsm").string()); }, dir / "nothing.fsm", "missing");
+    expect_model_error_naming([&] { (void)load_model((dir / "nothing.fsm").string()); }, dir / "nothing.fsm", "missing");
     write_bytes(dir / "notes.txt", "hello");
-    expect_error_naming([&] { (void)load_model((dir / "notes.txt").string()); }, dir / "notes.txt", "unknown format");
+    expect_model_error_naming([&] { (void)load_model((dir / "notes.txt").string()); }, dir / "notes.txt", "unknown format");
     const auto empty = dir / "empty_folder";
     std::filesystem::create_directories(empty);
-    expect_error_naming([&] { (void)load_model(empty.string()); }, empty, "folder without a model");
+    expect_model_error_naming([&] { (void)load_model(empty.string()); }, empty, "folder without a model");
 }
 
 TEST(ModelIo, BuiltinLoadsThroughTheSameEntryPoint) {
@@ -134,13 +134,13 @@ TEST(ModelIo, BuiltinLoadsThroughTheSameEntryPoint) {
 
 TEST(ModelIo, BadFsmFilesFailWithTheFileName) {
     const auto dir = testkit::fresh_temp_dir("fsm_bad");
-    const MorphableModel toy = testkit::make_toy_model(small_toy());
+    const MorphableModel toy = testkit::make_toy_model(small_io_toy());
     write_model(toy, dir / "good.fsm");
     const std::string good = read_bytes(dir / "good.fsm");
     const auto path = dir / "bad.fsm";
     const auto expect_bad = [&](const std::string& bytes, const char* what) {
         write_bytes(path, bytes);
-        expect_error_naming([&] { (void)read_model(path); }, path, what);
+        expect_model_error_naming([&] { (void)read_model(path); }, path, what);
     };
     expect_bad("", "empty");
     expect_bad("FSMODEL", "short");
@@ -206,9 +206,9 @@ TEST(ModelIo, BadFsmFilesFailWithTheFileName) {
 
 TEST(ModelIo, WriteRefusesAnInvalidModelAndLeavesNoFile) {
     const auto dir = testkit::fresh_temp_dir("fsm_invalid");
-    MorphableModel toy = testkit::make_toy_model(small_toy());
+    MorphableModel toy = testkit::make_toy_model(small_io_toy());
     toy.triangles[0][0] = -4;
     EXPECT_THROW(write_model(toy, dir / "broken.fsm"), Error);
     EXPECT_FALSE(std::filesystem::exists(dir / "broken.fsm"));
-    EXPECT_THROW(write_model(testkit::make_toy_model(small_toy()), dir / "no" / "such" / "dir.fsm"), Error);
+    EXPECT_THROW(write_model(testkit::make_toy_model(small_io_toy()), dir / "no" / "such" / "dir.fsm"), Error);
 }

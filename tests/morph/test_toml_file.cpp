@@ -35,7 +35,7 @@ std::string repeated(const std::string& unit, int times) {
 }
 
 const std::filesystem::path kKeptFuzzInput =
-    std::filesystem::path(FACESYNTH_TEST_FILES) / "fuzz_regressions" / "synth_config-toml11-heap-overflow-3ea07958.toml";
+    facesynth::testkit::test_files_dir() / "fuzz_regressions" / "synth_config-toml11-heap-overflow-3ea07958.toml";
 
 }  // namespace
 

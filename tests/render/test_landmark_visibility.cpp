@@ -117,18 +117,18 @@ struct Disagreements {
     }
 };
 
-struct Comparison {
+struct VisibilityComparison {
     int compared = 0;
     Disagreements rule;        // project_landmarks (is_unoccluded)
     Disagreements depth_test;  // the former rule: is_visible, 2 mm in a 3x3 window
 };
 
-Comparison compare_with_ray_cast(const MorphableModel& model, const std::string& name, int size) {
+VisibilityComparison compare_with_ray_cast(const MorphableModel& model, const std::string& name, int size) {
     const Mesh mesh = model.instance({});
     render::RenderSettings settings;
     settings.msaa_samples = 0;
     settings.normals = false;
-    Comparison out;
+    VisibilityComparison out;
     for (const double pitch : {-20.0, 0.0, 20.0})
         for (int yaw = -85; yaw <= 85; yaw += 5) {
             const render::Camera camera = make_camera(yaw, pitch, 0, size, size, 30.0, 600.0);
@@ -153,7 +153,7 @@ Comparison compare_with_ray_cast(const MorphableModel& model, const std::string&
 // Disagreements are allowed only where the point lies within a pixel of an occluding outline (a
 // sliver of surface thinner than a pixel, between pixel centres, that the window's triangles and
 // their neighbours do not include), and at most 1 % of the flags.
-void expect_agreement(const Comparison& c) {
+void expect_agreement(const VisibilityComparison& c) {
     EXPECT_EQ(c.rule.outside_band, 0) << c.rule.summary();
     EXPECT_LE(c.rule.count, c.compared / 100) << c.rule.summary();
     EXPECT_LT(c.rule.count, c.depth_test.count);

@@ -50,7 +50,7 @@ TEST(SynthConfig, TomlFileSetsKeysAndRejectsUnknownKeyNamingIt) {
 TEST(SynthConfig, FuzzFindingInvalidUtf8IsRefusedNamingTheFileAndLine) {
     // fuzz_synth_config: a literal string with invalid UTF-8 made toml11 3.7 read past its buffer
     // (heap-buffer-overflow in location::reset). The config reader now refuses the bytes first.
-    const auto kept = std::filesystem::path(FACESYNTH_TEST_FILES) / "fuzz_regressions" /
+    const auto kept = testkit::test_files_dir() / "fuzz_regressions" /
                       "synth_config-toml11-heap-overflow-3ea07958.toml";
     ASSERT_TRUE(std::filesystem::exists(kept)) << kept;
     SynthConfig config;

@@ -172,7 +172,7 @@ TEST_F(CmdAppearance, RealismComparesRendersWithPhotographs) {
 TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     std::string out;
     const fs::path model = dir / "sim2real.sdm";
-    const std::string script = (fs::path(FACESYNTH_SOURCE_DIR) / "tools" / "sim2real.sh").string();
+    const std::string script = (facesynth::testkit::source_dir() / "tools" / "sim2real.sh").string();
     const std::string env = "FACESYNTH=" + cli() + " ";
     ASSERT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --count 60 --threads 2 --min-side 24", &out), 0)
         << out;

@@ -26,7 +26,7 @@ using facesynth::testkit::fresh_temp_dir;
 using facesynth::testkit::read_json;
 using facesynth::testkit::write_bytes;
 
-int run(const std::string& arguments, std::string* output) {
+int run_cli(const std::string& arguments, std::string* output) {
     return facesynth::testkit::run_command(cli_path().string() + " " + arguments, output);
 }
 
@@ -35,7 +35,7 @@ bool contains(const std::string& text, const std::string& part) { return text.fi
 // A frontal built-in face, large in a 256² image, that the Haar detector finds.
 fs::path rendered_face(const fs::path& dir) {
     std::string log;
-    EXPECT_EQ(run("render --size 256 --msaa 0 --quiet -o " + (dir / "render").string(), &log), 0) << log;
+    EXPECT_EQ(run_cli("render --size 256 --msaa 0 --quiet -o " + (dir / "render").string(), &log), 0) << log;
     return dir / "render" / "image.png";
 }
 
@@ -109,7 +109,7 @@ TEST(Robustness, DetectBatchReportsEachBadImageAndGoesOn) {
     for (const char* name : {"gray.png", "deep16.png", "cmyk.jpg", "tiny.png", "text.png", "empty.jpg", "truncated.png", "huge.png", "missing.png"})
         images.append(" ").append((dir / name).string());
     std::string log;
-    EXPECT_EQ(run("detect --regressor dlib " + images + " --out " + (dir / "out").string() + " --quiet", &log), 1) << log;
+    EXPECT_EQ(run_cli("detect --regressor dlib " + images + " --out " + (dir / "out").string() + " --quiet", &log), 1) << log;
     EXPECT_FALSE(contains(log, "internal error")) << log;
     // Grey, 16-bit and CMYK versions of the face are read like the original: same face, same box.
     for (const auto& name : readable) EXPECT_TRUE(fs::exists(dir / "out" / (name + ".json"))) << name << "\n" << log;
@@ -125,13 +125,13 @@ TEST(Robustness, EvalLandmarksCountsCorruptItemsAndExitsOne) {
     const auto dir = fresh_temp_dir("robust_eval");
     const fs::path data = dir / "data";
     std::string log;
-    ASSERT_EQ(run("synth --model builtin --out " + data.string() + " -n 4 --size 96 --seed 3 --format folder"
+    ASSERT_EQ(run_cli("synth --model builtin --out " + data.string() + " -n 4 --size 96 --seed 3 --format folder"
                   " --set render.msaa_samples=0 --quiet", &log), 0) << log;
     const std::string png = read_file(data / "images" / "s00000001.png");
     write_bytes(data / "images" / "s00000001.png", png.substr(0, png.size() / 3));
     write_bytes(data / "landmarks" / "s00000002.pts", "version: 1\nn_points: 3\n{\n1 1\n2 2\n3 3\n}\n");
     const fs::path json = dir / "eval.json";
-    EXPECT_EQ(run("eval landmarks --regressor dlib --data " + data.string() + " --quiet --json " + json.string(), &log), 1) << log;
+    EXPECT_EQ(run_cli("eval landmarks --regressor dlib --data " + data.string() + " --quiet --json " + json.string(), &log), 1) << log;
     EXPECT_TRUE(contains(log, "s00000001.png: cannot read image")) << log;
     EXPECT_TRUE(contains(log, "s00000002.pts: expected 68 points")) << log;
     EXPECT_TRUE(contains(log, "2 of 4 images or landmark files could not be read")) << log;
@@ -145,44 +145,44 @@ TEST(Robustness, FitRefusesUnreadableAndHugeImagesByName) {
     const auto dir = fresh_temp_dir("robust_fit");
     const fs::path data = dir / "data";
     std::string log;
-    ASSERT_EQ(run("synth --model builtin --out " + data.string() + " -n 1 --size 64 --format folder --set render.msaa_samples=0 --quiet", &log), 0) << log;
+    ASSERT_EQ(run_cli("synth --model builtin --out " + data.string() + " -n 1 --size 64 --format folder --set render.msaa_samples=0 --quiet", &log), 0) << log;
     const std::string pts = (data / "landmarks" / "s00000000.pts").string();
     write_bytes(dir / "text.jpg", "not a JPEG");
     write_bytes(dir / "huge.png", png_header_only(20000, 20000));
     ASSERT_TRUE(cv::imwrite((dir / "tiny.png").string(), cv::Mat(1, 1, CV_8UC3, cv::Scalar(1, 2, 3))));
     const std::string fit = "fit --model builtin --landmarks " + pts + " --quiet --out " + (dir / "out").string() + " --image ";
-    EXPECT_EQ(run(fit + (dir / "text.jpg").string(), &log), 1) << log;
+    EXPECT_EQ(run_cli(fit + (dir / "text.jpg").string(), &log), 1) << log;
     EXPECT_TRUE(contains(log, "text.jpg: cannot read the image")) << log;
-    EXPECT_EQ(run(fit + (dir / "huge.png").string(), &log), 1) << log;
+    EXPECT_EQ(run_cli(fit + (dir / "huge.png").string(), &log), 1) << log;
     EXPECT_TRUE(contains(log, "huge.png: image is 20000 x 20000 pixels")) << log;
     // A 1x1 photograph is valid: the landmarks lie outside it, the overlay is just clipped.
-    EXPECT_EQ(run(fit + (dir / "tiny.png").string(), &log), 0) << log;
+    EXPECT_EQ(run_cli(fit + (dir / "tiny.png").string(), &log), 0) << log;
 }
 
 TEST(Robustness, FrontaliseRefusesHugeImagesByName) {
     const auto dir = fresh_temp_dir("robust_frontalise");
     const fs::path data = dir / "data";
     std::string log;
-    ASSERT_EQ(run("synth --model builtin --out " + data.string() + " -n 1 --size 64 --format folder --set render.msaa_samples=0 --quiet", &log), 0) << log;
+    ASSERT_EQ(run_cli("synth --model builtin --out " + data.string() + " -n 1 --size 64 --format folder --set render.msaa_samples=0 --quiet", &log), 0) << log;
     write_bytes(dir / "huge.png", png_header_only(20000, 20000));
     const std::string pts = (data / "landmarks" / "s00000000.pts").string();
-    EXPECT_EQ(run("frontalise --model builtin --pts " + pts + " --quiet --out " + (dir / "out").string() + " " + (dir / "huge.png").string(), &log), 1) << log;
+    EXPECT_EQ(run_cli("frontalise --model builtin --pts " + pts + " --quiet --out " + (dir / "out").string() + " " + (dir / "huge.png").string(), &log), 1) << log;
     EXPECT_TRUE(contains(log, "huge.png: image is 20000 x 20000 pixels")) << log;
 }
 
 TEST(Robustness, OutOfRangeParametersAreRefusedNamingThem) {
     const auto dir = fresh_temp_dir("robust_ranges");
     std::string log;
-    EXPECT_EQ(run("render --yaw 400 -o " + (dir / "r").string(), &log), 2) << log;
+    EXPECT_EQ(run_cli("render --yaw 400 -o " + (dir / "r").string(), &log), 2) << log;
     EXPECT_TRUE(contains(log, "--yaw")) << log;
-    EXPECT_EQ(run("render --pitch -200 -o " + (dir / "r").string(), &log), 2) << log;
-    EXPECT_EQ(run("render --size -5 -o " + (dir / "r").string(), &log), 2) << log;
-    EXPECT_EQ(run("render --size 0 -o " + (dir / "r").string(), &log), 2) << log;
-    EXPECT_EQ(run("synth -o " + (dir / "s").string() + " -n 1 --set camera.width=-5", &log), 1) << log;
+    EXPECT_EQ(run_cli("render --pitch -200 -o " + (dir / "r").string(), &log), 2) << log;
+    EXPECT_EQ(run_cli("render --size -5 -o " + (dir / "r").string(), &log), 2) << log;
+    EXPECT_EQ(run_cli("render --size 0 -o " + (dir / "r").string(), &log), 2) << log;
+    EXPECT_EQ(run_cli("synth -o " + (dir / "s").string() + " -n 1 --set camera.width=-5", &log), 1) << log;
     EXPECT_TRUE(contains(log, "config key 'camera.width'")) << log;
-    EXPECT_EQ(run("synth -o " + (dir / "s").string() + " -n 1 --set pose.yaw.max=400", &log), 1) << log;
+    EXPECT_EQ(run_cli("synth -o " + (dir / "s").string() + " -n 1 --set pose.yaw.max=400", &log), 1) << log;
     EXPECT_TRUE(contains(log, "config key 'pose.yaw.max'")) << log;
-    EXPECT_EQ(run("synth -o " + (dir / "s").string() + " -n -3 --quiet", &log), 2) << log;  // not "the default count"
+    EXPECT_EQ(run_cli("synth -o " + (dir / "s").string() + " -n -3 --quiet", &log), 2) << log;  // not "the default count"
     EXPECT_TRUE(contains(log, "--count")) << log;
     EXPECT_FALSE(fs::exists(dir / "r"));
 }
@@ -190,16 +190,16 @@ TEST(Robustness, OutOfRangeParametersAreRefusedNamingThem) {
 TEST(Robustness, EdgeAntialiasingNeedsASingleSampleRenderAndIsRecorded) {
     const auto dir = fresh_temp_dir("robust_edge_aa");
     std::string log;
-    EXPECT_EQ(run("render --size 64 --edge-aa -o " + (dir / "r").string(), &log), 2) << log;  // MSAA 4 by default
+    EXPECT_EQ(run_cli("render --size 64 --edge-aa -o " + (dir / "r").string(), &log), 2) << log;  // MSAA 4 by default
     EXPECT_TRUE(contains(log, "--edge-aa")) << log;
-    EXPECT_EQ(run("render --size 64 --msaa 0 --supersample 2 --edge-aa -o " + (dir / "r").string(), &log), 2) << log;
+    EXPECT_EQ(run_cli("render --size 64 --msaa 0 --supersample 2 --edge-aa -o " + (dir / "r").string(), &log), 2) << log;
     EXPECT_FALSE(fs::exists(dir / "r"));
-    EXPECT_EQ(run("bench render --size 64 -n 5 --msaa 0 --bare --edge-aa --quiet", &log), 2) << log;
+    EXPECT_EQ(run_cli("bench render --size 64 -n 5 --msaa 0 --bare --edge-aa --quiet", &log), 2) << log;
     // synth anti-aliases edges by default: MSAA asks for edge anti-aliasing off.
-    EXPECT_EQ(run("synth -o " + (dir / "s").string() + " -n 1 --set render.msaa_samples=4", &log), 1) << log;
+    EXPECT_EQ(run_cli("synth -o " + (dir / "s").string() + " -n 1 --set render.msaa_samples=4", &log), 1) << log;
     EXPECT_TRUE(contains(log, "render.msaa_samples") && contains(log, "render.edge_antialiasing = false")) << log;
     EXPECT_FALSE(fs::exists(dir / "s" / "manifest.jsonl"));
-    ASSERT_EQ(run("render --size 64 --msaa 0 --edge-aa --quiet -o " + (dir / "r").string(), &log), 0) << log;
+    ASSERT_EQ(run_cli("render --size 64 --msaa 0 --edge-aa --quiet -o " + (dir / "r").string(), &log), 0) << log;
     EXPECT_EQ(read_json(dir / "r" / "render.json")["edge_antialiasing"], true);
 }
 
@@ -213,7 +213,7 @@ TEST(Robustness, UnwritableOutputIsAOneLineErrorNamingThePath) {
                                        "model convert --model builtin --out " + blocked + "/m.fsm",
                                        "model info --model builtin --json " + blocked + "/info.json",
                                        "detect --regressor dlib " + (dir / "blocker").string() + " --out " + blocked}) {
-        EXPECT_EQ(run(command, &log), 1) << command << "\n" << log;
+        EXPECT_EQ(run_cli(command, &log), 1) << command << "\n" << log;
         EXPECT_TRUE(contains(log, "facesynth: error: ")) << command << "\n" << log;
         EXPECT_TRUE(contains(log, "blocker")) << command << "\n" << log;
         EXPECT_FALSE(contains(log, "internal error")) << command << "\n" << log;
@@ -228,7 +228,7 @@ TEST(Robustness, BadModelFilesThroughTheCliNameTheFile) {
     write_bytes(dir / "model.obj", "v 0 0 0\n");
     std::string log;
     for (const char* name : {"empty.fsm", "text.h5", "short.bin", "model.obj", "missing.fsm"}) {
-        EXPECT_EQ(run("model info --model " + (dir / name).string(), &log), 1) << name << "\n" << log;
+        EXPECT_EQ(run_cli("model info --model " + (dir / name).string(), &log), 1) << name << "\n" << log;
         EXPECT_TRUE(contains(log, "facesynth: error: " + (dir / name).string())) << log;
         EXPECT_FALSE(contains(log, "internal error")) << log;
     }

@@ -19,7 +19,7 @@ using facesynth::testkit::run_command;
 using facesynth::testkit::read_json;
 
 // Near-frontal faces, large in the image, so the Haar detector finds most of them.
-fs::path make_dataset(const fs::path& dir, const std::string& name, int count, int seed) {
+fs::path make_train_dataset(const fs::path& dir, const std::string& name, int count, int seed) {
     const fs::path data = dir / name;
     std::string out;
     const std::string cmd = cli_path().string() + " synth --model builtin --out " + data.string() + " -n " +
@@ -33,8 +33,8 @@ fs::path make_dataset(const fs::path& dir, const std::string& name, int count, i
 
 TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     const auto dir = fresh_temp_dir("cmd_train");
-    const auto train = make_dataset(dir, "train", 80, 1);
-    const auto test = make_dataset(dir, "test", 30, 2);
+    const auto train = make_train_dataset(dir, "train", 80, 1);
+    const auto test = make_train_dataset(dir, "test", 30, 2);
     const auto model = dir / "regressor.sdm";
     std::string out;
     const std::string train_cmd = cli_path().string() + " train --data " + train.string() + " --out " + model.string() +
@@ -95,8 +95,8 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
 // same synthesised boxes where it misses) and are evaluated on the same detections in one run.
 TEST(CmdTrain, ErtAndLbfBaselinesTrainAndEvaluateOnTheSameBoxesAsTheCascade) {
     const auto dir = fresh_temp_dir("cmd_train_baselines");
-    const auto train = make_dataset(dir, "train", 60, 3);
-    const auto test = make_dataset(dir, "test", 20, 4);
+    const auto train = make_train_dataset(dir, "train", 60, 3);
+    const auto test = make_train_dataset(dir, "test", 20, 4);
     std::string out;
     const auto train_with = [&](const std::string& name, const std::string& options) {
         const std::string cmd = cli_path().string() + " train --data " + train.string() + " --out " + (dir / name).string() +

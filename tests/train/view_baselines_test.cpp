@@ -21,7 +21,7 @@ using testkit::cartoon_training_faces;
 using testkit::concatenate;
 using testkit::three_view_faces;
 
-ErtTrainOptions small_ert() {
+ErtTrainOptions small_view_ert() {
     ErtTrainOptions options;
     options.threads = 2;
     options.oversampling = 4;
@@ -32,13 +32,13 @@ ErtTrainOptions small_ert() {
 }
 
 // Mean NME of a regressor on canonical crops, each in its own view's box.
-double mean_nme(const LandmarkRegressor& regressor, const std::vector<TrainingFace>& faces) {
+double view_mean_nme(const LandmarkRegressor& regressor, const std::vector<TrainingFace>& faces) {
     double sum = 0;
     for (const auto& face : faces) sum += landmark_nme(regressor.predict(face.crop, canonical_face_box(face.view)), face.truth);
     return sum / static_cast<double>(faces.size());
 }
 
-void expect_error_naming(const std::string& spec, const std::string& name) {
+void expect_view_error_naming(const std::string& spec, const std::string& name) {
     try {
         (void)open_regressor(spec);
         ADD_FAILURE() << spec << " accepted";
@@ -75,7 +75,7 @@ TEST(ViewBaselines, ErtPerViewLearnsProfileFacesAndTheBundleRoundTrips) {
     EXPECT_EQ(sets.counts.profile_faces, 60);
     EXPECT_EQ(sets.counts.profile_mirrored, 30);
     const auto train_ert = [](std::span<const TrainingFace> faces, const std::filesystem::path& file) {
-        train_dlib_ert(faces, small_ert(), file);
+        train_dlib_ert(faces, small_view_ert(), file);
     };
     const ViewBaselineBundle bundle = train_view_baselines(BaselineMethod::kErt, DetectorKind::kMultiView, sets,
                                                            dir / "views.ert", train_ert);
@@ -83,7 +83,7 @@ TEST(ViewBaselines, ErtPerViewLearnsProfileFacesAndTheBundleRoundTrips) {
     EXPECT_TRUE(is_view_baseline_bundle(dir / "views.ert"));
     for (const auto& entry : std::filesystem::directory_iterator(dir))  // no trainer output left behind
         EXPECT_EQ(entry.path().filename(), "views.ert");
-    train_dlib_ert(train, small_ert(), dir / "single.ert");
+    train_dlib_ert(train, small_view_ert(), dir / "single.ert");
     EXPECT_FALSE(is_view_baseline_bundle(dir / "single.ert"));
 
     const auto views = open_regressor("ert:" + (dir / "views.ert").string());
@@ -96,12 +96,12 @@ TEST(ViewBaselines, ErtPerViewLearnsProfileFacesAndTheBundleRoundTrips) {
     for (const auto& face : profile_test)
         start += landmark_nme(face.view == FaceView::kNoseRight ? mirror_canonical_shape(profile_mean) : profile_mean, face.truth) /
                  static_cast<double>(profile_test.size());
-    const double views_nme = mean_nme(*views, profile_test), single_nme = mean_nme(*single, profile_test);
+    const double views_nme = view_mean_nme(*views, profile_test), single_nme = view_mean_nme(*single, profile_test);
     RecordProperty("profile_start_nme", std::to_string(start));
     RecordProperty("views_profile_nme", std::to_string(views_nme));
     RecordProperty("single_profile_nme", std::to_string(single_nme));
     EXPECT_LT(views_nme, 0.6 * start) << "start " << start << ", view-specific ERT " << views_nme;
-    EXPECT_LT(mean_nme(*views, cartoon_training_faces(66, 12)), 0.6 * start);
+    EXPECT_LT(view_mean_nme(*views, cartoon_training_faces(66, 12)), 0.6 * start);
 }
 
 TEST(ViewBaselines, LbfBundleRoundTripsThroughTheRegressorSpec) {
@@ -133,7 +133,7 @@ TEST(ViewBaselines, LbfBundleRoundTripsThroughTheRegressorSpec) {
     ASSERT_EQ(left.view, FaceView::kNoseLeft);
     EXPECT_TRUE(regressor->predict(left.crop, canonical_face_box(FaceView::kNoseLeft)).isApprox(profile.predict(left.crop)));
     // An LBF bundle is not an ERT model.
-    expect_error_naming("ert:" + (dir / "views.lbf").string(), "views.lbf");
+    expect_view_error_naming("ert:" + (dir / "views.lbf").string(), "views.lbf");
 }
 
 TEST(ViewBaselines, CorruptBundlesGiveErrorsNamingTheFile) {
@@ -159,11 +159,11 @@ TEST(ViewBaselines, CorruptBundlesGiveErrorsNamingTheFile) {
     for (const char* name : {"truncated.ert", "flipped.ert", "version.ert", "header.ert"}) {
         EXPECT_TRUE(is_view_baseline_bundle(dir / name));
         EXPECT_THROW((void)read_view_baseline_bundle(dir / name, BaselineMethod::kErt), Error) << name;
-        expect_error_naming("ert:" + (dir / name).string(), name);
+        expect_view_error_naming("ert:" + (dir / name).string(), name);
     }
     EXPECT_THROW((void)read_view_baseline_bundle(dir / "good.ert", BaselineMethod::kLbf), Error);
     // Valid bundle, but its parts are not dlib models: the error names the bundle and the part.
-    expect_error_naming("ert:" + (dir / "good.ert").string(), "good.ert (frontal model)");
+    expect_view_error_naming("ert:" + (dir / "good.ert").string(), "good.ert (frontal model)");
     // A view set without faces is refused before any training, naming the view.
     ViewFaceSets empty;
     empty.frontal = cartoon_training_faces(68, 2);

@@ -87,7 +87,7 @@ TEST(ViewCascades, AMirroredFaceIsAValidTrainingFace) {
     EXPECT_GT(nose_offset(right.truth), 0);
 }
 
-double mean_nme(const SdmModel& model, const std::vector<TrainingFace>& test) {
+double cascade_mean_nme(const SdmModel& model, const std::vector<TrainingFace>& test) {
     double sum = 0;
     for (const auto& face : test) sum += landmark_nme(sdm_refine_view(model, face.crop, face.view), face.truth);
     return sum / static_cast<double>(test.size());
@@ -112,7 +112,7 @@ TEST(ViewCascades, BeatTheSingleCascadeOnHeldOutProfileFaces) {
     // The nose-right start is the mirrored profile mean.
     EXPECT_TRUE(views.initial_shape(FaceView::kNoseRight).isApprox(mirror_canonical_shape(views.profile->mean_shape)));
 
-    const double single_profile = mean_nme(single, profile_test), views_profile = mean_nme(views, profile_test);
+    const double single_profile = cascade_mean_nme(single, profile_test), views_profile = cascade_mean_nme(views, profile_test);
     const double start_profile = [&] {
         double sum = 0;
         for (const auto& face : profile_test) sum += landmark_nme(views.initial_shape(face.view), face.truth);
@@ -124,7 +124,7 @@ TEST(ViewCascades, BeatTheSingleCascadeOnHeldOutProfileFaces) {
     EXPECT_LT(views_profile, 0.6 * start_profile);
     EXPECT_LE(views_profile, single_profile) << "single " << single_profile << ", view-specific " << views_profile;
     // The frontal cascade, trained on a third of the faces, still works on frontal faces.
-    EXPECT_LT(mean_nme(views, frontal_test), 1.5 * mean_nme(single, frontal_test));
+    EXPECT_LT(cascade_mean_nme(views, frontal_test), 1.5 * cascade_mean_nme(single, frontal_test));
 }
 
 TEST(ViewCascades, OverlapAddsFacesOfTheOtherViewByTrueYaw) {
