@@ -16,16 +16,16 @@
 namespace facesynth::frontal {
 namespace {
 
-constexpr int kSize = 256;
+constexpr int kTextureSize = 256;
 
-double srgb_decode(double encoded) { return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4); }
+double texture_srgb_decode(double encoded) { return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4); }
 
 class PhotoTextureTest : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
         model_ = std::make_unique<MorphableModel>(builtin_model());
         frontaliser_ = std::make_unique<Frontaliser>(*model_);
-        face_ = std::make_unique<TexturedFace>(make_textured_face(*model_, *frontaliser_, 11, 2, kSize));
+        face_ = std::make_unique<TexturedFace>(make_textured_face(*model_, *frontaliser_, 11, 2, kTextureSize));
     }
     static void TearDownTestSuite() {
         face_.reset();
@@ -42,10 +42,10 @@ protected:
     static cv::Mat face_mask() {
         const SyntheticView v = view(0);
         FrontaliseOptions options;
-        options.isomap.size = kSize;
+        options.isomap.size = kTextureSize;
         const Frontalisation f = frontaliser_->frontalise(v.image, v.landmarks, options);
-        const UvRaster& raster = frontaliser_->uv_raster(kSize);
-        cv::Mat mask(kSize, kSize, CV_8UC1, cv::Scalar(0));
+        const UvRaster& raster = frontaliser_->uv_raster(kTextureSize);
+        cv::Mat mask(kTextureSize, kTextureSize, CV_8UC1, cv::Scalar(0));
         for (const UvRaster::TriangleTexels& tri : raster.triangles) {
             const auto region = static_cast<Region>(model_->vertex_labels[static_cast<std::size_t>(tri.vertices[0])]);
             if (region != Region::kSkin && region != Region::kNose && region != Region::kLips) continue;
@@ -62,12 +62,12 @@ protected:
     // albedo's absolute one).
     static double display_error(const cv::Mat& texture_rgb, const cv::Mat& mask) {
         std::vector<std::array<double, 3>> texture, truth;
-        for (int r = 0; r < kSize; ++r)
-            for (int c = 0; c < kSize; ++c) {
+        for (int r = 0; r < kTextureSize; ++r)
+            for (int c = 0; c < kTextureSize; ++c) {
                 if (mask.at<uchar>(r, c) == 0) continue;
                 const cv::Vec3b t = texture_rgb.at<cv::Vec3b>(r, c);
                 const cv::Vec3b d = face_->true_isomap.at<cv::Vec3b>(r, c);  // B G R display values
-                texture.push_back({srgb_decode(t[0] / 255.0), srgb_decode(t[1] / 255.0), srgb_decode(t[2] / 255.0)});
+                texture.push_back({texture_srgb_decode(t[0] / 255.0), texture_srgb_decode(t[1] / 255.0), texture_srgb_decode(t[2] / 255.0)});
                 truth.push_back({std::pow(d[2] / 255.0, 2.2), std::pow(d[1] / 255.0, 2.2), std::pow(d[0] / 255.0, 2.2)});
             }
         std::array<double, 3> gain{};
@@ -86,7 +86,7 @@ protected:
     }
     static PhotoTextureOptions options(bool remove_shading) {
         PhotoTextureOptions o;
-        o.size = kSize;
+        o.size = kTextureSize;
         o.remove_shading = remove_shading;
         return o;
     }
@@ -107,7 +107,7 @@ TEST_F(PhotoTextureTest, TextureOfAnUnlitFrontalRenderMatchesTheKnownAlbedo) {
         const PhotoTexture t = extract_photo_texture(*frontaliser_, v.image, v.landmarks, options(remove_shading));
         ASSERT_TRUE(t.rejection.empty()) << t.rejection;
         ASSERT_EQ(t.texture.type(), CV_8UC3);
-        ASSERT_EQ(t.texture.rows, kSize);
+        ASSERT_EQ(t.texture.rows, kTextureSize);
         const double error = display_error(t.texture, mask);
         std::printf("unlit frontal render, shading removal %s: mean error %.2f levels, coverage %.2f, shading range %.2f\n",
                     remove_shading ? "on" : "off", error, t.face_coverage, t.shading_range);

@@ -13,7 +13,7 @@
 namespace facesynth::synth {
 namespace {
 
-int count_label(const cv::Mat& labels, Region region) {
+int count_region_pixels(const cv::Mat& labels, Region region) {
     int n = 0;
     for (int y = 0; y < labels.rows; ++y)
         for (int x = 0; x < labels.cols; ++x) n += labels.at<std::uint8_t>(y, x) == static_cast<std::uint8_t>(region);
@@ -38,7 +38,7 @@ TEST(Neck, LeavesTheFacesLandmarksAndLabelsAndAddsNeckPixelsBelowTheChin) {
         EXPECT_EQ(without.labels.landmarks_contour, with.labels.landmarks_contour) << "sample " << index;
         EXPECT_EQ(without.labels.landmarks_fixed, with.labels.landmarks_fixed) << "sample " << index;
         for (std::size_t i = 0; i < 68; ++i) visibility_changes += without.labels.visible_contour[i] != with.labels.visible_contour[i];
-        const int neck_pixels = count_label(with.regions, Region::kNeck) - count_label(without.regions, Region::kNeck);
+        const int neck_pixels = count_region_pixels(with.regions, Region::kNeck) - count_region_pixels(without.regions, Region::kNeck);
         EXPECT_GT(neck_pixels, 100) << "sample " << index;
         // The face's own labels are only ever covered by nothing new: every pixel labelled as a face part
         // without the neck keeps its label with it.

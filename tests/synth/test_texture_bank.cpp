@@ -19,7 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-TextureBankManifest header_for(const MorphableModel& model, int size) {
+TextureBankManifest bank_header_for(const MorphableModel& model, int size) {
     TextureBankManifest h;
     h.model = model.name;
     h.model_checksum = model.checksum();
@@ -28,9 +28,9 @@ TextureBankManifest header_for(const MorphableModel& model, int size) {
     return h;
 }
 
-cv::Mat solid(int size, uchar r, uchar g, uchar b) { return {size, size, CV_8UC3, cv::Scalar(r, g, b)}; }
+cv::Mat solid_texture(int size, uchar r, uchar g, uchar b) { return {size, size, CV_8UC3, cv::Scalar(r, g, b)}; }
 
-std::string error_of(const std::function<void()>& f) {
+std::string bank_error_of(const std::function<void()>& f) {
     try {
         f();
     } catch (const Error& e) {
@@ -51,14 +51,14 @@ TEST_F(TextureBankTest, WrittenBankLoadsForItsModelInManifestOrder) {
     const fs::path dir = testkit::fresh_temp_dir("texture_bank_roundtrip");
     const fs::path bank = dir / "bank";
     {
-        TextureBankWriter writer(bank, header_for(*model_, 16));
+        TextureBankWriter writer(bank, bank_header_for(*model_, 16));
         TextureBankEntry e;
         e.source = "a.jpg";
         e.yaw_deg = 12.5;
         e.skin_srgb = {200, 150, 120};
-        writer.add(solid(16, 10, 20, 30), e);
+        writer.add(solid_texture(16, 10, 20, 30), e);
         e.source = "b.jpg";
-        writer.add(solid(16, 40, 50, 60), e);
+        writer.add(solid_texture(16, 40, 50, 60), e);
         writer.reject("c.jpg", "pose: yaw 70° beyond ±50°");
         EXPECT_FALSE(fs::exists(bank));  // nothing in place before commit
         writer.commit();
@@ -80,59 +80,59 @@ TEST_F(TextureBankTest, WrittenBankLoadsForItsModelInManifestOrder) {
 TEST_F(TextureBankTest, UncommittedWriterLeavesNothingAndANonBankFolderIsNeverReplaced) {
     const fs::path dir = testkit::fresh_temp_dir("texture_bank_partial");
     {
-        TextureBankWriter writer(dir / "bank", header_for(*model_, 16));
-        writer.add(solid(16, 1, 2, 3), {});
+        TextureBankWriter writer(dir / "bank", bank_header_for(*model_, 16));
+        writer.add(solid_texture(16, 1, 2, 3), {});
     }
     EXPECT_FALSE(fs::exists(dir / "bank"));
     for (const auto& entry : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << entry.path();
     fs::create_directories(dir / "photos");
-    const std::string message = error_of([&] { TextureBankWriter writer(dir / "photos", header_for(*model_, 16)); });
+    const std::string message = bank_error_of([&] { TextureBankWriter writer(dir / "photos", bank_header_for(*model_, 16)); });
     EXPECT_NE(message.find("is not a texture bank"), std::string::npos) << message;
-    TextureBankWriter writer(dir / "bank", header_for(*model_, 16));
-    EXPECT_THROW(writer.add(solid(8, 1, 2, 3), {}), Error);  // wrong size
+    TextureBankWriter writer(dir / "bank", bank_header_for(*model_, 16));
+    EXPECT_THROW(writer.add(solid_texture(8, 1, 2, 3), {}), Error);  // wrong size
 }
 
 TEST_F(TextureBankTest, BadBanksAreRefusedNamingTheFileAndTheProblem) {
     const fs::path dir = testkit::fresh_temp_dir("texture_bank_bad");
     const fs::path bank = dir / "bank";
     {
-        TextureBankWriter writer(bank, header_for(*model_, 16));
-        writer.add(solid(16, 1, 2, 3), {});
+        TextureBankWriter writer(bank, bank_header_for(*model_, 16));
+        writer.add(solid_texture(16, 1, 2, 3), {});
         writer.commit();
     }
     // Made for another model.
-    TextureBankManifest other = header_for(*model_, 16);
+    TextureBankManifest other = bank_header_for(*model_, 16);
     other.model = "surrey";
     other.model_checksum = "0123456789abcdef";
     other.vertices = 3448;
     {
         TextureBankWriter writer(dir / "other", other);
-        writer.add(solid(16, 1, 2, 3), {});
+        writer.add(solid_texture(16, 1, 2, 3), {});
         writer.commit();
     }
-    std::string message = error_of([&] { (void)load_texture_bank(dir / "other", *model_); });
+    std::string message = bank_error_of([&] { (void)load_texture_bank(dir / "other", *model_); });
     EXPECT_NE(message.find("bank.json"), std::string::npos) << message;
     EXPECT_NE(message.find("made for model 'surrey'"), std::string::npos) << message;
     // A texture of the wrong size, and one that is not an image.
-    cv::imwrite((bank / "textures" / "000000.png").string(), solid(8, 1, 2, 3));
-    message = error_of([&] { (void)load_texture_bank(bank, *model_); });
+    cv::imwrite((bank / "textures" / "000000.png").string(), solid_texture(8, 1, 2, 3));
+    message = bank_error_of([&] { (void)load_texture_bank(bank, *model_); });
     EXPECT_NE(message.find("000000.png"), std::string::npos) << message;
     std::ofstream(bank / "textures" / "000000.png") << "not a png";
-    message = error_of([&] { (void)load_texture_bank(bank, *model_); });
+    message = bank_error_of([&] { (void)load_texture_bank(bank, *model_); });
     EXPECT_NE(message.find("cannot read the texture"), std::string::npos) << message;
     // No manifest, not JSON, not a bank.
     fs::create_directories(dir / "empty");
-    message = error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    message = bank_error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("not a texture bank"), std::string::npos) << message;
     std::ofstream(dir / "empty" / "bank.json") << "{";
-    message = error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    message = bank_error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("not valid JSON"), std::string::npos) << message;
     std::ofstream(dir / "empty" / "bank.json") << R"({"format": "something else"})";
-    message = error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    message = bank_error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("not a texture bank manifest"), std::string::npos) << message;
     std::ofstream(dir / "empty" / "bank.json") << R"({"format": "facesynth-texture-bank", "version": 1, "model": "builtin",
         "model_checksum": "x", "vertices": 1, "size": 16, "textures": [{"file": "../../etc/passwd"}]})";
-    message = error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    message = bank_error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("relative path inside the bank"), std::string::npos) << message;
     EXPECT_THROW((void)load_texture_bank(dir / "missing", *model_), Error);
 }

@@ -18,9 +18,9 @@ using facesynth::testkit::fresh_temp_dir;
 using facesynth::testkit::read_json;
 using facesynth::testkit::run_command;
 
-std::string cli() { return cli_path().string(); }
+std::string appearance_cli() { return cli_path().string(); }
 
-std::string read_bytes(const fs::path& path) {
+std::string read_file_bytes(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     std::ostringstream s;
     s << in.rdbuf();
@@ -28,10 +28,10 @@ std::string read_bytes(const fs::path& path) {
 }
 
 // Near-frontal renders as "photographs": IMAGE.png with IMAGE.pts beside it.
-fs::path make_photos(const fs::path& dir, int count) {
+fs::path make_photo_folder(const fs::path& dir, int count) {
     const fs::path data = dir / "renders";
     std::string out;
-    const std::string cmd = cli() + " synth --out " + data.string() + " -n " + std::to_string(count) +
+    const std::string cmd = appearance_cli() + " synth --out " + data.string() + " -n " + std::to_string(count) +
                             " --seed 3 --set pose.yaw.min=-20 --set pose.yaw.max=20 --set pose.pitch.min=-5 --set pose.pitch.max=5"
                             " --set camera.face_scale_min=0.3 --set camera.face_scale_max=0.35 --quiet";
     EXPECT_EQ(run_command(cmd, &out), 0) << out;
@@ -51,7 +51,7 @@ protected:
     void SetUp() override {
         const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
         dir = fresh_temp_dir("cmd_appearance_" + name);
-        photos = make_photos(dir, 6);
+        photos = make_photo_folder(dir, 6);
     }
     fs::path dir, photos;
 };
@@ -64,7 +64,7 @@ TEST_F(CmdAppearance, TexturesBuildABankThatSynthDrawsFromDeterministically) {
     std::string out;
     const fs::path bank = dir / "bank";
     const fs::path summary = dir / "textures.json";
-    ASSERT_EQ(run_command(cli() + " textures --photos " + with_bad.string() + " --out " + bank.string() + " --size 128 -q --json " + summary.string(), &out),
+    ASSERT_EQ(run_command(appearance_cli() + " textures --photos " + with_bad.string() + " --out " + bank.string() + " --size 128 -q --json " + summary.string(), &out),
               0)
         << out;
     const auto j = read_json(summary);
@@ -81,13 +81,13 @@ TEST_F(CmdAppearance, TexturesBuildABankThatSynthDrawsFromDeterministically) {
     EXPECT_TRUE(broken_listed);
 
     // Sample i is the same with one worker or two, and with the bank it records its texture and gain.
-    const std::string synth = cli() + " synth -n 4 --seed 9 --size 96 -q --set albedo.texture_bank=" + bank.string() +
+    const std::string synth = appearance_cli() + " synth -n 4 --seed 9 --size 96 -q --set albedo.texture_bank=" + bank.string() +
                               " --set albedo.texture_tone_jitter=0.1";
     ASSERT_EQ(run_command(synth + " --threads 1 -o " + (dir / "s1").string(), &out), 0) << out;
     ASSERT_EQ(run_command(synth + " --threads 2 -o " + (dir / "s2").string(), &out), 0) << out;
     for (int i = 0; i < 4; ++i) {
         const std::string key = "s0000000" + std::to_string(i);
-        EXPECT_EQ(read_bytes(dir / "s1" / "images" / (key + ".png")), read_bytes(dir / "s2" / "images" / (key + ".png"))) << key;
+        EXPECT_EQ(read_file_bytes(dir / "s1" / "images" / (key + ".png")), read_file_bytes(dir / "s2" / "images" / (key + ".png"))) << key;
         const auto meta = read_json(dir / "s1" / "meta" / (key + ".json"));
         EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);
         EXPECT_NE(meta["texture_gain"], nlohmann::json::array({1.0, 1.0, 1.0}));
@@ -98,11 +98,11 @@ TEST_F(CmdAppearance, TexturesBuildABankThatSynthDrawsFromDeterministically) {
     const fs::path other_bank = dir / "other_bank";
     fs::copy(bank, other_bank, fs::copy_options::recursive);
     std::ofstream(other_bank / "bank.json") << other.dump();
-    EXPECT_EQ(run_command(cli() + " synth -n 1 -q -o " + (dir / "s3").string() + " --set albedo.texture_bank=" + other_bank.string(), &out), 1);
+    EXPECT_EQ(run_command(appearance_cli() + " synth -n 1 -q -o " + (dir / "s3").string() + " --set albedo.texture_bank=" + other_bank.string(), &out), 1);
     EXPECT_NE(out.find("made for model"), std::string::npos) << out;
     EXPECT_NE(out.find("bank.json"), std::string::npos) << out;
     // texture_folder and texture_bank together: a config error naming the key.
-    EXPECT_EQ(run_command(cli() + " synth -n 1 -q -o " + (dir / "s4").string() + " --set albedo.texture_bank=" + bank.string() +
+    EXPECT_EQ(run_command(appearance_cli() + " synth -n 1 -q -o " + (dir / "s4").string() + " --set albedo.texture_bank=" + bank.string() +
                               " --set albedo.texture_folder=" + photos.string(),
                           &out),
               1);
@@ -112,23 +112,23 @@ TEST_F(CmdAppearance, TexturesBuildABankThatSynthDrawsFromDeterministically) {
 TEST_F(CmdAppearance, TexturesRefuseEmptyFoldersAndLeaveNoPartialBank) {
     std::string out;
     fs::create_directories(dir / "empty");
-    EXPECT_EQ(run_command(cli() + " textures --photos " + (dir / "empty").string() + " --out " + (dir / "bank_empty").string(), &out), 1);
+    EXPECT_EQ(run_command(appearance_cli() + " textures --photos " + (dir / "empty").string() + " --out " + (dir / "bank_empty").string(), &out), 1);
     EXPECT_NE(out.find("no images"), std::string::npos) << out;
     EXPECT_FALSE(fs::exists(dir / "bank_empty"));
     // Every photograph rejected: no bank either.
-    EXPECT_EQ(run_command(cli() + " textures -q --max-yaw 0.001 --photos " + photos.string() + " --out " + (dir / "bank_none").string(), &out), 1);
+    EXPECT_EQ(run_command(appearance_cli() + " textures -q --max-yaw 0.001 --photos " + photos.string() + " --out " + (dir / "bank_none").string(), &out), 1);
     EXPECT_NE(out.find("no usable texture"), std::string::npos) << out;
     EXPECT_FALSE(fs::exists(dir / "bank_none"));
     for (const auto& entry : fs::directory_iterator(dir))
         EXPECT_EQ(entry.path().filename().string().find(".partial"), std::string::npos) << entry.path();
-    EXPECT_EQ(run_command(cli() + " textures --photos " + photos.string(), &out), 2);  // --out missing: usage error
+    EXPECT_EQ(run_command(appearance_cli() + " textures --photos " + photos.string(), &out), 2);  // --out missing: usage error
 }
 
 TEST_F(CmdAppearance, BackgroundsCutTheFaceAwayAndNeverOverwrite) {
     std::string out;
     const fs::path backgrounds = dir / "backgrounds";
     const fs::path summary = dir / "backgrounds.json";
-    ASSERT_EQ(run_command(cli() + " backgrounds -q --min-side 24 --photos " + photos.string() + " --out " + backgrounds.string() + " --json " +
+    ASSERT_EQ(run_command(appearance_cli() + " backgrounds -q --min-side 24 --photos " + photos.string() + " --out " + backgrounds.string() + " --json " +
                               summary.string(),
                           &out),
               0)
@@ -138,10 +138,10 @@ TEST_F(CmdAppearance, BackgroundsCutTheFaceAwayAndNeverOverwrite) {
     int files = 0;
     for ([[maybe_unused]] const auto& entry : fs::directory_iterator(backgrounds)) ++files;
     EXPECT_EQ(files, j["backgrounds"].get<int>());
-    EXPECT_EQ(run_command(cli() + " backgrounds -q --photos " + photos.string() + " --out " + backgrounds.string(), &out), 1);
+    EXPECT_EQ(run_command(appearance_cli() + " backgrounds -q --photos " + photos.string() + " --out " + backgrounds.string(), &out), 1);
     EXPECT_NE(out.find("exists already"), std::string::npos) << out;
     // The backgrounds work as synth's image backgrounds.
-    EXPECT_EQ(run_command(cli() + " synth -n 2 --size 64 -q -o " + (dir / "s_bg").string() + " --set background.type=images --set background.folder=" +
+    EXPECT_EQ(run_command(appearance_cli() + " synth -n 2 --size 64 -q -o " + (dir / "s_bg").string() + " --set background.type=images --set background.folder=" +
                               backgrounds.string(),
                           &out),
               0)
@@ -151,7 +151,7 @@ TEST_F(CmdAppearance, BackgroundsCutTheFaceAwayAndNeverOverwrite) {
 TEST_F(CmdAppearance, RealismComparesRendersWithPhotographs) {
     std::string out;
     const fs::path summary = dir / "realism.json";
-    ASSERT_EQ(run_command(cli() + " eval realism -q --data " + (dir / "renders").string() + " --photos " + photos.string() + " --json " +
+    ASSERT_EQ(run_command(appearance_cli() + " eval realism -q --data " + (dir / "renders").string() + " --photos " + photos.string() + " --json " +
                               summary.string(),
                           &out),
               0)
@@ -164,8 +164,8 @@ TEST_F(CmdAppearance, RealismComparesRendersWithPhotographs) {
     if (j["renders_detected"].get<int>() > 0 && j["photos_detected"].get<int>() > 0) {
         EXPECT_GT(j["nme_ratio"].get<double>(), 0.0);
     }
-    EXPECT_EQ(run_command(cli() + " eval realism -q --data " + (dir / "renders").string() + " --max-yaw nan", &out), 2);
-    EXPECT_EQ(run_command(cli() + " eval realism -q --data " + photos.string(), &out), 1);  // no meta: no yaw
+    EXPECT_EQ(run_command(appearance_cli() + " eval realism -q --data " + (dir / "renders").string() + " --max-yaw nan", &out), 2);
+    EXPECT_EQ(run_command(appearance_cli() + " eval realism -q --data " + photos.string(), &out), 1);  // no meta: no yaw
     EXPECT_NE(out.find("no render with"), std::string::npos) << out;
 }
 
@@ -173,7 +173,7 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     std::string out;
     const fs::path model = dir / "sim2real.sdm";
     const std::string script = (facesynth::testkit::source_dir() / "tools" / "sim2real.sh").string();
-    const std::string env = "FACESYNTH=" + cli() + " ";
+    const std::string env = "FACESYNTH=" + appearance_cli() + " ";
     ASSERT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --count 60 --threads 2 --min-side 24", &out), 0)
         << out;
     EXPECT_TRUE(fs::exists(model));
@@ -188,7 +188,7 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
 TEST_F(CmdAppearance, ConventionsWriteOffsetsThatTrainReadsAndBadOffsetFilesAreNamed) {
     std::string out;
     const fs::path conventions = dir / "conventions.json";
-    ASSERT_EQ(run_command(cli() + " eval conventions -q --photos " + photos.string() + " --json " + conventions.string(), &out), 0) << out;
+    ASSERT_EQ(run_command(appearance_cli() + " eval conventions -q --photos " + photos.string() + " --json " + conventions.string(), &out), 0) << out;
     const auto j = read_json(conventions);
     EXPECT_EQ(j["faces"], 6);
     for (const char* key : {"mean_x_01", "mean_y_68", "sd_x_18", "skipped_pose", "failed"}) EXPECT_TRUE(j.contains(key)) << key;
@@ -196,14 +196,14 @@ TEST_F(CmdAppearance, ConventionsWriteOffsetsThatTrainReadsAndBadOffsetFilesAreN
     EXPECT_LT(std::abs(j["mean_y_18"].get<double>()), 0.05);
     const fs::path bad = dir / "bad.json";
     std::ofstream(bad) << R"({"mean_x_01": 0.1})";
-    EXPECT_EQ(run_command(cli() + " train --quiet --data " + (dir / "renders").string() + " --out " + (dir / "m.sdm").string() + " --label-offsets " +
+    EXPECT_EQ(run_command(appearance_cli() + " train --quiet --data " + (dir / "renders").string() + " --out " + (dir / "m.sdm").string() + " --label-offsets " +
                               bad.string(),
                           &out),
               1);
     EXPECT_NE(out.find("bad.json"), std::string::npos) << out;
     EXPECT_NE(out.find("mean_y_01"), std::string::npos) << out;
     EXPECT_FALSE(fs::exists(dir / "m.sdm"));
-    EXPECT_EQ(run_command(cli() + " eval conventions -q --photos " + (dir / "nothing").string(), &out), 1);
+    EXPECT_EQ(run_command(appearance_cli() + " eval conventions -q --photos " + (dir / "nothing").string(), &out), 1);
 }
 
 }  // namespace
