@@ -591,7 +591,7 @@ TEST(SynthDatasetFiles, MergeNamesADamagedDatasetJsonOrMetaFile) {
     EXPECT_FALSE(fs::exists(dir / "merged" / "coco.json"));
 }
 
-// bench synth's JSON carries the keys README lists, with the anti-aliasing and lighting settings it ran.
+// bench synth's JSON carries the keys docs/cli.md lists, with the anti-aliasing and lighting settings it ran.
 TEST(SynthCli, BenchJsonHasTheListedKeysAndTheSettingsItRan) {
     const auto dir = testkit::fresh_temp_dir("synth_bench_json");
     const fs::path json = dir / "bench.json";
