@@ -28,11 +28,6 @@ private:
     std::chrono::steady_clock::time_point wall_;
 };
 
-// sRGB encoding of a linear value in [0, 1].
-double srgb_encode(double linear) {
-    return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
-}
-
 // texel value -> texture value t with (srgb_decode(t))^(1/2.2) = value.
 const std::array<std::uint8_t, 256>& unlit_texture_table() {
     static const std::array<std::uint8_t, 256> table = [] {
@@ -50,6 +45,11 @@ StageTimes& StageTimes::operator+=(const StageTimes& t) {
     fit_cpu_ms += t.fit_cpu_ms, isomap_cpu_ms += t.isomap_cpu_ms, mirror_cpu_ms += t.mirror_cpu_ms, frontal_cpu_ms += t.frontal_cpu_ms;
     fit_ms += t.fit_ms, isomap_ms += t.isomap_ms, mirror_ms += t.mirror_ms, frontal_ms += t.frontal_ms;
     return *this;
+}
+
+double srgb_encode(double linear) {
+    linear = std::clamp(linear, 0.0, 1.0);
+    return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
 }
 
 render::Lighting unlit() {

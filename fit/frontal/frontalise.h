@@ -105,6 +105,9 @@ private:
 // them unchanged under unlit() (and as albedo under any other lighting).
 [[nodiscard]] cv::Mat render_texture_from_display(const cv::Mat& bgr);
 
+// sRGB encoding of a linear value (clamped to [0, 1]): how the renderer's textures store albedo.
+[[nodiscard]] double srgb_encode(double linear);
+
 // Lighting that shows albedo (or a texture) unchanged: no environment, unit ambient, gamma 2.2.
 [[nodiscard]] render::Lighting unlit();
 

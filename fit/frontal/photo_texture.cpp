@@ -19,11 +19,6 @@ namespace {
 // The renderer shows linear albedo a under unit light as a^(1/2.2); photographs are read the same way.
 constexpr double kGamma = 2.2;
 
-double srgb_encode(double linear) {
-    linear = std::clamp(linear, 0.0, 1.0);
-    return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
-}
-
 // The nine real spherical harmonics of bands 0-2 at unit normal n, without their constants (a least-squares
 // fit absorbs them).
 Eigen::Matrix<double, 9, 1> sh_basis(const Eigen::Vector3d& n) {
