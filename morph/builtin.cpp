@@ -682,11 +682,15 @@ Eigen::Matrix2Xf grid_uv() {
 }
 
 // Eyebrow: centre line height and thickness at distance ax from the midline (thickness 0 outside).
-double brow_u(const Layout& l, double ax) { return (ax - (l.x_en - 3.0)) / ((l.x_ex + 7.0) - (l.x_en - 3.0)); }
+// Its extent (from 5 mm inside the inner eye corner to 14 mm beyond the outer one) and its arch (a
+// cubic in the position u along the brow, peaking at 5.9 mm above the inner end) are where 300-W's
+// annotators put the brow points on helen_train, measured with the model fitted to their annotations
+// (docs/fit.md, "Landmark conventions"); a brow drawn across the eye alone reads as too short.
+double brow_u(const Layout& l, double ax) { return (ax - (l.x_en - 5.0)) / ((l.x_ex + 14.0) - (l.x_en - 5.0)); }
+double brow_x(const Layout& l, double u) { return lerp(l.x_en - 5.0, l.x_ex + 14.0, u); }
 double brow_centre(const Layout& l, double ax) {
     const double u = std::clamp(brow_u(l, ax), 0.0, 1.0);
-    const double q = (u - 0.65) / 0.65;
-    return l.y_eye + 13.5 + 3.0 * std::max(0.0, 1.0 - q * q);
+    return l.y_eye + 12.8 + u * (18.85 + u * (-3.84 - 19.57 * u));
 }
 double brow_thickness(const Layout& l, double ax) {
     const double u = brow_u(l, ax);
@@ -772,6 +776,41 @@ std::vector<SurfacePoint> along_chain(const Eigen::Matrix3Xf& v, const std::vect
     return out;
 }
 
+// Where 300-W's annotators put the points that the anatomical definitions above miss: a shift in mm in
+// the frontal plane (x towards the subject's left, y up) of the points of the subject's right side and
+// the midline (the left side is mirrored). Measured, not chosen: the model fitted to helen_train's
+// annotations (`facesynth eval conventions`), its mean residual per landmark symmetrised and added, and
+// repeated until the residuals stopped falling (tools/landmark_conventions.py, docs/fit.md "Landmark
+// conventions"). The jaw (1-17) is an outline and keeps its geometric definition.
+struct AnnotatorShift {
+    int id;  // 1-based iBUG id
+    double dx, dy;
+};
+// BEGIN annotator shifts (tools/landmark_conventions.py rewrites this block)
+constexpr std::array<AnnotatorShift, 20> kAnnotatorShifts{{
+    {18, -1.7, 2.1},
+    {19, -1.5, 1.3},
+    {20, -0.9, 0.2},
+    {21, -0.5, 0.1},
+    {22, -0.5, 0.1},
+    {28, 0.0, -0.5},
+    {29, 0.0, 0.5},
+    {30, 0.0, 1.9},
+    {31, 0.0, 2.7},
+    {32, -2.3, -1.9},
+    {33, -1.0, -2.2},
+    {34, 0.0, -3.2},
+    {37, 1.2, 0.2},
+    {40, -2.3, 0.3},
+    {49, 1.1, 0.0},
+    {61, 2.1, 0.0},
+    {62, 5.2, 0.0},
+    {63, 0.0, 0.0},
+    {67, 0.0, 0.0},
+    {68, 5.1, 0.0},
+}};
+// END annotator shifts
+
 std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::vector<Triangle>& triangles, const Layout& l) {
     std::vector<SurfacePoint> lm(kNumIbugLandmarks);
     const auto set_pair = [&](int right_id, SurfacePoint right) {  // 1-based id on the subject's right
@@ -779,17 +818,22 @@ std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::v
         lm[static_cast<std::size_t>(ibug_mirror_pairs()[static_cast<std::size_t>(right_id - 1)])] = mirrored(right);
     };
     const auto front = [&](double x, double y) { return frontal_point(v, triangles, x, y); };
-    // Jaw: the frontal outline from just below the eye corner down to the chin.
-    const int first = row_at_height(v, l.y_eye - 4.0);
+    // Jaw: the frontal outline from 4 mm above the eye line down to the chin. The top is where helen_train's
+    // annotators put point 1 beside the eyes (0.04 inter-ocular distances below their centre); from
+    // 4 mm below the eye line it sat 0.05 lower in near-frontal renders (and dlib put it higher there).
+    const int first = row_at_height(v, l.y_eye + 4.0);
     std::vector<int> outline = right_silhouette(v, first, kRowGnathion);
     constexpr int kRowMenton = kRows - 2;  // the lowest point of the chin seen from the front
     outline.push_back(vertex_id(kRowMenton, kMidColumn));
     const auto jaw = along_chain(v, outline, 9);
     for (int i = 0; i < 8; ++i) set_pair(i + 1, jaw[static_cast<std::size_t>(i)]);
     lm[kChinLandmark] = SurfacePoint::at_vertex(vertex_id(kRowMenton, kMidColumn));
-    // Brows (18 outer .. 22 inner), on the brow's upper half.
-    const std::array<double, 5> brow_x = {l.x_ex + 6.0, l.x_ex - 5.0, l.x_ec, l.x_en + 5.0, l.x_en - 1.0};
-    for (int i = 0; i < 5; ++i) set_pair(18 + i, front(-brow_x[static_cast<std::size_t>(i)], brow_centre(l, brow_x[static_cast<std::size_t>(i)]) + 1.2));
+    // Brows (18 outer .. 22 inner), on the brow's upper half, at fractions of its length.
+    const std::array<double, 5> brow_at = {0.98, 0.79, 0.53, 0.26, 0.0};
+    for (int i = 0; i < 5; ++i) {
+        const double x = brow_x(l, brow_at[static_cast<std::size_t>(i)]);
+        set_pair(18 + i, front(-x, brow_centre(l, x) + 1.2));
+    }
     // Nose bridge 28-31 and base 32-36.
     const double y28 = l.y_eye + 3.0, y31 = l.y_prn;
     for (int i = 0; i < 4; ++i) lm[27 + static_cast<std::size_t>(i)] = front(0.0, lerp(y28, y31, i / 3.0));
@@ -818,6 +862,13 @@ std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::v
     lm[62] = on_row(v, kRowStomion - 1, 0.0);
     set_pair(68, on_row(v, kRowStomion + 1, -0.45 * l.x_ch));
     lm[66] = on_row(v, kRowStomion + 1, 0.0);
+    for (const auto& shift : kAnnotatorShifts) {
+        const auto index = static_cast<std::size_t>(shift.id - 1);
+        const Eigen::Vector3f p = lm[index].position(v);
+        const SurfacePoint moved = front(p.x() + shift.dx, p.y() + shift.dy);
+        if (ibug_mirror_pairs()[index] == static_cast<int>(index)) lm[index] = moved;
+        else set_pair(shift.id, moved);
+    }
     return lm;
 }
 

@@ -153,6 +153,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"count", &c.count, "number of samples in the dataset"});
     f.push_back({"identity.truncation", &c.identity.truncation, "identity coefficients ~ N(0,1) truncated at ±k σ"});
     f.push_back({"identity.scale", &c.identity.scale, "multiplier on the identity coefficients (0 = mean face)"});
+    f.push_back({"identity.source", &c.identity.source,
+                 "\"random\" (drawn) or \"texture\" (the shape fitted to the photograph of the sample's texture; needs albedo.texture_bank)"});
     f.push_back({"expression.neutral_share", &c.expression.neutral_share, "share of neutral faces"});
     f.push_back({"expression.max_active", &c.expression.max_active, "blendshape models: 1..max_active blendshapes per expressive face"});
     f.push_back({"expression.min_weight", &c.expression.min_weight, "blendshape weight lower bound"});
@@ -258,6 +260,9 @@ void validate(const SynthConfig& c) {
     require(c.count >= 0, "count", "must not be negative");
     require(c.count <= 99'999'999, "count", "at most 99999999 samples (8-digit keys)");
     require(c.identity.truncation >= 0, "identity.truncation", "must not be negative");
+    require(c.identity.source == "random" || c.identity.source == "texture", "identity.source", "must be \"random\" or \"texture\"");
+    require(c.identity.source != "texture" || !c.albedo.texture_bank.empty(), "identity.source",
+            "\"texture\" needs albedo.texture_bank (the shapes come with the bank's textures)");
     validate_share(c.expression.neutral_share, "expression.neutral_share");
     require(c.expression.max_active >= 1, "expression.max_active", "must be at least 1");
     require(c.expression.min_weight <= c.expression.max_weight, "expression.min_weight", "must not exceed expression.max_weight");

@@ -26,6 +26,9 @@ struct AngleDistribution {
 struct IdentityConfig {
     double truncation = 3.0;  // identity coefficients ~ N(0, 1) truncated at ±truncation σ
     double scale = 1.0;       // then multiplied by this (0 = the mean face)
+    // "random": drawn as above; "texture": the shape fitted to the photograph of the sample's texture
+    // (albedo.texture_bank), so that face and texture come from one person (truncation, scale unused).
+    std::string source = "random";
 };
 
 struct ExpressionConfig {

@@ -285,7 +285,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     StageClock clock;
     StageTimes local;
     Sample s;
-    s.spec = sample_scene(config_, model_, index, albedo_check_ ? &*albedo_check_ : nullptr, &mesh_.vertices);
+    s.spec = sample_scene(config_, model_, index, albedo_check_ ? &*albedo_check_ : nullptr, &mesh_.vertices, textures_.shapes());
     Mesh& mesh = mesh_;
     if (s.spec.skin_tone) mesh.colours = s.spec.skin_tone->cast<float>().replicate(1, model_.num_vertices());
     else mesh.colours = model_.albedo_instance(s.spec.beta);

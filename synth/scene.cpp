@@ -233,7 +233,7 @@ AlbedoDraw sample_albedo(const SynthConfig& config, const MorphableModel& model,
 }
 
 SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index, const SkinColourCheck* albedo_check,
-                        Eigen::Matrix3Xf* shape) {
+                        Eigen::Matrix3Xf* shape, std::span<const std::vector<float>> texture_shapes) {
     const auto i = static_cast<std::uint64_t>(index);
     SampleSpec s;
     s.seed = config.seed;
@@ -264,6 +264,16 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
         const double jitter = config.albedo.texture_tone_jitter;
         if (jitter > 0)
             for (int c = 0; c < 3; ++c) s.texture_gain[c] = rng.uniform(1 - jitter, 1 + jitter);
+    }
+    if (config.identity.source == "texture") {
+        if (!s.texture_choice || texture_shapes.empty())
+            throw Error("identity.source = \"texture\": no texture bank shapes were given (albedo.texture_bank)");
+        const std::vector<float>& fitted = texture_shapes[*s.texture_choice % texture_shapes.size()];
+        if (static_cast<int>(fitted.size()) != model.num_shape_components())
+            throw Error("identity.source = \"texture\": the bank's texture " + std::to_string(*s.texture_choice % texture_shapes.size()) +
+                        " has " + std::to_string(fitted.size()) + " shape coefficients, model '" + model.name + "' " +
+                        std::to_string(model.num_shape_components()) + " (a bank made before shapes were stored: rebuild it)");
+        s.alpha = fitted;
     }
     {
         Rng rng = make_rng(config.seed, i, RandomStream::kPose);

@@ -13,6 +13,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -85,8 +86,11 @@ struct SampleSpec {
 // make_albedo_check's result, made once per model; without it, it is made here when needed. With
 // `shape`, the sampled shape (identity and expression, model space) that placed the face is moved
 // there, so that a renderer need not evaluate the model a second time.
+// `texture_shapes` are the texture bank's fitted shapes, one per texture (ImageLibrary::shapes), which
+// identity.source = "texture" needs.
 [[nodiscard]] SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index,
-                                      const SkinColourCheck* albedo_check = nullptr, Eigen::Matrix3Xf* shape = nullptr);
+                                      const SkinColourCheck* albedo_check = nullptr, Eigen::Matrix3Xf* shape = nullptr,
+                                      std::span<const std::vector<float>> texture_shapes = {});
 
 // Redraws per sample before falling back to shrinking the first draw (albedo.reject_implausible).
 inline constexpr int kMaxAlbedoRedraws = 16;

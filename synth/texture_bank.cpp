@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <system_error>
 #include <unistd.h>
@@ -42,7 +43,7 @@ nlohmann::json to_json(const TextureBankManifest& m) {
         textures.push_back({{"file", e.file}, {"source", e.source}, {"landmarks_source", e.landmarks_source}, {"yaw_deg", e.yaw_deg},
                             {"pitch_deg", e.pitch_deg}, {"roll_deg", e.roll_deg}, {"face_coverage", e.face_coverage},
                             {"seen_share", e.seen_share}, {"skin_outliers", e.skin_outliers}, {"fit_error", e.fit_error},
-                            {"shading_range", e.shading_range}, {"skin_srgb", e.skin_srgb}});
+                            {"shading_range", e.shading_range}, {"skin_srgb", e.skin_srgb}, {"shape", e.shape}});
     j["textures"] = textures;
     nlohmann::json rejected = nlohmann::json::array();
     for (const TextureBankRejection& r : m.rejected) rejected.push_back({{"source", r.source}, {"reason", r.reason}});
@@ -84,6 +85,11 @@ TextureBankManifest texture_bank_from_json(const nlohmann::json& j, const std::s
         e.fit_error = t.value("fit_error", 0.0);
         e.shading_range = t.value("shading_range", 0.0);
         if (t.contains("skin_srgb")) e.skin_srgb = required<std::array<double, 3>>(t, "skin_srgb", where);
+        if (t.contains("shape")) {
+            e.shape = required<std::vector<float>>(t, "shape", where);
+            for (const float a : e.shape)
+                if (!std::isfinite(a)) throw Error(where + ": key 'shape' holds a value that is not a finite number");
+        }
         m.textures.push_back(std::move(e));
     }
     if (j.contains("rejected") && j["rejected"].is_array())
@@ -163,6 +169,7 @@ ImageLibrary load_texture_bank(const fs::path& bank, const MorphableModel& model
     if (m.textures.empty()) throw file_error(manifest, "the bank holds no texture (every photograph was rejected?)");
     std::vector<cv::Mat> images;
     std::vector<std::string> names;
+    std::vector<std::vector<float>> shapes;
     images.reserve(m.textures.size());
     for (const TextureBankEntry& e : m.textures) {
         const fs::path file = bank / e.file;
@@ -175,8 +182,12 @@ ImageLibrary load_texture_bank(const fs::path& bank, const MorphableModel& model
         cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
         images.push_back(std::move(rgb));
         names.push_back(e.file);
+        if (!e.shape.empty() && static_cast<int>(e.shape.size()) != model.num_shape_components())
+            throw file_error(manifest, e.file + ": " + std::to_string(e.shape.size()) + " shape coefficients, the model has " +
+                                           std::to_string(model.num_shape_components()));
+        shapes.push_back(e.shape);
     }
-    return {std::move(images), std::move(names)};
+    return {std::move(images), std::move(names), std::move(shapes)};
 }
 
 }  // namespace facesynth::synth

@@ -138,6 +138,7 @@ void run_textures(const TexturesArgs& a) {
                 e.yaw_deg = t.yaw_deg, e.pitch_deg = t.pitch_deg, e.roll_deg = t.roll_deg;
                 e.face_coverage = t.face_coverage, e.seen_share = t.seen_share, e.skin_outliers = t.skin_outliers;
                 e.fit_error = t.fit_error, e.shading_range = t.shading_range, e.skin_srgb = t.skin_srgb;
+                e.shape = t.shape;
                 bank.add(t.texture, std::move(e));
             }
         } catch (const Error& e) {

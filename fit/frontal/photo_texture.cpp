@@ -132,6 +132,7 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     } catch (const Error& e) {
         return rejected(out, std::string("fit: ") + e.what());
     }
+    out.shape = fit.alpha;
     out.yaw_deg = fit.pose.angles.yaw;
     out.pitch_deg = fit.pose.angles.pitch;
     out.roll_deg = fit.pose.angles.roll;

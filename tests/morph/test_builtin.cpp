@@ -190,7 +190,9 @@ TEST_F(BuiltinModel, LandmarksSitOnTheFrontOfTheFaceInAnatomicalOrder) {
 TEST_F(BuiltinModel, MeanFaceMatchesAnthropometricNorms) {
     const Eigen::Matrix3Xf l = mean_landmarks();
     EXPECT_NEAR(distance(l, 37, 46), 89.5, 4.0);   // biocular width ex-ex: 91 / 88
-    EXPECT_NEAR(distance(l, 40, 43), 32.5, 3.0);   // intercanthal width en-en: 33 / 32
+    // intercanthal width en-en: 33 / 32; 300-W's annotators put the inner corners (40, 43) about 2 mm
+    // lateral to en, where the lids meet beside the caruncle (morph/builtin.cpp kAnnotatorShifts)
+    EXPECT_NEAR(distance(l, 40, 43), 36.5, 3.0);
     EXPECT_NEAR(distance(l, 37, 40), 28.5, 3.5);   // eye fissure length: 31 / 30
     EXPECT_NEAR(distance(l, 49, 55), 52.0, 4.0);   // mouth width ch-ch: 54 / 50
     EXPECT_NEAR(point(l, 34).y() - point(l, 63).y(), 20.0, 4.0);  // upper lip height sn-sto: 22 / 20

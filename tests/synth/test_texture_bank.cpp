@@ -4,7 +4,9 @@
 #include "morph/builtin.h"
 #include "morph/error.h"
 #include "morph/random.h"
+#include "synth/config.h"
 #include "synth/photo_backgrounds.h"
+#include "synth/scene.h"
 #include "synth/texture_bank.h"
 
 #include <gtest/gtest.h>
@@ -12,6 +14,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <string>
 
 namespace facesynth::synth {
@@ -135,6 +138,58 @@ TEST_F(TextureBankTest, BadBanksAreRefusedNamingTheFileAndTheProblem) {
     message = bank_error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("relative path inside the bank"), std::string::npos) << message;
     EXPECT_THROW((void)load_texture_bank(dir / "missing", *model_), Error);
+}
+
+// identity.source = "texture": each sample's shape is the one fitted to its texture's photograph,
+// stored in the bank; banks made before shapes were stored, and configurations without a bank, are
+// refused with the key and the bank named.
+TEST_F(TextureBankTest, TextureIdentityIsTheShapeStoredWithTheDrawnTexture) {
+    const fs::path dir = testkit::fresh_temp_dir("texture_bank_identity");
+    const int components = model_->num_shape_components();
+    std::vector<std::vector<float>> shapes(3);
+    for (std::size_t t = 0; t < shapes.size(); ++t)
+        for (int k = 0; k < components; ++k) shapes[t].push_back(0.1f * static_cast<float>(t + 1) - 0.01f * static_cast<float>(k));
+    {
+        TextureBankWriter writer(dir / "bank", bank_header_for(*model_, 16));
+        for (std::size_t t = 0; t < shapes.size(); ++t) {
+            TextureBankEntry e;
+            e.shape = shapes[t];
+            writer.add(solid_texture(16, static_cast<uchar>(10 * t), 20, 30), e);
+        }
+        writer.commit();
+    }
+    const ImageLibrary library = load_texture_bank(dir / "bank", *model_);
+    ASSERT_EQ(library.shapes().size(), 3u);
+    EXPECT_EQ(library.shapes()[2], shapes[2]);  // through bank.json and back
+
+    SynthConfig config;
+    config.identity.source = "texture";
+    EXPECT_NE(bank_error_of([&] { validate(config); }).find("identity.source"), std::string::npos);
+    config.albedo.texture_bank = (dir / "bank").string();
+    validate(config);
+    std::set<std::size_t> used;
+    for (int i = 0; i < 12; ++i) {
+        const SampleSpec s = sample_scene(config, *model_, i, nullptr, nullptr, library.shapes());
+        ASSERT_TRUE(s.texture_choice.has_value());
+        const std::size_t t = *s.texture_choice % shapes.size();
+        used.insert(t);
+        EXPECT_EQ(s.alpha, shapes[t]) << "sample " << i;
+        EXPECT_EQ(s.alpha, sample_scene(config, *model_, i, nullptr, nullptr, library.shapes()).alpha);  // (seed, i) alone
+    }
+    EXPECT_GT(used.size(), 1u);
+    // Without the shapes (no bank loaded), and from a bank whose entries have none.
+    EXPECT_NE(bank_error_of([&] { (void)sample_scene(config, *model_, 0); }).find("identity.source"), std::string::npos);
+    const ImageLibrary old_bank({solid_texture(16, 1, 2, 3)}, {"000000.png"}, {std::vector<float>{}});
+    const std::string message = bank_error_of([&] { (void)sample_scene(config, *model_, 0, nullptr, nullptr, old_bank.shapes()); });
+    EXPECT_NE(message.find("rebuild it"), std::string::npos) << message;
+    // A shape of the wrong length, or with a value that is not a number, names the manifest and the key.
+    nlohmann::json manifest = nlohmann::json::parse(std::ifstream(dir / "bank" / "bank.json"));
+    manifest["textures"][1]["shape"] = std::vector<float>{1.0f, 2.0f};
+    std::ofstream(dir / "bank" / "bank.json") << manifest.dump();
+    EXPECT_NE(bank_error_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("2 shape coefficients"), std::string::npos);
+    manifest["textures"][1]["shape"] = {1.0, "x"};
+    std::ofstream(dir / "bank" / "bank.json") << manifest.dump();
+    EXPECT_NE(bank_error_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("shape"), std::string::npos);
 }
 
 TEST(PhotoBackgrounds, RegionsNeverMeetTheAnnotatedFace) {
