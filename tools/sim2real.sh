@@ -3,13 +3,13 @@
 # annotated photographs (docs/textures.md; figures in docs/results.md):
 #   1. facesynth textures     a texture bank from the photographs (their labels are not training targets)
 #   2. facesynth backgrounds  the photographs with their annotated face cut away
-#   3. facesynth synth        COUNT renders with the bank, the backgrounds, yaw ±60° and degradations
+#   3. facesynth synth        COUNT renders (default 6000) with the bank, the backgrounds, yaw ±60° and degradations
 #   4. facesynth train        the SDM regressor on those renders alone
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--min-side PX]  (background strips' shorter side, default 96)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-photos="" out="" count=2000 threads=2 work="" seed=101 min_side=96
+photos="" out="" count=6000 threads=2 work="" seed=101 min_side=96
 while [[ $# -gt 0 ]]; do
     case $1 in
         --photos) photos=$2; shift 2 ;;
