@@ -195,7 +195,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"lighting.specular_max", &c.lighting.specular_max, "Blinn-Phong specular weight upper bound"});
     f.push_back({"lighting.shadow_probability", &c.lighting.shadow_probability,
                  "share of samples whose directional lights cast shadows (shadow maps)"});
-    f.push_back({"background.type", &c.background.type, "\"solid\", \"procedural\" or \"images\""});
+    f.push_back({"background.type", &c.background.type,
+                 "\"solid\", \"procedural\", \"images\" (background.folder) or \"wallpapers\" (the photographs among Debian's wallpaper packages)"});
     f.push_back({"background.folder", &c.background.folder, "folder of background images (type = \"images\")"});
     f.push_back({"degrade.blur_probability", &c.degrade.blur_probability, "share of images blurred"});
     f.push_back({"degrade.blur_sigma_max", &c.degrade.blur_sigma_max, "Gaussian blur sigma upper bound, px"});
@@ -293,8 +294,8 @@ void validate(const SynthConfig& c) {
     require(c.lighting.colour_temperature_max <= 40000, "lighting.colour_temperature_max", "must be at most 40000 K");
     require(c.lighting.specular_max >= 0, "lighting.specular_max", "must not be negative");
     validate_share(c.lighting.shadow_probability, "lighting.shadow_probability");
-    require(c.background.type == "solid" || c.background.type == "procedural" || c.background.type == "images",
-            "background.type", "must be \"solid\", \"procedural\" or \"images\"");
+    require(c.background.type == "solid" || c.background.type == "procedural" || c.background.type == "images" || c.background.type == "wallpapers",
+            "background.type", "must be \"solid\", \"procedural\", \"images\" or \"wallpapers\"");
     require(c.background.type != "images" || !c.background.folder.empty(), "background.folder", "must name a folder when background.type = \"images\"");
     const auto& d = c.degrade;
     for (const auto& [value, key] : {std::pair{d.blur_probability, "degrade.blur_probability"}, {d.noise_probability, "degrade.noise_probability"},

@@ -85,7 +85,7 @@ struct LightingConfig {
 };
 
 struct BackgroundConfig {
-    std::string type = "procedural";  // "solid", "procedural" or "images"
+    std::string type = "procedural";  // "solid", "procedural", "images" or "wallpapers" (synth/wallpapers.h)
     std::string folder;               // image folder for type = "images"
 };
 

@@ -7,6 +7,7 @@
 #include "synth/png.h"
 #include "synth/tar.h"
 #include "synth/texture_bank.h"
+#include "synth/wallpapers.h"
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -573,6 +574,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
 
     ImageLibrary backgrounds, textures;
     if (config.background.type == "images") backgrounds = ImageLibrary(config.background.folder, "background");
+    if (config.background.type == "wallpapers") backgrounds = load_wallpaper_photos();
     if (!config.albedo.texture_folder.empty() || !config.albedo.texture_bank.empty()) {
         const std::string key = config.albedo.texture_bank.empty() ? "albedo.texture_folder" : "albedo.texture_bank";
         if (model.uv.cols() != model.num_vertices())

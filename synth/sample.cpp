@@ -94,7 +94,7 @@ void image_crop(cv::Mat& out, const BackgroundSpec& b, const ImageLibrary& libra
 void make_background(const cv::Size& size, const BackgroundSpec& b, const ImageLibrary& library, cv::Mat& out, cv::Mat& canvas) {
     out.create(size, CV_8UC3);
     if (b.type == "solid") out.setTo(to_scalar(b.colour));
-    else if (b.type == "images") image_crop(out, b, library);
+    else if (b.type == "images" || b.type == "wallpapers") image_crop(out, b, library);
     else procedural(out, b, canvas);
 }
 
@@ -271,8 +271,8 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel
     // The jaw outline is the face's: neck triangles never count as face triangles.
     if (!landmark_topology_.face_triangles.empty())
         std::fill(landmark_topology_.face_triangles.begin() + static_cast<std::ptrdiff_t>(model.triangles.size()), landmark_topology_.face_triangles.end(), 0);
-    if (config.background.type == "images" && backgrounds.empty())
-        throw Error("background.type = \"images\" needs a background folder with readable images");
+    if ((config.background.type == "images" || config.background.type == "wallpapers") && backgrounds.empty())
+        throw Error("background.type = \"" + config.background.type + "\" needs readable background images");
     if (!config.albedo.texture_folder.empty() && textures.empty())
         throw Error("albedo.texture_folder needs a folder with readable texture images");
     if (!config.albedo.texture_bank.empty() && textures.empty())

@@ -116,6 +116,25 @@ TEST(SynthCli, OutputsAreIdenticalWhateverThreadsAndShards) {
     expect_same_files(one, snapshot(dir / "sharded"));
 }
 
+// background.type = "wallpapers": Debian's wallpaper photographs behind the face, the same bytes with
+// one thread or two.
+TEST(SynthCli, WallpaperBackgroundsAreDeterministicPhotographs) {
+    const auto dir = testkit::fresh_temp_dir("synth_wallpapers");
+    std::string log;
+    const std::string args = base_args(6, 96) + " --set background.type=wallpapers";
+    ASSERT_EQ(synth(args + " --threads 1 --out " + (dir / "a").string(), &log), 0) << log;
+    ASSERT_EQ(synth(args + " --threads 2 --out " + (dir / "b").string(), &log), 0) << log;
+    expect_same_files(snapshot(dir / "a" / "images"), snapshot(dir / "b" / "images"));
+    const auto meta = testkit::read_json(dir / "a" / "meta" / "s00000000.json");
+    EXPECT_EQ(meta["background"]["type"], "wallpapers");
+    // A corner behind the face is a picture, not a flat colour.
+    const cv::Mat image = cv::imread((dir / "a" / "images" / "s00000000.png").string());
+    ASSERT_FALSE(image.empty());
+    cv::Scalar mean, stddev;
+    cv::meanStdDev(image(cv::Rect(0, 0, 24, 24)), mean, stddev);
+    EXPECT_GT(stddev[0] + stddev[1] + stddev[2], 1.0);
+}
+
 TEST(SynthCli, MetaCarriesGroundTruthConsistentWithPts) {
     const auto dir = testkit::fresh_temp_dir("synth_meta");
     std::string log;
