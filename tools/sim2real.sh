@@ -2,14 +2,17 @@
 # Trains a landmark regressor for real photographs on synthetic images only, with appearance taken from
 # annotated photographs (docs/textures.md; figures in docs/results.md):
 #   1. facesynth textures     a texture bank from the photographs (their labels are not training targets)
-#   2. facesynth backgrounds  the photographs with their annotated face cut away
+#   2. backgrounds            wallpapers (default): the photographs among Debian's wallpaper packages
+#                             (background.type = wallpapers); photos: `facesynth backgrounds`, the
+#                             photographs with their annotated face cut away
 #   3. facesynth synth        COUNT renders (default 6000) with the bank, the backgrounds, yaw ±60° and degradations
+#                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
-#                          [--min-side PX]  (background strips' shorter side, default 96)
+#                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-photos="" out="" count=6000 threads=2 work="" seed=101 min_side=96
+photos="" out="" count=6000 threads=2 work="" seed=101 min_side=96 backgrounds=wallpapers
 while [[ $# -gt 0 ]]; do
     case $1 in
         --photos) photos=$2; shift 2 ;;
@@ -19,11 +22,13 @@ while [[ $# -gt 0 ]]; do
         --work) work=$2; shift 2 ;;
         --seed) seed=$2; shift 2 ;;
         --min-side) min_side=$2; shift 2 ;;
-        -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
+        --backgrounds) backgrounds=$2; shift 2 ;;
+        -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
 [[ -n $photos && -n $out ]] || { echo "sim2real: --photos DIR and --out MODEL are required (see --help)" >&2; exit 2; }
+[[ $backgrounds == wallpapers || $backgrounds == photos ]] || { echo "sim2real: --backgrounds takes wallpapers or photos" >&2; exit 2; }
 [[ -d $photos ]] || { echo "sim2real: $photos: photo folder not found" >&2; exit 1; }
 [[ $count =~ ^[1-9][0-9]*$ && $threads =~ ^[1-9][0-9]*$ && $seed =~ ^[0-9]+$ && $min_side =~ ^[1-9][0-9]*$ ]] ||
     { echo "sim2real: --count, --threads, --seed and --min-side take whole numbers" >&2; exit 2; }
@@ -35,11 +40,15 @@ quiet=()
 [[ -t 2 ]] || quiet=(-q)
 
 [[ -f $work/bank/bank.json ]] || "$facesynth" textures --photos "$photos" --out "$work/bank" --json "$work/textures.json" "${quiet[@]}"
-[[ -d $work/backgrounds ]] || "$facesynth" backgrounds --photos "$photos" --out "$work/backgrounds" --min-side "$min_side" --json "$work/backgrounds.json" "${quiet[@]}"
-"$facesynth" synth --out "$work/train" --count "$count" --seed "$seed" --threads "$threads" "${quiet[@]}" \
+background=(--set background.type=wallpapers)
+if [[ $backgrounds == photos ]]; then
+    [[ -d $work/backgrounds ]] || "$facesynth" backgrounds --photos "$photos" --out "$work/backgrounds" --min-side "$min_side" --json "$work/backgrounds.json" "${quiet[@]}"
+    background=(--set background.type=images --set background.folder="$work/backgrounds")
+fi
+"$facesynth" synth --out "$work/train" --overwrite --count "$count" --seed "$seed" --threads "$threads" "${quiet[@]}" \
     --set pose.yaw.min=-60 --set pose.yaw.max=60 \
     --set albedo.texture_bank="$work/bank" \
-    --set background.type=images --set background.folder="$work/backgrounds" \
+    "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \
     --set degrade.downscale_probability=0.3 --set degrade.gamma_probability=0.5 --set degrade.colour_jitter_probability=0.5
 "$facesynth" train --data "$work/train" --out "$out" --hog-cells 2 --augment 4 --threads "$threads" --lambda-factors 3,10,30,100 \

@@ -181,6 +181,14 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_TRUE(train.contains("stage1_nme"));
     const auto meta = read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json");
     EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);  // rendered with the bank
+    EXPECT_EQ(meta["background"]["type"], "wallpapers");                       // the default backgrounds
+    // The photographs' own backgrounds instead (the bank in the work folder is reused).
+    ASSERT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() +
+                              " --count 20 --min-side 24 --backgrounds photos", &out), 0)
+        << out;
+    EXPECT_EQ(read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json")["background"]["type"], "images");
+    EXPECT_TRUE(fs::exists(dir / "sim2real-work" / "backgrounds"));
+    EXPECT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --backgrounds walls", &out), 2);
     EXPECT_EQ(run_command("bash " + script + " --out " + model.string(), &out), 2);
     EXPECT_EQ(run_command(env + "bash " + script + " --photos " + (dir / "missing").string() + " --out " + model.string(), &out), 1);
 }
