@@ -24,6 +24,7 @@ std::vector<WallpaperPhoto> debian_wallpaper_photos(const std::filesystem::path&
                                     "life_by_Aitzol_Berasategi.jpg", "picosdeeuropa_by_Aitzol_Berasategi.jpg",
                                     "seeding_by_Clements_Engelhardt.jpg", "sunset_by_Aitzol_Berasategi.jpg"};
     std::vector<WallpaperPhoto> photos;
+    photos.reserve(kMate.size() + kPlasma.size() + kLomiri.size());
     for (const char* name : kMate) photos.push_back({root / "usr/share/backgrounds/mate/nature" / name, "mate-backgrounds"});
     // Plasma ships each wallpaper at several sizes; the largest landscape one is found when loading.
     for (const char* name : kPlasma)
