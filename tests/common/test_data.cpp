@@ -1,5 +1,7 @@
 #include "common/test_data.h"
 
+#include "morph/error.h"
+
 #include <array>
 #include <cstdio>
 #include <cstdlib>
@@ -56,6 +58,15 @@ std::size_t count_occurrences(const std::string& text, const std::string& what) 
     std::size_t n = 0;
     for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
     return n;
+}
+
+std::string error_message_of(const std::function<void()>& call) {
+    try {
+        call();
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
 }
 
 }  // namespace facesynth::testkit

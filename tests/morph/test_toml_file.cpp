@@ -17,15 +17,6 @@ using namespace facesynth;
 
 namespace {
 
-std::string error_of(const std::function<void()>& call) {
-    try {
-        call();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "";
-}
-
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 std::string repeated(const std::string& unit, int times) {
@@ -84,11 +75,11 @@ TEST(TomlFile, KeptFuzzFindingIsRefusedByTheMappingReaderNamingTheFileAndLine) {
     // fuzz_synth_config: toml11 3.7 read past its buffer (heap-buffer-overflow in
     // location::reset) on a literal string holding invalid UTF-8. The bytes are refused first.
     ASSERT_TRUE(std::filesystem::exists(kKeptFuzzInput)) << kKeptFuzzInput;
-    const std::string message = error_of([] { (void)read_landmark_mapping(kKeptFuzzInput); });
+    const std::string message = testkit::error_message_of([] { (void)read_landmark_mapping(kKeptFuzzInput); });
     EXPECT_TRUE(contains(message, kKeptFuzzInput.filename().string())) << message;
     EXPECT_TRUE(contains(message, "line 2, byte 9: not valid UTF-8")) << message;
     const std::string text = read_file(kKeptFuzzInput);
-    EXPECT_TRUE(contains(error_of([&] { (void)parse_landmark_completion(text, "kept.toml"); }), "kept.toml: line 2"));
+    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)parse_landmark_completion(text, "kept.toml"); }), "kept.toml: line 2"));
 }
 
 TEST(TomlFile, InvalidUtf8IsRefusedWhereverItStands) {
@@ -96,19 +87,19 @@ TEST(TomlFile, InvalidUtf8IsRefusedWhereverItStands) {
     // the others it reports itself, but the message is ours everywhere.
     for (const std::string text : {"a = '7\xFF'\n", "'k\xFF' = 1\n", "a = '''x\n\xC0\xAF'''\n", "a = \"x\xFF\"\n",
                                    "a = \"\"\"\xED\xA0\x80\"\"\"\n", "a = 1 # \xFF\n", "\"k\xFF\" = 1\n", "[t\xFF]\n"}) {
-        const std::string message = error_of([&] { (void)parse_toml(text, "s.toml"); });
+        const std::string message = testkit::error_message_of([&] { (void)parse_toml(text, "s.toml"); });
         EXPECT_TRUE(contains(message, "s.toml: line ")) << message;
         EXPECT_TRUE(contains(message, "not valid UTF-8")) << message;
     }
-    EXPECT_TRUE(contains(error_of([] { (void)parse_toml("a = 1\nb = 'x\xFF'\n", "s.toml"); }), "line 2, byte 7:"));
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = 1\nb = 'x\xFF'\n", "s.toml"); }), "line 2, byte 7:"));
 }
 
 TEST(TomlFile, ControlCharactersAreRefusedByCode) {
     const std::string with_nul("a = \"x\0y\"\n", 10);
-    EXPECT_TRUE(contains(error_of([&] { (void)parse_toml(with_nul, "n.toml"); }),
+    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)parse_toml(with_nul, "n.toml"); }),
                          "n.toml: line 1, byte 7: control character 0x00"));
-    EXPECT_TRUE(contains(error_of([] { (void)parse_toml("a = 1\n\x7F", "n.toml"); }), "line 2, byte 1: control character 0x7F"));
-    EXPECT_TRUE(contains(error_of([] { (void)parse_toml("a = 1 # \x1B[31m\n", "n.toml"); }), "control character 0x1B"));
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = 1\n\x7F", "n.toml"); }), "line 2, byte 1: control character 0x7F"));
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = 1 # \x1B[31m\n", "n.toml"); }), "control character 0x1B"));
     // Tab, LF and CRLF are TOML's own.
     EXPECT_EQ(toml::find<int>(parse_toml("a\t=\t1\r\nb = 2\n", "ok.toml"), "b"), 2);
 }
@@ -116,7 +107,7 @@ TEST(TomlFile, ControlCharactersAreRefusedByCode) {
 TEST(TomlFile, NestingIsBoundedBeforeToml11RecursesIntoIt) {
     // toml11 recurses once per level and exhausts the stack at about 1,000 levels under ASan.
     const auto too_deep = [](const std::string& text) {
-        return contains(error_of([&] { (void)parse_toml(text, "deep.toml"); }),
+        return contains(testkit::error_message_of([&] { (void)parse_toml(text, "deep.toml"); }),
                         "deep.toml: line 1, byte ");
     };
     EXPECT_TRUE(too_deep("a = " + repeated("[", 100000) + repeated("]", 100000) + "\n"));
@@ -125,7 +116,7 @@ TEST(TomlFile, NestingIsBoundedBeforeToml11RecursesIntoIt) {
     EXPECT_TRUE(too_deep("[" + repeated("a.", 50000) + "a]\n"));
     EXPECT_TRUE(too_deep("[[" + repeated("a.", 200) + "a]]\n"));
     EXPECT_TRUE(too_deep("a = [{" + repeated("b.", 150) + "c = 1}]\n"));
-    EXPECT_TRUE(contains(error_of([] { (void)parse_toml("a = " + repeated("[", 101) + repeated("]", 101), "d.toml"); }),
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = " + repeated("[", 101) + repeated("]", 101), "d.toml"); }),
                          "byte 105: tables and arrays nested more than 100 deep"));
     // A closing ''' may carry two more quotes: what follows is structure, not a new string.
     EXPECT_TRUE(too_deep("a = ['''x'''', " + repeated("[", 150) + repeated("]", 150) + "]\n"));
@@ -149,9 +140,9 @@ TEST(TomlFile, NestingIsBoundedBeforeToml11RecursesIntoIt) {
 }
 
 TEST(TomlFile, SyntaxErrorsAndMissingFilesNameTheFile) {
-    EXPECT_TRUE(contains(error_of([] { (void)parse_toml("a = = 1\n", "syntax.toml"); }), "syntax.toml: TOML error:"));
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = = 1\n", "syntax.toml"); }), "syntax.toml: TOML error:"));
     const auto dir = testkit::fresh_temp_dir("toml_file");
-    EXPECT_TRUE(contains(error_of([&] { (void)read_toml_file(dir / "missing.toml"); }), "missing.toml: cannot open"));
+    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)read_toml_file(dir / "missing.toml"); }), "missing.toml: cannot open"));
     testkit::write_bytes(dir / "good.toml", "[pose]\nyaw = -30.5\n");
     EXPECT_DOUBLE_EQ(toml::find<double>(read_toml_file(dir / "good.toml"), "pose", "yaw"), -30.5);
 }

@@ -14,15 +14,6 @@
 namespace facesynth::synth {
 namespace {
 
-std::string error_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "";
-}
-
 TEST(SynthConfig, TomlFileSetsKeysAndRejectsUnknownKeyNamingIt) {
     const auto dir = testkit::fresh_temp_dir("synth_config_toml");
     write_file_atomically(dir / "good.toml", "seed = 7\ncount = 5\n[pose.yaw]\ndistribution = \"normal\"\nstddev = 20\n[camera]\nwidth = 128\nfov_min = 12\n");
@@ -38,12 +29,12 @@ TEST(SynthConfig, TomlFileSetsKeysAndRejectsUnknownKeyNamingIt) {
 
     write_file_atomically(dir / "bad.toml", "[pose.yaw]\nmax = 40\nmaxx = 50\n");
     SynthConfig other;
-    const std::string message = error_of([&] { apply_toml_file(other, dir / "bad.toml"); });
+    const std::string message = testkit::error_message_of([&] { apply_toml_file(other, dir / "bad.toml"); });
     EXPECT_NE(message.find("pose.yaw.maxx"), std::string::npos) << message;
     EXPECT_NE(message.find("bad.toml"), std::string::npos) << message;
 
     write_file_atomically(dir / "type.toml", "[camera]\nwidth = \"wide\"\n");
-    const std::string type_message = error_of([&] { apply_toml_file(other, dir / "type.toml"); });
+    const std::string type_message = testkit::error_message_of([&] { apply_toml_file(other, dir / "type.toml"); });
     EXPECT_NE(type_message.find("camera.width"), std::string::npos) << type_message;
 }
 
@@ -54,7 +45,7 @@ TEST(SynthConfig, FuzzFindingInvalidUtf8IsRefusedNamingTheFileAndLine) {
                       "synth_config-toml11-heap-overflow-3ea07958.toml";
     ASSERT_TRUE(std::filesystem::exists(kept)) << kept;
     SynthConfig config;
-    const std::string message = error_of([&] { apply_toml_file(config, kept); });
+    const std::string message = testkit::error_message_of([&] { apply_toml_file(config, kept); });
     EXPECT_NE(message.find(kept.string() + ": line 2, byte 9: not valid UTF-8"), std::string::npos) << message;
     EXPECT_EQ(config.count, SynthConfig{}.count);  // nothing applied
 }
@@ -67,22 +58,22 @@ TEST(SynthConfig, OverridesParseByTypeAndNameTheKey) {
     EXPECT_EQ(config.pose.roll.max, 5.5);
     EXPECT_TRUE(config.output.depth);
     EXPECT_EQ(config.landmarks.mode, "fixed");
-    EXPECT_NE(error_of([&] { apply_override(config, "pose.rol.max=1"); }).find("pose.rol.max"), std::string::npos);
-    EXPECT_NE(error_of([&] { apply_override(config, "camera.width=12.5"); }).find("camera.width"), std::string::npos);
-    EXPECT_NE(error_of([&] { apply_override(config, "nothing"); }).find("key.sub=value"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { apply_override(config, "pose.rol.max=1"); }).find("pose.rol.max"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { apply_override(config, "camera.width=12.5"); }).find("camera.width"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { apply_override(config, "nothing"); }).find("key.sub=value"), std::string::npos);
 }
 
 TEST(SynthConfig, ValidationNamesTheOffendingKey) {
     SynthConfig config;
     config.pose.pitch.min = 10;
     config.pose.pitch.max = -10;
-    EXPECT_NE(error_of([&] { validate(config); }).find("pose.pitch.min"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("pose.pitch.min"), std::string::npos);
     config = {};
     config.output.formats = "folder,zip";
-    EXPECT_NE(error_of([&] { validate(config); }).find("output.formats"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("output.formats"), std::string::npos);
     config = {};
     config.landmarks.mode = "dense";
-    EXPECT_NE(error_of([&] { validate(config); }).find("landmarks.mode"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("landmarks.mode"), std::string::npos);
 }
 
 TEST(SynthConfig, JsonRoundTripKeepsEveryKey) {
@@ -206,7 +197,7 @@ TEST(SynthScene, RejectImplausibleRedrawsOnlyTheRejectedColourDraws) {
     // A model whose mean colour already fails cannot be sampled with the check.
     testkit::set_uniform_colour_model(model, {0.6f, 0.05f, 0.04f}, {0.0f, 0.01f, 0.0f});
     model.name = "red";
-    const std::string message = error_of([&] { (void)make_albedo_check(on, model); });
+    const std::string message = testkit::error_message_of([&] { (void)make_albedo_check(on, model); });
     EXPECT_NE(message.find("'red'"), std::string::npos) << message;
     EXPECT_NE(message.find("albedo.reject_implausible"), std::string::npos) << message;
 }
@@ -233,10 +224,10 @@ TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
     EXPECT_GT(half_shadowed, 0);
     EXPECT_LT(half_shadowed, lit);
     half.lighting.shadow_probability = 1.5;
-    EXPECT_NE(error_of([&] { validate(half); }).find("lighting.shadow_probability"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(half); }).find("lighting.shadow_probability"), std::string::npos);
     half.lighting.shadow_probability = 0.5;
     half.render.shadow_map_size = 8;
-    EXPECT_NE(error_of([&] { validate(half); }).find("render.shadow_map_size"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(half); }).find("render.shadow_map_size"), std::string::npos);
 }
 
 TEST(SynthConfig, SupersamplingReplacesMsaaAndIsBounded) {
@@ -244,11 +235,11 @@ TEST(SynthConfig, SupersamplingReplacesMsaaAndIsBounded) {
     config.render.edge_antialiasing = false;
     config.render.msaa_samples = 4;
     config.render.supersampling = 2;
-    EXPECT_NE(error_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
     config.render.msaa_samples = 0;
     EXPECT_NO_THROW(validate(config));
     config.render.supersampling = 5;
-    EXPECT_NE(error_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
 }
 
 TEST(SynthConfig, EdgeAntialiasingIsTheDefaultAndMsaaOrSupersamplingReplaceIt) {
@@ -258,7 +249,7 @@ TEST(SynthConfig, EdgeAntialiasingIsTheDefaultAndMsaaOrSupersamplingReplaceIt) {
     EXPECT_EQ(config.render.supersampling, 1);
     EXPECT_NO_THROW(validate(config));
     apply_override(config, "render.msaa_samples=4");
-    const std::string msaa_error = error_of([&] { validate(config); });
+    const std::string msaa_error = testkit::error_message_of([&] { validate(config); });
     EXPECT_NE(msaa_error.find("render.msaa_samples"), std::string::npos) << msaa_error;
     EXPECT_NE(msaa_error.find("render.edge_antialiasing = false"), std::string::npos) << msaa_error;
     apply_override(config, "render.edge_antialiasing=false");
@@ -266,7 +257,7 @@ TEST(SynthConfig, EdgeAntialiasingIsTheDefaultAndMsaaOrSupersamplingReplaceIt) {
     config.render.msaa_samples = 0;
     config.render.edge_antialiasing = true;
     config.render.supersampling = 2;
-    EXPECT_NE(error_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
     config.render.edge_antialiasing = false;
     EXPECT_NO_THROW(validate(config));
     EXPECT_FALSE(config_from_json(to_json(config)).render.edge_antialiasing);

@@ -33,15 +33,6 @@ TextureBankManifest bank_header_for(const MorphableModel& model, int size) {
 
 cv::Mat solid_texture(int size, uchar r, uchar g, uchar b) { return {size, size, CV_8UC3, cv::Scalar(r, g, b)}; }
 
-std::string bank_error_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "";
-}
-
 class TextureBankTest : public ::testing::Test {
 protected:
     static void SetUpTestSuite() { model_ = std::make_unique<MorphableModel>(builtin_model()); }
@@ -89,7 +80,7 @@ TEST_F(TextureBankTest, UncommittedWriterLeavesNothingAndANonBankFolderIsNeverRe
     EXPECT_FALSE(fs::exists(dir / "bank"));
     for (const auto& entry : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << entry.path();
     fs::create_directories(dir / "photos");
-    const std::string message = bank_error_of([&] { TextureBankWriter writer(dir / "photos", bank_header_for(*model_, 16)); });
+    const std::string message = testkit::error_message_of([&] { TextureBankWriter writer(dir / "photos", bank_header_for(*model_, 16)); });
     EXPECT_NE(message.find("is not a texture bank"), std::string::npos) << message;
     TextureBankWriter writer(dir / "bank", bank_header_for(*model_, 16));
     EXPECT_THROW(writer.add(solid_texture(8, 1, 2, 3), {}), Error);  // wrong size
@@ -113,29 +104,29 @@ TEST_F(TextureBankTest, BadBanksAreRefusedNamingTheFileAndTheProblem) {
         writer.add(solid_texture(16, 1, 2, 3), {});
         writer.commit();
     }
-    std::string message = bank_error_of([&] { (void)load_texture_bank(dir / "other", *model_); });
+    std::string message = testkit::error_message_of([&] { (void)load_texture_bank(dir / "other", *model_); });
     EXPECT_NE(message.find("bank.json"), std::string::npos) << message;
     EXPECT_NE(message.find("made for model 'surrey'"), std::string::npos) << message;
     // A texture of the wrong size, and one that is not an image.
     cv::imwrite((bank / "textures" / "000000.png").string(), solid_texture(8, 1, 2, 3));
-    message = bank_error_of([&] { (void)load_texture_bank(bank, *model_); });
+    message = testkit::error_message_of([&] { (void)load_texture_bank(bank, *model_); });
     EXPECT_NE(message.find("000000.png"), std::string::npos) << message;
     std::ofstream(bank / "textures" / "000000.png") << "not a png";
-    message = bank_error_of([&] { (void)load_texture_bank(bank, *model_); });
+    message = testkit::error_message_of([&] { (void)load_texture_bank(bank, *model_); });
     EXPECT_NE(message.find("cannot read the texture"), std::string::npos) << message;
     // No manifest, not JSON, not a bank.
     fs::create_directories(dir / "empty");
-    message = bank_error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    message = testkit::error_message_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("not a texture bank"), std::string::npos) << message;
     std::ofstream(dir / "empty" / "bank.json") << "{";
-    message = bank_error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    message = testkit::error_message_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("not valid JSON"), std::string::npos) << message;
     std::ofstream(dir / "empty" / "bank.json") << R"({"format": "something else"})";
-    message = bank_error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    message = testkit::error_message_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("not a texture bank manifest"), std::string::npos) << message;
     std::ofstream(dir / "empty" / "bank.json") << R"({"format": "facesynth-texture-bank", "version": 1, "model": "builtin",
         "model_checksum": "x", "vertices": 1, "size": 16, "textures": [{"file": "../../etc/passwd"}]})";
-    message = bank_error_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
+    message = testkit::error_message_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("relative path inside the bank"), std::string::npos) << message;
     EXPECT_THROW((void)load_texture_bank(dir / "missing", *model_), Error);
 }
@@ -164,7 +155,7 @@ TEST_F(TextureBankTest, TextureIdentityIsTheShapeStoredWithTheDrawnTexture) {
 
     SynthConfig config;
     config.identity.source = "texture";
-    EXPECT_NE(bank_error_of([&] { validate(config); }).find("identity.source"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("identity.source"), std::string::npos);
     config.albedo.texture_bank = (dir / "bank").string();
     validate(config);
     std::set<std::size_t> used;
@@ -178,18 +169,18 @@ TEST_F(TextureBankTest, TextureIdentityIsTheShapeStoredWithTheDrawnTexture) {
     }
     EXPECT_GT(used.size(), 1u);
     // Without the shapes (no bank loaded), and from a bank whose entries have none.
-    EXPECT_NE(bank_error_of([&] { (void)sample_scene(config, *model_, 0); }).find("identity.source"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { (void)sample_scene(config, *model_, 0); }).find("identity.source"), std::string::npos);
     const ImageLibrary old_bank({solid_texture(16, 1, 2, 3)}, {"000000.png"}, {std::vector<float>{}});
-    const std::string message = bank_error_of([&] { (void)sample_scene(config, *model_, 0, nullptr, nullptr, old_bank.shapes()); });
+    const std::string message = testkit::error_message_of([&] { (void)sample_scene(config, *model_, 0, nullptr, nullptr, old_bank.shapes()); });
     EXPECT_NE(message.find("rebuild it"), std::string::npos) << message;
     // A shape of the wrong length, or with a value that is not a number, names the manifest and the key.
     nlohmann::json manifest = nlohmann::json::parse(std::ifstream(dir / "bank" / "bank.json"));
     manifest["textures"][1]["shape"] = std::vector<float>{1.0f, 2.0f};
     std::ofstream(dir / "bank" / "bank.json") << manifest.dump();
-    EXPECT_NE(bank_error_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("2 shape coefficients"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("2 shape coefficients"), std::string::npos);
     manifest["textures"][1]["shape"] = {1.0, "x"};
     std::ofstream(dir / "bank" / "bank.json") << manifest.dump();
-    EXPECT_NE(bank_error_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("shape"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("shape"), std::string::npos);
 }
 
 TEST(PhotoBackgrounds, RegionsNeverMeetTheAnnotatedFace) {

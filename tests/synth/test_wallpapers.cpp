@@ -17,15 +17,6 @@
 namespace facesynth::synth {
 namespace {
 
-std::string wallpaper_error_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "";
-}
-
 TEST(Wallpapers, EveryListedPhotographLoadsReducedAndDistinct) {
     const auto listed = debian_wallpaper_photos();
     ASSERT_EQ(listed.size(), 36u);
@@ -49,12 +40,12 @@ TEST(Wallpapers, EveryListedPhotographLoadsReducedAndDistinct) {
 
 TEST(Wallpapers, AMissingPhotographNamesTheFileAndItsPackage) {
     const auto root = testkit::fresh_temp_dir("wallpapers_missing");
-    const std::string message = wallpaper_error_of([&] { (void)load_wallpaper_photos(512, root); });
+    const std::string message = testkit::error_message_of([&] { (void)load_wallpaper_photos(512, root); });
     EXPECT_NE(message.find("Aqua.jpg"), std::string::npos) << message;
     EXPECT_NE(message.find("mate-backgrounds"), std::string::npos) << message;
     SynthConfig config;
     config.background.type = "wallpaper";
-    EXPECT_NE(wallpaper_error_of([&] { validate(config); }).find("\"wallpapers\""), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("\"wallpapers\""), std::string::npos);
     config.background.type = "wallpapers";
     validate(config);
 }
