@@ -1,5 +1,5 @@
 #pragma once
-// Landmark conventions against annotators (docs/fit.md, "Landmark conventions"): the model fitted to
+// Landmark conventions against annotators (docs/results.md, "Landmark conventions"): the model fitted to
 // manual annotations, and per landmark the mean of (annotation - fitted model point) in the face
 // frame. The fit spreads random annotation noise over every point; what stays in the mean is where
 // annotators put a point systematically elsewhere than the model's definition of it can reach.

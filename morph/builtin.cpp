@@ -685,7 +685,7 @@ Eigen::Matrix2Xf grid_uv() {
 // Its extent (from 5 mm inside the inner eye corner to 14 mm beyond the outer one) and its arch (a
 // cubic in the position u along the brow, peaking at 5.9 mm above the inner end) are where 300-W's
 // annotators put the brow points on helen_train, measured with the model fitted to their annotations
-// (docs/fit.md, "Landmark conventions"); a brow drawn across the eye alone reads as too short.
+// (docs/builtin-model.md, "Where annotators put the points"); a brow over the eye alone was too short.
 double brow_u(const Layout& l, double ax) { return (ax - (l.x_en - 5.0)) / ((l.x_ex + 14.0) - (l.x_en - 5.0)); }
 double brow_x(const Layout& l, double u) { return lerp(l.x_en - 5.0, l.x_ex + 14.0, u); }
 double brow_centre(const Layout& l, double ax) {
@@ -780,8 +780,9 @@ std::vector<SurfacePoint> along_chain(const Eigen::Matrix3Xf& v, const std::vect
 // the frontal plane (x towards the subject's left, y up) of the points of the subject's right side and
 // the midline (the left side is mirrored). Measured, not chosen: the model fitted to helen_train's
 // annotations (`facesynth eval conventions`), its mean residual per landmark symmetrised and added, and
-// repeated until the residuals stopped falling (tools/landmark_conventions.py, docs/fit.md "Landmark
-// conventions"). The jaw (1-17) is an outline and keeps its geometric definition.
+// repeated until the residuals stopped falling (tools/landmark_conventions.py, docs/builtin-model.md
+// "Where annotators put the points"). Only points whose place is a convention move; the lids and outer
+// lips stay on their margins and borders, the jaw (1-17) on the outline.
 struct AnnotatorShift {
     int id;  // 1-based iBUG id
     double dx, dy;
