@@ -277,6 +277,14 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel
         throw Error("albedo.texture_folder needs a folder with readable texture images");
     if (!config.albedo.texture_bank.empty() && textures.empty())
         throw Error("albedo.texture_bank: the bank " + config.albedo.texture_bank + " was not loaded");
+    // Checked here, before any sample is written, rather than at the first sample that draws such a texture.
+    if (config.identity.source == "texture") {
+        const auto shapes = textures.shapes();
+        for (std::size_t t = 0; t < textures.size(); ++t)
+            if (t >= shapes.size() || static_cast<int>(shapes[t].size()) != model.num_shape_components())
+                throw Error("identity.source = \"texture\": texture " + textures.name(t) + " of the bank " + config.albedo.texture_bank +
+                            " has no stored shape for model '" + model.name + "' (a bank made before shapes were stored: rebuild it)");
+    }
 }
 
 std::string SampleGenerator::renderer_description() const { return renderer_.backend() + " | " + renderer_.renderer_string(); }

@@ -239,7 +239,7 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
     s.seed = config.seed;
     s.index = index;
     s.key = sample_key(index);
-    {
+    if (config.identity.source != "texture") {  // else the texture's shape, below
         Rng rng = make_rng(config.seed, i, RandomStream::kIdentity);
         s.alpha = scaled(sample_coefficients(rng, model.num_shape_components(), config.identity.truncation), config.identity.scale);
     }
