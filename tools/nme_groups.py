@@ -1,0 +1,82 @@
+#!/usr/bin/env python3
+"""Error per landmark group and mean signed offset per landmark, from `facesynth detect` output.
+
+    facesynth detect --regressor MODEL.sdm --detector dlib --out DET --quiet GT/*.jpg GT/*.png
+    tools/nme_groups.py GT DET [DET2 ...]
+
+For every GT/NAME.pts with a detection DET/NAME_<k>.pts (the detection nearest the annotation when there
+are several), on the faces every DET folder found: the mean point error per group (jaw 1-17, brows 18-27,
+nose 28-36, eyes 37-48, mouth 49-68) in inter-ocular distances (outer eye corners), and the landmarks whose
+mean offset (prediction - annotation, face frame: x along the eye line, y down) exceeds 0.03.
+"""
+import argparse
+import glob
+import math
+import os
+import sys
+
+GROUPS = {"jaw": range(0, 17), "brows": range(17, 27), "nose": range(27, 36), "eyes": range(36, 48), "mouth": range(48, 68)}
+
+
+def read_pts(path):
+    with open(path) as f:
+        text = f.read()
+    try:
+        values = [float(v) for v in text.split("{", 1)[1].split("}", 1)[0].split()]
+    except (IndexError, ValueError):
+        sys.exit(f"{path}: not a .pts file")
+    if len(values) != 136:
+        sys.exit(f"{path}: {len(values) // 2} points, expected 68")
+    return [(values[2 * i], values[2 * i + 1]) for i in range(68)]
+
+
+def mean_of(points, indices):
+    return (sum(points[i][0] for i in indices) / len(indices), sum(points[i][1] for i in indices) / len(indices))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("gt", help="folder of annotated images' .pts files")
+    parser.add_argument("detections", nargs="+", help="`facesynth detect --out` folders")
+    args = parser.parse_args()
+    truth = {os.path.basename(p)[:-4]: read_pts(p) for p in sorted(glob.glob(os.path.join(args.gt, "*.pts")))}
+    if not truth:
+        sys.exit(f"{args.gt}: no .pts files")
+    found = {}
+    for folder in args.detections:
+        best = {}
+        for name, gt in truth.items():
+            for path in glob.glob(os.path.join(folder, glob.escape(name) + "_*.pts")):
+                p = read_pts(path)
+                error = sum(math.dist(a, b) for a, b in zip(p, gt)) / 68
+                if name not in best or error < best[name][0]:
+                    best[name] = (error, p)
+        found[folder] = best
+    common = sorted(set.intersection(*(set(b) for b in found.values())))
+    print(f"{len(common)} of {len(truth)} faces found in every folder")
+    if not common:
+        sys.exit("no face was found in every folder (do they hold `facesynth detect` output for these images?)")
+    for folder, best in found.items():
+        errors = [0.0] * 68
+        offsets = [[0.0, 0.0] for _ in range(68)]
+        for name in common:
+            gt, p = truth[name], best[name][1]
+            iod = math.dist(gt[36], gt[45])
+            left, right = mean_of(gt, range(36, 42)), mean_of(gt, range(42, 48))
+            norm = math.dist(left, right)
+            ex = ((right[0] - left[0]) / norm, (right[1] - left[1]) / norm)
+            ey = (-ex[1], ex[0])
+            for i in range(68):
+                d = (p[i][0] - gt[i][0], p[i][1] - gt[i][1])
+                errors[i] += math.hypot(*d) / iod
+                offsets[i][0] += (d[0] * ex[0] + d[1] * ex[1]) / iod
+                offsets[i][1] += (d[0] * ey[0] + d[1] * ey[1]) / iod
+        n = len(common)
+        groups = "  ".join(f"{g} {sum(errors[i] for i in r) / (n * len(r)):.4f}" for g, r in GROUPS.items())
+        print(f"{folder}: mean {sum(errors) / (68 * n):.4f}  {groups}")
+        biased = [f"{i + 1}:{o[0] / n:+.3f},{o[1] / n:+.3f}" for i, o in enumerate(offsets) if math.hypot(o[0] / n, o[1] / n) > 0.03]
+        print("  offsets over 0.03 (x,y):", " ".join(biased) or "none")
+
+
+if __name__ == "__main__":
+    main()
