@@ -216,6 +216,10 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"occluders.max_count", &c.occluders.max_count, "1..n occluding shapes"});
     f.push_back({"occluders.max_size", &c.occluders.max_size, "largest occluder extent, share of the face size"});
     f.push_back({"head.neck", &c.head.neck, "a neck under the jaw (an elliptic cylinder placed by the face's landmarks, with the skin under the chin and region label neck); the model and its landmarks are unchanged"});
+    f.push_back({"head.body", &c.head.body,
+                 "neck, shoulders, clothing and hair meshes (MakeHuman's CC0 meshes) placed on the face; the model, its landmarks and face labels are unchanged"});
+    f.push_back({"head.hair_probability", &c.head.hair_probability, "with head.body: share of samples with a hair mesh (the others show the model's scalp)"});
+    f.push_back({"head.parts_file", &c.head.parts_file, "with head.body: a head parts file from tools/makehuman_parts.py (empty = the project's assets/head_parts.bin)"});
     f.push_back({"landmarks.mode", &c.landmarks.mode, "jaw points written to .pts: \"contour\" (300-W style) or \"fixed\""});
     f.push_back({"render.edge_antialiasing", &c.render.edge_antialiasing,
                  "anti-aliasing of silhouette edges on the CPU after a single-sample render (off for MSAA or supersampling)"});
@@ -233,7 +237,7 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"output.depth", &c.output.depth, "write depth/ (EXR, camera-space mm)"});
     f.push_back({"output.mask", &c.output.mask, "write mask/ (PNG, 255 = face)"});
     f.push_back({"output.normals", &c.output.normals, "write normals/ (PNG)"});
-    f.push_back({"output.labels", &c.output.labels, "write labels/ (PNG, 8-bit region ids: 0 background, 1 skin, 2 brows, 3 eyes, 4 lips, 5 nose, 6 mouth interior, 7 hair, 8 ears, 9 neck)"});
+    f.push_back({"output.labels", &c.output.labels, "write labels/ (PNG, 8-bit region ids: 0 background, 1 skin, 2 brows, 3 eyes, 4 lips, 5 nose, 6 mouth interior, 7 hair, 8 ears, 9 neck, 10 clothing)"});
     f.push_back({"output.wds_shard_size", &c.output.wds_shard_size, "samples per WebDataset tar"});
     f.push_back({"output.wds_prefix", &c.output.wds_prefix, "WebDataset tar name prefix ({prefix}-000000.tar)"});
     return f;
@@ -297,6 +301,8 @@ void validate(const SynthConfig& c) {
     require(c.background.type == "solid" || c.background.type == "procedural" || c.background.type == "images" || c.background.type == "wallpapers",
             "background.type", "must be \"solid\", \"procedural\", \"images\" or \"wallpapers\"");
     require(c.background.type != "images" || !c.background.folder.empty(), "background.folder", "must name a folder when background.type = \"images\"");
+    validate_share(c.head.hair_probability, "head.hair_probability");
+    require(!(c.head.body && c.head.neck), "head.body", "cannot be combined with head.neck (the body has its own neck): set one");
     const auto& d = c.degrade;
     for (const auto& [value, key] : {std::pair{d.blur_probability, "degrade.blur_probability"}, {d.noise_probability, "degrade.noise_probability"},
                                      {d.jpeg_probability, "degrade.jpeg_probability"}, {d.gamma_probability, "degrade.gamma_probability"},

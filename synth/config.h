@@ -130,6 +130,10 @@ struct HeadConfig {
     // A neck under the jaw (synth/neck.h): an elliptic cylinder placed by the face's landmarks, with the
     // skin under the chin (darkened for the jaw's shadow without a texture) and region label "neck".
     bool neck = false;
+    // Neck, shoulders, clothing and hair meshes from MakeHuman (synth/head_parts.h), placed on the face.
+    bool body = false;
+    double hair_probability = 0.8;  // with body: share of samples with a hair mesh
+    std::string parts_file;         // empty: the project's assets/head_parts.bin
 };
 
 struct LandmarkConfig {

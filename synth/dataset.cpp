@@ -427,6 +427,19 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const M
     j.key("noise_sigma").number(d.noise_sigma);
     j.end_object();
     j.key("fov").number(s.fov);
+    j.key("head_parts");
+    if (!s.head_parts) {
+        j.null();
+    } else {
+        j.begin_object();
+        j.key("clothing").string(sample.clothing);
+        j.key("clothing_pattern").string(s.head_parts->clothing_pattern == 0 ? "plain" : s.head_parts->clothing_pattern == 1 ? "stripes" : "checks");
+        j.key("hair");
+        if (sample.hair.empty()) j.null();
+        else j.string(sample.hair);
+        j.key("torso").point(Eigen::Vector3d(s.head_parts->torso.yaw, s.head_parts->torso.pitch, s.head_parts->torso.roll));
+        j.end_object();
+    }
     j.key("image_height").integer(k.height);
     j.key("image_width").integer(k.width);
     j.key("index").integer(s.index);

@@ -3,6 +3,7 @@
 #include "morph/error.h"
 #include "morph/landmarks.h"
 #include "morph/random.h"
+#include "morph/srgb.h"
 #include "render/landmarks.h"
 #include "synth/neck.h"
 
@@ -181,13 +182,8 @@ void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::
 void tone_texture(const cv::Mat& rgb, const Eigen::Vector3d& gain, cv::Mat& out) {
     cv::Mat lut(1, 256, CV_8UC3);
     for (int v = 0; v < 256; ++v) {
-        const double x = v / 255.0;
-        const double linear = x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4);
-        for (int c = 0; c < 3; ++c) {
-            const double y = std::min(1.0, linear * gain[c]);
-            const double encoded = y <= 0.0031308 ? 12.92 * y : 1.055 * std::pow(y, 1 / 2.4) - 0.055;
-            lut.at<cv::Vec3b>(v)[c] = cv::saturate_cast<uchar>(255.0 * encoded);
-        }
+        const double linear = srgb_decode(v / 255.0);
+        for (int c = 0; c < 3; ++c) lut.at<cv::Vec3b>(v)[c] = cv::saturate_cast<uchar>(255.0 * srgb_encode(linear * gain[c]));
     }
     cv::LUT(rgb, lut, out);
 }
@@ -266,6 +262,10 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel
         mesh_.uv = uv_with_neck(model, *neck_);
         vertex_labels_ = labels_with_neck(model, *neck_);
     }
+    if (config.head.body) {
+        head_parts_ = read_head_parts(config.head.parts_file.empty() ? default_head_parts_file() : std::filesystem::path(config.head.parts_file));
+        head_placement_.emplace(model, *head_parts_);
+    }
     const int vertex_count = model.num_vertices() + (neck_ ? static_cast<int>(neck_->source.size()) : 0);
     landmark_topology_ = render::landmark_topology(mesh_.triangles, vertex_count, &contour_region_);
     // The jaw outline is the face's: neck triangles never count as face triangles.
@@ -301,6 +301,20 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
         append_neck_vertices(*neck_, model_, mesh);
         mesh.colours = colours_with_neck(mesh.colours, *neck_);
     }
+    const cv::Mat* texture = nullptr;
+    if (s.spec.texture_choice) {
+        texture = &textures_.image(*s.spec.texture_choice);
+        s.texture = textures_.name(*s.spec.texture_choice);
+        if (s.spec.texture_gain != Eigen::Vector3d::Ones()) {
+            tone_texture(*texture, s.spec.texture_gain, toned_texture_);
+            texture = &toned_texture_;
+        }
+    }
+    const render::LandmarkTopology* topology = &landmark_topology_;
+    if (s.spec.head_parts) {
+        texture = dress(s, texture);
+        topology = &dressed_topology_;
+    }
     clock.lap(local.sample);
 
     render::Camera camera{s.spec.intrinsics, s.spec.pose, render::Projection::kPerspective};
@@ -314,20 +328,13 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     settings.shadow_map_size = config_.render.shadow_map_size;
     settings.lights_per_vertex = config_.render.lights_per_vertex;
     render::MeshExtras extras;
-    extras.vertex_labels = vertex_labels_;
-    if (s.spec.texture_choice) {
-        extras.texture = &textures_.image(*s.spec.texture_choice);
-        s.texture = textures_.name(*s.spec.texture_choice);
-        if (s.spec.texture_gain != Eigen::Vector3d::Ones()) {
-            tone_texture(*extras.texture, s.spec.texture_gain, toned_texture_);
-            extras.texture = &toned_texture_;
-        }
-    }
+    extras.vertex_labels = s.spec.head_parts ? std::span<const std::uint8_t>(dressed_labels_) : std::span<const std::uint8_t>(vertex_labels_);
+    extras.texture = texture;
     renderer_.render(mesh, camera, settings, frame_, extras);
     clock.lap(local.render);
 
     // Landmarks in both jaw modes with self-occlusion from the depth buffer (render/landmarks.h).
-    const auto projected = render::project_landmarks(model_.landmarks, mesh, camera, frame_, {}, &contour_region_, &landmark_topology_);
+    const auto projected = render::project_landmarks(model_.landmarks, mesh, camera, frame_, {}, &contour_region_, topology);
     auto& labels = s.labels;
     labels.landmarks_fixed = projected.pixels;
     labels.landmarks_3d_fixed = projected.model_points;
@@ -353,6 +360,56 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     clock.lap(local.composite);
     if (times) *times += local;
     return s;
+}
+
+const cv::Mat* SampleGenerator::dress(Sample& s, const cv::Mat* texture) {
+    const HeadPartsSpec& spec = *s.spec.head_parts;
+    const int model_vertices = model_.num_vertices();
+    const auto model_shape = mesh_.vertices.leftCols(model_vertices);
+    // The body's skin and (by choice) the hair take the face's own colours.
+    Eigen::Vector3d skin = Eigen::Vector3d::Constant(0.5), hair = spec.hair_colour;
+    if (texture) {
+        skin = texture_colour_of(*texture, model_, Region::kSkin);
+        // The scalp of a texture shows hair only when the photograph's hairline came into it: a
+        // scalp no darker than the skin is skin or background, and the drawn colour is used.
+        const Eigen::Vector3d scalp = texture_colour_of(*texture, model_, Region::kHair);
+        if (spec.hair_colour_from_texture && scalp.sum() < 0.8 * skin.sum()) hair = scalp;
+    } else {
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        int n = 0;
+        for (int v = 0; v < model_vertices; ++v)
+            if (model_.vertex_labels.empty() || model_.vertex_labels[static_cast<std::size_t>(v)] == static_cast<std::uint8_t>(Region::kSkin))
+                sum += mesh_.colours.col(v).cast<double>(), ++n;
+        if (n > 0) skin = sum / n;
+    }
+    dress_head(*head_parts_, spec, head_placement_->transform(model_shape), s.spec.pose.rotation, skin, hair, dressed_);
+    const auto& parts = head_parts_->parts;
+    s.clothing = parts[static_cast<std::size_t>(head_parts_->clothing[spec.clothing_choice % head_parts_->clothing.size()])].name;
+    if (spec.hair && !head_parts_->hair.empty()) s.hair = parts[static_cast<std::size_t>(head_parts_->hair[spec.hair_choice % head_parts_->hair.size()])].name;
+
+    const int total = model_vertices + static_cast<int>(dressed_.vertices.cols());
+    mesh_.vertices.conservativeResize(3, total);
+    mesh_.vertices.rightCols(dressed_.vertices.cols()) = dressed_.vertices;
+    mesh_.triangles.assign(model_.triangles.begin(), model_.triangles.end());
+    for (const Triangle& t : dressed_.triangles) mesh_.triangles.push_back({t[0] + model_vertices, t[1] + model_vertices, t[2] + model_vertices});
+    dressed_labels_.assign(vertex_labels_.begin(), vertex_labels_.begin() + model_vertices);
+    if (dressed_labels_.size() < static_cast<std::size_t>(model_vertices)) dressed_labels_.resize(static_cast<std::size_t>(model_vertices), static_cast<std::uint8_t>(Region::kSkin));
+    dressed_labels_.insert(dressed_labels_.end(), dressed_.labels.begin(), dressed_.labels.end());
+    mesh_.colours.conservativeResize(3, total);
+    mesh_.colours.rightCols(dressed_.colours.cols()) = dressed_.colours.cast<float>();
+    if (texture) {
+        mesh_.uv.resize(2, total);
+        mesh_.uv.leftCols(model_vertices) = model_.uv;
+        mesh_.uv.block(1, 0, 1, model_vertices) *= static_cast<float>(kAtlasFaceShare);
+        mesh_.uv.rightCols(dressed_.uv.cols()) = dressed_.uv;
+        make_parts_atlas(*texture, spec, skin, hair, atlas_);
+        texture = &atlas_;
+    }
+    dressed_topology_ = render::landmark_topology(mesh_.triangles, total, &contour_region_);
+    // The jaw outline is the face's: the parts' triangles never count as face triangles.
+    if (!dressed_topology_.face_triangles.empty())
+        std::fill(dressed_topology_.face_triangles.begin() + static_cast<std::ptrdiff_t>(model_.triangles.size()), dressed_topology_.face_triangles.end(), 0);
+    return texture;
 }
 
 const Eigen::Matrix2Xd& chosen_landmarks(const SampleLabels& labels, const std::string& mode) {

@@ -6,6 +6,7 @@
 #include "render/landmarks.h"
 #include "render/renderer.h"
 #include "synth/config.h"
+#include "synth/head_parts.h"
 #include "synth/neck.h"
 #include "synth/scene.h"
 
@@ -41,6 +42,7 @@ struct Sample {
     cv::Mat normals;  // CV_32FC3, camera axes
     cv::Mat regions;  // CV_8UC1, Region id per pixel (morph/regions.h), 0 = background or occluder
     std::string texture;  // file name of the UV texture map used; empty without albedo.texture_folder
+    std::string hair, clothing;  // head.body: the hair and clothing meshes worn (hair empty: none)
 };
 
 // Where time goes, summed over samples (seconds): wall time and CPU time of the worker thread. The
@@ -106,6 +108,10 @@ public:
     [[nodiscard]] std::string renderer_description() const;
 
 private:
+    // Adds the sample's head parts to mesh_ (vertices, triangles, uv, colours) and dressed_labels_,
+    // dressed_topology_; returns the texture to render with (the atlas when `texture` is given).
+    const cv::Mat* dress(Sample& s, const cv::Mat* texture);
+
     const SynthConfig& config_;
     const MorphableModel& model_;
     const ImageLibrary& backgrounds_;
@@ -114,6 +120,12 @@ private:
     render::LandmarkTopology landmark_topology_;  // the model's, for project_landmarks
     std::optional<SkinColourCheck> albedo_check_;  // albedo.reject_implausible
     std::optional<NeckTemplate> neck_;  // head.neck
+    std::optional<HeadParts> head_parts_;  // head.body
+    std::optional<HeadPlacement> head_placement_;
+    DressedParts dressed_;  // the sample's head parts
+    cv::Mat atlas_;  // with head.body and a texture: the texture with the parts' patches
+    std::vector<std::uint8_t> dressed_labels_;  // the model's labels, then the parts'
+    render::LandmarkTopology dressed_topology_;  // of the model and the sample's parts
     std::vector<std::uint8_t> vertex_labels_;  // the model's, then the neck's
     render::Renderer renderer_;
     render::Frame frame_;

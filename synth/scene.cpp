@@ -3,8 +3,10 @@
 #include "morph/error.h"
 #include "morph/random.h"
 #include "morph/sampling.h"
+#include "morph/srgb.h"
 
 #include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -232,6 +234,49 @@ AlbedoDraw sample_albedo(const SynthConfig& config, const MorphableModel& model,
                        kMaxAlbedoRedraws);
 }
 
+HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, const EulerAngles& head) {
+    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kHead);
+    HeadPartsSpec h;
+    h.hair = rng.uniform() < config.head.hair_probability;
+    h.hair_choice = rng.next_u64();
+    h.clothing_choice = rng.next_u64();
+    // Hair colours of people (sRGB), dark ones most often; half the textured samples take their
+    // texture's scalp colour instead, so that the hair meets the hairline in the photograph.
+    static constexpr std::array<double, 9> kWeights{0.25, 0.25, 0.15, 0.1, 0.07, 0.05, 0.05, 0.05, 0.03};
+    const std::array<Eigen::Vector3d, 9> shades{Eigen::Vector3d(20, 17, 15),    Eigen::Vector3d(45, 32, 24),    Eigen::Vector3d(85, 60, 42),
+                                                Eigen::Vector3d(130, 95, 65),   Eigen::Vector3d(165, 130, 90),  Eigen::Vector3d(200, 170, 120),
+                                                Eigen::Vector3d(120, 55, 30),   Eigen::Vector3d(140, 138, 135), Eigen::Vector3d(190, 188, 185)};
+    double pick = rng.uniform();
+    std::size_t shade = 0;
+    while (shade + 1 < kWeights.size() && pick >= kWeights[shade]) pick -= kWeights[shade++];
+    const double gain = rng.uniform(0.85, 1.15);
+    for (int c = 0; c < 3; ++c) h.hair_colour[c] = srgb_decode(std::min(1.0, gain * shades[shade][c] / 255.0));
+    h.hair_colour_from_texture = rng.uniform() < 0.5;
+    const auto fabric = [&rng] {
+        // Any hue; greys, darks and muted colours as often as bright ones.
+        cv::Mat3f hsv(1, 1, cv::Vec3f(static_cast<float>(rng.uniform(0, 360)), static_cast<float>(rng.uniform(0, 0.9)),
+                                      static_cast<float>(rng.uniform(0.08, 0.9))));
+        cv::Mat3f rgb;
+        cv::cvtColor(hsv, rgb, cv::COLOR_HSV2RGB);
+        const cv::Vec3f c = rgb(0, 0);
+        return Eigen::Vector3d(srgb_decode(c[0]), srgb_decode(c[1]), srgb_decode(c[2]));
+    };
+    h.clothing_colour = fabric();
+    h.clothing_colour2 = fabric();
+    const double pattern = rng.uniform();
+    h.clothing_pattern = pattern < 0.5 ? 0 : pattern < 0.8 ? 1 : 2;
+    h.pattern_period = rng.uniform(0.02, 0.08);
+    h.pattern_seed = rng.next_u64();
+    h.shirt = rng.uniform() < 0.9;
+    h.neckline = rng.uniform(525, 575);
+    h.neckline_dip = rng.uniform(0, 60);
+    // The torso turns with the head, less: people turn their heads on their shoulders.
+    h.torso.yaw = head.yaw * rng.uniform(0.0, 0.6);
+    h.torso.pitch = head.pitch * rng.uniform(0.0, 0.5);
+    h.torso.roll = head.roll * rng.uniform(0.0, 0.5);
+    return h;
+}
+
 SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index, const SkinColourCheck* albedo_check,
                         Eigen::Matrix3Xf* shape, std::span<const std::vector<float>> texture_shapes) {
     const auto i = static_cast<std::uint64_t>(index);
@@ -321,6 +366,7 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
     s.background = sample_background(config, index);
     s.degradation = sample_degradation(config, index);
     s.occluders = sample_occluders(config, index, projected);
+    if (config.head.body) s.head_parts = sample_head_parts(config, index, s.angles);
     if (shape) *shape = std::move(vertices);
     return s;
 }

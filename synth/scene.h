@@ -7,6 +7,7 @@
 #include "morph/skin_colour.h"
 #include "render/lighting.h"
 #include "synth/config.h"
+#include "synth/head_parts.h"
 
 #include <Eigen/Core>
 
@@ -76,6 +77,7 @@ struct SampleSpec {
     BackgroundSpec background;
     DegradationSpec degradation;
     std::vector<OccluderSpec> occluders;
+    std::optional<HeadPartsSpec> head_parts;  // with head.body
 };
 
 // "s" + the index in 8 digits (keys without dots, as WebDataset wants).
@@ -91,6 +93,9 @@ struct SampleSpec {
 [[nodiscard]] SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index,
                                       const SkinColourCheck* albedo_check = nullptr, Eigen::Matrix3Xf* shape = nullptr,
                                       std::span<const std::vector<float>> texture_shapes = {});
+
+// What sample `index` wears with head.body (the kHead stream); `head` is its head pose.
+[[nodiscard]] HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, const EulerAngles& head);
 
 // Redraws per sample before falling back to shrinking the first draw (albedo.reject_implausible).
 inline constexpr int kMaxAlbedoRedraws = 16;

@@ -47,11 +47,6 @@ StageTimes& StageTimes::operator+=(const StageTimes& t) {
     return *this;
 }
 
-double srgb_encode(double linear) {
-    linear = std::clamp(linear, 0.0, 1.0);
-    return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
-}
-
 render::Lighting unlit() {
     render::Lighting lighting;
     for (auto& coefficient : lighting.sh) coefficient = {0.0f, 0.0f, 0.0f};

@@ -8,6 +8,7 @@
 #include "fit/fit.h"
 #include "fit/frontal/isomap.h"
 #include "morph/model.h"
+#include "morph/srgb.h"  // srgb_encode: how the renderer's textures store albedo
 #include "render/renderer.h"
 
 #include <Eigen/Core>
@@ -104,9 +105,6 @@ private:
 // The same mapping for a BGR image of display values (no filling): the renderer's texture that shows
 // them unchanged under unlit() (and as albedo under any other lighting).
 [[nodiscard]] cv::Mat render_texture_from_display(const cv::Mat& bgr);
-
-// sRGB encoding of a linear value (clamped to [0, 1]): how the renderer's textures store albedo.
-[[nodiscard]] double srgb_encode(double linear);
 
 // Lighting that shows albedo (or a texture) unchanged: no environment, unit ambient, gamma 2.2.
 [[nodiscard]] render::Lighting unlit();

@@ -18,7 +18,6 @@ namespace {
 
 constexpr int kTextureSize = 256;
 
-double texture_srgb_decode(double encoded) { return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4); }
 
 class PhotoTextureTest : public ::testing::Test {
 protected:
@@ -67,7 +66,7 @@ protected:
                 if (mask.at<uchar>(r, c) == 0) continue;
                 const cv::Vec3b t = texture_rgb.at<cv::Vec3b>(r, c);
                 const cv::Vec3b d = face_->true_isomap.at<cv::Vec3b>(r, c);  // B G R display values
-                texture.push_back({texture_srgb_decode(t[0] / 255.0), texture_srgb_decode(t[1] / 255.0), texture_srgb_decode(t[2] / 255.0)});
+                texture.push_back({srgb_decode(t[0] / 255.0), srgb_decode(t[1] / 255.0), srgb_decode(t[2] / 255.0)});
                 truth.push_back({std::pow(d[2] / 255.0, 2.2), std::pow(d[1] / 255.0, 2.2), std::pow(d[0] / 255.0, 2.2)});
             }
         std::array<double, 3> gain{};

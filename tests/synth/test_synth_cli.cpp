@@ -135,6 +135,35 @@ TEST(SynthCli, WallpaperBackgroundsAreDeterministicPhotographs) {
     EXPECT_GT(stddev[0] + stddev[1] + stddev[2], 1.0);
 }
 
+// head.body on the built-in model: the same bytes with one thread, two, or two shards; the parts worn
+// recorded in the meta; the new region ids in the label maps.
+TEST(SynthCli, HeadPartsAreDeterministicAndRecorded) {
+    const auto dir = testkit::fresh_temp_dir("synth_head_parts");
+    std::string log;
+    const std::string args = " --model builtin -n 6 --size 96 --seed 4 --quiet --set head.body=true --set output.labels=true";
+    ASSERT_EQ(synth(args + " --threads 1 --out " + (dir / "a").string(), &log), 0) << log;
+    ASSERT_EQ(synth(args + " --threads 2 --out " + (dir / "b").string(), &log), 0) << log;
+    ASSERT_EQ(synth(args + " --threads 1 --shard 1/2 --out " + (dir / "c").string(), &log), 0) << log;
+    ASSERT_EQ(synth(args + " --threads 2 --shard 0/2 --out " + (dir / "c").string(), &log), 0) << log;
+    ASSERT_EQ(synth(" merge " + (dir / "c").string() + " --quiet", &log), 0) << log;
+    const auto a = snapshot(dir / "a");
+    expect_same_files(a, snapshot(dir / "b"));
+    expect_same_files(a, snapshot(dir / "c"));
+    int clothing_pixels = 0;
+    for (int i = 0; i < 6; ++i) {
+        const std::string key = "s0000000" + std::to_string(i);
+        const auto meta = testkit::read_json(dir / "a" / "meta" / (key + ".json"));
+        ASSERT_TRUE(meta["head_parts"].is_object()) << key;
+        EXPECT_TRUE(meta["head_parts"]["clothing"].is_string()) << key;
+        EXPECT_TRUE(meta["head_parts"]["hair"].is_string() || meta["head_parts"]["hair"].is_null()) << key;
+        EXPECT_EQ(meta["head_parts"]["torso"].size(), 3u) << key;
+        const cv::Mat labels = cv::imread((dir / "a" / "labels" / (key + ".png")).string(), cv::IMREAD_UNCHANGED);
+        ASSERT_FALSE(labels.empty()) << key;
+        clothing_pixels += cv::countNonZero(labels == static_cast<std::uint8_t>(Region::kClothing));
+    }
+    EXPECT_GT(clothing_pixels, 600);
+}
+
 TEST(SynthCli, MetaCarriesGroundTruthConsistentWithPts) {
     const auto dir = testkit::fresh_temp_dir("synth_meta");
     std::string log;

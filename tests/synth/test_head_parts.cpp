@@ -1,0 +1,155 @@
+// synth's head.body: MakeHuman's neck, shoulders, clothing and hair placed on the face, leaving the
+// face's landmarks and labels as they are.
+#include "common/test_data.h"
+#include "morph/atomic_file.h"
+#include "morph/model_io.h"
+#include "morph/random.h"
+#include "morph/regions.h"
+#include "render/renderer.h"
+#include "synth/config.h"
+#include "synth/head_parts.h"
+#include "synth/sample.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+
+#include <fstream>
+
+namespace facesynth::synth {
+namespace {
+
+int pixels_labelled(const cv::Mat& labels, Region region) {
+    return cv::countNonZero(labels == static_cast<std::uint8_t>(region));
+}
+
+bool is_face_region(Region r) {
+    return r == Region::kSkin || r == Region::kBrows || r == Region::kEyes || r == Region::kLips || r == Region::kNose ||
+           r == Region::kMouthInterior;
+}
+
+TEST(HeadParts, AssetHoldsTheBodyOutfitsAndHairStylesWithAnchors) {
+    const HeadParts parts = read_head_parts(default_head_parts_file());
+    EXPECT_EQ(parts.anchors.cols(), kNumHeadAnchors);
+    EXPECT_EQ(parts.skin.size(), 1u);
+    EXPECT_EQ(parts.clothing.size(), 4u);
+    EXPECT_EQ(parts.hair.size(), 10u);
+    // The eyes 6 cm apart at the same height, the ears behind and below them, the nose tip in front.
+    const auto a = [&](HeadAnchor anchor) { return Eigen::Vector3f(parts.anchors.col(static_cast<int>(anchor))); };
+    EXPECT_NEAR((a(HeadAnchor::kLeftEye) - a(HeadAnchor::kRightEye)).norm(), 62, 4);
+    EXPECT_LT(a(HeadAnchor::kLeftEar).z(), a(HeadAnchor::kLeftEye).z() - 50);
+    EXPECT_GT(a(HeadAnchor::kNoseTip).z(), a(HeadAnchor::kNasion).z());
+    EXPECT_LT(a(HeadAnchor::kNeckJoint).y(), a(HeadAnchor::kNoseTip).y() - 80);
+    for (const HeadPart& part : parts.parts) {
+        EXPECT_GT(part.triangles.size(), 100u) << part.name;
+        EXPECT_EQ(part.uv.cols(), part.vertices.cols()) << part.name;
+        EXPECT_TRUE(part.vertices.allFinite()) << part.name;
+        EXPECT_GE(part.head_weight.minCoeff(), 0.0f) << part.name;
+        EXPECT_LE(part.head_weight.maxCoeff(), 1.0f) << part.name;
+    }
+}
+
+TEST(HeadParts, DamagedOrMissingFilesAreErrorsNamingThem) {
+    const auto dir = testkit::fresh_temp_dir("head_parts_damaged");
+    const std::string good = read_file(default_head_parts_file());
+    const auto write = [&](const std::string& name, const std::string& bytes) {
+        std::ofstream(dir / name, std::ios::binary) << bytes;
+        return dir / name;
+    };
+    const std::string truncated = testkit::error_message_of([&] { (void)read_head_parts(write("truncated.bin", good.substr(0, good.size() / 2))); });
+    EXPECT_NE(truncated.find("truncated.bin"), std::string::npos) << truncated;
+    const std::string wrong = testkit::error_message_of([&] { (void)read_head_parts(write("wrong.bin", "NOTPARTS" + good.substr(8))); });
+    EXPECT_NE(wrong.find("not a head parts file"), std::string::npos) << wrong;
+    const std::string missing = testkit::error_message_of([&] { (void)read_head_parts(dir / "missing.bin"); });
+    EXPECT_NE(missing.find("missing.bin"), std::string::npos) << missing;
+    const std::string trailing = testkit::error_message_of([&] { (void)read_head_parts(write("trailing.bin", good + "x")); });
+    EXPECT_NE(trailing.find("trailing"), std::string::npos) << trailing;
+}
+
+// The anchors of the parts land on the face's own (eyes, nose, nasion within a few mm; the model's
+// ears are flaps of another shape, so within a centimetre), for random faces of the built-in model.
+TEST(HeadParts, PlacementPutsTheAnchorsOnTheFacesOwn) {
+    const MorphableModel model = load_model("builtin");
+    const HeadParts parts = read_head_parts(default_head_parts_file());
+    const HeadPlacement placement(model, parts);
+    Rng rng(3, 0, 0);
+    for (int face = 0; face < 5; ++face) {
+        std::vector<float> alpha(static_cast<std::size_t>(model.num_shape_components()));
+        for (float& a : alpha) a = static_cast<float>(rng.normal(0, 1));
+        const Eigen::Matrix3Xf shape = model.shape_instance(alpha, {});
+        const Eigen::Matrix4f m = placement.transform(shape);
+        const Eigen::Matrix3Xf placed = (m.topLeftCorner<3, 3>() * parts.anchors).colwise() + Eigen::Vector3f(m.topRightCorner<3, 1>());
+        const Eigen::Matrix3Xf l = model.landmark_positions(shape);
+        EXPECT_LT((placed.col(static_cast<int>(HeadAnchor::kRightEye)) - l.middleCols(36, 6).rowwise().mean()).norm(), 8) << face;
+        EXPECT_LT((placed.col(static_cast<int>(HeadAnchor::kNoseTip)) - l.col(30)).norm(), 10) << face;
+        const float scale = m.topLeftCorner<3, 3>().col(0).norm();
+        EXPECT_GT(scale, 0.85f) << face;
+        EXPECT_LT(scale, 1.25f) << face;
+    }
+}
+
+TEST(HeadParts, LeaveTheFacesLandmarksAndLabelsAndAddNeckClothingAndHair) {
+    const MorphableModel model = load_model("builtin");
+    SynthConfig plain;
+    plain.camera.width = plain.camera.height = 128;
+    plain.output.labels = true;
+    SynthConfig dressed = plain;
+    apply_override(dressed, "head.body=true");
+    apply_override(dressed, "head.hair_probability=1");
+    const ImageLibrary none;
+    const render::RendererOptions options{render::Backend::kEgl, false};
+    SampleGenerator a(plain, model, none, none, options), b(dressed, model, none, none, options);
+    int hidden_by_parts = 0, revealed_jaw_points = 0, face_pixels = 0, face_pixels_relabelled_skin = 0, clothing = 0, hair = 0;
+    for (std::int64_t index = 0; index < 6; ++index) {
+        const Sample without = a.generate(index), with = b.generate(index);
+        EXPECT_EQ(without.labels.landmarks_contour, with.labels.landmarks_contour) << "sample " << index;
+        EXPECT_EQ(without.labels.landmarks_fixed, with.labels.landmarks_fixed) << "sample " << index;
+        // The parts may hide landmarks (hair, collars), never reveal one inside the face. A jaw point
+        // on the outline may become visible: its pixel showed background there, now the neck behind it.
+        for (std::size_t i = 0; i < 68; ++i) {
+            const bool revealed = with.labels.visible_fixed[i] && !without.labels.visible_fixed[i];
+            if (i < 17) revealed_jaw_points += revealed;
+            else EXPECT_FALSE(revealed) << "sample " << index << " point " << i;
+            hidden_by_parts += without.labels.visible_fixed[i] && !with.labels.visible_fixed[i];
+        }
+        EXPECT_GT(pixels_labelled(with.regions, Region::kNeck) + pixels_labelled(with.regions, Region::kClothing), 200) << "sample " << index;
+        clothing += pixels_labelled(with.regions, Region::kClothing) > 100;
+        hair += pixels_labelled(with.regions, Region::kHair) > pixels_labelled(without.regions, Region::kHair);
+        // A face pixel keeps its label or is covered by hair or clothing; the body's skin stays behind it.
+        for (int y = 0; y < 128; ++y)
+            for (int x = 0; x < 128; ++x) {
+                const auto before = static_cast<Region>(without.regions.at<std::uint8_t>(y, x));
+                if (!is_face_region(before)) continue;
+                ++face_pixels;
+                face_pixels_relabelled_skin += with.regions.at<std::uint8_t>(y, x) == static_cast<std::uint8_t>(Region::kNeck);
+            }
+        const Sample again = b.generate(index);
+        EXPECT_EQ(cv::norm(again.image, with.image, cv::NORM_INF), 0) << "sample " << index << " is not reproducible";
+        EXPECT_FALSE(with.hair.empty());
+        EXPECT_FALSE(with.clothing.empty());
+    }
+    EXPECT_GE(clothing, 5);
+    EXPECT_GE(hair, 5);
+    EXPECT_LT(face_pixels_relabelled_skin, face_pixels / 50) << "the body's skin shows through the face";
+    EXPECT_LT(hidden_by_parts, 6 * 68 / 4) << "the parts hide too many landmarks";
+    EXPECT_LE(revealed_jaw_points, 6);
+}
+
+TEST(HeadParts, ConfigErrorsNameTheKeyOrFile) {
+    SynthConfig both;
+    apply_override(both, "head.body=true");
+    apply_override(both, "head.neck=true");
+    const std::string message = testkit::error_message_of([&] { validate(both); });
+    EXPECT_NE(message.find("head.body"), std::string::npos) << message;
+
+    const MorphableModel model = load_model("builtin");
+    SynthConfig missing;
+    apply_override(missing, "head.body=true");
+    apply_override(missing, "head.parts_file=/nonexistent/parts.bin");
+    const ImageLibrary none;
+    const std::string file_message = testkit::error_message_of([&] { SampleGenerator g(missing, model, none, none, {render::Backend::kEgl, false}); });
+    EXPECT_NE(file_message.find("/nonexistent/parts.bin"), std::string::npos) << file_message;
+}
+
+}  // namespace
+}  // namespace facesynth::synth
