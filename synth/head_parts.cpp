@@ -52,7 +52,7 @@ HeadParts read_head_parts(const std::filesystem::path& file) {
     for (std::size_t p = 0; p < count; ++p) {
         HeadPart part;
         const auto kind = in.read<std::uint8_t>("part kind");
-        if (kind > 2) throw in.error("unknown part kind " + std::to_string(kind));
+        if (kind > 4) throw in.error("unknown part kind " + std::to_string(kind));
         part.kind = static_cast<HeadPartKind>(kind);
         part.name = in.read_string("part name");
         const auto vertices = static_cast<Eigen::Index>(in.read_count(6 * sizeof(float), "vertex count"));
@@ -71,7 +71,13 @@ HeadParts read_head_parts(const std::filesystem::path& file) {
                 v = static_cast<int>(index);
             }
         const int index = static_cast<int>(parts.parts.size());
-        (part.kind == HeadPartKind::kSkin ? parts.skin : part.kind == HeadPartKind::kHair ? parts.hair : parts.clothing).push_back(index);
+        switch (part.kind) {
+            case HeadPartKind::kSkin: parts.skin.push_back(index); break;
+            case HeadPartKind::kHair: parts.hair.push_back(index); break;
+            case HeadPartKind::kClothing: parts.clothing.push_back(index); break;
+            case HeadPartKind::kHead:
+            case HeadPartKind::kEars: parts.head.push_back(index); break;
+        }
         parts.parts.push_back(std::move(part));
     }
     if (!in.at_end()) throw in.error("trailing bytes after the last part");
@@ -116,9 +122,11 @@ Eigen::Matrix4f HeadPlacement::transform(const Eigen::Matrix3Xf& shape) const {
 }
 
 void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::Matrix4f& placement, const Eigen::Matrix3d& head_rotation,
-                const Eigen::Vector3d& skin_colour, const Eigen::Vector3d& hair_colour, DressedParts& out) {
+                const Eigen::Vector3d& skin_colour, const Eigen::Vector3d& hair_colour, bool with_head, DressedParts& out) {
     std::vector<const HeadPart*> worn;
     for (const int p : parts.skin) worn.push_back(&parts.parts[static_cast<std::size_t>(p)]);
+    if (with_head)
+        for (const int p : parts.head) worn.push_back(&parts.parts[static_cast<std::size_t>(p)]);
     worn.push_back(&parts.parts[static_cast<std::size_t>(parts.clothing[spec.clothing_choice % parts.clothing.size()])]);
     if (spec.hair && !parts.hair.empty()) worn.push_back(&parts.parts[static_cast<std::size_t>(parts.hair[spec.hair_choice % parts.hair.size()])]);
     Eigen::Index total = 0;
@@ -139,14 +147,17 @@ void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::
     Eigen::Index first = 0;
     for (const HeadPart* part : worn) {
         const bool skin = part->kind == HeadPartKind::kSkin, hair = part->kind == HeadPartKind::kHair;
+        const bool head = part->kind == HeadPartKind::kHead || part->kind == HeadPartKind::kEars;
+        const Region head_region = part->kind == HeadPartKind::kEars ? Region::kEars : Region::kSkin;
         for (Eigen::Index v = 0; v < part->vertices.cols(); ++v) {
             const Eigen::Vector3f p = part->vertices.col(v);
             // The shirt: the skin below the neckline, lower at the front by up to the dip.
             const double front = std::clamp(static_cast<double>(p.z()) / 80.0, 0.0, 1.0) * std::max(0.0, 1.0 - std::abs(p.x()) / 70.0);
             const bool covered = skin && spec.shirt && p.y() < spec.neckline - spec.neckline_dip * front;
-            const int patch = hair ? kHairPatch : skin && !covered ? kSkinPatch : kClothPatch;
-            const Region region = hair ? Region::kHair : skin && !covered ? Region::kNeck : Region::kClothing;
-            const Eigen::Vector3d colour = hair ? hair_colour : skin && !covered ? skin_colour : spec.clothing_colour;
+            const bool bare = head || (skin && !covered);
+            const int patch = hair ? kHairPatch : bare ? kSkinPatch : kClothPatch;
+            const Region region = hair ? Region::kHair : head ? head_region : bare ? Region::kNeck : Region::kClothing;
+            const Eigen::Vector3d colour = hair ? hair_colour : bare ? skin_colour : spec.clothing_colour;
             const Eigen::Vector3f on_head = linear * p + shift;
             // The neck turns by a share of the torso's rotation that grows toward the shoulders
             // (blending rotations, not positions, which would pinch a twisted neck).

@@ -21,7 +21,8 @@
 
 namespace facesynth::synth {
 
-enum class HeadPartKind : std::uint8_t { kSkin = 0, kHair = 1, kClothing = 2 };
+// kHead and kEars (the head behind a face, its ears) are worn by face-only models, which have none.
+enum class HeadPartKind : std::uint8_t { kSkin = 0, kHair = 1, kClothing = 2, kHead = 3, kEars = 4 };
 
 struct HeadPart {
     HeadPartKind kind = HeadPartKind::kSkin;
@@ -39,7 +40,7 @@ inline constexpr int kNumHeadAnchors = 7;
 struct HeadParts {
     Eigen::Matrix3Xf anchors;  // 3 x kNumHeadAnchors, mm
     std::vector<HeadPart> parts;
-    std::vector<int> skin, hair, clothing;  // indices into parts by kind; skin and clothing never empty
+    std::vector<int> skin, hair, clothing, head;  // indices into parts by kind (head: kHead and kEars); skin and clothing never empty
 };
 
 // The asset in the source tree (assets/head_parts.bin).
@@ -76,6 +77,8 @@ public:
     HeadPlacement(const MorphableModel& model, const HeadParts& parts);
     // Similarity (4 x 4, homogeneous) taking the asset's frame to the model's for `shape`.
     [[nodiscard]] Eigen::Matrix4f transform(const Eigen::Matrix3Xf& shape) const;
+    // A face-only model (no vertices labelled ears): it wears the asset's head and ears too.
+    [[nodiscard]] bool face_only() const { return right_ear_.empty() || left_ear_.empty(); }
 
 private:
     const MorphableModel* model_;
@@ -94,9 +97,10 @@ struct DressedParts {
 
 // `head_rotation` is the sample's pose rotation (model to camera, before the axis flip); the torso
 // keeps spec.torso in the same terms, the neck blending between the two.
+// `with_head`: add the head and ears parts (HeadPlacement::face_only).
 void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::Matrix4f& placement,
                 const Eigen::Matrix3d& head_rotation, const Eigen::Vector3d& skin_colour, const Eigen::Vector3d& hair_colour,
-                DressedParts& out);
+                bool with_head, DressedParts& out);
 
 // The texture to render a textured face and its parts with: `face` (8-bit RGB, sRGB) on top and a
 // strip below it with the patches the parts' uv point into (skin, hair strands, cloth); the face's

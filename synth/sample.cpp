@@ -382,7 +382,7 @@ const cv::Mat* SampleGenerator::dress(Sample& s, const cv::Mat* texture) {
                 sum += mesh_.colours.col(v).cast<double>(), ++n;
         if (n > 0) skin = sum / n;
     }
-    dress_head(*head_parts_, spec, head_placement_->transform(model_shape), s.spec.pose.rotation, skin, hair, dressed_);
+    dress_head(*head_parts_, spec, head_placement_->transform(model_shape), s.spec.pose.rotation, skin, hair, head_placement_->face_only(), dressed_);
     const auto& parts = head_parts_->parts;
     s.clothing = parts[static_cast<std::size_t>(head_parts_->clothing[spec.clothing_choice % head_parts_->clothing.size()])].name;
     if (spec.hair && !head_parts_->hair.empty()) s.hair = parts[static_cast<std::size_t>(head_parts_->hair[spec.hair_choice % head_parts_->hair.size()])].name;

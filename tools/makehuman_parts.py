@@ -9,7 +9,7 @@ hair meshes and the upper part of each outfit, all at MakeHuman's base shape, in
     tools/makehuman_parts.py [--makehuman DIR] [--out assets/head_parts.bin]
 
 Format (little endian, counts u64 as in facesynth's model files): b"FSPARTS1", anchor count, per anchor
-3 f32; part count, per part: u8 kind (0 skin, 1 hair, 2 clothing), name (length + bytes), vertex count,
+3 f32; part count, per part: u8 kind (0 body skin, 1 hair, 2 clothing, 3 head skin, 4 ears: the last two for face-only models), name (length + bytes), vertex count,
 3·V f32 positions, 2·V f32 uv (the source mesh's, in [0, 1]; synthetic for skin), V f32 head weights
 (1 = moves with the head, 0 = with the torso), triangle count, 3·T u32 indices (counter-clockwise seen
 from outside).
@@ -173,6 +173,17 @@ def main():
     t = np.clip((base[:, 1] - 6.0) / 0.4, 0, 1)
     narrowed[:, 0] *= 1 - 0.06 * t * t * (3 - 2 * t)
     parts.append((0, 'body', *build_part(narrowed, base_uv, body_faces, keep, cylinder_uv)))
+    # For models that are a face only (no scalp, ears or back of the head): the rest of the head, behind
+    # the cheeks and temples and above the forehead, and the ears.
+    # Faces are shared out whole (a face with an ear corner is the ears'), so that no strip is lost
+    # between the parts.
+    is_ear = ~not_ear
+    head = on_body & (base[:, 1] > 6.2) & ((base[:, 2] < 1.05) | (base[:, 1] > 7.7))
+    rest = [f for f in body_faces if not all(keep[c[0]] for c in f)]
+    ear_faces = [f for f in rest if any(is_ear[c[0]] for c in f)]
+    head_faces = [f for f in rest if not any(is_ear[c[0]] for c in f)]
+    parts.append((3, 'head', *build_part(base, base_uv, head_faces, head | keep, cylinder_uv)))
+    parts.append((4, 'ears', *build_part(base, base_uv, ear_faces, np.ones(len(base), dtype=bool), cylinder_uv)))
 
     for obj in sorted(glob.glob(os.path.join(root, 'hair', '*', '*.obj'))):
         modelled, uv, f, _ = read_obj(obj)
@@ -201,7 +212,7 @@ def main():
         out += struct.pack('<Q', len(v))
         out += (v * MM).astype('<f4').tobytes()
         out += uv.astype('<f4').tobytes()
-        out += head_weight(v[:, 1]).astype('<f4').tobytes() if kind != 1 else np.ones(len(v), '<f4').tobytes()
+        out += head_weight(v[:, 1]).astype('<f4').tobytes() if kind in (0, 2) else np.ones(len(v), '<f4').tobytes()
         out += struct.pack('<Q', len(tri)) + tri.astype('<u4').tobytes()
         print(f'{name}: {len(v)} vertices, {len(tri)} triangles', file=sys.stderr)
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)

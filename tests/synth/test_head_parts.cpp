@@ -34,6 +34,7 @@ TEST(HeadParts, AssetHoldsTheBodyOutfitsAndHairStylesWithAnchors) {
     EXPECT_EQ(parts.skin.size(), 1u);
     EXPECT_EQ(parts.clothing.size(), 4u);
     EXPECT_EQ(parts.hair.size(), 10u);
+    EXPECT_EQ(parts.head.size(), 2u);  // head and ears, for face-only models
     // The eyes 6 cm apart at the same height, the ears behind and below them, the nose tip in front.
     const auto a = [&](HeadAnchor anchor) { return Eigen::Vector3f(parts.anchors.col(static_cast<int>(anchor))); };
     EXPECT_NEAR((a(HeadAnchor::kLeftEye) - a(HeadAnchor::kRightEye)).norm(), 62, 4);
