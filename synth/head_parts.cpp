@@ -28,10 +28,19 @@ Eigen::Vector2f patch_uv(int patch, const Eigen::Vector2f& uv) {
     return {(static_cast<float>(patch) + inside(uv.x())) / kPatches, static_cast<float>(kFaceShare + (1 - kFaceShare) * inside(uv.y()))};
 }
 
-cv::Vec3b encoded(const Eigen::Vector3d& linear) {
-    return {cv::saturate_cast<uchar>(255 * srgb_encode(linear.x())), cv::saturate_cast<uchar>(255 * srgb_encode(linear.y())),
-            cv::saturate_cast<uchar>(255 * srgb_encode(linear.z()))};
-}
+// sRGB encoding by table (the atlas's strip has tens of thousands of texels per sample).
+class SrgbTable {
+public:
+    SrgbTable() {
+        for (int i = 0; i <= kSteps; ++i) table_[static_cast<std::size_t>(i)] = cv::saturate_cast<uchar>(255 * srgb_encode(static_cast<double>(i) / kSteps));
+    }
+    [[nodiscard]] cv::Vec3b operator()(const Eigen::Vector3d& linear) const { return {at(linear.x()), at(linear.y()), at(linear.z())}; }
+
+private:
+    static constexpr int kSteps = 4096;
+    [[nodiscard]] uchar at(double x) const { return table_[static_cast<std::size_t>(std::lround(std::clamp(x, 0.0, 1.0) * kSteps))]; }
+    std::array<uchar, kSteps + 1> table_{};
+};
 
 }  // namespace
 
@@ -180,6 +189,7 @@ void make_parts_atlas(const cv::Mat& face, const HeadPartsSpec& spec, const Eige
     atlas.create(face.rows + strip, face.cols, CV_8UC3);
     face.copyTo(atlas.rowRange(0, face.rows));
     Rng rng(spec.pattern_seed, 0, 0);
+    const SrgbTable encoded;
     const int width = face.cols;
     const auto patch = [&](int k) {
         const int x0 = k * width / kPatches, x1 = (k + 1) * width / kPatches;
@@ -219,21 +229,24 @@ void make_parts_atlas(const cv::Mat& face, const HeadPartsSpec& spec, const Eige
 }
 
 Eigen::Vector3d texture_colour_of(const cv::Mat& texture, const MorphableModel& model, Region region) {
-    std::array<std::vector<double>, 3> values;
+    // Medians of the 8-bit values by histogram; decoding is monotonic, so it commutes with the median.
+    std::array<std::array<int, 256>, 3> histogram{};
+    int count = 0;
     const bool labelled = std::find(model.vertex_labels.begin(), model.vertex_labels.end(), static_cast<std::uint8_t>(region)) != model.vertex_labels.end();
     for (int v = 0; v < model.uv.cols(); ++v) {
         if (labelled && model.vertex_labels[static_cast<std::size_t>(v)] != static_cast<std::uint8_t>(region)) continue;
         const int x = std::clamp(static_cast<int>(model.uv(0, v) * static_cast<float>(texture.cols)), 0, texture.cols - 1);
         const int y = std::clamp(static_cast<int>(model.uv(1, v) * static_cast<float>(texture.rows)), 0, texture.rows - 1);
         const cv::Vec3b t = texture.at<cv::Vec3b>(y, x);
-        for (int c = 0; c < 3; ++c) values[static_cast<std::size_t>(c)].push_back(srgb_decode(t[c] / 255.0));
+        for (int c = 0; c < 3; ++c) ++histogram[static_cast<std::size_t>(c)][t[c]];
+        ++count;
     }
     Eigen::Vector3d median(0.5, 0.5, 0.5);
+    if (count == 0) return median;
     for (int c = 0; c < 3; ++c) {
-        auto& list = values[static_cast<std::size_t>(c)];
-        if (list.empty()) continue;
-        std::nth_element(list.begin(), list.begin() + static_cast<std::ptrdiff_t>(list.size() / 2), list.end());
-        median[c] = list[list.size() / 2];
+        int below = 0, level = 0;
+        while (level < 255 && (below += histogram[static_cast<std::size_t>(c)][static_cast<std::size_t>(level)]) <= count / 2) ++level;
+        median[c] = srgb_decode(level / 255.0);
     }
     return median;
 }

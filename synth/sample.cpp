@@ -313,7 +313,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     const render::LandmarkTopology* topology = &landmark_topology_;
     if (s.spec.head_parts) {
         texture = dress(s, texture);
-        topology = &dressed_topology_;
+        topology = dressed_topology_;
     }
     clock.lap(local.sample);
 
@@ -405,10 +405,18 @@ const cv::Mat* SampleGenerator::dress(Sample& s, const cv::Mat* texture) {
         make_parts_atlas(*texture, spec, skin, hair, atlas_);
         texture = &atlas_;
     }
-    dressed_topology_ = render::landmark_topology(mesh_.triangles, total, &contour_region_);
-    // The jaw outline is the face's: the parts' triangles never count as face triangles.
-    if (!dressed_topology_.face_triangles.empty())
-        std::fill(dressed_topology_.face_triangles.begin() + static_cast<std::ptrdiff_t>(model_.triangles.size()), dressed_topology_.face_triangles.end(), 0);
+    // The topology depends only on which parts are worn: made once per hair and outfit pair.
+    const int hair_index = spec.hair && !head_parts_->hair.empty() ? static_cast<int>(spec.hair_choice % head_parts_->hair.size()) : -1;
+    const auto key = std::make_pair(hair_index, static_cast<int>(spec.clothing_choice % head_parts_->clothing.size()));
+    auto cached = dressed_topologies_.find(key);
+    if (cached == dressed_topologies_.end()) {
+        render::LandmarkTopology topology = render::landmark_topology(mesh_.triangles, total, &contour_region_);
+        // The jaw outline is the face's: the parts' triangles never count as face triangles.
+        if (!topology.face_triangles.empty())
+            std::fill(topology.face_triangles.begin() + static_cast<std::ptrdiff_t>(model_.triangles.size()), topology.face_triangles.end(), 0);
+        cached = dressed_topologies_.emplace(key, std::move(topology)).first;
+    }
+    dressed_topology_ = &cached->second;
     return texture;
 }
 

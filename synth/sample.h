@@ -14,6 +14,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <span>
@@ -125,7 +126,8 @@ private:
     DressedParts dressed_;  // the sample's head parts
     cv::Mat atlas_;  // with head.body and a texture: the texture with the parts' patches
     std::vector<std::uint8_t> dressed_labels_;  // the model's labels, then the parts'
-    render::LandmarkTopology dressed_topology_;  // of the model and the sample's parts
+    std::map<std::pair<int, int>, render::LandmarkTopology> dressed_topologies_;  // by (hair, outfit) worn
+    const render::LandmarkTopology* dressed_topology_ = nullptr;  // the sample's, from dressed_topologies_
     std::vector<std::uint8_t> vertex_labels_;  // the model's, then the neck's
     render::Renderer renderer_;
     render::Frame frame_;
