@@ -78,6 +78,58 @@ PhotoTexture rejected(PhotoTexture t, std::string why) {
 
 }  // namespace
 
+cv::Mat align_photo_to_fit(const cv::Mat& image, const Eigen::Matrix2Xd& annotated, const Eigen::Matrix2Xd& projected) {
+    if (annotated.cols() != kNumIbugLandmarks || projected.cols() != kNumIbugLandmarks)
+        throw Error("texture: feature alignment needs 68 annotated and 68 projected points");
+    std::vector<int> used;
+    for (int k = 17; k < kNumIbugLandmarks; ++k)
+        if (annotated.col(k).allFinite() && projected.col(k).allFinite()) used.push_back(k);
+    const double eye_distance = (annotated.col(kLeftEyeOuterCorner) - annotated.col(kRightEyeOuterCorner)).norm();
+    if (used.size() < 3 || !(eye_distance > 0)) return image;
+    const int n = static_cast<int>(used.size());
+    const double sigma = 0.25 * eye_distance;
+    const auto kernel = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return std::exp(-(a - b).squaredNorm() / (2 * sigma * sigma)); };
+    Eigen::MatrixXd k(n, n);
+    Eigen::MatrixX2d residual(n, 2);
+    for (int i = 0; i < n; ++i) {
+        const int a = used[static_cast<std::size_t>(i)];
+        residual.row(i) = (annotated.col(a) - projected.col(a)).transpose();
+        for (int j = 0; j < n; ++j) k(i, j) = kernel(projected.col(a), projected.col(used[static_cast<std::size_t>(j)]));
+    }
+    // A little regularisation: neighbouring points (inner and outer lips) with differing residuals
+    // would otherwise ask for steep, ringing displacements.
+    k.diagonal().array() += 0.05;
+    const Eigen::MatrixX2d weights = k.ldlt().solve(residual);
+    // The displacement on a grid of 4-pixel cells (it varies over tens of pixels), then bilinear.
+    constexpr int kCell = 4;
+    const int grid_w = image.cols / kCell + 2, grid_h = image.rows / kCell + 2;
+    cv::Mat dx(grid_h, grid_w, CV_32FC1), dy(grid_h, grid_w, CV_32FC1);
+    for (int gy = 0; gy < grid_h; ++gy)
+        for (int gx = 0; gx < grid_w; ++gx) {
+            const Eigen::Vector2d p(gx * kCell, gy * kCell);
+            Eigen::Vector2d d = Eigen::Vector2d::Zero();
+            for (int i = 0; i < n; ++i) d += weights.row(i).transpose() * kernel(p, projected.col(used[static_cast<std::size_t>(i)]));
+            dx.at<float>(gy, gx) = static_cast<float>(d.x());
+            dy.at<float>(gy, gx) = static_cast<float>(d.y());
+        }
+    cv::Mat map_x(image.size(), CV_32FC1), map_y(image.size(), CV_32FC1);
+    for (int y = 0; y < image.rows; ++y)
+        for (int x = 0; x < image.cols; ++x) {
+            const float fx = static_cast<float>(x) / kCell, fy = static_cast<float>(y) / kCell;
+            const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+            const float tx = fx - static_cast<float>(x0), ty = fy - static_cast<float>(y0);
+            const auto lerp = [&](const cv::Mat& m) {
+                return (1 - ty) * ((1 - tx) * m.at<float>(y0, x0) + tx * m.at<float>(y0, x0 + 1)) +
+                       ty * ((1 - tx) * m.at<float>(y0 + 1, x0) + tx * m.at<float>(y0 + 1, x0 + 1));
+            };
+            map_x.at<float>(y, x) = static_cast<float>(x) + lerp(dx);
+            map_y.at<float>(y, x) = static_cast<float>(y) + lerp(dy);
+        }
+    cv::Mat out;
+    cv::remap(image, out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    return out;
+}
+
 void push_pull_fill(cv::Mat& colour, const cv::Mat& weight) {
     if (colour.type() != CV_32FC3 || weight.type() != CV_32FC1 || colour.size() != weight.size())
         throw Error("push-pull fill: expects a CV_32FC3 colour and a CV_32FC1 weight of the same size");
@@ -151,7 +203,8 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     const Eigen::Matrix3Xf vertices = fit::fitted_shape(model, fit);
     IsomapOptions isomap_options;
     isomap_options.size = options.size;
-    cv::Mat isomap = frontaliser.extract_isomap(image, vertices, {fit.camera, fit.pose}, isomap_options);
+    const cv::Mat photo = options.align_features ? align_photo_to_fit(image, landmarks, fit.projected) : image;
+    cv::Mat isomap = frontaliser.extract_isomap(photo, vertices, {fit.camera, fit.pose}, isomap_options);
     const UvRaster& raster = frontaliser.uv_raster(options.size);
     const Eigen::Matrix3Xf normals = vertex_normals(vertices, model.triangles);
     const bool labelled = model.vertex_labels.size() == static_cast<std::size_t>(model.num_vertices());

@@ -29,7 +29,18 @@ struct PhotoTextureOptions {
     double max_skin_outliers = 0.2;
     // The fit's landmark RMS over the inter-ocular distance (iBUG 37-46); above it: rejected.
     double max_fit_error = 0.08;
+    // Warp the photograph before taking the texture so that its annotated points iBUG 18-68 land where
+    // the fitted model projects them: the texture's brows, eyes, nose and mouth then lie at the model's
+    // landmark vertices instead of off them by the fit's residual (docs/textures.md "Features aligned").
+    bool align_features = true;
 };
+
+// The photograph warped smoothly so that `annotated` points (iBUG 18-68 of 2 x 68, 0-based pixels) move
+// onto `projected` (the fitted model's projections of them): out(p) = image(p + d(p)), where d is the
+// Gaussian radial-basis interpolant (width 0.25 of the outer-eye-corner distance) through the residuals
+// annotated - projected, fading to no displacement away from the face's features. Non-finite points are
+// left out; with none left the image is returned unchanged.
+[[nodiscard]] cv::Mat align_photo_to_fit(const cv::Mat& image, const Eigen::Matrix2Xd& annotated, const Eigen::Matrix2Xd& projected);
 
 // Skin texels farther than this from the skin's median colour (CIE76 ΔE) count as outliers.
 inline constexpr double kOutlierDeltaE = 25.0;

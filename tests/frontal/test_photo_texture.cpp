@@ -179,5 +179,41 @@ TEST(PushPullFill, HolesTakeTheirNeighboursColourAndKnownTexelsStay) {
     EXPECT_THROW(push_pull_fill(empty_colour, empty_weight), Error);
 }
 
+// 68 distinct points on a face-sized layout (eye corners 37 and 46 at 80 px).
+Eigen::Matrix2Xd feature_layout() {
+    Eigen::Matrix2Xd p(2, 68);
+    for (int k = 0; k < 68; ++k) p.col(k) = Eigen::Vector2d(60 + 11 * (k % 12), 50 + 17 * (k / 12));
+    p.col(36) = Eigen::Vector2d(80, 90);
+    p.col(45) = Eigen::Vector2d(160, 90);
+    return p;
+}
+
+TEST(AlignPhotoToFit, MovesTheAnnotatedFeaturesOntoTheFittedPoints) {
+    const Eigen::Matrix2Xd projected = feature_layout();
+    // The photograph's features sit 3 px right and 2 px above where the fit projects them.
+    const Eigen::Matrix2Xd annotated = projected.colwise() + Eigen::Vector2d(3, -2);
+    cv::Mat photo(240, 260, CV_8UC3, cv::Scalar::all(0));
+    const Eigen::Vector2d nose = annotated.col(30);
+    cv::circle(photo, cv::Point(static_cast<int>(nose.x()), static_cast<int>(nose.y())), 3, cv::Scalar::all(255), cv::FILLED);
+    const cv::Mat aligned = align_photo_to_fit(photo, annotated, projected);
+    cv::Mat grey;
+    cv::cvtColor(aligned, grey, cv::COLOR_BGR2GRAY);
+    const cv::Moments g = cv::moments(grey, false);
+    ASSERT_GT(g.m00, 0);
+    EXPECT_NEAR(g.m10 / g.m00, std::floor(nose.x()) - 3, 0.5);
+    EXPECT_NEAR(g.m01 / g.m00, std::floor(nose.y()) + 2, 0.5);
+    // Far from the features nothing moves.
+    cv::Mat corner(photo.size(), CV_8UC3, cv::Scalar::all(0));
+    cv::rectangle(corner, cv::Rect(0, 0, 8, 8), cv::Scalar::all(200), cv::FILLED);
+    EXPECT_EQ(cv::norm(align_photo_to_fit(corner, annotated, projected)(cv::Rect(0, 0, 12, 12)), corner(cv::Rect(0, 0, 12, 12)), cv::NORM_INF), 0);
+}
+
+TEST(AlignPhotoToFit, AnExactFitLeavesThePhotographAsItIs) {
+    const Eigen::Matrix2Xd points = feature_layout();
+    cv::Mat photo(240, 260, CV_8UC3);
+    cv::randu(photo, cv::Scalar::all(0), cv::Scalar::all(255));
+    EXPECT_EQ(cv::norm(align_photo_to_fit(photo, points, points), photo, cv::NORM_INF), 0);
+}
+
 }  // namespace
 }  // namespace facesynth::frontal
