@@ -43,7 +43,7 @@ struct TexturesArgs {
     std::string detector = "auto";
     int size = 512;
     bool keep_shading = false;
-    bool no_align = false;
+    bool align_features = false;
     double max_yaw = 50;
     double min_coverage = 0.6;
     double max_outliers = 0.2;
@@ -79,7 +79,7 @@ void run_textures(const TexturesArgs& a) {
     options.min_face_coverage = a.min_coverage;
     options.max_skin_outliers = a.max_outliers;
     options.max_fit_error = a.max_fit_error;
-    options.align_features = !a.no_align;
+    options.align_features = a.align_features;
     frontal::Frontaliser frontaliser(model);
     if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
         throw Error("textures: model '" + model.name + "' (" + a.model + ") has no symmetry map to fill the hidden side with");
@@ -381,7 +381,7 @@ void register_appearance_commands(CLI::App& app) {
     add_detector_option(*cmd, a->detector);
     cmd->add_option("--size", a->size, "Texture side, texels")->check(CLI::Range(64, 4096))->capture_default_str();
     cmd->add_flag("--keep-shading", a->keep_shading, "Keep the photograph's shading in the texture (default: divide it out)");
-    cmd->add_flag("--no-align", a->no_align, "Take the texture where the fit puts the face, without moving the annotated features onto the model's landmarks");
+    cmd->add_flag("--align-features", a->align_features, "Warp each photograph so that its annotated features land on the fitted model's landmarks before taking the texture");
     cmd->add_option("--max-yaw", a->max_yaw, "Reject faces turned further than this, degrees")->check(finite_range(0.0, 90.0))->capture_default_str();
     cmd->add_option("--min-coverage", a->min_coverage, "Reject faces with less of the face seen (with the mirror side)")->check(finite_range(0.0, 1.0))->capture_default_str();
     cmd->add_option("--max-outliers", a->max_outliers, "Reject faces with more of the seen skin far from its median colour (occlusion)")

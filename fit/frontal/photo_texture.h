@@ -32,7 +32,8 @@ struct PhotoTextureOptions {
     // Warp the photograph before taking the texture so that its annotated points iBUG 18-68 land where
     // the fitted model projects them: the texture's brows, eyes, nose and mouth then lie at the model's
     // landmark vertices instead of off them by the fit's residual (docs/textures.md "Features aligned").
-    bool align_features = true;
+    // Off by default: it did not make a better training set (docs/results.md, seventh run).
+    bool align_features = false;
 };
 
 // The photograph warped smoothly so that `annotated` points (iBUG 18-68 of 2 x 68, 0-based pixels) move
