@@ -392,8 +392,9 @@ const cv::Mat* SampleGenerator::dress(Sample& s, const cv::Mat* texture) {
     mesh_.vertices.rightCols(dressed_.vertices.cols()) = dressed_.vertices;
     mesh_.triangles.assign(model_.triangles.begin(), model_.triangles.end());
     for (const Triangle& t : dressed_.triangles) mesh_.triangles.push_back({t[0] + model_vertices, t[1] + model_vertices, t[2] + model_vertices});
-    dressed_labels_.assign(vertex_labels_.begin(), vertex_labels_.begin() + model_vertices);
-    if (dressed_labels_.size() < static_cast<std::size_t>(model_vertices)) dressed_labels_.resize(static_cast<std::size_t>(model_vertices), static_cast<std::uint8_t>(Region::kSkin));
+    // A model without labels is skin throughout (as the renderer takes an empty label list).
+    dressed_labels_.assign(vertex_labels_.begin(), vertex_labels_.begin() + std::min<std::ptrdiff_t>(std::ssize(vertex_labels_), model_vertices));
+    dressed_labels_.resize(static_cast<std::size_t>(model_vertices), static_cast<std::uint8_t>(Region::kSkin));
     dressed_labels_.insert(dressed_labels_.end(), dressed_.labels.begin(), dressed_.labels.end());
     mesh_.colours.conservativeResize(3, total);
     mesh_.colours.rightCols(dressed_.colours.cols()) = dressed_.colours.cast<float>();

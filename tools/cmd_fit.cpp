@@ -52,12 +52,6 @@ fit::JawMode parse_jaw(const std::string& s) {
     throw Error("--jaw '" + s + "': expected fixed or contour");
 }
 
-void write_png(const std::filesystem::path& path, const cv::Mat& image) {
-    std::vector<unsigned char> bytes;
-    if (!cv::imencode(".png", image, bytes)) throw file_error(path.string(), "PNG encoding failed");
-    write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
-}
-
 void run_fit(const FitArgs& a) {
     const auto start = std::chrono::steady_clock::now();
     const MorphableModel model = load_model(a.model);
@@ -149,7 +143,7 @@ void run_fit(const FitArgs& a) {
     create_output_folder(out);
     write_obj(mesh, out / "mesh.obj");
     write_glb(mesh, out / "mesh.glb");
-    if (!image.empty()) write_png(out / "overlay.png", fit::draw_fit_overlay(image, vertices_px, mesh.triangles, landmarks, fitted_landmarks));
+    if (!image.empty()) write_png_file(out / "overlay.png", fit::draw_fit_overlay(image, vertices_px, mesh.triangles, landmarks, fitted_landmarks));
     j["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     write_json_file(out / "fit.json", j);
     if (!a.json.empty()) write_json_file(a.json, j);
@@ -208,7 +202,7 @@ void run_lambda(const LambdaArgs& a) {
     if (!a.json.empty()) write_json_file(a.json, j);
 }
 
-struct EvalArgs {
+struct FitEvalArgs {
     std::string model = "builtin";
     std::string data;  // a `facesynth synth` dataset folder; empty: cases generated in code
     std::string mode = "contour";
@@ -240,7 +234,7 @@ void print_summary(const fit::YawBinnedSummary& summary, bool skip_empty) {
     print_summary_row("all", summary.all);
 }
 
-fit::EvalOptions eval_options(const EvalArgs& a, fit::JawMode jaw) {
+fit::EvalOptions eval_options(const FitEvalArgs& a, fit::JawMode jaw) {
     fit::EvalOptions o;
     const auto subset = landmark_subset(parse_landmark_subset(a.landmark_set));
     o.fit.subset.assign(subset.begin(), subset.end());
@@ -251,7 +245,7 @@ fit::EvalOptions eval_options(const EvalArgs& a, fit::JawMode jaw) {
     return o;
 }
 
-void write_eval_header(nlohmann::json& j, const EvalArgs& a, const MorphableModel& model) {
+void write_eval_header(nlohmann::json& j, const FitEvalArgs& a, const MorphableModel& model) {
     j["model"] = model.name;
     j["model_checksum"] = model.checksum();
     j["noise_px"] = a.noise;
@@ -264,7 +258,7 @@ void write_eval_header(nlohmann::json& j, const EvalArgs& a, const MorphableMode
 
 // Ground-truth evaluation on a synthetic test set generated in code (landmarks projected from random
 // faces and poses with fixed jaw correspondences, plus noise); see docs/fit.md.
-void run_eval_generated(const EvalArgs& a) {
+void run_eval_generated(const FitEvalArgs& a) {
     const MorphableModel model = load_model(a.model);
     const fit::Fitter fitter(model);
     fit::EvalOptions o = eval_options(a, fit::JawMode::kFixed);
@@ -295,7 +289,7 @@ void run_eval_generated(const EvalArgs& a) {
 // fitted from its true 2D landmarks (docs/fit.md, "eval fit on a dataset"). A sample whose meta file is
 // missing or corrupt, or whose fit fails, is reported on one line and skipped; the command then exits 1
 // saying how many failed. A dataset made with another model is refused at once.
-void run_eval_dataset(const EvalArgs& a) {
+void run_eval_dataset(const FitEvalArgs& a) {
     const MorphableModel model = load_model(a.model);
     const std::string checksum = model.checksum();
     const std::filesystem::path dir(a.data);
@@ -350,7 +344,7 @@ void run_eval_dataset(const EvalArgs& a) {
                     " failed (see the lines above); the metrics cover the other " + std::to_string(summary.all.count));
 }
 
-void run_eval(const EvalArgs& a) {
+void run_eval(const FitEvalArgs& a) {
     if (a.data.empty()) run_eval_generated(a);
     else run_eval_dataset(a);
 }
@@ -461,7 +455,7 @@ void register_fit_commands(CLI::App& app) {
     lam->callback([lambda_args] { run_lambda(*lambda_args); });
 
     CLI::App* eval = &eval_group(app);
-    auto eval_args = std::make_shared<EvalArgs>();
+    auto eval_args = std::make_shared<FitEvalArgs>();
     auto* ev = eval->add_subcommand("fit", "Fit accuracy against ground truth: on a `synth` dataset (--data) or on cases generated in code");
     ev->add_option("--model", eval_args->model, "Model: builtin, a model file, or a folder (must be the dataset's model)")->capture_default_str();
     ev->add_option("--data", eval_args->data, "A `facesynth synth` dataset folder (manifest.jsonl, meta/); without it, --count cases are generated in code")->check(CLI::ExistingDirectory);

@@ -263,7 +263,7 @@ void run_frontalise(const FrontaliseArgs& a) {
 }
 
 
-struct EvalArgs {
+struct FrontaliseEvalArgs {
     std::string model = "builtin";
     int count = 10;
     std::int64_t seed = 20261122;
@@ -321,7 +321,7 @@ std::string bin_label(int b) { return std::to_string(10 * b) + "_" + std::to_str
 
 // Frontalises one posed view from `landmarks` with and without mirror filling and scores both.
 EvalSums score_view(frontal::Frontaliser& frontaliser, const frontal::TexturedFace& face, const frontal::SyntheticView& view,
-                    const Eigen::Matrix2Xd& landmarks, const frontal::TrueFrontal& truth, const cv::Mat& layout, const EvalArgs& a,
+                    const Eigen::Matrix2Xd& landmarks, const frontal::TrueFrontal& truth, const cv::Mat& layout, const FrontaliseEvalArgs& a,
                     const fs::path* examples_stem) {
     frontal::FrontaliseOptions options;
     options.isomap.size = a.isomap_size;
@@ -380,7 +380,7 @@ std::string psnr_plot_svg(const std::vector<std::pair<std::string, std::array<do
     return report::line_plot_svg(plot);
 }
 
-void run_eval_frontalise(const EvalArgs& a) {
+void run_eval_frontalise(const FrontaliseEvalArgs& a) {
     const MorphableModel model = load_model(a.model);
     if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
         throw Error("eval frontalise: model '" + model.name + "' has no symmetry map, so the mirror-fill half cannot be measured");
@@ -532,7 +532,7 @@ void run_eval_frontalise(const EvalArgs& a) {
     if (!a.json.empty()) write_json_file(a.json, j);
 }
 
-struct BenchArgs {
+struct FrontaliseBenchArgs {
     std::string model = "builtin";
     int count = 50;
     int isomap_size = 512;
@@ -544,7 +544,7 @@ struct BenchArgs {
 
 // Times the library pipeline (fit + isomap + frontal render, no detection) on `count` posed renders of
 // different identities at yaws within ±60°, after one warm-up face (uv raster, shader compilation).
-void run_bench_frontalise(const BenchArgs& a) {
+void run_bench_frontalise(const FrontaliseBenchArgs& a) {
     const MorphableModel model = load_model(a.model);
     frontal::Frontaliser frontaliser(model);
     const JawContourRegion region = jaw_contour_region(model);
@@ -626,7 +626,7 @@ void register_frontal_commands(CLI::App& app) {
     });
 
     CLI::App* eval = &eval_group(app);
-    auto e = std::make_shared<EvalArgs>();
+    auto e = std::make_shared<FrontaliseEvalArgs>();
     auto* ev = eval->add_subcommand("frontalise", "Frontalisation against ground truth: posed renders of known faces vs their true frontal render");
     ev->add_option("--model", e->model, "Model: builtin, a model file, or a folder (needs a symmetry map)")->capture_default_str();
     ev->add_option("--count", e->count, "Identities (each seen once per 10° yaw bin from 0 to 70)")->capture_default_str()->check(CLI::PositiveNumber);
@@ -654,7 +654,7 @@ void register_frontal_commands(CLI::App& app) {
     ev->add_flag("--quiet", e->quiet, "Only the JSON, no table or progress");
     ev->callback([e] { run_eval_frontalise(*e); });
 
-    auto b = std::make_shared<BenchArgs>();
+    auto b = std::make_shared<FrontaliseBenchArgs>();
     auto* bench = bench_group(app).add_subcommand("frontalise", "Time fit + isomap + frontal render per face (no detection); CPU and wall time");
     bench->add_option("--model", b->model, "Model: builtin, a model file, or a folder")->capture_default_str();
     bench->add_option("--count", b->count, "Faces timed (after one warm-up)")->capture_default_str()->check(CLI::PositiveNumber);

@@ -57,7 +57,7 @@ struct RenderArgs {
     bool quiet = false;
 };
 
-struct BenchArgs {
+struct RenderBenchArgs {
     ViewArgs view;
     int count = 1000;
     int threads = 1;
@@ -148,12 +148,6 @@ render::Camera frame_camera(const ViewArgs& v, const Mesh& mesh) {
                                                  0.5 * static_cast<double>(high.z() - low.z());
     camera.pose.translation = -(model_to_camera_flip() * camera.pose.rotation * centre) + Eigen::Vector3d(0, 0, distance);
     return camera;
-}
-
-void write_png(const std::filesystem::path& path, const cv::Mat& image) {
-    std::vector<unsigned char> bytes;
-    if (!cv::imencode(".png", image, bytes)) throw file_error(path.string(), "PNG encoding failed");
-    write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 cv::Mat to_bgr(const cv::Mat& rgb) {
@@ -248,14 +242,14 @@ void run_render(const RenderArgs& a) {
 
     const std::filesystem::path out(a.out);
     create_output_folder(out);
-    write_png(out / "image.png", to_bgr(frame.rgb));
-    write_png(out / "mask.png", frame.mask);
+    write_png_file(out / "image.png", to_bgr(frame.rgb));
+    write_png_file(out / "mask.png", frame.mask);
     const std::string exr = synth::encode_depth_exr(frame.depth, (out / "depth.exr").string());
     write_file_atomically(out / "depth.exr", exr);
-    write_png(out / "normals.png", normals_picture(frame.normals, frame.mask));
-    write_png(out / "labels.png", frame.labels);
-    write_png(out / "labels_colour.png", labels_picture(frame.labels));
-    write_png(out / "overlay.png", overlay_picture(frame.rgb, lm));
+    write_png_file(out / "normals.png", normals_picture(frame.normals, frame.mask));
+    write_png_file(out / "labels.png", frame.labels);
+    write_png_file(out / "labels_colour.png", labels_picture(frame.labels));
+    write_png_file(out / "overlay.png", overlay_picture(frame.rgb, lm));
 
     nlohmann::json j;
     j["model"] = model.name;
@@ -306,7 +300,7 @@ struct BenchResult {
 };
 
 // --bare draws positions only, without anti-aliasing, shading or extra outputs.
-void check_bare_options(const BenchArgs& b) {
+void check_bare_options(const RenderBenchArgs& b) {
     if (!b.bare) return;
     if (b.view.msaa > 1 || b.view.supersample > 1 || b.view.edge_aa)
         throw CLI::ValidationError("--bare", "draws without anti-aliasing: give --msaa 0 (and no --supersample or --edge-aa)");
@@ -316,7 +310,7 @@ void check_bare_options(const BenchArgs& b) {
         throw CLI::ValidationError("--bare", "reads back RGBA only: --barycentrics, --colour-only and --no-normals do not apply");
 }
 
-void run_bench(const BenchArgs& b) {
+void run_bench(const RenderBenchArgs& b) {
     check_bare_options(b);
     const MorphableModel model = load_model(b.view.model);
     const Mesh mesh = model.instance({});
@@ -451,7 +445,7 @@ void register_render_commands(CLI::App& app) {
     cmd->add_flag("--quiet,-q", args->quiet, "print nothing");
     cmd->callback([args] { run_render(*args); });
 
-    auto bench_args = std::make_shared<BenchArgs>();
+    auto bench_args = std::make_shared<RenderBenchArgs>();
     CLI::App* bench = bench_group(app).add_subcommand("render", "Renders per second (RGB, mask, depth, normals, ids, labels + read-back)");
     add_view_options(bench, bench_args->view);
     bench->add_option("--count,-n", bench_args->count, "renders in total")->check(CLI::PositiveNumber)->capture_default_str();

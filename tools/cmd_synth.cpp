@@ -112,13 +112,13 @@ double process_cpu_seconds() {
     return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
-struct BenchArgs {
+struct SynthBenchArgs {
     SynthArgs run;
     std::string work;
     std::int64_t count = 300;
 };
 
-void run_bench(BenchArgs& b) {
+void run_bench(SynthBenchArgs& b) {
     SynthArgs a = b.run;
     if (a.size.empty()) a.size = "256";
     a.count = b.count;
@@ -243,7 +243,7 @@ void register_synth_commands(CLI::App& app) {
         if (synth_cmd->get_subcommands().empty()) run_generate(*args);
     });
 
-    auto bench_args = std::make_shared<BenchArgs>();
+    auto bench_args = std::make_shared<SynthBenchArgs>();
     CLI::App* bench = bench_group(app).add_subcommand("synth", "Dataset generation speed, end to end (samples/s, 1 thread and all threads)");
     bench->add_option("--count,-n", bench_args->count, "samples per run")->check(CLI::PositiveNumber);
     bench->add_option("--work", bench_args->work, "folder for the generated samples, a subfolder per run (default: a temporary folder, removed)");

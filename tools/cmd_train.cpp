@@ -300,12 +300,6 @@ struct DetectArgs {
     bool quiet = false;
 };
 
-void write_png(const std::filesystem::path& path, const cv::Mat& image) {
-    std::vector<unsigned char> png;
-    if (!cv::imencode(".png", image, png)) throw file_error(path.string(), "PNG encoding failed");
-    write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
-}
-
 void run_detect(const DetectArgs& args) {
     const auto regressor = open_regressor(args.regressor);
     const LandmarkRegressor* const regressors[] = {regressor.get()};
@@ -342,7 +336,7 @@ void run_detect(const DetectArgs& args) {
                                  {"pts", stem + "_" + std::to_string(k) + ".pts"},
                                  {"landmarks", landmarks}});
             }
-            write_png(args.out / (stem + "_overlay.png"), overlay);
+            write_png_file(args.out / (stem + "_overlay.png"), overlay);
             const nlohmann::json record = {{"image", path.string()},
                                            {"regressor", regressor->label()},
                                            {"detector", detector_name(detector.kind())},
@@ -366,7 +360,7 @@ void run_detect(const DetectArgs& args) {
     if (failed) throw Error(std::to_string(failed) + " of " + std::to_string(args.images.size()) + " images failed");
 }
 
-struct EvalArgs {
+struct LandmarkEvalArgs {
     std::vector<std::string> regressors;
     std::string detector = "auto";
     std::string data;
@@ -439,7 +433,7 @@ void add_detector_breakdown(const Evaluation& evaluation, nlohmann::json& report
     }
 }
 
-void run_eval_landmarks(const EvalArgs& args) {
+void run_eval_landmarks(const LandmarkEvalArgs& args) {
     std::vector<std::unique_ptr<LandmarkRegressor>> owned;
     std::vector<const LandmarkRegressor*> regressors;
     for (const auto& spec : args.regressors) {
@@ -630,7 +624,7 @@ void register_train_commands(CLI::App& app) {
         cmd->callback([args] { run_detect(*args); });
     }
     {
-        auto args = std::make_shared<EvalArgs>();
+        auto args = std::make_shared<LandmarkEvalArgs>();
         auto* cmd = eval_group(app).add_subcommand("landmarks", "Landmark NME on labelled images (inter-ocular)");
         cmd->add_option("--regressor", args->regressors,
                         "MODEL (SDM file), mean:MODEL (its mean shape only), sdm@K:MODEL (its first K stages), dlib, dlib:FILE, ert:FILE "

@@ -22,7 +22,7 @@ std::uint64_t fnv1a_64(std::string_view bytes) {
 
 namespace {
 
-constexpr char kMagic[8] = {'F', 'S', 'Y', 'N', 'S', 'D', 'M', '\0'};
+constexpr char kSdmMagic[8] = {'F', 'S', 'Y', 'N', 'S', 'D', 'M', '\0'};
 
 void write_doubles(ByteWriter& w, const double* values, std::size_t count) { w.write_bytes(values, count * sizeof(double)); }
 
@@ -118,7 +118,7 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
     }
 
     ByteWriter file;
-    file.write_bytes(kMagic, sizeof(kMagic));
+    file.write_bytes(kSdmMagic, sizeof(kSdmMagic));
     file.write(kSdmModelVersion);
     file.write(static_cast<std::uint32_t>(model.num_landmarks));
     file.write(static_cast<std::uint32_t>(model.stages.size()));
@@ -140,9 +140,9 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
     if (!std::filesystem::exists(path)) throw file_error(path.string(), "model file not found");
     const std::string bytes = read_file(path);
     ByteReader r(bytes, path.string());
-    if (bytes.size() < sizeof(kMagic) || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0)
+    if (bytes.size() < sizeof(kSdmMagic) || std::memcmp(bytes.data(), kSdmMagic, sizeof(kSdmMagic)) != 0)
         throw file_error(path.string(), "not a facesynth SDM model (bad magic)");
-    r.skip(sizeof(kMagic), "magic");
+    r.skip(sizeof(kSdmMagic), "magic");
     const auto version = r.read<std::uint32_t>("version");
     if (version < 1 || version > kSdmModelVersion)
         throw file_error(path.string(), "unsupported SDM model version " + std::to_string(version) + " (this build reads 1 to " +

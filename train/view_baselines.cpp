@@ -16,7 +16,7 @@
 namespace facesynth::train {
 namespace {
 
-constexpr char kMagic[8] = {'F', 'S', 'Y', 'N', 'V', 'W', 'B', '\0'};
+constexpr char kViewBaselinesMagic[8] = {'F', 'S', 'Y', 'N', 'V', 'W', 'B', '\0'};
 constexpr std::uint32_t kBundleVersion = 1;
 
 const char* method_name(BaselineMethod method) { return method == BaselineMethod::kErt ? "ERT" : "LBF"; }
@@ -41,7 +41,7 @@ void write_view_baseline_bundle(const std::filesystem::path& path, const ViewBas
     models.write_bytes(bundle.frontal_model.data(), bundle.frontal_model.size());
     models.write_bytes(bundle.profile_model.data(), bundle.profile_model.size());
     ByteWriter file;
-    file.write_bytes(kMagic, sizeof kMagic);
+    file.write_bytes(kViewBaselinesMagic, sizeof kViewBaselinesMagic);
     file.write(kBundleVersion);
     file.write(static_cast<std::uint32_t>(bundle.method));
     const std::string checked = body.bytes() + models.bytes();
@@ -52,16 +52,16 @@ void write_view_baseline_bundle(const std::filesystem::path& path, const ViewBas
 
 bool is_view_baseline_bundle(const std::filesystem::path& path) {
     std::ifstream in(path, std::ios::binary);
-    char magic[sizeof kMagic] = {};
-    return in.read(magic, sizeof magic) && std::memcmp(magic, kMagic, sizeof kMagic) == 0;
+    char magic[sizeof kViewBaselinesMagic] = {};
+    return in.read(magic, sizeof magic) && std::memcmp(magic, kViewBaselinesMagic, sizeof kViewBaselinesMagic) == 0;
 }
 
 ViewBaselineBundle read_view_baseline_bundle(const std::filesystem::path& path, BaselineMethod expected) {
     const std::string bytes = read_file(path);
     ByteReader r(bytes, path.string());
-    char magic[sizeof kMagic];
+    char magic[sizeof kViewBaselinesMagic];
     r.read_bytes(magic, sizeof magic, "magic");
-    if (std::memcmp(magic, kMagic, sizeof kMagic) != 0) throw file_error(path.string(), "not a view-specific baseline bundle");
+    if (std::memcmp(magic, kViewBaselinesMagic, sizeof kViewBaselinesMagic) != 0) throw file_error(path.string(), "not a view-specific baseline bundle");
     const auto version = r.read<std::uint32_t>("format version");
     if (version != kBundleVersion)
         throw file_error(path.string(), "view-specific baseline bundle version " + std::to_string(version) +

@@ -1,6 +1,7 @@
 // synth's head.body: MakeHuman's neck, shoulders, clothing and hair placed on the face, leaving the
 // face's landmarks and labels as they are.
 #include "common/test_data.h"
+#include "common/toy_model.h"
 #include "morph/atomic_file.h"
 #include "morph/model_io.h"
 #include "morph/random.h"
@@ -134,6 +135,30 @@ TEST(HeadParts, LeaveTheFacesLandmarksAndLabelsAndAddNeckClothingAndHair) {
     EXPECT_LT(face_pixels_relabelled_skin, face_pixels / 50) << "the body's skin shows through the face";
     EXPECT_LT(hidden_by_parts, 6 * 68 / 4) << "the parts hide too many landmarks";
     EXPECT_LE(revealed_jaw_points, 6);
+}
+
+// A face-only model without labels or ears (the toy model) wears MakeHuman's head and ears too, and
+// its own face stays skin.
+TEST(HeadParts, FaceOnlyModelsWearTheHeadAndEars) {
+    const MorphableModel model = testkit::make_toy_model();
+    ASSERT_TRUE(model.vertex_labels.empty());
+    SynthConfig config;
+    config.camera.width = config.camera.height = 128;
+    config.output.labels = true;
+    apply_override(config, "head.body=true");
+    apply_override(config, "pose.yaw.min=50");
+    apply_override(config, "pose.yaw.max=60");
+    const ImageLibrary none;
+    SampleGenerator generator(config, model, none, none, {render::Backend::kEgl, false});
+    int ears = 0, skin = 0;
+    for (std::int64_t index = 0; index < 3; ++index) {
+        const Sample s = generator.generate(index);
+        ears += pixels_labelled(s.regions, Region::kEars);
+        skin += pixels_labelled(s.regions, Region::kSkin);
+        EXPECT_GT(pixels_labelled(s.regions, Region::kNeck) + pixels_labelled(s.regions, Region::kClothing), 100) << index;
+    }
+    EXPECT_GT(ears, 30);
+    EXPECT_GT(skin, 1000);
 }
 
 TEST(HeadParts, ConfigErrorsNameTheKeyOrFile) {
