@@ -237,6 +237,12 @@ GLuint link_program(const GlFunctions& gl, unsigned variant) {
     return detail::link_shaders(gl, shaders);
 }
 
+}  // namespace
+
+// Members of Renderer::Impl, a class with linkage: kept out of the anonymous namespace (a unity
+// build would otherwise warn that Impl's fields have types without linkage).
+namespace detail {
+
 // The mesh's triangle list re-indexed so that every triangle has a provoking vertex of its own
 // (OpenGL's last-vertex convention): its flat `triangle` attribute then names the triangle without
 // gl_PrimitiveID, which makes Mesa's draw module assemble primitives one by one. A triangle's last
@@ -313,6 +319,11 @@ struct Program {
         shadow_texel = at("shadow_texel");
     }
 };
+}  // namespace detail
+using detail::Program;
+using detail::ProvokingTopology;
+
+namespace {
 
 // Directional lights in camera space (OpenCV axes), unit, toward the light.
 std::vector<Eigen::Vector3d> light_directions_in_camera(const Lighting& lighting) {
@@ -415,7 +426,7 @@ struct Renderer::Impl {
     std::unique_ptr<detail::GlContext> context;
     GlFunctions gl;
     std::string renderer_string;
-    std::array<Program, kNumVariants> programs{};  // linked on first use
+    std::array<detail::Program, kNumVariants> programs{};  // linked on first use
     GLuint vao = 0;
     std::array<GLuint, kNumAttributes> vertex_buffers{};
     std::array<std::size_t, kNumAttributes> buffer_bytes{};  // allocated size of each vertex buffer
@@ -436,7 +447,7 @@ struct Renderer::Impl {
     cv::Mat edge_depth;                  // the depth it needs when the frame has none (geometry off)
     int width = 0, height = 0;  // this render's image: the bottom-left corner of the targets
     int target_width = 0, target_height = 0, samples = 0, max_samples = 0, max_texture_size = 0;
-    ProvokingTopology topology;
+    detail::ProvokingTopology topology;
     Eigen::Vector3f mesh_low, mesh_high;  // bounding box of the uploaded positions
     Eigen::Matrix3Xf normals;
     std::vector<float> expanded;  // one attribute extended to every vertex slot
