@@ -42,6 +42,24 @@ private:
     std::array<uchar, kSteps + 1> table_{};
 };
 
+// Hair cards and cloth are thin sheets seen from both sides: a copy of each vertex for the back side,
+// with the winding reversed, so that back-face culling and the vertex normals hold for both.
+void add_back_side(HeadPart& part) {
+    const Eigen::Index n = part.vertices.cols();
+    part.vertices.conservativeResize(3, 2 * n);
+    part.vertices.rightCols(n) = part.vertices.leftCols(n);
+    part.uv.conservativeResize(2, 2 * n);
+    part.uv.rightCols(n) = part.uv.leftCols(n);
+    part.head_weight.conservativeResize(2 * n);
+    part.head_weight.tail(n) = part.head_weight.head(n);
+    const std::size_t front = part.triangles.size();
+    const int offset = static_cast<int>(n);
+    for (std::size_t t = 0; t < front; ++t) {
+        const Triangle f = part.triangles[t];
+        part.triangles.push_back({f[2] + offset, f[1] + offset, f[0] + offset});
+    }
+}
+
 }  // namespace
 
 std::filesystem::path default_head_parts_file() { return std::filesystem::path(FACESYNTH_ASSET_DIR) / "head_parts.bin"; }
@@ -79,6 +97,7 @@ HeadParts read_head_parts(const std::filesystem::path& file) {
                 if (index >= static_cast<std::uint32_t>(vertices)) throw in.error("part " + part.name + ": triangle index out of range");
                 v = static_cast<int>(index);
             }
+        if (part.kind == HeadPartKind::kHair || part.kind == HeadPartKind::kClothing) add_back_side(part);
         const int index = static_cast<int>(parts.parts.size());
         switch (part.kind) {
             case HeadPartKind::kSkin: parts.skin.push_back(index); break;

@@ -12,7 +12,8 @@ Format (little endian, counts u64 as in facesynth's model files): b"FSPARTS1", a
 3 f32; part count, per part: u8 kind (0 body skin, 1 hair, 2 clothing, 3 head skin, 4 ears: the last two for face-only models), name (length + bytes), vertex count,
 3·V f32 positions, 2·V f32 uv (the source mesh's, in [0, 1]; synthetic for skin), V f32 head weights
 (1 = moves with the head, 0 = with the torso), triangle count, 3·T u32 indices (counter-clockwise seen
-from outside).
+from outside). Hair and clothing are thin sheets seen from both sides: stored once, their back side (a
+copy of each vertex, the winding reversed) is added when the file is read.
 Anchors: right eye centre, left eye centre, right ear centre, left ear centre, nose tip, nasion
 (subject's right = viewer's left = −x), and then the neck joint, about which the neck bends.
 """
@@ -105,14 +106,6 @@ def build_part(vertices, uvs, faces, keep_vertex, synthetic_uv=None):
     return vertices[used], uv, np.array(triangles, dtype=np.uint32)
 
 
-def two_sided(vertices, uv, triangles):
-    """Hair cards and cloth are thin sheets seen from both sides: a copy of each vertex for the back
-    side, with the winding reversed, so that the renderer's back-face culling and normals hold."""
-    n = len(vertices)
-    back = triangles[:, ::-1] + n
-    return np.concatenate([vertices, vertices]), np.concatenate([uv, uv]), np.concatenate([triangles, back])
-
-
 def cylinder_uv(points):
     angle = np.arctan2(points[:, 0], points[:, 2])
     u = (angle / np.pi + 1) / 2
@@ -193,14 +186,14 @@ def main():
         # Fringes and side locks that hang before the eyes and cheeks are trimmed at the brows: on
         # another face they would cover it, and few annotated photographs show faces under hair.
         before_face = (v[:, 2] > 0.9) & (v[:, 1] < 7.5)
-        parts.append((1, os.path.basename(obj)[:-4], *two_sided(*build_part(v, uv, f, ~before_face))))
+        parts.append((1, os.path.basename(obj)[:-4], *build_part(v, uv, f, ~before_face)))
     for obj in sorted(glob.glob(os.path.join(root, 'clothes', '*', '*.obj'))):
         modelled, uv, f, _ = read_obj(obj)
         v = bound_positions(obj[:-4] + '.mhclo', base)
         if len(v) != len(modelled):
             sys.exit(f'{obj}: {len(modelled)} vertices but {len(v)} bound in its .mhclo')
         keep = (v[:, 1] > LOWEST) & (np.abs(v[:, 0]) < WIDEST)
-        parts.append((2, os.path.basename(obj)[:-4], *two_sided(*build_part(v, uv, f, keep))))
+        parts.append((2, os.path.basename(obj)[:-4], *build_part(v, uv, f, keep)))
 
     out = bytearray(b'FSPARTS1')
     out += struct.pack('<Q', len(anchors))
