@@ -15,17 +15,17 @@ namespace {
 
 using namespace facesynth;
 
-const MorphableModel& bench_model() {
-    static const MorphableModel model = [] {
+const morph::MorphableModel& bench_model() {
+    static const morph::MorphableModel model = [] {
         const std::filesystem::path sfm = std::filesystem::path(FACESYNTH_DEFAULT_DATA_DIR) / "sfm";
         if (std::filesystem::exists(sfm)) {
             try {
-                return load_model(sfm.string());
+                return morph::load_model(sfm.string());
             } catch (const std::exception& e) {
                 std::fprintf(stderr, "bench_fit: %s; using the built-in model\n", e.what());
             }
         }
-        return load_model("builtin");
+        return morph::load_model("builtin");
     }();
     return model;
 }
@@ -39,7 +39,7 @@ fit::FitOptions five_iterations(fit::JawMode jaw) {
 }
 
 void run_linear(benchmark::State& state, fit::JawMode jaw) {
-    const MorphableModel& model = bench_model();
+    const morph::MorphableModel& model = bench_model();
     const fit::Fitter fitter(model);
     fit::SyntheticOptions s;
     s.noise_px = 1.0;
@@ -54,7 +54,7 @@ void BM_LinearFit(benchmark::State& state) { run_linear(state, fit::JawMode::kFi
 void BM_LinearFitWithContour(benchmark::State& state) { run_linear(state, fit::JawMode::kContour); }
 
 void BM_RefinedFit(benchmark::State& state) {
-    const MorphableModel& model = bench_model();
+    const morph::MorphableModel& model = bench_model();
     const fit::Fitter fitter(model);
     fit::SyntheticOptions s;
     s.noise_px = 1.0;
@@ -67,7 +67,7 @@ void BM_RefinedFit(benchmark::State& state) {
 }
 
 void BM_FitterSetup(benchmark::State& state) {
-    const MorphableModel& model = bench_model();
+    const morph::MorphableModel& model = bench_model();
     for (auto _ : state) benchmark::DoNotOptimize(fit::Fitter(model));
 }
 

@@ -3,11 +3,11 @@
 // Google Benchmark's CPU time is the main thread's. Uses the built-in model, or the model that
 // FACESYNTH_BENCH_MODEL names (e.g. ../shared/data/sfm). Posed renders of 8 identities at yaws within
 // ±60°, cycled through, so that no stage sees one face only.
-#include "fit/frontal/evaluate.h"
-#include "fit/frontal/frontalise.h"
+#include "frontal/evaluate.h"
+#include "frontal/frontalise.h"
 #include "morph/jaw_contour.h"
 #include "morph/model_io.h"
-#include "morph/random.h"
+#include "core/random.h"
 
 #include <benchmark/benchmark.h>
 
@@ -20,7 +20,7 @@ namespace {
 using namespace facesynth;
 
 struct Scene {
-    MorphableModel model;
+    morph::MorphableModel model;
     std::unique_ptr<frontal::Frontaliser> frontaliser;
     std::vector<frontal::SyntheticView> views;
     std::vector<frontal::Frontalisation> results;  // each view frontalised once: the stages' inputs
@@ -31,15 +31,15 @@ Scene& scene() {
     static Scene s = [] {
         Scene scene;
         const char* path = std::getenv("FACESYNTH_BENCH_MODEL");
-        scene.model = load_model(path ? path : "builtin");
+        scene.model = morph::load_model(path ? path : "builtin");
         scene.frontaliser = std::make_unique<frontal::Frontaliser>(scene.model);
-        const JawContourRegion region = jaw_contour_region(scene.model);
+        const morph::JawContourRegion region = morph::jaw_contour_region(scene.model);
         constexpr std::uint64_t kSeed = 77;
         constexpr int kFaces = 8;
         for (int i = 0; i < kFaces; ++i) {
             const frontal::TexturedFace face =
                 frontal::make_textured_face(scene.model, *scene.frontaliser, kSeed, static_cast<std::uint64_t>(i), scene.options.isomap.size);
-            Rng rng = make_rng(kSeed, static_cast<std::uint64_t>(i), RandomStream::kPose);
+            core::Rng rng = core::make_rng(kSeed, static_cast<std::uint64_t>(i), core::RandomStream::kPose);
             scene.views.push_back(frontal::render_view(scene.frontaliser->renderer(), scene.model, face, rng.uniform(-60, 60), {}, &region));
             scene.results.push_back(scene.frontaliser->frontalise(scene.views.back().image, scene.views.back().landmarks, scene.options));
         }

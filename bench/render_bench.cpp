@@ -16,21 +16,21 @@ using namespace facesynth;
 
 render::Camera camera_for(int size, double yaw) {
     render::Camera camera;
-    camera.intrinsics = intrinsics_from_fov(30.0, size, size);
-    camera.pose.rotation = rotation_from_euler({yaw, 0.0, 0.0});
+    camera.intrinsics = morph::intrinsics_from_fov(30.0, size, size);
+    camera.pose.rotation = morph::rotation_from_euler({yaw, 0.0, 0.0});
     camera.pose.translation = Eigen::Vector3d(0, 0, 600.0);
     return camera;
 }
 
-Mesh one_triangle() {
-    Mesh mesh;
+morph::Mesh one_triangle() {
+    morph::Mesh mesh;
     mesh.vertices.resize(3, 3);
     mesh.vertices << -50, 50, 0, -50, -50, 50, 0, 0, 0;
-    mesh.triangles = {Triangle{0, 1, 2}};
+    mesh.triangles = {morph::Triangle{0, 1, 2}};
     return mesh;
 }
 
-void run(benchmark::State& state, const Mesh& mesh, int size, bool geometry, int msaa) {
+void run(benchmark::State& state, const morph::Mesh& mesh, int size, bool geometry, int msaa) {
     render::Renderer renderer({render::Backend::kAuto, false});
     render::RenderSettings settings;
     settings.geometry = geometry;
@@ -50,13 +50,13 @@ std::filesystem::path sfm_dir() {
 
 void BM_Surrey(benchmark::State& state) {
     if (!std::filesystem::exists(sfm_dir())) return state.SkipWithError("no ../shared/data/sfm (set FACESYNTH_DATA)");
-    static const Mesh mesh = load_model(sfm_dir().string()).instance({});
+    static const morph::Mesh mesh = morph::load_model(sfm_dir().string()).instance({});
     run(state, mesh, static_cast<int>(state.range(0)), state.range(1) != 0, static_cast<int>(state.range(2)));
 }
 BENCHMARK(BM_Surrey)->Args({64, 0, 0})->Args({256, 0, 0})->Args({256, 1, 0})->Args({256, 1, 4})->Unit(benchmark::kMillisecond);
 
 void BM_Builtin(benchmark::State& state) {
-    static const Mesh mesh = load_model("builtin").instance({});
+    static const morph::Mesh mesh = morph::load_model("builtin").instance({});
     run(state, mesh, static_cast<int>(state.range(0)), state.range(1) != 0, static_cast<int>(state.range(2)));
 }
 BENCHMARK(BM_Builtin)->Args({256, 1, 0})->Args({256, 1, 4})->Unit(benchmark::kMillisecond);
@@ -64,9 +64,9 @@ BENCHMARK(BM_Builtin)->Args({256, 1, 0})->Args({256, 1, 4})->Unit(benchmark::kMi
 // Landmarks of one render (68 points, both jaw modes, outline visibility) at yaw 60, without the render.
 void BM_ProjectLandmarksSurrey(benchmark::State& state) {
     if (!std::filesystem::exists(sfm_dir())) return state.SkipWithError("no ../shared/data/sfm (set FACESYNTH_DATA)");
-    const MorphableModel model = load_model(sfm_dir().string());
-    const Mesh mesh = model.instance({});
-    const JawContourRegion region = jaw_contour_region(model);
+    const morph::MorphableModel model = morph::load_model(sfm_dir().string());
+    const morph::Mesh mesh = model.instance({});
+    const morph::JawContourRegion region = morph::jaw_contour_region(model);
     render::Renderer renderer({render::Backend::kAuto, false});
     render::RenderSettings settings;
     settings.msaa_samples = 0;

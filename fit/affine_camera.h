@@ -24,14 +24,14 @@ struct ScaledOrthographic {
     double scale = 1;                                  // pixels per mm
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
     Eigen::Vector2d translation = Eigen::Vector2d::Zero();  // pixels: where the model origin projects
-    EulerAngles angles;
+    morph::EulerAngles angles;
 
     [[nodiscard]] AffineCamera to_affine() const;
 };
 
 // Least-squares affine camera from n >= 4 correspondences (columns). Points are normalised first
 // (2D: centroid at the origin, RMS distance √2; 3D: RMS distance √3). `weights` (size n, >= 0,
-// may be empty for all ones) weights each correspondence. Throws facesynth::Error on fewer than 4
+// may be empty for all ones) weights each correspondence. Throws core::Error on fewer than 4
 // (weighted) points, non-finite coordinates, or a degenerate (collinear / coplanar-degenerate) set.
 [[nodiscard]] AffineCamera estimate_affine_camera(const Eigen::Matrix2Xd& image_points,
                                                   const Eigen::Matrix3Xd& model_points,

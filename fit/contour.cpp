@@ -1,6 +1,6 @@
 #include "fit/contour.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 
 #include <Eigen/Geometry>
@@ -11,7 +11,7 @@
 
 namespace facesynth::fit {
 
-std::vector<Edge> edge_topology(const std::vector<Triangle>& triangles, int num_vertices) {
+std::vector<Edge> edge_topology(const std::vector<morph::Triangle>& triangles, int num_vertices) {
     std::unordered_map<long long, int> index;  // (a, b) -> position in `edges`
     index.reserve(triangles.size() * 2);
     std::vector<Edge> edges;
@@ -33,10 +33,10 @@ std::vector<Edge> edge_topology(const std::vector<Triangle>& triangles, int num_
     return edges;
 }
 
-ContourFinder::ContourFinder(const MorphableModel& model) : model_(model), region_(jaw_contour_region(model)) {
+ContourFinder::ContourFinder(const morph::MorphableModel& model) : model_(model), region_(morph::jaw_contour_region(model)) {
     const int v = model.num_vertices();
     edges_ = edge_topology(model.triangles, v);
-    const auto mean = as_points(model.shape.mean);
+    const auto mean = morph::as_points(model.shape.mean);
     triangle_normals_.resize(3, static_cast<Eigen::Index>(model.triangles.size()));
     for (std::size_t t = 0; t < model.triangles.size(); ++t) {
         const auto& tri = model.triangles[t];
@@ -49,8 +49,8 @@ ContourFinder::ContourFinder(const MorphableModel& model) : model_(model), regio
     const Eigen::MatrixXf shape_basis = model.shape.rescaled_basis();
     region_mean_.resize(rows);
     region_shape_basis_.resize(rows, shape_basis.cols());
-    const PcaModel* expression_pca = model.expression ? std::get_if<PcaModel>(&*model.expression) : nullptr;
-    const auto* blendshapes = model.expression ? std::get_if<std::vector<Blendshape>>(&*model.expression) : nullptr;
+    const morph::PcaModel* expression_pca = model.expression ? std::get_if<morph::PcaModel>(&*model.expression) : nullptr;
+    const auto* blendshapes = model.expression ? std::get_if<std::vector<morph::Blendshape>>(&*model.expression) : nullptr;
     Eigen::MatrixXf expression_basis;
     if (expression_pca) expression_basis = expression_pca->rescaled_basis();
     if (blendshapes) {
@@ -67,7 +67,7 @@ ContourFinder::ContourFinder(const MorphableModel& model) : model_(model), regio
     }
 
     // The fallback's candidate region: the same jaw band as the shared definition (morph/jaw_contour.h).
-    const JawBand band = jaw_band(model);
+    const morph::JawBand band = morph::jaw_band(model);
     side_.resize(static_cast<std::size_t>(v));
     in_face_region_.resize(static_cast<std::size_t>(v));
     for (int i = 0; i < v; ++i) {
@@ -103,15 +103,15 @@ std::vector<int> ContourFinder::candidates(const Eigen::Matrix3d& rotation) cons
 }
 
 template <class Project, class PositionOf>
-std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matrix2Xd& landmarks, const Eigen::Matrix3d& rotation,
+std::vector<std::optional<morph::SurfacePoint>> ContourFinder::choose(const Eigen::Matrix2Xd& landmarks, const Eigen::Matrix3d& rotation,
                                                                Project&& project, const std::vector<int>& jaw_indices,
                                                                PositionOf&& position_of,
                                                                const Eigen::Matrix3Xf* region_positions) const {
-    std::vector<std::optional<SurfacePoint>> result(kNumJawLandmarks);
-    const int far = far_side(rotation);
+    std::vector<std::optional<morph::SurfacePoint>> result(morph::kNumJawLandmarks);
+    const int far = morph::far_side(rotation);
     auto fixed_defined = [&](int j) {
         if (j >= static_cast<int>(model_.landmarks.size())) return false;
-        const SurfacePoint& p = model_.landmarks[static_cast<std::size_t>(j)];
+        const morph::SurfacePoint& p = model_.landmarks[static_cast<std::size_t>(j)];
         for (int id : p.vertices)
             if (id < 0 || id >= model_.num_vertices()) return false;
         return p.weights[0] + p.weights[1] + p.weights[2] > 0.5f;
@@ -120,15 +120,15 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
     // The shared definition: far side on the face region's outline, near side on the fixed jaw line.
     Eigen::Matrix2Xd region_projected;
     std::vector<int> fallback;
-    std::vector<JawContourQuery> contour_queries;  // far-side points, searched together
+    std::vector<morph::JawContourQuery> contour_queries;  // far-side points, searched together
     std::vector<int> contour_landmarks;
     for (int j : jaw_indices) {
-        if (j < 0 || j >= kNumJawLandmarks || j == kChinLandmark) continue;
+        if (j < 0 || j >= morph::kNumJawLandmarks || j == morph::kChinLandmark) continue;
         if (!fixed_defined(j) || region_.vertices.empty()) {
             fallback.push_back(j);
             continue;
         }
-        if (!jaw_on_side(j, far)) {
+        if (!morph::jaw_on_side(j, far)) {
             result[static_cast<std::size_t>(j)] = model_.landmarks[static_cast<std::size_t>(j)];
             continue;
         }
@@ -140,14 +140,14 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
                                              : position_of(region_.vertices[r]));
         }
         // The face's horizontal image direction at the fixed point (the projected model x axis).
-        const SurfacePoint& fixed = model_.landmarks[static_cast<std::size_t>(j)];
+        const morph::SurfacePoint& fixed = model_.landmarks[static_cast<std::size_t>(j)];
         Eigen::Vector3d x = Eigen::Vector3d::Zero();
         for (int k = 0; k < 3; ++k) x += static_cast<double>(fixed.weights[static_cast<std::size_t>(k)]) * position_of(fixed.vertices[static_cast<std::size_t>(k)]);
         const Eigen::Vector2d toward_left = (project(Eigen::Vector3d(x + Eigen::Vector3d::UnitX())) - project(x)).normalized();
-        contour_queries.push_back({landmarks.col(j), j < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left});
+        contour_queries.push_back({landmarks.col(j), j < morph::kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left});
         contour_landmarks.push_back(j);
     }
-    const auto hits = jaw_contour_points(region_, region_projected, contour_queries);
+    const auto hits = morph::jaw_contour_points(region_, region_projected, contour_queries);
     for (std::size_t q = 0; q < hits.size(); ++q) {
         const auto j = static_cast<std::size_t>(contour_landmarks[q]);
         result[j] = hits[q] ? hits[q]->point : model_.landmarks[j];
@@ -159,24 +159,24 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::choose(const Eigen::Matr
     Eigen::Matrix2Xd projected(2, static_cast<Eigen::Index>(cand.size()));
     for (std::size_t c = 0; c < cand.size(); ++c) projected.col(static_cast<Eigen::Index>(c)) = project(position_of(cand[c]));
     for (int j : fallback) {
-        const signed char wanted_side = j < kChinLandmark ? -1 : 1;
+        const signed char wanted_side = j < morph::kChinLandmark ? -1 : 1;
         double best = std::numeric_limits<double>::max();
         for (std::size_t c = 0; c < cand.size(); ++c) {
             if (side_[static_cast<std::size_t>(cand[c])] != wanted_side) continue;
             const double d = (projected.col(static_cast<Eigen::Index>(c)) - landmarks.col(j)).squaredNorm();
             if (d < best) {
                 best = d;
-                result[static_cast<std::size_t>(j)] = SurfacePoint::at_vertex(cand[c]);
+                result[static_cast<std::size_t>(j)] = morph::SurfacePoint::at_vertex(cand[c]);
             }
         }
     }
     return result;
 }
 
-std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+std::vector<std::optional<morph::SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                                                     const Eigen::Matrix3Xf& vertices,
                                                     const std::vector<int>& jaw_indices) const {
-    const Eigen::Matrix<double, 2, 3> m = camera.scale * (model_to_camera_flip() * camera.rotation).topRows<2>();
+    const Eigen::Matrix<double, 2, 3> m = camera.scale * (morph::model_to_camera_flip() * camera.rotation).topRows<2>();
     return choose(landmarks, camera.rotation, [&](const Eigen::Vector3d& x) -> Eigen::Vector2d { return m * x + camera.translation; },
                   jaw_indices, [&](int id) -> Eigen::Vector3d { return vertices.col(id).cast<double>(); });
 }
@@ -187,8 +187,8 @@ std::function<Eigen::Vector3d(int)> ContourFinder::position_function(const std::
     const int k = std::min<int>(static_cast<int>(alpha.size()), shape.num_components());
     Eigen::VectorXf scaled_alpha(k);
     for (int c = 0; c < k; ++c) scaled_alpha[c] = alpha[static_cast<std::size_t>(c)] * std::sqrt(shape.eigenvalues[c]);
-    const PcaModel* expression_pca = model_.expression ? std::get_if<PcaModel>(&*model_.expression) : nullptr;
-    const auto* blendshapes = model_.expression ? std::get_if<std::vector<Blendshape>>(&*model_.expression) : nullptr;
+    const morph::PcaModel* expression_pca = model_.expression ? std::get_if<morph::PcaModel>(&*model_.expression) : nullptr;
+    const auto* blendshapes = model_.expression ? std::get_if<std::vector<morph::Blendshape>>(&*model_.expression) : nullptr;
     Eigen::VectorXf scaled_psi;
     if (expression_pca) {
         const int e = std::min<int>(static_cast<int>(psi.size()), expression_pca->num_components());
@@ -196,7 +196,7 @@ std::function<Eigen::Vector3d(int)> ContourFinder::position_function(const std::
         for (int c = 0; c < e; ++c) scaled_psi[c] = psi[static_cast<std::size_t>(c)] * std::sqrt(expression_pca->eigenvalues[c]);
     }
     return [this, k, scaled_alpha, scaled_psi, expression_pca, blendshapes, psi](int id) -> Eigen::Vector3d {
-        const PcaModel& pca = model_.shape;
+        const morph::PcaModel& pca = model_.shape;
         Eigen::Vector3f p = pca.mean.segment<3>(3 * id) + pca.basis.block(3 * id, 0, 3, k) * scaled_alpha;
         if (expression_pca) {
             p += expression_pca->mean.segment<3>(3 * id) +
@@ -220,11 +220,11 @@ Eigen::Matrix3Xf ContourFinder::region_positions(const std::vector<float>& alpha
 
 namespace {
 Eigen::Matrix<double, 2, 3> affine_rows(const ScaledOrthographic& camera) {
-    return camera.scale * (model_to_camera_flip() * camera.rotation).topRows<2>();
+    return camera.scale * (morph::model_to_camera_flip() * camera.rotation).topRows<2>();
 }
 }  // namespace
 
-std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+std::vector<std::optional<morph::SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                                                     const std::vector<float>& alpha, const std::vector<float>& psi,
                                                     const std::vector<int>& jaw_indices) const {
     const Eigen::Matrix<double, 2, 3> m = affine_rows(camera);
@@ -233,10 +233,10 @@ std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(cons
                   jaw_indices, position_function(alpha, psi), &region);
 }
 
-std::vector<std::optional<SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const PinholeView& camera,
+std::vector<std::optional<morph::SurfacePoint>> ContourFinder::jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const PinholeView& camera,
                                                     const std::vector<float>& alpha, const std::vector<float>& psi,
                                                     const std::vector<int>& jaw_indices) const {
-    const Eigen::Matrix3d m = model_to_camera_flip() * camera.rotation;
+    const Eigen::Matrix3d m = morph::model_to_camera_flip() * camera.rotation;
     const Eigen::Matrix3Xf region = region_positions(alpha, psi);
     return choose(landmarks, camera.rotation, [&](const Eigen::Vector3d& x) -> Eigen::Vector2d {
         const Eigen::Vector3d c = m * x + camera.translation;

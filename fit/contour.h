@@ -24,7 +24,7 @@ struct Edge {
 };
 
 // Unique edges with their adjacent triangles (computed once per model).
-[[nodiscard]] std::vector<Edge> edge_topology(const std::vector<Triangle>& triangles, int num_vertices);
+[[nodiscard]] std::vector<Edge> edge_topology(const std::vector<morph::Triangle>& triangles, int num_vertices);
 
 // A pinhole camera for the contour step of the perspective refinement: x_cam = flip · R · X + t,
 // pixel = focal · x_cam.xy / x_cam.z + (cx, cy) (as render's camera and fit/refine.h).
@@ -36,7 +36,7 @@ struct PinholeView {
 
 class ContourFinder {
 public:
-    explicit ContourFinder(const MorphableModel& model);
+    explicit ContourFinder(const morph::MorphableModel& model);
 
     // Vertices on occluding edges for a rotation R (pose.h convention; the viewer is at +z in
     // camera space after the flip, i.e. a triangle faces the camera when (R n).z > 0).
@@ -45,16 +45,16 @@ public:
     // For each jaw landmark j in `jaw_indices` (0-based iBUG ids 0..16 except the chin 8), its model
     // point under `camera` and `vertices` (the current shape), as described above. Returns 17 entries
     // (nullopt where not asked or not found).
-    [[nodiscard]] std::vector<std::optional<SurfacePoint>> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+    [[nodiscard]] std::vector<std::optional<morph::SurfacePoint>> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                                                        const Eigen::Matrix3Xf& vertices,
                                                        const std::vector<int>& jaw_indices) const;
     // The same, reconstructing only candidate vertices from coefficients (faster than a full shape).
-    [[nodiscard]] std::vector<std::optional<SurfacePoint>> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
+    [[nodiscard]] std::vector<std::optional<morph::SurfacePoint>> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const ScaledOrthographic& camera,
                                                        const std::vector<float>& alpha, const std::vector<float>& psi,
                                                        const std::vector<int>& jaw_indices) const;
 
     // The same under a pinhole camera (the perspective refinement: the same projection synth uses).
-    [[nodiscard]] std::vector<std::optional<SurfacePoint>> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const PinholeView& camera,
+    [[nodiscard]] std::vector<std::optional<morph::SurfacePoint>> jaw_correspondences(const Eigen::Matrix2Xd& landmarks, const PinholeView& camera,
                                                        const std::vector<float>& alpha, const std::vector<float>& psi,
                                                        const std::vector<int>& jaw_indices) const;
 
@@ -63,7 +63,7 @@ public:
 private:
     std::vector<int> candidates(const Eigen::Matrix3d& rotation) const;
     template <class Project, class PositionOf>
-    std::vector<std::optional<SurfacePoint>> choose(const Eigen::Matrix2Xd& landmarks, const Eigen::Matrix3d& rotation,
+    std::vector<std::optional<morph::SurfacePoint>> choose(const Eigen::Matrix2Xd& landmarks, const Eigen::Matrix3d& rotation,
                                                     Project&& project, const std::vector<int>& jaw_indices,
                                                     PositionOf&& position_of,
                                                     const Eigen::Matrix3Xf* region_positions = nullptr) const;
@@ -72,12 +72,12 @@ private:
     [[nodiscard]] std::function<Eigen::Vector3d(int)> position_function(const std::vector<float>& alpha,
                                                                         const std::vector<float>& psi) const;
 
-    const MorphableModel& model_;
+    const morph::MorphableModel& model_;
     std::vector<Edge> edges_;
     Eigen::Matrix3Xf triangle_normals_;   // of the mean shape
     std::vector<signed char> side_;       // per vertex: -1 subject's right (x < 0), +1 left, 0 midline
     std::vector<char> in_face_region_;    // per vertex: front half and at jaw height (mean shape)
-    JawContourRegion region_;             // the shared definition's face region
+    morph::JawContourRegion region_;             // the shared definition's face region
     // The shape and expression models restricted to the region's vertices (3R rows), so that the
     // contour step reconstructs them with one matrix-vector product per round.
     Eigen::VectorXf region_mean_;

@@ -1,6 +1,6 @@
 #include "fit/conventions.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 
 #include <cmath>
@@ -10,7 +10,7 @@ namespace facesynth::fit {
 ConventionStudy study_conventions(const Fitter& fitter, const std::vector<Eigen::Matrix2Xd>& annotations, const FitOptions& options,
                                   double max_abs_yaw_deg) {
     ConventionStudy study;
-    Eigen::Matrix2Xd sum = Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks), squares = sum;
+    Eigen::Matrix2Xd sum = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks), squares = sum;
     for (const Eigen::Matrix2Xd& annotation : annotations) {
         try {
             const FitResult result = fitter.fit(annotation, options);
@@ -18,11 +18,11 @@ ConventionStudy study_conventions(const Fitter& fitter, const std::vector<Eigen:
                 ++study.skipped_pose;
                 continue;
             }
-            const Eigen::Matrix2Xd offsets = face_frame_offsets(annotation, result.projected);
+            const Eigen::Matrix2Xd offsets = morph::face_frame_offsets(annotation, result.projected);
             sum += offsets;
             squares += offsets.cwiseAbs2();
             ++study.faces;
-        } catch (const Error&) {
+        } catch (const core::Error&) {
             ++study.failed;
         }
     }

@@ -1,8 +1,8 @@
 #include "fit/dataset_eval.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
-#include "morph/random.h"
+#include "core/random.h"
 
 #include <algorithm>
 #include <cmath>
@@ -18,35 +18,35 @@ namespace fs = std::filesystem;
 
 nlohmann::json parse_json_file(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
-    if (!in) throw file_error(path.string(), "cannot open");
+    if (!in) throw core::file_error(path.string(), "cannot open");
     std::ostringstream text;
     text << in.rdbuf();
     auto j = nlohmann::json::parse(text.str(), nullptr, false);
-    if (j.is_discarded()) throw file_error(path.string(), "not valid JSON (truncated or corrupt?)");
-    if (!j.is_object()) throw file_error(path.string(), "expected a JSON object");
+    if (j.is_discarded()) throw core::file_error(path.string(), "not valid JSON (truncated or corrupt?)");
+    if (!j.is_object()) throw core::file_error(path.string(), "expected a JSON object");
     return j;
 }
 
 const nlohmann::json& member(const nlohmann::json& j, const char* key, const fs::path& path) {
     const auto it = j.find(key);
-    if (it == j.end()) throw file_error(path.string(), std::string("missing key '") + key + "'");
+    if (it == j.end()) throw core::file_error(path.string(), std::string("missing key '") + key + "'");
     return *it;
 }
 
 double number(const nlohmann::json& v, const std::string& what, const fs::path& path) {
     if (v.is_null()) return std::numeric_limits<double>::quiet_NaN();  // NaN is written as null
-    if (!v.is_number()) throw file_error(path.string(), "'" + what + "' is not a number");
+    if (!v.is_number()) throw core::file_error(path.string(), "'" + what + "' is not a number");
     return v.get<double>();
 }
 
 Eigen::Matrix2Xd read_points(const nlohmann::json& j, const char* key, const fs::path& path) {
     const auto& a = member(j, key, path);
-    if (!a.is_array() || a.size() != static_cast<std::size_t>(kNumIbugLandmarks))
-        throw file_error(path.string(), std::string("'") + key + "' must hold 68 [x, y] points");
-    Eigen::Matrix2Xd p(2, kNumIbugLandmarks);
-    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+    if (!a.is_array() || a.size() != static_cast<std::size_t>(morph::kNumIbugLandmarks))
+        throw core::file_error(path.string(), std::string("'") + key + "' must hold 68 [x, y] points");
+    Eigen::Matrix2Xd p(2, morph::kNumIbugLandmarks);
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         const auto& q = a[static_cast<std::size_t>(i)];
-        if (!q.is_array() || q.size() != 2) throw file_error(path.string(), std::string("'") + key + "' point " + std::to_string(i + 1) + " is not [x, y]");
+        if (!q.is_array() || q.size() != 2) throw core::file_error(path.string(), std::string("'") + key + "' point " + std::to_string(i + 1) + " is not [x, y]");
         for (int c = 0; c < 2; ++c) p(c, i) = number(q[static_cast<std::size_t>(c)], std::string(key) + " point " + std::to_string(i + 1), path);
     }
     return p;
@@ -54,24 +54,24 @@ Eigen::Matrix2Xd read_points(const nlohmann::json& j, const char* key, const fs:
 
 std::vector<int> read_flags(const nlohmann::json& j, const char* key, const fs::path& path) {
     const auto& a = member(j, key, path);
-    if (!a.is_array() || a.size() != static_cast<std::size_t>(kNumIbugLandmarks))
-        throw file_error(path.string(), std::string("'") + key + "' must hold 68 flags");
+    if (!a.is_array() || a.size() != static_cast<std::size_t>(morph::kNumIbugLandmarks))
+        throw core::file_error(path.string(), std::string("'") + key + "' must hold 68 flags");
     std::vector<int> flags;
     for (const auto& v : a) {
         if (v.is_boolean()) flags.push_back(v.get<bool>() ? 1 : 0);
         else if (v.is_number_integer()) flags.push_back(v.get<int>() != 0 ? 1 : 0);
-        else throw file_error(path.string(), std::string("'") + key + "' holds a value that is not 0/1");
+        else throw core::file_error(path.string(), std::string("'") + key + "' holds a value that is not 0/1");
     }
     return flags;
 }
 
 std::vector<float> read_floats(const nlohmann::json& j, const char* key, const fs::path& path) {
     const auto& a = member(j, key, path);
-    if (!a.is_array()) throw file_error(path.string(), std::string("'") + key + "' must be an array");
+    if (!a.is_array()) throw core::file_error(path.string(), std::string("'") + key + "' must be an array");
     std::vector<float> out;
     for (const auto& v : a) {
         const double x = number(v, key, path);
-        if (!std::isfinite(x)) throw file_error(path.string(), std::string("'") + key + "' holds a non-finite value");
+        if (!std::isfinite(x)) throw core::file_error(path.string(), std::string("'") + key + "' holds a non-finite value");
         out.push_back(static_cast<float>(x));
     }
     return out;
@@ -83,7 +83,7 @@ std::vector<DatasetEntry> read_dataset_manifest(const fs::path& dir) {
     const fs::path path = dir / "manifest.jsonl";
     std::ifstream in(path);
     if (!in) {
-        throw file_error(path.string(), fs::exists(dir) ? "cannot open (not a facesynth synth dataset, or an unmerged sharded one?)"
+        throw core::file_error(path.string(), fs::exists(dir) ? "cannot open (not a facesynth synth dataset, or an unmerged sharded one?)"
                                                          : "dataset folder does not exist");
     }
     std::vector<DatasetEntry> entries;
@@ -92,11 +92,11 @@ std::vector<DatasetEntry> read_dataset_manifest(const fs::path& dir) {
         if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
         const auto j = nlohmann::json::parse(line, nullptr, false);
         const std::string where = path.string() + ":" + std::to_string(number);
-        if (j.is_discarded() || !j.is_object()) throw Error(where + ": not a JSON object");
+        if (j.is_discarded() || !j.is_object()) throw core::Error(where + ": not a JSON object");
         const auto index = j.find("index");
         const auto key = j.find("key");
         if (index == j.end() || !index->is_number_integer() || key == j.end() || !key->is_string())
-            throw Error(where + ": expected a manifest entry with \"index\" and \"key\"");
+            throw core::Error(where + ": expected a manifest entry with \"index\" and \"key\"");
         DatasetEntry e;
         e.index = index->get<std::int64_t>();
         e.key = key->get<std::string>();
@@ -112,7 +112,7 @@ std::string dataset_model_checksum(const fs::path& dir) {
     if (!fs::exists(path)) return {};
     const auto j = parse_json_file(path);
     const auto& c = member(j, "model_checksum", path);
-    if (!c.is_string()) throw file_error(path.string(), "'model_checksum' is not a string");
+    if (!c.is_string()) throw core::file_error(path.string(), "'model_checksum' is not a string");
     return c.get<std::string>();
 }
 
@@ -120,33 +120,33 @@ DatasetSample read_sample_meta(const fs::path& path) {
     const auto j = parse_json_file(path);
     DatasetSample s;
     const auto& key = member(j, "key", path);
-    if (!key.is_string()) throw file_error(path.string(), "'key' is not a string");
+    if (!key.is_string()) throw core::file_error(path.string(), "'key' is not a string");
     s.key = key.get<std::string>();
     const auto& index = member(j, "index", path);
-    if (!index.is_number_integer()) throw file_error(path.string(), "'index' is not an integer");
+    if (!index.is_number_integer()) throw core::file_error(path.string(), "'index' is not an integer");
     s.index = index.get<std::int64_t>();
     const auto& checksum = member(j, "model_checksum", path);
-    if (!checksum.is_string()) throw file_error(path.string(), "'model_checksum' is not a string");
+    if (!checksum.is_string()) throw core::file_error(path.string(), "'model_checksum' is not a string");
     s.model_checksum = checksum.get<std::string>();
     s.truth.alpha = read_floats(j, "alpha", path);
     s.psi = read_floats(j, "psi", path);
 
     const auto& r = member(j, "rotation", path);
-    if (!r.is_array() || r.size() != 3) throw file_error(path.string(), "'rotation' must be a 3x3 array");
+    if (!r.is_array() || r.size() != 3) throw core::file_error(path.string(), "'rotation' must be a 3x3 array");
     for (int row = 0; row < 3; ++row) {
         const auto& rr = r[static_cast<std::size_t>(row)];
-        if (!rr.is_array() || rr.size() != 3) throw file_error(path.string(), "'rotation' must be a 3x3 array");
+        if (!rr.is_array() || rr.size() != 3) throw core::file_error(path.string(), "'rotation' must be a 3x3 array");
         for (int col = 0; col < 3; ++col) {
             const double v = number(rr[static_cast<std::size_t>(col)], "rotation", path);
-            if (!std::isfinite(v)) throw file_error(path.string(), "'rotation' holds a non-finite value");
+            if (!std::isfinite(v)) throw core::file_error(path.string(), "'rotation' holds a non-finite value");
             s.truth.rotation(row, col) = v;
         }
     }
     if ((s.truth.rotation.transpose() * s.truth.rotation - Eigen::Matrix3d::Identity()).norm() > 1e-4)
-        throw file_error(path.string(), "'rotation' is not a rotation matrix");
+        throw core::file_error(path.string(), "'rotation' is not a rotation matrix");
 
     const auto& k = member(j, "intrinsics", path);
-    if (!k.is_object()) throw file_error(path.string(), "'intrinsics' must be an object");
+    if (!k.is_object()) throw core::file_error(path.string(), "'intrinsics' must be an object");
     s.intrinsics.fx = number(member(k, "fx", path), "intrinsics.fx", path);
     s.intrinsics.fy = number(member(k, "fy", path), "intrinsics.fy", path);
     s.intrinsics.cx = number(member(k, "cx", path), "intrinsics.cx", path);
@@ -154,7 +154,7 @@ DatasetSample read_sample_meta(const fs::path& path) {
     s.intrinsics.width = static_cast<int>(number(member(k, "width", path), "intrinsics.width", path));
     s.intrinsics.height = static_cast<int>(number(member(k, "height", path), "intrinsics.height", path));
     if (!(s.intrinsics.fx > 0 && s.intrinsics.fy > 0 && std::isfinite(s.intrinsics.cx) && std::isfinite(s.intrinsics.cy)))
-        throw file_error(path.string(), "'intrinsics' must have fx, fy > 0 and finite cx, cy");
+        throw core::file_error(path.string(), "'intrinsics' must have fx, fy > 0 and finite cx, cy");
 
     s.landmarks_fixed = read_points(j, "landmarks_fixed", path);
     s.landmarks_contour = read_points(j, "landmarks_contour", path);
@@ -166,7 +166,7 @@ DatasetSample read_sample_meta(const fs::path& path) {
 Eigen::Matrix2Xd dataset_sample_landmarks(const DatasetSample& sample, const DatasetEvalOptions& options) {
     Eigen::Matrix2Xd landmarks = options.eval.fit.jaw == JawMode::kContour ? sample.landmarks_contour : sample.landmarks_fixed;
     if (options.noise_px > 0) {
-        Rng noise = make_rng(options.noise_seed, static_cast<std::uint64_t>(sample.index), RandomStream::kNoise);
+        core::Rng noise = core::make_rng(options.noise_seed, static_cast<std::uint64_t>(sample.index), core::RandomStream::kNoise);
         for (Eigen::Index i = 0; i < landmarks.cols(); ++i) {
             const double dx = noise.normal(), dy = noise.normal();  // drawn for every point: subsets see the same noise
             landmarks(0, i) += options.noise_px * dx;
@@ -182,8 +182,8 @@ FitMetrics evaluate_dataset_sample(const Fitter& fitter, const DatasetSample& sa
     const Eigen::Matrix2Xd landmarks = dataset_sample_landmarks(sample, options);
     // Points without a label (null in the file) or hidden ones with visible_only get weight 0.
     const std::vector<int>& visible = o.fit.jaw == JawMode::kContour ? sample.visibility_contour : sample.visibility_fixed;
-    Eigen::VectorXd weights = o.fit.weights.size() == kNumIbugLandmarks ? o.fit.weights : Eigen::VectorXd::Ones(kNumIbugLandmarks);
-    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+    Eigen::VectorXd weights = o.fit.weights.size() == morph::kNumIbugLandmarks ? o.fit.weights : Eigen::VectorXd::Ones(morph::kNumIbugLandmarks);
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         if (!landmarks.col(i).allFinite()) weights(i) = 0;
         if (options.visible_only && !visible[static_cast<std::size_t>(i)]) weights(i) = 0;
     }

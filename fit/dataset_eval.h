@@ -23,12 +23,12 @@ struct DatasetEntry {
     std::filesystem::path meta;  // DIR/meta/KEY.json
 };
 
-// Every sample DIR/manifest.jsonl lists, in file order. Throws facesynth::Error naming the file (and
+// Every sample DIR/manifest.jsonl lists, in file order. Throws core::Error naming the file (and
 // line) when the manifest is missing or a line is not a manifest entry.
 [[nodiscard]] std::vector<DatasetEntry> read_dataset_manifest(const std::filesystem::path& dir);
 
 // The `model_checksum` recorded in DIR/dataset.json; empty when the dataset has no dataset.json.
-// Throws facesynth::Error naming the file when it exists but cannot be parsed.
+// Throws core::Error naming the file when it exists but cannot be parsed.
 [[nodiscard]] std::string dataset_model_checksum(const std::filesystem::path& dir);
 
 // The ground truth of one sample, as in meta/KEY.json.
@@ -38,14 +38,14 @@ struct DatasetSample {
     std::string model_checksum;
     FitTruth truth;                           // alpha (σ units) and R
     std::vector<float> psi;
-    Intrinsics intrinsics;                    // the renderer's camera
+    morph::Intrinsics intrinsics;                    // the renderer's camera
     Eigen::Matrix2Xd landmarks_fixed;         // 2 x 68, 0-based pixels (NaN where the file has null)
     Eigen::Matrix2Xd landmarks_contour;
     std::vector<int> visibility_fixed;        // 68 x 0/1
     std::vector<int> visibility_contour;
 };
 
-// Reads and validates meta/KEY.json. Throws facesynth::Error naming the file and the offending key.
+// Reads and validates meta/KEY.json. Throws core::Error naming the file and the offending key.
 [[nodiscard]] DatasetSample read_sample_meta(const std::filesystem::path& path);
 
 struct DatasetEvalOptions {
@@ -62,7 +62,7 @@ struct DatasetEvalOptions {
 // The landmarks `options` fits for `sample` (labels of the chosen jaw mode plus the seeded noise).
 [[nodiscard]] Eigen::Matrix2Xd dataset_sample_landmarks(const DatasetSample& sample, const DatasetEvalOptions& options);
 
-// Fits one sample and compares with its truth. Throws facesynth::Error when the fit fails.
+// Fits one sample and compares with its truth. Throws core::Error when the fit fails.
 [[nodiscard]] FitMetrics evaluate_dataset_sample(const Fitter& fitter, const DatasetSample& sample,
                                                  const DatasetEvalOptions& options);
 

@@ -1,7 +1,7 @@
 #include "fit/evaluate.h"
 
-#include "morph/error.h"
-#include "morph/random.h"
+#include "core/error.h"
+#include "core/random.h"
 #include "morph/sampling.h"
 
 #include <chrono>
@@ -30,7 +30,7 @@ double rmse(const Eigen::VectorXf& a, const Eigen::VectorXf& b) {
 }  // namespace
 
 FitMetrics evaluate_fit(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, const FitTruth& truth, const EvalOptions& options) {
-    const MorphableModel& model = fitter.model();
+    const morph::MorphableModel& model = fitter.model();
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start = thread_cpu_ms();
     std::vector<float> alpha;
@@ -49,7 +49,7 @@ FitMetrics evaluate_fit(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks,
     m.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     m.cpu_ms = thread_cpu_ms() - cpu_start;
 
-    m.truth = euler_from_rotation(truth.rotation);
+    m.truth = morph::euler_from_rotation(truth.rotation);
     m.yaw_error_deg = angle_error(m.fitted.yaw, m.truth.yaw);
     m.pitch_error_deg = angle_error(m.fitted.pitch, m.truth.pitch);
     m.roll_error_deg = angle_error(m.fitted.roll, m.truth.roll);
@@ -65,33 +65,33 @@ FitMetrics evaluate_fit(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks,
     return m;
 }
 
-SyntheticCase make_synthetic_case(const MorphableModel& model, std::uint64_t seed, std::uint64_t index,
+SyntheticCase make_synthetic_case(const morph::MorphableModel& model, std::uint64_t seed, std::uint64_t index,
                                   const SyntheticOptions& o) {
     SyntheticCase c;
-    Rng identity = make_rng(seed, index, RandomStream::kIdentity);
-    c.truth.alpha = sample_coefficients(identity, model.num_shape_components(), 3.0);
+    core::Rng identity = core::make_rng(seed, index, core::RandomStream::kIdentity);
+    c.truth.alpha = morph::sample_coefficients(identity, model.num_shape_components(), 3.0);
     const int e = model.num_expression_components();
-    Rng expression = make_rng(seed, index, RandomStream::kExpression);
-    const bool blendshapes = model.expression && std::holds_alternative<std::vector<Blendshape>>(*model.expression);
+    core::Rng expression = core::make_rng(seed, index, core::RandomStream::kExpression);
+    const bool blendshapes = model.expression && std::holds_alternative<std::vector<morph::Blendshape>>(*model.expression);
     for (int i = 0; i < e; ++i)
         c.psi.push_back(static_cast<float>(blendshapes ? expression.uniform(0, o.expression_scale)
                                                        : o.expression_scale * expression.truncated_normal(3.0)));
-    Rng pose = make_rng(seed, index, RandomStream::kPose);
-    const EulerAngles angles{pose.uniform(-o.max_yaw_deg, o.max_yaw_deg), pose.uniform(-o.max_pitch_deg, o.max_pitch_deg),
+    core::Rng pose = core::make_rng(seed, index, core::RandomStream::kPose);
+    const morph::EulerAngles angles{pose.uniform(-o.max_yaw_deg, o.max_yaw_deg), pose.uniform(-o.max_pitch_deg, o.max_pitch_deg),
                              pose.uniform(-o.max_roll_deg, o.max_roll_deg)};
-    c.truth.rotation = rotation_from_euler(angles);
-    c.intrinsics = intrinsics_from_fov(o.fov_deg, o.image_size, o.image_size);
+    c.truth.rotation = morph::rotation_from_euler(angles);
+    c.intrinsics = morph::intrinsics_from_fov(o.fov_deg, o.image_size, o.image_size);
     // Distance so that the model's height fills about 60% of the image.
-    const auto mean = as_points(model.shape.mean);
+    const auto mean = morph::as_points(model.shape.mean);
     const double height = static_cast<double>(mean.row(1).maxCoeff() - mean.row(1).minCoeff());
     const double distance = c.intrinsics.fy * height / (0.6 * o.image_size);
-    Rng camera = make_rng(seed, index, RandomStream::kCamera);
+    core::Rng camera = core::make_rng(seed, index, core::RandomStream::kCamera);
     c.pose.rotation = c.truth.rotation;
     c.pose.translation = Eigen::Vector3d(camera.uniform(-0.05, 0.05) * height, camera.uniform(-0.05, 0.05) * height,
                                          distance * camera.uniform(0.9, 1.1));
     const Eigen::Matrix3Xf shape = model.shape_instance(c.truth.alpha, c.psi);
     c.landmarks = project(c.intrinsics, c.pose, model.landmark_positions(shape));
-    Rng noise = make_rng(seed, index, RandomStream::kNoise);
+    core::Rng noise = core::make_rng(seed, index, core::RandomStream::kNoise);
     for (Eigen::Index i = 0; i < c.landmarks.cols(); ++i) {
         const auto& p = model.landmarks[static_cast<std::size_t>(i)];
         if (p.weights[0] + p.weights[1] + p.weights[2] == 0.0f) {
@@ -105,7 +105,7 @@ SyntheticCase make_synthetic_case(const MorphableModel& model, std::uint64_t see
 
 std::vector<LambdaScore> score_lambdas(const Fitter& fitter, const std::vector<double>& candidates, int count,
                                        std::uint64_t seed, const SyntheticOptions& synthetic, const FitOptions& base) {
-    if (count < 1) throw Error("lambda selection: needs at least one validation case");
+    if (count < 1) throw core::Error("lambda selection: needs at least one validation case");
     std::vector<SyntheticCase> cases;
     cases.reserve(static_cast<std::size_t>(count));
     for (int i = 0; i < count; ++i) cases.push_back(make_synthetic_case(fitter.model(), seed, static_cast<std::uint64_t>(i), synthetic));

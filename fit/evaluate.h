@@ -24,7 +24,7 @@ struct EvalOptions {
 };
 
 struct FitMetrics {
-    EulerAngles fitted, truth;
+    morph::EulerAngles fitted, truth;
     double yaw_error_deg = 0, pitch_error_deg = 0, roll_error_deg = 0;  // absolute, wrapped to [0, 180]
     double vertex_rmse_mm = 0;            // fitted vs true identity shape, model space, expression zero
     double vertex_rmse_mm_meanshape = 0;  // the model's mean vs the true identity (the baseline)
@@ -44,8 +44,8 @@ struct FitMetrics {
 struct SyntheticCase {
     FitTruth truth;
     std::vector<float> psi;
-    Intrinsics intrinsics;
-    CameraPose pose;
+    morph::Intrinsics intrinsics;
+    morph::CameraPose pose;
     Eigen::Matrix2Xd landmarks;  // 2 x 68 (NaN where the model has no landmark)
 };
 struct SyntheticOptions {
@@ -57,7 +57,7 @@ struct SyntheticOptions {
 };
 // Case `index` of the set `seed`: identity, expression, pose and noise each from their own stream of
 // make_rng(seed, index, ·), so sets are reproducible and independent of order.
-[[nodiscard]] SyntheticCase make_synthetic_case(const MorphableModel& model, std::uint64_t seed, std::uint64_t index,
+[[nodiscard]] SyntheticCase make_synthetic_case(const morph::MorphableModel& model, std::uint64_t seed, std::uint64_t index,
                                                 const SyntheticOptions& options = {});
 
 struct LambdaScore {

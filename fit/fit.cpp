@@ -1,7 +1,7 @@
 #include "fit/fit.h"
 
 #include "fit/landmark_basis.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 
 #include <Eigen/Cholesky>
@@ -129,41 +129,41 @@ Eigen::VectorXd nonnegative_solve(Eigen::MatrixXd h, const Eigen::VectorXd& g, c
 
 // Checks the input and lists the iBUG points that take part (and, in contour mode, the jaw points
 // whose correspondences are re-chosen).
-std::vector<int> select_points(const MorphableModel& model, const Eigen::Matrix2Xd& landmarks, const FitOptions& options,
+std::vector<int> select_points(const morph::MorphableModel& model, const Eigen::Matrix2Xd& landmarks, const FitOptions& options,
                                bool contour_mode, std::vector<int>* jaw_used) {
-    if (landmarks.cols() != kNumIbugLandmarks)
-        throw Error("fit: expected " + std::to_string(kNumIbugLandmarks) + " iBUG landmarks, got " + std::to_string(landmarks.cols()));
-    if (static_cast<int>(model.landmarks.size()) != kNumIbugLandmarks)
-        throw Error("fit: model '" + model.name + "' defines " + std::to_string(model.landmarks.size()) +
-                    " landmarks, expected " + std::to_string(kNumIbugLandmarks));
-    if (options.weights.size() != 0 && options.weights.size() != kNumIbugLandmarks)
-        throw Error("fit: " + std::to_string(options.weights.size()) + " landmark weights, expected 68");
-    if (options.iterations < 1) throw Error("fit: iterations must be at least 1");
-    if (!(options.lambda >= 0) || !(options.expression_lambda >= 0)) throw Error("fit: regularisation must be >= 0");
+    if (landmarks.cols() != morph::kNumIbugLandmarks)
+        throw core::Error("fit: expected " + std::to_string(morph::kNumIbugLandmarks) + " iBUG landmarks, got " + std::to_string(landmarks.cols()));
+    if (static_cast<int>(model.landmarks.size()) != morph::kNumIbugLandmarks)
+        throw core::Error("fit: model '" + model.name + "' defines " + std::to_string(model.landmarks.size()) +
+                    " landmarks, expected " + std::to_string(morph::kNumIbugLandmarks));
+    if (options.weights.size() != 0 && options.weights.size() != morph::kNumIbugLandmarks)
+        throw core::Error("fit: " + std::to_string(options.weights.size()) + " landmark weights, expected 68");
+    if (options.iterations < 1) throw core::Error("fit: iterations must be at least 1");
+    if (!(options.lambda >= 0) || !(options.expression_lambda >= 0)) throw core::Error("fit: regularisation must be >= 0");
 
     std::vector<int> candidates = options.subset;
     if (candidates.empty())
-        for (int i = 0; i < kNumIbugLandmarks; ++i) candidates.push_back(i);
+        for (int i = 0; i < morph::kNumIbugLandmarks; ++i) candidates.push_back(i);
     std::vector<int> used;
     for (int i : candidates) {
-        if (i < 0 || i >= kNumIbugLandmarks) throw Error("fit: landmark index " + std::to_string(i) + " out of range 0..67");
+        if (i < 0 || i >= morph::kNumIbugLandmarks) throw core::Error("fit: landmark index " + std::to_string(i) + " out of range 0..67");
         const double w = options.weights.size() ? options.weights(i) : 1.0;
-        if (!std::isfinite(w) || w < 0) throw Error("fit: landmark " + std::to_string(i + 1) + " has an invalid weight");
+        if (!std::isfinite(w) || w < 0) throw core::Error("fit: landmark " + std::to_string(i + 1) + " has an invalid weight");
         if (w == 0) continue;
-        const bool contour_point = contour_mode && i < kNumJawLandmarks && i != kChinLandmark;
+        const bool contour_point = contour_mode && i < morph::kNumJawLandmarks && i != morph::kChinLandmark;
         if (!defined(model.landmarks[static_cast<std::size_t>(i)]) && !contour_point) continue;
         if (!landmarks.col(i).allFinite())
-            throw Error("fit: landmark " + std::to_string(i + 1) + " has non-finite coordinates");
+            throw core::Error("fit: landmark " + std::to_string(i + 1) + " has non-finite coordinates");
         used.push_back(i);
         if (contour_point && jaw_used) jaw_used->push_back(i);
     }
-    if (used.size() < 4) throw Error("fit: needs at least 4 usable landmarks, got " + std::to_string(used.size()));
+    if (used.size() < 4) throw core::Error("fit: needs at least 4 usable landmarks, got " + std::to_string(used.size()));
     return used;
 }
 
 }  // namespace
 
-std::vector<float> fit_identity_for_camera(const MorphableModel& model, const AffineCamera& camera,
+std::vector<float> fit_identity_for_camera(const morph::MorphableModel& model, const AffineCamera& camera,
                                            const Eigen::Matrix2Xd& landmarks, const FitOptions& options,
                                            std::span<const float> psi) {
     const std::vector<int> used = select_points(model, landmarks, options, false, nullptr);
@@ -201,12 +201,12 @@ std::vector<float> fit_identity_for_camera(const MorphableModel& model, const Af
 // Gram blocks of their identity rows: the jaw points that contour mode re-chooses (all but the chin)
 // apart from the rest, so a fit only adds what differs from these.
 struct Fitter::LinearCache {
-    explicit LinearCache(const MorphableModel& model)
+    explicit LinearCache(const morph::MorphableModel& model)
         : basis(model, model.num_shape_components()), core(basis.k()), jaw(basis.k()) {
-        basis.resize(kNumIbugLandmarks);
+        basis.resize(morph::kNumIbugLandmarks);
         std::vector<int> core_ids, jaw_ids;
-        for (int i = 0; i < kNumIbugLandmarks; ++i) {
-            const SurfacePoint& p = model.landmarks.size() == kNumIbugLandmarks ? model.landmarks[static_cast<std::size_t>(i)] : SurfacePoint{};
+        for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
+            const morph::SurfacePoint& p = model.landmarks.size() == morph::kNumIbugLandmarks ? model.landmarks[static_cast<std::size_t>(i)] : morph::SurfacePoint{};
             has_point[static_cast<std::size_t>(i)] = defined(p);
             basis.set_point(i, p);
             if (!defined(p)) continue;
@@ -217,7 +217,7 @@ struct Fitter::LinearCache {
         all = core;
         all += jaw;
     }
-    static bool rechosen_in_contour_mode(int id) { return id < kNumJawLandmarks && id != kChinLandmark; }
+    static bool rechosen_in_contour_mode(int id) { return id < morph::kNumJawLandmarks && id != morph::kChinLandmark; }
     Eigen::MatrixXd identity_rows(const std::vector<int>& ids) const {
         Eigen::MatrixXd rows(3 * static_cast<Eigen::Index>(ids.size()), basis.k());
         for (std::size_t j = 0; j < ids.size(); ++j)
@@ -226,11 +226,11 @@ struct Fitter::LinearCache {
     }
 
     LandmarkBasis basis;
-    std::array<bool, kNumIbugLandmarks> has_point{};
+    std::array<bool, morph::kNumIbugLandmarks> has_point{};
     BasisGram core, jaw, all;  // all = core + jaw
 };
 
-Fitter::Fitter(const MorphableModel& model)
+Fitter::Fitter(const morph::MorphableModel& model)
     : model_(model), contour_(model), linear_(std::make_shared<const LinearCache>(model)) {}
 
 FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& options) const {
@@ -249,7 +249,7 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
     lin.resize(n);
     Eigen::Matrix2Xd observed(2, n);
     Eigen::VectorXd given_weights(n), weights(n);  // weights: 0 while a point has no model correspondence
-    std::array<double, kNumIbugLandmarks> weight_of{};
+    std::array<double, morph::kNumIbugLandmarks> weight_of{};
     std::vector<Eigen::Index> rechosen;  // positions (in `used`) of the jaw points contour mode re-chooses
     for (Eigen::Index i = 0; i < n; ++i) {
         const int id = result.used[static_cast<std::size_t>(i)];
@@ -265,7 +265,7 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
     // the difference this call's subset and weights make (or, when most points differ, from scratch).
     std::vector<int> changed_ids, fixed_ids;
     std::vector<double> changed_weights, fixed_weights;
-    for (int id = 0; id < kNumIbugLandmarks; ++id) {
+    for (int id = 0; id < morph::kNumIbugLandmarks; ++id) {
         if (contour_mode && LinearCache::rechosen_in_contour_mode(id)) continue;
         const double w = weight_of[static_cast<std::size_t>(id)];
         const double cached = cache.has_point[static_cast<std::size_t>(id)] ? 1.0 : 0.0;
@@ -309,12 +309,12 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
         result.camera = estimate_affine_camera(observed, x3, weights);
         result.pose = decompose(result.camera);
         // Re-centre the translation for the orthonormalised camera (weighted mean residual).
-        const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (model_to_camera_flip() * result.pose.rotation).topRows<2>();
+        const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (morph::model_to_camera_flip() * result.pose.rotation).topRows<2>();
         result.pose.translation = ((observed - a3 * x3) * weights).rowwise().sum() / weights.sum();
         return x3;
     };
     auto rms = [&]() {
-        const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (model_to_camera_flip() * result.pose.rotation).topRows<2>();
+        const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (morph::model_to_camera_flip() * result.pose.rotation).topRows<2>();
         const Eigen::Matrix2Xd r = (a3 * lin.positions(alpha, psi)).colwise() + result.pose.translation - observed;
         return std::sqrt((r.colwise().squaredNorm().transpose().cwiseProduct(weights)).sum() / weights.sum());
     };
@@ -335,7 +335,7 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
             refresh_expression_gram();
             estimate_camera();
         }
-        const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (model_to_camera_flip() * result.pose.rotation).topRows<2>();
+        const Eigen::Matrix<double, 2, 3> a3 = result.pose.scale * (morph::model_to_camera_flip() * result.pose.rotation).topRows<2>();
         const double sigma = options.landmark_sigma_px > 0 ? options.landmark_sigma_px : result.pose.scale;
         const auto& rows = lin.rows();
         {
@@ -366,25 +366,25 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
 
     // Projections of all 68 correspondences (NaN where the model has none).
     LandmarkBasis all(model_, k);
-    all.resize(kNumIbugLandmarks);
-    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+    all.resize(morph::kNumIbugLandmarks);
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         if (contour_mode && LinearCache::rechosen_in_contour_mode(i)) all.set_point(i, result.correspondences[static_cast<std::size_t>(i)]);
         else all.copy_point(i, cache.basis, i);
     }
     const Eigen::Matrix3Xd points = all.positions(alpha, psi);
-    result.projected.resize(2, kNumIbugLandmarks);
-    for (int i = 0; i < kNumIbugLandmarks; ++i)
+    result.projected.resize(2, morph::kNumIbugLandmarks);
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i)
         result.projected.col(i) = defined(result.correspondences[static_cast<std::size_t>(i)])
                                       ? result.camera.project(points.col(i))
                                       : Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
     return result;
 }
 
-FitResult fit_landmarks(const MorphableModel& model, const Eigen::Matrix2Xd& landmarks, const FitOptions& options) {
+FitResult fit_landmarks(const morph::MorphableModel& model, const Eigen::Matrix2Xd& landmarks, const FitOptions& options) {
     return Fitter(model).fit(landmarks, options);
 }
 
-Eigen::Matrix3Xf fitted_shape(const MorphableModel& model, const FitResult& result) {
+Eigen::Matrix3Xf fitted_shape(const morph::MorphableModel& model, const FitResult& result) {
     return model.shape_instance(result.alpha, result.psi);
 }
 

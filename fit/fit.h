@@ -38,7 +38,7 @@ struct FitResult {
     ScaledOrthographic pose;
     std::vector<float> alpha;        // identity, σ units, model's component count (unfitted ones 0)
     std::vector<float> psi;          // expression (σ units or blendshape weights), may be empty
-    std::vector<SurfacePoint> correspondences;  // model point used for each of the 68 landmarks
+    std::vector<morph::SurfacePoint> correspondences;  // model point used for each of the 68 landmarks
     std::vector<int> used;           // 0-based iBUG indices that took part
     Eigen::Matrix2Xd projected;      // 2 x 68 projections of the correspondences (pixels)
     double reprojection_rms_px = 0;  // over the used points
@@ -49,36 +49,36 @@ struct FitResult {
 // its Gram blocks), so repeated fits with the same model are cheap. The model must outlive the Fitter.
 class Fitter {
 public:
-    explicit Fitter(const MorphableModel& model);
+    explicit Fitter(const morph::MorphableModel& model);
 
     // `landmarks`: 2 x 68 iBUG points, 0-based pixels (unused points may be NaN when their weight is
-    // 0 or they are outside the subset). Throws facesynth::Error on a wrong count, NaN in a used point,
+    // 0 or they are outside the subset). Throws core::Error on a wrong count, NaN in a used point,
     // fewer than 4 usable points or a degenerate configuration.
     [[nodiscard]] FitResult fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& options = {}) const;
 
-    [[nodiscard]] const MorphableModel& model() const { return model_; }
+    [[nodiscard]] const morph::MorphableModel& model() const { return model_; }
     [[nodiscard]] const ContourFinder& contour() const { return contour_; }
 
     struct LinearCache;  // fit.cpp
 
 private:
-    const MorphableModel& model_;
+    const morph::MorphableModel& model_;
     ContourFinder contour_;
     std::shared_ptr<const LinearCache> linear_;
 };
 
 // One-off convenience: Fitter(model).fit(landmarks, options).
-[[nodiscard]] FitResult fit_landmarks(const MorphableModel& model, const Eigen::Matrix2Xd& landmarks,
+[[nodiscard]] FitResult fit_landmarks(const morph::MorphableModel& model, const Eigen::Matrix2Xd& landmarks,
                                       const FitOptions& options = {});
 
 // The linear identity step alone (Eq. 2 in docs/fit.md) for a fixed affine camera and expression:
 // returns α (σ units, the model's component count). Uses options.subset/weights/lambda/
 // landmark_sigma_px/shape_components; the model's fixed landmark correspondences.
-[[nodiscard]] std::vector<float> fit_identity_for_camera(const MorphableModel& model, const AffineCamera& camera,
+[[nodiscard]] std::vector<float> fit_identity_for_camera(const morph::MorphableModel& model, const AffineCamera& camera,
                                                          const Eigen::Matrix2Xd& landmarks, const FitOptions& options = {},
                                                          std::span<const float> psi = {});
 
 // Shape (3 x V) of a fit with its identity and expression.
-[[nodiscard]] Eigen::Matrix3Xf fitted_shape(const MorphableModel& model, const FitResult& result);
+[[nodiscard]] Eigen::Matrix3Xf fitted_shape(const morph::MorphableModel& model, const FitResult& result);
 
 }  // namespace facesynth::fit

@@ -12,7 +12,7 @@
 namespace facesynth::fit {
 
 // True when a surface point has a definition (models mark undefined landmarks with zero weights).
-[[nodiscard]] inline bool defined(const SurfacePoint& p) { return p.weights[0] + p.weights[1] + p.weights[2] != 0.0f; }
+[[nodiscard]] inline bool defined(const morph::SurfacePoint& p) { return p.weights[0] + p.weights[1] + p.weights[2] != 0.0f; }
 
 struct LandmarkRows {
     Eigen::Matrix3Xd mean;    // 3 x L (includes an expression PCA's mean offset)
@@ -22,15 +22,15 @@ struct LandmarkRows {
 
 class LandmarkBasis {
 public:
-    LandmarkBasis(const MorphableModel& model, int k)
+    LandmarkBasis(const morph::MorphableModel& model, int k)
         : model_(model), k_(k), identity_sd_(model.shape.eigenvalues.head(k).cwiseSqrt()) {
         if (model.expression) {
-            if (const auto* pca = std::get_if<PcaModel>(&*model.expression)) {
+            if (const auto* pca = std::get_if<morph::PcaModel>(&*model.expression)) {
                 expression_pca_ = pca;
                 e_ = pca->num_components();
                 expression_sd_ = pca->eigenvalues.cwiseSqrt();
             } else {
-                blendshapes_ = &std::get<std::vector<Blendshape>>(*model.expression);
+                blendshapes_ = &std::get<std::vector<morph::Blendshape>>(*model.expression);
                 e_ = static_cast<int>(blendshapes_->size());
             }
         }
@@ -44,7 +44,7 @@ public:
         rows_.identity.resize(3 * points, k_);
         rows_.expression.resize(3 * points, e_);
     }
-    void set_point(Eigen::Index i, const SurfacePoint& p) {
+    void set_point(Eigen::Index i, const morph::SurfacePoint& p) {
         rows_.mean.col(i).setZero();
         rows_.identity.middleRows(3 * i, 3).setZero();
         rows_.expression.middleRows(3 * i, 3).setZero();
@@ -82,11 +82,11 @@ public:
     }
 
 private:
-    const MorphableModel& model_;
+    const morph::MorphableModel& model_;
     int k_;
     int e_ = 0;
-    const PcaModel* expression_pca_ = nullptr;
-    const std::vector<Blendshape>* blendshapes_ = nullptr;
+    const morph::PcaModel* expression_pca_ = nullptr;
+    const std::vector<morph::Blendshape>* blendshapes_ = nullptr;
     Eigen::VectorXf identity_sd_, expression_sd_;  // sqrt(eigenvalues): σ-unit scaling
     LandmarkRows rows_;
 };

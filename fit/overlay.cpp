@@ -1,6 +1,6 @@
 #include "fit/overlay.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -8,9 +8,9 @@
 
 namespace facesynth::fit {
 
-cv::Mat draw_fit_overlay(const cv::Mat& image, const Eigen::Matrix2Xd& vertices_px, const std::vector<Triangle>& triangles,
+cv::Mat draw_fit_overlay(const cv::Mat& image, const Eigen::Matrix2Xd& vertices_px, const std::vector<morph::Triangle>& triangles,
                          const Eigen::Matrix2Xd& observed, const Eigen::Matrix2Xd& fitted) {
-    if (image.empty()) throw Error("overlay: empty image");
+    if (image.empty()) throw core::Error("overlay: empty image");
     cv::Mat out;
     if (image.channels() == 1)
         cv::cvtColor(image, out, cv::COLOR_GRAY2BGR);

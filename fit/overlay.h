@@ -15,7 +15,7 @@ namespace facesynth::fit {
 // since the model's counter-clockwise front faces are mirrored by the y-down image axis).
 // `observed` (green) and `fitted` (red) are 2 x 68 landmarks; NaN columns are skipped.
 [[nodiscard]] cv::Mat draw_fit_overlay(const cv::Mat& image, const Eigen::Matrix2Xd& vertices_px,
-                                       const std::vector<Triangle>& triangles, const Eigen::Matrix2Xd& observed,
+                                       const std::vector<morph::Triangle>& triangles, const Eigen::Matrix2Xd& observed,
                                        const Eigen::Matrix2Xd& fitted);
 
 }  // namespace facesynth::fit

@@ -2,7 +2,7 @@
 #include "fit/refine.h"
 
 #include "fit/landmark_basis.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 
 #include <ceres/ceres.h>
@@ -109,18 +109,18 @@ private:
 
 RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, const FitResult& initial,
                     const FitOptions& fit_options, const RefineOptions& options) {
-    const MorphableModel& model = fitter.model();
-    if (landmarks.cols() != kNumIbugLandmarks)
-        throw Error("refine: expected 68 iBUG landmarks, got " + std::to_string(landmarks.cols()));
-    if (initial.correspondences.size() != static_cast<std::size_t>(kNumIbugLandmarks) || initial.used.size() < 4)
-        throw Error("refine: the initial fit is incomplete");
-    if (!(options.landmark_sigma_px > 0) || !(options.huber_px > 0)) throw Error("refine: sigma and Huber threshold must be > 0");
+    const morph::MorphableModel& model = fitter.model();
+    if (landmarks.cols() != morph::kNumIbugLandmarks)
+        throw core::Error("refine: expected 68 iBUG landmarks, got " + std::to_string(landmarks.cols()));
+    if (initial.correspondences.size() != static_cast<std::size_t>(morph::kNumIbugLandmarks) || initial.used.size() < 4)
+        throw core::Error("refine: the initial fit is incomplete");
+    if (!(options.landmark_sigma_px > 0) || !(options.huber_px > 0)) throw core::Error("refine: sigma and Huber threshold must be > 0");
 
     const int k_all = model.num_shape_components();
     const int k = fit_options.shape_components > 0 ? std::min(fit_options.shape_components, k_all) : k_all;
     LandmarkBasis basis(model, k);
     const int e = fit_options.fit_expression ? basis.e() : 0;
-    const auto* blendshapes = model.expression ? std::get_if<std::vector<Blendshape>>(&*model.expression) : nullptr;
+    const auto* blendshapes = model.expression ? std::get_if<std::vector<morph::Blendshape>>(&*model.expression) : nullptr;
 
     RefineResult result;
     result.correspondences = initial.correspondences;
@@ -161,7 +161,7 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
     std::vector<int> jaw_used;
     if (fit_options.jaw == JawMode::kContour)
         for (int id : initial.used)
-            if (id < kNumJawLandmarks && id != kChinLandmark) jaw_used.push_back(id);
+            if (id < morph::kNumJawLandmarks && id != morph::kChinLandmark) jaw_used.push_back(id);
     const int rounds = jaw_used.empty() ? 1 : std::max(1, options.contour_rounds);
     const auto n = static_cast<Eigen::Index>(initial.used.size());
 
@@ -227,7 +227,7 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
         solver.parameter_tolerance = 1e-8;
         ceres::Solver::Summary summary;
         ceres::Solve(solver, &problem, &summary);
-        if (summary.termination_type == ceres::FAILURE) throw Error("refine: solver failed: " + summary.message);
+        if (summary.termination_type == ceres::FAILURE) throw core::Error("refine: solver failed: " + summary.message);
         result.iterations += static_cast<int>(summary.iterations.size());
     }
 
@@ -235,7 +235,7 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
     result.pose.rotation = Eigen::Matrix3d::Zero();
     ceres::AngleAxisToRotationMatrix(angle_axis, result.pose.rotation.data());
     result.pose.translation = Eigen::Vector3d(translation[0], translation[1], translation[2]);
-    result.angles = euler_from_rotation(result.pose.rotation);
+    result.angles = morph::euler_from_rotation(result.pose.rotation);
     result.alpha.assign(static_cast<std::size_t>(k_all), 0.0f);
     for (int c = 0; c < k; ++c) result.alpha[static_cast<std::size_t>(c)] = static_cast<float>(alpha(c));
     result.psi.assign(static_cast<std::size_t>(basis.e()), 0.0f);
@@ -243,14 +243,14 @@ RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, con
     for (int c = 0; c < e; ++c) result.psi[static_cast<std::size_t>(c)] = static_cast<float>(psi(c));
 
     LandmarkBasis all(model, k);
-    all.resize(kNumIbugLandmarks);
-    for (int i = 0; i < kNumIbugLandmarks; ++i) all.set_point(i, result.correspondences[static_cast<std::size_t>(i)]);
+    all.resize(morph::kNumIbugLandmarks);
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) all.set_point(i, result.correspondences[static_cast<std::size_t>(i)]);
     Eigen::VectorXd psi_all = Eigen::VectorXd::Zero(all.e());
     psi_all.head(e) = psi;
     const Eigen::Matrix3Xd points = all.positions(alpha, psi_all);
-    result.projected.resize(2, kNumIbugLandmarks);
+    result.projected.resize(2, morph::kNumIbugLandmarks);
     double sum = 0, weights = 0;
-    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         if (!defined(result.correspondences[static_cast<std::size_t>(i)])) {
             result.projected.col(i).setConstant(std::numeric_limits<double>::quiet_NaN());
             continue;

@@ -16,7 +16,7 @@ struct RefineOptions {
     // from 1.5 · max(width, height) when the image size is known, otherwise from a head 80 cm away,
     // with a weak log-normal prior (σ = ln 2) around that start. The principal point is (cx, cy) when
     // width > 0, otherwise the centre of the landmarks' bounding box.
-    Intrinsics intrinsics;
+    morph::Intrinsics intrinsics;
     double landmark_sigma_px = 1.0;  // σ of the landmark noise: residuals are divided by it
     double huber_px = 3.0;           // Huber threshold (pixels)
     double identity_prior = 1.0;     // weight of ‖α‖² (1: the model's N(0, I) prior at the given σ)
@@ -26,19 +26,19 @@ struct RefineOptions {
 };
 
 struct RefineResult {
-    Intrinsics intrinsics;           // fx = fy = the (known or estimated) focal length
-    CameraPose pose;                 // x_cam = flip · R · X + t (morph/camera.h)
-    EulerAngles angles;
+    morph::Intrinsics intrinsics;           // fx = fy = the (known or estimated) focal length
+    morph::CameraPose pose;                 // x_cam = flip · R · X + t (morph/camera.h)
+    morph::EulerAngles angles;
     std::vector<float> alpha;
     std::vector<float> psi;
-    std::vector<SurfacePoint> correspondences;
+    std::vector<morph::SurfacePoint> correspondences;
     Eigen::Matrix2Xd projected;      // 2 x 68 (NaN where the model has no correspondence)
     double reprojection_rms_px = 0;  // over the used points
     int iterations = 0;              // Levenberg-Marquardt iterations, all rounds
 };
 
 // Refines `initial` (a result of Fitter::fit with the same landmarks and fit options). Throws
-// facesynth::Error on invalid input (as Fitter::fit) or a failed solve.
+// core::Error on invalid input (as Fitter::fit) or a failed solve.
 [[nodiscard]] RefineResult refine(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, const FitResult& initial,
                                   const FitOptions& fit_options = {}, const RefineOptions& options = {});
 

@@ -5,6 +5,6 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     using namespace facesynth;
     const auto path = fuzz::write_input(fuzz::as_bytes(data, size), "model.h5");
-    fuzz::expect_success_or_error([&] { (void)read_bfm2017(path); });
+    fuzz::expect_success_or_error([&] { (void)morph::read_bfm2017(path); });
     return 0;
 }

@@ -5,7 +5,7 @@
 // (`eval fit --data` has its own meta reader in fit/, covered by its unit tests: linking fit/ would
 // bring Ceres into this build.)
 #include "fuzz_input.h"
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 #include "synth/config.h"
 #include "synth/dataset.h"
 #include "synth/scene.h"
@@ -27,7 +27,7 @@ fs::path dataset_with_image() {
         synth::SynthConfig config;
         config.count = 2;
         config.output.formats = "folder";
-        write_file_atomically(d / "dataset.json", nlohmann::json{{"config", synth::to_json(config)}}.dump());
+        core::write_file_atomically(d / "dataset.json", nlohmann::json{{"config", synth::to_json(config)}}.dump());
         return d;
     }();
     return dir;

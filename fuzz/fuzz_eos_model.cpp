@@ -5,6 +5,6 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     using namespace facesynth;
     const auto path = fuzz::write_input(fuzz::as_bytes(data, size), "model.bin");
-    fuzz::expect_success_or_error([&] { (void)read_eos_model(path); });
+    fuzz::expect_success_or_error([&] { (void)morph::read_eos_model(path); });
     return 0;
 }

@@ -1,9 +1,9 @@
 #pragma once
 // Shared by the libFuzzer harnesses. The readers under test take file paths, so each input is
 // written to a scratch file of this process first (TMPDIR, or /tmp). A reader may only answer with
-// facesynth::Error: any other exception escapes LLVMFuzzerTestOneInput, and libFuzzer reports it
+// core::Error: any other exception escapes LLVMFuzzerTestOneInput, and libFuzzer reports it
 // as a crash, as it does sanitizer findings, hangs and allocations over -malloc_limit_mb.
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <unistd.h>
 
@@ -46,12 +46,12 @@ inline std::uint64_t fnv1a(std::string_view bytes) {
     return hash;
 }
 
-// Runs a reader; facesynth::Error is the expected answer to a bad file.
+// Runs a reader; core::Error is the expected answer to a bad file.
 template <typename Fn>
 void expect_success_or_error(Fn&& read) {
     try {
         read();
-    } catch (const facesynth::Error&) {
+    } catch (const facesynth::core::Error&) {
     }
 }
 

@@ -7,7 +7,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     using namespace facesynth;
     const auto text = fuzz::as_bytes(data, size);
     const auto path = fuzz::write_input(text, "ibug_to_model.txt");
-    fuzz::expect_success_or_error([&] { (void)read_landmark_mapping(path); });
-    fuzz::expect_success_or_error([&] { (void)parse_landmark_completion(std::string(text), "completion.toml"); });
+    fuzz::expect_success_or_error([&] { (void)morph::read_landmark_mapping(path); });
+    fuzz::expect_success_or_error([&] { (void)morph::parse_landmark_completion(std::string(text), "completion.toml"); });
     return 0;
 }

@@ -3,7 +3,7 @@
 // The dataset meta seeds come from a 2-sample synth run on the toy model.
 #include "common/model_files.h"
 #include "common/toy_model.h"
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
 #include "synth/config.h"
@@ -25,15 +25,15 @@ namespace {
 
 void put(const fs::path& dir, const std::string& name, const std::string& bytes) {
     fs::create_directories(dir);
-    write_file_atomically(dir / name, bytes);
+    core::write_file_atomically(dir / name, bytes);
 }
 
-MorphableModel small_toy(bool with_albedo) {
+morph::MorphableModel small_toy(bool with_albedo) {
     testkit::ToyModelOptions o;
     o.shape_components = 3;
     o.latitude_steps = 6;
     o.longitude_steps = 8;
-    MorphableModel m = testkit::make_toy_model(o);
+    morph::MorphableModel m = testkit::make_toy_model(o);
     if (!with_albedo) m.albedo.reset();
     return m;
 }
@@ -47,18 +47,18 @@ int main(int argc, char** argv) {
     }
     const fs::path out = argv[1];
     try {
-        const MorphableModel toy = small_toy(true);
-        const MorphableModel shape_only = small_toy(false);
+        const morph::MorphableModel toy = small_toy(true);
+        const morph::MorphableModel shape_only = small_toy(false);
 
         for (std::uint32_t version = 1; version <= 4; ++version) {
             put(out / "eos_model", "toy_v" + std::to_string(version) + ".bin", testkit::eos_model_bytes(toy, version));
             put(out / "eos_model", "shape_only_v" + std::to_string(version) + ".bin", testkit::eos_model_bytes(shape_only, version, false));
         }
-        MorphableModel pca_expression = shape_only;
+        morph::MorphableModel pca_expression = shape_only;
         pca_expression.expression = shape_only.shape;
         put(out / "eos_model", "pca_expression_v3.bin", testkit::eos_model_bytes(pca_expression, 3));
-        if (toy.expression && std::holds_alternative<std::vector<Blendshape>>(*toy.expression))
-            put(out / "eos_blendshapes", "toy.bin", testkit::eos_blendshape_bytes(std::get<std::vector<Blendshape>>(*toy.expression)));
+        if (toy.expression && std::holds_alternative<std::vector<morph::Blendshape>>(*toy.expression))
+            put(out / "eos_blendshapes", "toy.bin", testkit::eos_blendshape_bytes(std::get<std::vector<morph::Blendshape>>(*toy.expression)));
         put(out / "eos_blendshapes", "one.bin", testkit::eos_blendshape_bytes({{"smile", Eigen::VectorXf::Ones(6)}}));
 
         std::string mapping = "# iBUG id = vertex id\n[landmark_mappings]\n";
@@ -77,17 +77,17 @@ int main(int argc, char** argv) {
         put(out / "symmetry", "toy.txt", symmetry);
 
         fs::create_directories(out / "fsm");
-        write_model(toy, out / "fsm" / "toy.fsm");
-        write_model(shape_only, out / "fsm" / "shape_only.fsm");
+        morph::write_model(toy, out / "fsm" / "toy.fsm");
+        morph::write_model(shape_only, out / "fsm" / "shape_only.fsm");
 
-        MorphableModel bfm = shape_only;
+        morph::MorphableModel bfm = shape_only;
         bfm.albedo = toy.albedo;
-        PcaModel expression = shape_only.shape;
+        morph::PcaModel expression = shape_only.shape;
         expression.mean.setZero();
         bfm.expression = expression;
         fs::create_directories(out / "bfm");
         testkit::write_statismo(out / "bfm" / "toy.h5", bfm);
-        MorphableModel bfm_shape_only = shape_only;
+        morph::MorphableModel bfm_shape_only = shape_only;
         bfm_shape_only.expression.reset();  // statismo holds a PCA expression model or none
         testkit::write_statismo(out / "bfm" / "shape_only.h5", bfm_shape_only);
 
@@ -95,23 +95,23 @@ int main(int argc, char** argv) {
         Eigen::Matrix2Xd points = testkit::ibug68_frontal_template();
         points.row(0).array() += 128.0;
         points.row(1) = 128.0 - points.row(1).array();
-        write_pts(out / "pts" / "face.pts", points);
+        morph::write_pts(out / "pts" / "face.pts", points);
         put(out / "pts", "three.pts", "version: 1\nn_points: 3\n{\n1 2\n3.5 4\n5 6e1\n}\n");
 
         put(out / "synth_config", "defaults.toml", synth::to_commented_toml(synth::SynthConfig{}));
         put(out / "synth_config", "small.toml", "count = 4\nseed = 7\n[pose.yaw]\nmin = -30\nmax = 30\n[output]\nformats = \"folder,wds\"\n");
 
         train::SdmModel sdm;
-        sdm.num_landmarks = kNumIbugLandmarks;
+        sdm.num_landmarks = morph::kNumIbugLandmarks;
         sdm.hog_cells = 1;
-        sdm.mean_shape = Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks);
+        sdm.mean_shape = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks);
         train::SdmStage stage;
         stage.settings.patch_relative = 0.5;
         stage.settings.cell_size = 8;
         stage.settings.jaw_features = false;
-        stage.basis = Eigen::MatrixXf::Identity(2 * kNumIbugLandmarks, 2);  // rank 2
+        stage.basis = Eigen::MatrixXf::Identity(2 * morph::kNumIbugLandmarks, 2);  // rank 2
         stage.weights = Eigen::MatrixXf::Zero(2, sdm.feature_dims(stage.settings));
-        stage.bias = Eigen::VectorXf::Zero(2 * kNumIbugLandmarks);
+        stage.bias = Eigen::VectorXf::Zero(2 * morph::kNumIbugLandmarks);
         sdm.stages.push_back(stage);
         fs::create_directories(out / "sdm");
         train::write_sdm_model(out / "sdm" / "one_stage.sdm", sdm);
@@ -133,7 +133,7 @@ int main(int argc, char** argv) {
         run.config.camera.width = run.config.camera.height = 48;
         run.config.render.msaa_samples = 0;
         run.out = out / "seed-dataset";
-        MorphableModel with_landmarks = testkit::make_toy_model();
+        morph::MorphableModel with_landmarks = testkit::make_toy_model();
         (void)synth::run_synth(run, with_landmarks);
         fs::create_directories(out / "dataset_meta");
         for (const auto& entry : fs::directory_iterator(run.out / "meta"))

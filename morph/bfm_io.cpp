@@ -1,6 +1,6 @@
 #include "morph/bfm_io.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <hdf5.h>
 #include <sys/wait.h>
@@ -14,7 +14,7 @@
 #include <limits>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 // One HDF5 identifier, closed by its own close function.
@@ -97,8 +97,8 @@ public:
         return values;
     }
 
-    [[nodiscard]] Error error(const std::string& name, const std::string& problem) const {
-        return file_error(path_, name + ": " + problem);
+    [[nodiscard]] core::Error error(const std::string& name, const std::string& problem) const {
+        return core::file_error(path_, name + ": " + problem);
     }
 
 private:
@@ -184,13 +184,13 @@ hsize_t point_count(const Reader& in, const std::string& group) {
 }  // namespace
 
 double unit_scale_to_mm(const Eigen::VectorXf& stacked_points, const std::string& source) {
-    if (stacked_points.size() < 3) throw Error(source + ": no points to judge units from");
+    if (stacked_points.size() < 3) throw core::Error(source + ": no points to judge units from");
     const auto points = as_points(stacked_points);
     const double diagonal = (points.rowwise().maxCoeff() - points.rowwise().minCoeff()).cast<double>().norm();
     if (diagonal >= 30.0 && diagonal <= 3000.0) return 1.0;
     if (diagonal >= 30e3 && diagonal <= 3e6) return 1e-3;
     if (diagonal >= 0.03 && diagonal <= 3.0) return 1e3;
-    throw Error(source + ": cannot tell the units: the mean shape's bounding box diagonal is " +
+    throw core::Error(source + ": cannot tell the units: the mean shape's bounding box diagonal is " +
                 std::to_string(diagonal) + " (expected a head in mm, um or m)");
 }
 
@@ -213,11 +213,11 @@ namespace {
 MorphableModel read_in_this_process(const std::filesystem::path& path) {
     const QuietHdf5Errors quiet;
     const std::string name = path.string();
-    if (!std::filesystem::is_regular_file(path)) throw file_error(name, "no such file");
-    if (std::filesystem::file_size(path) == 0) throw file_error(name, "empty file (expected an HDF5 model)");
-    if (H5Fis_hdf5(name.c_str()) <= 0) throw file_error(name, "not an HDF5 file (expected a Basel Face Model 2017 .h5)");
+    if (!std::filesystem::is_regular_file(path)) throw core::file_error(name, "no such file");
+    if (std::filesystem::file_size(path) == 0) throw core::file_error(name, "empty file (expected an HDF5 model)");
+    if (H5Fis_hdf5(name.c_str()) <= 0) throw core::file_error(name, "not an HDF5 file (expected a Basel Face Model 2017 .h5)");
     const Handle file(H5Fopen(name.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-    if (!file.valid()) throw file_error(name, "cannot open as HDF5 (truncated or corrupt?)");
+    if (!file.valid()) throw core::file_error(name, "cannot open as HDF5 (truncated or corrupt?)");
     const Reader in(path, file.get());
 
     MorphableModel model;
@@ -266,12 +266,12 @@ MorphableModel read_in_this_process(const std::filesystem::path& path) {
 // and only a file the child has read cleanly is read in this process.
 void read_in_a_child_process_first(const std::filesystem::path& path) {
     int fds[2];
-    if (::pipe(fds) != 0) throw file_error(path.string(), std::string("cannot create a pipe: ") + std::strerror(errno));
+    if (::pipe(fds) != 0) throw core::file_error(path.string(), std::string("cannot create a pipe: ") + std::strerror(errno));
     const pid_t child = ::fork();
     if (child < 0) {
         ::close(fds[0]);
         ::close(fds[1]);
-        throw file_error(path.string(), std::string("cannot fork to read it: ") + std::strerror(errno));
+        throw core::file_error(path.string(), std::string("cannot fork to read it: ") + std::strerror(errno));
     }
     if (child == 0) {
         ::close(fds[0]);
@@ -303,8 +303,8 @@ void read_in_a_child_process_first(const std::filesystem::path& path) {
     }
     if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
     if (WIFEXITED(status) && WEXITSTATUS(status) == kChildError && !message.empty())
-        throw message.find(path.string()) == std::string::npos ? file_error(path.string(), message) : Error(message);
-    throw file_error(path.string(), "the HDF5 library crashed reading it (corrupt file?)");
+        throw message.find(path.string()) == std::string::npos ? core::file_error(path.string(), message) : core::Error(message);
+    throw core::file_error(path.string(), "the HDF5 library crashed reading it (corrupt file?)");
 }
 
 }  // namespace
@@ -314,4 +314,4 @@ MorphableModel read_bfm2017(const std::filesystem::path& path) {
     return read_in_this_process(path);
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -6,11 +6,11 @@
 #include <filesystem>
 #include <string>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 // Reads /shape (required), /color and /expression (optional): model/{mean,pcaBasis,pcaVariance}
 // and representer/{points,cells}. Coordinates are converted to millimetres by unit_scale_to_mm
-// (a warning on stderr says so when they were not in mm). Throws facesynth::Error naming the file,
+// (a warning on stderr says so when they were not in mm). Throws core::Error naming the file,
 // the dataset and the problem. HDF5's own error printing is switched off while it reads (a
 // process-wide HDF5 setting): do not read HDF5 files on other threads at the same time.
 [[nodiscard]] MorphableModel read_bfm2017(const std::filesystem::path& path);
@@ -24,4 +24,4 @@ namespace facesynth {
 // Scales every length in the model by `factor` (means, blendshapes; variances by factor²).
 void scale_model_lengths(MorphableModel& model, double factor);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -2,11 +2,11 @@
 
 #include "morph/regions.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "morph/mesh.h"
 #include "morph/pca.h"
-#include "morph/random.h"
+#include "core/random.h"
 
 #include <algorithm>
 #include <array>
@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 constexpr int kColumns = kBuiltinColumns;
@@ -617,7 +617,7 @@ private:
 };
 
 // Farkas norms (DESIGN.md §7) for one sex, with a shared size factor and individual spreads.
-Anatomy random_anatomy(Rng& rng) {
+Anatomy random_anatomy(core::Rng& rng) {
     const bool male = rng.uniform() < 0.5;
     const double size = 1.0 + 0.035 * rng.truncated_normal(2.5);
     const auto measure = [&](double m, double f) { return (male ? m : f) * size * (1.0 + 0.04 * rng.truncated_normal(2.5)); };
@@ -731,7 +731,7 @@ SurfacePoint frontal_point(const Eigen::Matrix3Xf& v, const std::vector<Triangle
             best = {{t[0], t[1], t[2]}, {static_cast<float>(w0), static_cast<float>(w1), static_cast<float>(w2)}};
         }
     }
-    if (best_z == -1e9) throw Error("builtin model: no surface under landmark position (" + std::to_string(x) + ", " + std::to_string(y) + ")");
+    if (best_z == -1e9) throw core::Error("builtin model: no surface under landmark position (" + std::to_string(x) + ", " + std::to_string(y) + ")");
     return best;
 }
 
@@ -990,7 +990,7 @@ Eigen::Vector3d srgb_to_linear(const Eigen::Vector3d& srgb) {
 }
 
 // One random colouring: skin tone from light to dark, hair, iris, lips, make-up-free regional tints.
-Eigen::Matrix3Xf random_colouring(Rng& rng, const ColourRegions& g) {
+Eigen::Matrix3Xf random_colouring(core::Rng& rng, const ColourRegions& g) {
     const double tone = rng.uniform();  // 0 light .. 1 dark
     const Eigen::Vector3d light(0.93, 0.76, 0.66), medium(0.76, 0.55, 0.42), dark(0.36, 0.23, 0.16);
     Eigen::Vector3d skin_srgb = tone < 0.5 ? (light + (medium - light) * (2 * tone)).eval() : (medium + (dark - medium) * (2 * tone - 1)).eval();
@@ -1048,7 +1048,7 @@ MorphableModel builtin_model() {
     std::vector<Eigen::VectorXf> population;
     population.reserve(kShapePopulation);
     for (int i = 0; i < kShapePopulation; ++i) {
-        Rng rng = make_rng(kBuiltinSeed, static_cast<std::uint64_t>(i), RandomStream::kIdentity);
+        core::Rng rng = core::make_rng(kBuiltinSeed, static_cast<std::uint64_t>(i), core::RandomStream::kIdentity);
         population.push_back(stacked(FaceBuilder(random_anatomy(rng), {}).build()));
     }
     model.shape = build_pca(population, {.max_components = kShapeComponents});
@@ -1085,7 +1085,7 @@ MorphableModel builtin_model() {
     std::vector<Eigen::VectorXf> colourings;
     colourings.reserve(kAlbedoPopulation);
     for (int i = 0; i < kAlbedoPopulation; ++i) {
-        Rng rng = make_rng(kBuiltinSeed, static_cast<std::uint64_t>(i), RandomStream::kAlbedo);
+        core::Rng rng = core::make_rng(kBuiltinSeed, static_cast<std::uint64_t>(i), core::RandomStream::kAlbedo);
         colourings.push_back(stacked(random_colouring(rng, regions)));
     }
     model.albedo = build_pca(colourings, {.max_components = kAlbedoComponents});
@@ -1095,4 +1095,4 @@ MorphableModel builtin_model() {
     return model;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -9,16 +9,16 @@
 // See docs/builtin-model.md.
 #include "morph/model.h"
 
-namespace facesynth {
+namespace facesynth::morph {
 
 // Grid size of the built-in mesh (columns run from the subject's right ear round the face to the
 // left ear; rows from above the hairline to under the chin).
 inline constexpr int kBuiltinColumns = 85;
 inline constexpr int kBuiltinRows = 88;
 
-// Builds the model. Deterministic (fixed seeds through facesynth::Rng): every call returns the same
+// Builds the model. Deterministic (fixed seeds through core::Rng): every call returns the same
 // model, bit for bit. Nothing is cached: each call recomputes it (about 0.6 s of CPU time in a
 // Release build), so callers that need it repeatedly should keep the returned value.
 [[nodiscard]] MorphableModel builtin_model();
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

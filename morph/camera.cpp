@@ -3,7 +3,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 Eigen::Vector3d to_camera(const CameraPose& pose, const Eigen::Vector3d& x) {
     return model_to_camera_flip() * (pose.rotation * x) + pose.translation;
@@ -38,4 +38,4 @@ Intrinsics intrinsics_from_fov(double fov, int width, int height) {
     return k;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 struct Intrinsics {
     double fx = 0, fy = 0;  // pixels
@@ -29,4 +29,4 @@ struct CameraPose {
 // Intrinsics for a given vertical field of view (degrees), principal point at the image centre.
 [[nodiscard]] Intrinsics intrinsics_from_fov(double vertical_fov_degrees, int width, int height);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -1,11 +1,11 @@
 #include "morph/eos_io.h"
 
-#include "morph/atomic_file.h"
-#include "morph/byte_io.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/byte_io.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "morph/sfm_completion_data.h"  // generated from data/sfm_landmarks_completion.toml
-#include "morph/toml_file.h"
+#include "core/toml_file.h"
 
 #include <nlohmann/json.hpp>
 
@@ -13,11 +13,11 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 // cereal writes an Eigen matrix as int32 rows, int32 cols, then the values column-major.
-Eigen::MatrixXf read_eigen_matrix(ByteReader& in, const char* what) {
+Eigen::MatrixXf read_eigen_matrix(core::ByteReader& in, const char* what) {
     const auto rows = in.read<std::int32_t>(what);
     const auto cols = in.read<std::int32_t>(what);
     if (rows < 0 || cols < 0)
@@ -28,7 +28,7 @@ Eigen::MatrixXf read_eigen_matrix(ByteReader& in, const char* what) {
     return m;
 }
 
-Eigen::VectorXf read_eigen_vector(ByteReader& in, const char* what) {
+Eigen::VectorXf read_eigen_vector(core::ByteReader& in, const char* what) {
     const Eigen::MatrixXf m = read_eigen_matrix(in, what);
     if (m.size() == 0) return {};
     if (m.cols() != 1)
@@ -37,7 +37,7 @@ Eigen::VectorXf read_eigen_vector(ByteReader& in, const char* what) {
     return m.col(0);
 }
 
-std::vector<Triangle> read_triangles(ByteReader& in, const char* what) {
+std::vector<Triangle> read_triangles(core::ByteReader& in, const char* what) {
     const std::size_t count = in.read_count(3 * sizeof(std::int32_t), what);
     std::vector<Triangle> triangles(count);
     if (count) in.read_bytes(triangles.data(), count * sizeof(Triangle), what);
@@ -49,7 +49,7 @@ struct EosPca {
     std::vector<Triangle> triangles;
 };
 
-EosPca read_pca(ByteReader& in, const std::string& what) {
+EosPca read_pca(core::ByteReader& in, const std::string& what) {
     EosPca result;
     const std::string mean_what = what + " mean", basis_what = what + " basis", ev_what = what + " eigenvalues",
                       tri_what = what + " triangle list";
@@ -76,7 +76,7 @@ EosPca read_pca(ByteReader& in, const std::string& what) {
     return result;
 }
 
-std::vector<Blendshape> read_blendshape_vector(ByteReader& in) {
+std::vector<Blendshape> read_blendshape_vector(core::ByteReader& in) {
     // Each blendshape takes at least its name length and matrix header.
     const std::size_t count = in.read_count(8 + 8, "blendshape count");
     std::vector<Blendshape> shapes;
@@ -92,7 +92,7 @@ std::vector<Blendshape> read_blendshape_vector(ByteReader& in) {
 }
 
 // cereal's std::optional: a bool that is true when the optional is EMPTY.
-bool read_optional_present(ByteReader& in, const char* what) {
+bool read_optional_present(core::ByteReader& in, const char* what) {
     const auto empty_flag = in.read<std::uint8_t>(what);
     if (empty_flag > 1) throw in.error(std::string(what) + ": optional flag " + std::to_string(empty_flag) + " is not 0 or 1");
     return empty_flag == 0;
@@ -100,15 +100,15 @@ bool read_optional_present(ByteReader& in, const char* what) {
 
 void check_ibug_id(int ibug_id, int vertex, const std::string& where) {
     if (ibug_id < 1 || ibug_id > kNumIbugLandmarks)
-        throw Error(where + ": iBUG landmark id " + std::to_string(ibug_id) + " outside 1..68");
-    if (vertex < 0) throw Error(where + ": landmark " + std::to_string(ibug_id) + " maps to negative vertex " + std::to_string(vertex));
+        throw core::Error(where + ": iBUG landmark id " + std::to_string(ibug_id) + " outside 1..68");
+    if (vertex < 0) throw core::Error(where + ": landmark " + std::to_string(ibug_id) + " maps to negative vertex " + std::to_string(vertex));
 }
 
 LandmarkMapping mapping_from_toml(const toml::value& root, const std::string& source) {
     LandmarkMapping mapping;
-    if (!root.contains("landmark_mappings")) throw file_error(source, "no [landmark_mappings] table");
+    if (!root.contains("landmark_mappings")) throw core::file_error(source, "no [landmark_mappings] table");
     const auto& table = toml::find(root, "landmark_mappings");
-    if (!table.is_table()) throw file_error(source, "landmark_mappings is not a table");
+    if (!table.is_table()) throw core::file_error(source, "landmark_mappings is not a table");
     for (const auto& [key, value] : table.as_table()) {
         int ibug_id = 0;
         try {
@@ -116,11 +116,11 @@ LandmarkMapping mapping_from_toml(const toml::value& root, const std::string& so
             ibug_id = std::stoi(key, &used);
             if (used != key.size()) throw std::invalid_argument(key);
         } catch (const std::exception&) {
-            throw file_error(source, "landmark key '" + key + "' is not an iBUG id");
+            throw core::file_error(source, "landmark key '" + key + "' is not an iBUG id");
         }
-        if (!value.is_integer()) throw file_error(source, "landmark " + key + " is not an integer vertex id");
+        if (!value.is_integer()) throw core::file_error(source, "landmark " + key + " is not an integer vertex id");
         const auto vertex = value.as_integer();
-        if (vertex > std::numeric_limits<int>::max()) throw file_error(source, "landmark " + key + ": vertex id too large");
+        if (vertex > std::numeric_limits<int>::max()) throw core::file_error(source, "landmark " + key + ": vertex id too large");
         check_ibug_id(ibug_id, static_cast<int>(vertex), source);
         mapping[ibug_id] = static_cast<int>(vertex);
     }
@@ -130,20 +130,20 @@ LandmarkMapping mapping_from_toml(const toml::value& root, const std::string& so
 }  // namespace
 
 EosModelFile read_eos_model(const std::filesystem::path& path) {
-    const std::string bytes = read_file(path);
-    ByteReader in(bytes, path.string());
-    if (bytes.empty()) throw file_error(path.string(), "empty file (expected an eos MorphableModel)");
+    const std::string bytes = core::read_file(path);
+    core::ByteReader in(bytes, path.string());
+    if (bytes.empty()) throw core::file_error(path.string(), "empty file (expected an eos MorphableModel)");
     EosModelFile result;
     const auto version = in.read<std::uint32_t>("model version");
     if (version < 1 || version > 4)
-        throw file_error(path.string(), "unsupported eos MorphableModel version " + std::to_string(version) +
+        throw core::file_error(path.string(), "unsupported eos MorphableModel version " + std::to_string(version) +
                                             " (this reader knows 1 to 4; is it an eos model file?)");
     result.version = static_cast<int>(version);
     MorphableModel& model = result.model;
     model.name = path.stem().string();
 
     EosPca shape = read_pca(in, "shape model");
-    if (shape.pca.empty()) throw file_error(path.string(), "shape model is empty");
+    if (shape.pca.empty()) throw core::file_error(path.string(), "shape model is empty");
     model.shape = std::move(shape.pca);
     model.triangles = std::move(shape.triangles);
 
@@ -178,7 +178,7 @@ EosModelFile read_eos_model(const std::filesystem::path& path) {
         model.uv.resize(2, static_cast<Eigen::Index>(uv_count));
         for (std::size_t i = 0; i < uv_count; ++i) {
             if (!std::isfinite(uv[2 * i]) || !std::isfinite(uv[2 * i + 1]))
-                throw file_error(path.string(), "texture coordinate " + std::to_string(i) + " is not finite");
+                throw core::file_error(path.string(), "texture coordinate " + std::to_string(i) + " is not finite");
             model.uv(0, static_cast<Eigen::Index>(i)) = static_cast<float>(uv[2 * i]);
             model.uv(1, static_cast<Eigen::Index>(i)) = static_cast<float>(uv[2 * i + 1]);
         }
@@ -187,53 +187,53 @@ EosModelFile read_eos_model(const std::filesystem::path& path) {
     // checked for size and skipped.
     if (version >= 4) (void)read_triangles(in, "texture triangle list");
     if (!in.at_end())
-        throw file_error(path.string(), std::to_string(in.remaining()) + " unexpected bytes after the model (version " +
+        throw core::file_error(path.string(), std::to_string(in.remaining()) + " unexpected bytes after the model (version " +
                                             std::to_string(version) + " ends at byte " + std::to_string(in.offset()) + ")");
     model.validate(path.string());
     return result;
 }
 
 std::vector<Blendshape> read_eos_blendshapes(const std::filesystem::path& path, long expected_values) {
-    const std::string bytes = read_file(path);
-    if (bytes.empty()) throw file_error(path.string(), "empty file (expected eos blendshapes)");
-    ByteReader in(bytes, path.string());
+    const std::string bytes = core::read_file(path);
+    if (bytes.empty()) throw core::file_error(path.string(), "empty file (expected eos blendshapes)");
+    core::ByteReader in(bytes, path.string());
     std::vector<Blendshape> shapes = read_blendshape_vector(in);
-    if (!in.at_end()) throw file_error(path.string(), std::to_string(in.remaining()) + " unexpected bytes after the blendshapes");
-    if (shapes.empty()) throw file_error(path.string(), "contains no blendshapes");
+    if (!in.at_end()) throw core::file_error(path.string(), std::to_string(in.remaining()) + " unexpected bytes after the blendshapes");
+    if (shapes.empty()) throw core::file_error(path.string(), "contains no blendshapes");
     for (const auto& b : shapes)
         if (expected_values > 0 && b.offsets.size() != expected_values)
-            throw file_error(path.string(), "blendshape '" + b.name + "' has " + std::to_string(b.offsets.size()) +
+            throw core::file_error(path.string(), "blendshape '" + b.name + "' has " + std::to_string(b.offsets.size()) +
                                                 " values, the model needs " + std::to_string(expected_values));
     return shapes;
 }
 
 LandmarkMapping read_landmark_mapping(const std::filesystem::path& path) {
-    const std::string text = read_file(path);
-    if (text.empty()) throw file_error(path.string(), "empty landmark mapping file");
-    const toml::value root = parse_toml(text, path.string());
+    const std::string text = core::read_file(path);
+    if (text.empty()) throw core::file_error(path.string(), "empty landmark mapping file");
+    const toml::value root = core::parse_toml(text, path.string());
     try {
         return mapping_from_toml(root, path.string());
     } catch (const toml::exception& e) {
-        throw file_error(path.string(), std::string("TOML error: ") + e.what());
+        throw core::file_error(path.string(), std::string("TOML error: ") + e.what());
     }
 }
 
 ContourChains read_model_contours(const std::filesystem::path& path) {
-    const std::string text = read_file(path);
+    const std::string text = core::read_file(path);
     nlohmann::json json;
     try {
         json = nlohmann::json::parse(text);
     } catch (const nlohmann::json::exception& e) {
-        throw file_error(path.string(), std::string("JSON error: ") + e.what());
+        throw core::file_error(path.string(), std::string("JSON error: ") + e.what());
     }
     ContourChains chains;
     const auto read_chain = [&](const char* key, std::vector<int>& out) {
         if (!json.is_object() || !json.contains("model_contour") || !json["model_contour"].is_object() ||
             !json["model_contour"].contains(key) || !json["model_contour"][key].is_array())
-            throw file_error(path.string(), std::string("missing array model_contour.") + key);
+            throw core::file_error(path.string(), std::string("missing array model_contour.") + key);
         for (const auto& id : json["model_contour"][key]) {
             if (!id.is_number_integer() || id.get<long long>() < 0 || id.get<long long>() > std::numeric_limits<int>::max())
-                throw file_error(path.string(), std::string("model_contour.") + key + " holds a value that is not a vertex id");
+                throw core::file_error(path.string(), std::string("model_contour.") + key + " holds a value that is not a vertex id");
             out.push_back(id.get<int>());
         }
     };
@@ -243,8 +243,8 @@ ContourChains read_model_contours(const std::filesystem::path& path) {
 }
 
 std::vector<int> read_symmetry(const std::filesystem::path& path, int num_vertices) {
-    const std::string text = read_file(path);
-    if (text.empty()) throw file_error(path.string(), "empty symmetry file");
+    const std::string text = core::read_file(path);
+    if (text.empty()) throw core::file_error(path.string(), "empty symmetry file");
     std::vector<int> symmetry(static_cast<std::size_t>(num_vertices), -1);
     std::istringstream lines(text);
     std::string line;
@@ -254,22 +254,22 @@ std::vector<int> read_symmetry(const std::filesystem::path& path, int num_vertic
         long mirror = 0;
         if (!(fields >> mirror)) {
             if (line.find_first_not_of(" \t\r") == std::string::npos) continue;  // blank line
-            throw file_error(path.string(), "line " + std::to_string(vertex + 1) + ": expected a vertex id");
+            throw core::file_error(path.string(), "line " + std::to_string(vertex + 1) + ": expected a vertex id");
         }
         if (vertex >= num_vertices)
-            throw file_error(path.string(), "more lines than the model's " + std::to_string(num_vertices) + " vertices");
+            throw core::file_error(path.string(), "more lines than the model's " + std::to_string(num_vertices) + " vertices");
         if (mirror < 1 || mirror > num_vertices)
-            throw file_error(path.string(), "line " + std::to_string(vertex + 1) + ": mirror vertex " + std::to_string(mirror) +
+            throw core::file_error(path.string(), "line " + std::to_string(vertex + 1) + ": mirror vertex " + std::to_string(mirror) +
                                                 " outside 1.." + std::to_string(num_vertices));
         symmetry[static_cast<std::size_t>(vertex)] = static_cast<int>(mirror - 1);  // the file is 1-based
         ++vertex;
     }
-    if (vertex == 0) throw file_error(path.string(), "no symmetry entries");
+    if (vertex == 0) throw core::file_error(path.string(), "no symmetry entries");
     return symmetry;
 }
 
 LandmarkCompletion parse_landmark_completion(const std::string& toml_text, const std::string& source_name) {
-    const toml::value root = parse_toml(toml_text, source_name);
+    const toml::value root = core::parse_toml(toml_text, source_name);
     try {
         LandmarkCompletion completion;
         completion.model_vertices = toml::find<int>(root, "model_vertices");
@@ -277,13 +277,13 @@ LandmarkCompletion parse_landmark_completion(const std::string& toml_text, const
         completion.mapping = mapping_from_toml(root, source_name);
         for (const auto& [id, vertex] : completion.mapping)
             if (vertex >= completion.model_vertices)
-                throw file_error(source_name, "landmark " + std::to_string(id) + " vertex " + std::to_string(vertex) +
+                throw core::file_error(source_name, "landmark " + std::to_string(id) + " vertex " + std::to_string(vertex) +
                                                   " outside the model's " + std::to_string(completion.model_vertices));
         return completion;
     } catch (const toml::exception& e) {
-        throw file_error(source_name, std::string("TOML error: ") + e.what());
+        throw core::file_error(source_name, std::string("TOML error: ") + e.what());
     } catch (const std::out_of_range& e) {  // toml::find's answer to a missing key
-        throw file_error(source_name, std::string("missing key: ") + e.what());
+        throw core::file_error(source_name, std::string("missing key: ") + e.what());
     }
 }
 
@@ -310,8 +310,8 @@ std::vector<SurfacePoint> ibug68_from_mapping(const LandmarkMapping& mapping, co
         }
         points.push_back(SurfacePoint::at_vertex(it->second));
     }
-    if (!missing.empty()) throw Error(context + ": no vertex for iBUG landmarks " + missing);
+    if (!missing.empty()) throw core::Error(context + ": no vertex for iBUG landmarks " + missing);
     return points;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

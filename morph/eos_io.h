@@ -2,14 +2,14 @@
 // Readers for the eos library's files, as shipped with the Surrey Face Model (../shared/data/sfm/):
 // the MorphableModel cereal binary (model versions 1-4), the expression blendshapes binary, the
 // TOML iBUG landmark mapping, the contour JSON and the reference symmetry list.
-// Layouts: docs/models.md. Every reader throws facesynth::Error naming the file and the problem.
+// Layouts: docs/models.md. Every reader throws core::Error naming the file and the problem.
 #include "morph/model.h"
 
 #include <filesystem>
 #include <map>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 // A partial iBUG 68 definition: 1-based iBUG id -> 0-based vertex id.
 using LandmarkMapping = std::map<int, int>;
@@ -55,4 +55,4 @@ struct LandmarkCompletion {
 [[nodiscard]] std::vector<SurfacePoint> ibug68_from_mapping(const LandmarkMapping& mapping,
                                                             const std::string& context);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

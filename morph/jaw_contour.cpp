@@ -9,7 +9,7 @@
 #include <initializer_list>
 #include <unordered_map>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 JawBand jaw_band(const MorphableModel& model) {
     JawBand band;
@@ -252,4 +252,4 @@ std::vector<std::optional<JawContourHit>> jaw_contour_points(const JawContourReg
     return hits;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -23,7 +23,7 @@
 #include <optional>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 struct JawContourRegion {
     std::vector<int> vertices;                 // face-region vertex ids (global)
@@ -85,4 +85,4 @@ struct JawContourQuery {
                                                                            const Eigen::Matrix2Xd& projected,
                                                                            const std::vector<JawContourQuery>& queries);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

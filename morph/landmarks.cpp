@@ -1,7 +1,7 @@
 #include "morph/landmarks.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 
 #include <array>
 #include <charconv>
@@ -11,7 +11,7 @@
 #include <sstream>
 #include <string>
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 // 1-based lists as a person reads them, turned 0-based below.
@@ -75,7 +75,7 @@ constexpr auto kMirror = make_mirror();
 
 void require68(const Eigen::Matrix2Xd& p, const char* what) {
     if (p.cols() != kNumIbugLandmarks)
-        throw Error(std::string(what) + " needs 68 landmarks, got " + std::to_string(p.cols()));
+        throw core::Error(std::string(what) + " needs 68 landmarks, got " + std::to_string(p.cols()));
 }
 
 }  // namespace
@@ -95,7 +95,7 @@ LandmarkSubset parse_landmark_subset(std::string_view name) {
     if (name == "13") return LandmarkSubset::k13;
     if (name == "49") return LandmarkSubset::k49;
     if (name == "68") return LandmarkSubset::k68;
-    throw Error("unknown landmark subset '" + std::string(name) + "' (expected 7, 13, 49 or 68)");
+    throw core::Error("unknown landmark subset '" + std::string(name) + "' (expected 7, 13, 49 or 68)");
 }
 
 std::span<const int> ibug_mirror_pairs() { return kMirror; }
@@ -126,7 +126,7 @@ FaceFrame face_frame_of(const Eigen::Matrix2Xd& reference) {
     FaceFrame f;
     f.iod = inter_ocular_distance(reference);
     f.x_axis = right - left;
-    if (!(f.x_axis.norm() > 0) || !(f.iod > 0)) throw Error("face frame: degenerate eye landmarks");
+    if (!(f.x_axis.norm() > 0) || !(f.iod > 0)) throw core::Error("face frame: degenerate eye landmarks");
     f.x_axis.normalize();
     f.y_axis = Eigen::Vector2d(-f.x_axis.y(), f.x_axis.x());
     return f;
@@ -147,7 +147,7 @@ Eigen::Matrix2Xd face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen:
 }
 
 Eigen::Matrix2Xd apply_face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& offsets) {
-    if (offsets.cols() != kNumIbugLandmarks || offsets.rows() != 2) throw Error("face-frame offsets: expected 2 x 68 offsets");
+    if (offsets.cols() != kNumIbugLandmarks || offsets.rows() != 2) throw core::Error("face-frame offsets: expected 2 x 68 offsets");
     const FaceFrame f = face_frame_of(points);
     Eigen::Matrix2Xd out = points;
     for (int i = 0; i < kNumIbugLandmarks; ++i) out.col(i) += f.iod * (offsets(0, i) * f.x_axis + offsets(1, i) * f.y_axis);
@@ -156,7 +156,7 @@ Eigen::Matrix2Xd apply_face_frame_offsets(const Eigen::Matrix2Xd& points, const 
 
 Eigen::Matrix2Xd read_pts(const std::filesystem::path& path) {
     std::ifstream in(path);
-    if (!in) throw file_error(path.string(), "cannot open landmark file");
+    if (!in) throw core::file_error(path.string(), "cannot open landmark file");
     std::string line;
     long declared = -1;
     bool in_points = false;
@@ -172,21 +172,21 @@ Eigen::Matrix2Xd read_pts(const std::filesystem::path& path) {
             if (trimmed.rfind("version", 0) == 0) continue;
             if (trimmed.rfind("n_points", 0) == 0) {
                 const auto colon = trimmed.find(':');
-                if (colon == std::string::npos) throw file_error(path.string(), "malformed n_points line");
+                if (colon == std::string::npos) throw core::file_error(path.string(), "malformed n_points line");
                 try {
                     declared = std::stol(trimmed.substr(colon + 1));
                 } catch (const std::exception&) {
-                    throw file_error(path.string(), "malformed n_points line");
+                    throw core::file_error(path.string(), "malformed n_points line");
                 }
                 if (declared <= 0 || declared > 100000)
-                    throw file_error(path.string(), "n_points " + std::to_string(declared) + " out of range");
+                    throw core::file_error(path.string(), "n_points " + std::to_string(declared) + " out of range");
                 continue;
             }
             if (trimmed[0] == '{') {
                 in_points = true;
                 continue;
             }
-            throw file_error(path.string(), "line " + std::to_string(line_number) + ": unexpected '" + trimmed + "'");
+            throw core::file_error(path.string(), "line " + std::to_string(line_number) + ": unexpected '" + trimmed + "'");
         }
         if (trimmed[0] == '}') {
             in_points = false;
@@ -195,17 +195,17 @@ Eigen::Matrix2Xd read_pts(const std::filesystem::path& path) {
         std::istringstream fields(trimmed);
         double x = 0, y = 0;
         if (!(fields >> x >> y))
-            throw file_error(path.string(), "line " + std::to_string(line_number) + ": expected 'x y'");
+            throw core::file_error(path.string(), "line " + std::to_string(line_number) + ": expected 'x y'");
         if (!std::isfinite(x) || !std::isfinite(y))
-            throw file_error(path.string(), "line " + std::to_string(line_number) + ": coordinate is not finite");
+            throw core::file_error(path.string(), "line " + std::to_string(line_number) + ": coordinate is not finite");
         points.emplace_back(x - 1.0, y - 1.0);
         if (declared > 0 && static_cast<long>(points.size()) > declared)
-            throw file_error(path.string(), "more points than n_points " + std::to_string(declared));
+            throw core::file_error(path.string(), "more points than n_points " + std::to_string(declared));
     }
-    if (declared < 0) throw file_error(path.string(), "missing n_points header (not an iBUG .pts file)");
-    if (in_points) throw file_error(path.string(), "missing closing '}'");
+    if (declared < 0) throw core::file_error(path.string(), "missing n_points header (not an iBUG .pts file)");
+    if (in_points) throw core::file_error(path.string(), "missing closing '}'");
     if (static_cast<long>(points.size()) != declared)
-        throw file_error(path.string(), "has " + std::to_string(points.size()) + " points, header says " +
+        throw core::file_error(path.string(), "has " + std::to_string(points.size()) + " points, header says " +
                                             std::to_string(declared));
     Eigen::Matrix2Xd result(2, static_cast<Eigen::Index>(points.size()));
     for (std::size_t i = 0; i < points.size(); ++i) result.col(static_cast<Eigen::Index>(i)) = points[i];
@@ -230,7 +230,7 @@ std::string format_pts(const Eigen::Matrix2Xd& points) {
 }
 
 void write_pts(const std::filesystem::path& path, const Eigen::Matrix2Xd& points) {
-    write_file_atomically(path, format_pts(points));
+    core::write_file_atomically(path, format_pts(points));
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

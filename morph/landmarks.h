@@ -9,7 +9,7 @@
 #include <string_view>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 inline constexpr int kNumIbugLandmarks = 68;
 
@@ -25,7 +25,7 @@ enum class LandmarkSubset { k7, k13, k49, k68 };
 
 // 0-based iBUG indices of a named subset (see docs/conventions.md for the lists).
 [[nodiscard]] std::span<const int> landmark_subset(LandmarkSubset subset);
-// "7", "13", "49" or "68"; throws facesynth::Error otherwise.
+// "7", "13", "49" or "68"; throws core::Error otherwise.
 [[nodiscard]] LandmarkSubset parse_landmark_subset(std::string_view name);
 
 // 0-based index of each point's left/right mirror partner in the 68-point scheme.
@@ -39,13 +39,13 @@ enum class LandmarkSubset { k7, k13, k49, k68 };
 // (points - reference) in the face frame of `reference` (x along the line from the image-left eye's
 // centre, iBUG 37-42, to the other's, 43-48; y perpendicular to it, pointing down), in inter-ocular
 // distances: 2 x 68. How a predictor or a model places each point against an annotation, whatever the
-// face's size and roll. Throws facesynth::Error for fewer than 68 points or degenerate eyes.
+// face's size and roll. Throws core::Error for fewer than 68 points or degenerate eyes.
 [[nodiscard]] Eigen::Matrix2Xd face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& reference);
 
 // The inverse: `points` moved by `offsets` (2 x 68, face frame of `points`, inter-ocular distances).
 [[nodiscard]] Eigen::Matrix2Xd apply_face_frame_offsets(const Eigen::Matrix2Xd& points, const Eigen::Matrix2Xd& offsets);
 
-// Reads an iBUG .pts file; returns 0-based pixel coordinates (2 x N). Throws facesynth::Error naming
+// Reads an iBUG .pts file; returns 0-based pixel coordinates (2 x N). Throws core::Error naming
 // the file and the problem.
 [[nodiscard]] Eigen::Matrix2Xd read_pts(const std::filesystem::path& path);
 // Writes 0-based pixel coordinates as a 1-based .pts file, atomically (temporary name, then rename).
@@ -53,4 +53,4 @@ void write_pts(const std::filesystem::path& path, const Eigen::Matrix2Xd& points
 // The .pts text for 0-based points (shared with in-memory writers such as tar shards).
 [[nodiscard]] std::string format_pts(const Eigen::Matrix2Xd& points);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -2,7 +2,7 @@
 
 #include <Eigen/Geometry>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 Eigen::Matrix3Xf vertex_normals(const Eigen::Matrix3Xf& vertices, const std::vector<Triangle>& triangles) {
     Eigen::Matrix3Xf normals = Eigen::Matrix3Xf::Zero(3, vertices.cols());
@@ -18,4 +18,4 @@ Eigen::Matrix3Xf vertex_normals(const Eigen::Matrix3Xf& vertices, const std::vec
     return normals;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

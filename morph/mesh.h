@@ -6,7 +6,7 @@
 #include <array>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 using Triangle = std::array<int, 3>;  // 0-based vertex ids, counter-clockwise seen from outside
 
@@ -24,4 +24,4 @@ struct Mesh {
 [[nodiscard]] Eigen::Matrix3Xf vertex_normals(const Eigen::Matrix3Xf& vertices,
                                               const std::vector<Triangle>& triangles);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

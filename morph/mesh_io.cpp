@@ -1,7 +1,7 @@
 #include "morph/mesh_io.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 
 #include <tiny_gltf.h>
 
@@ -12,7 +12,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 constexpr int kArrayBuffer = 34962;         // GL_ARRAY_BUFFER
@@ -26,16 +26,16 @@ std::string lower_extension(const std::filesystem::path& path) {
 
 void check_mesh(const Mesh& mesh, const std::filesystem::path& path) {
     const std::string name = path.string();
-    if (mesh.num_vertices() == 0) throw file_error(name, "cannot write a mesh without vertices");
-    if (!mesh.vertices.allFinite()) throw file_error(name, "mesh vertices contain NaN");
+    if (mesh.num_vertices() == 0) throw core::file_error(name, "cannot write a mesh without vertices");
+    if (!mesh.vertices.allFinite()) throw core::file_error(name, "mesh vertices contain NaN");
     for (const auto& t : mesh.triangles)
         for (int v : t)
-            if (v < 0 || v >= mesh.num_vertices()) throw file_error(name, "triangle refers to vertex " + std::to_string(v));
+            if (v < 0 || v >= mesh.num_vertices()) throw core::file_error(name, "triangle refers to vertex " + std::to_string(v));
     if (mesh.colours.cols() != 0 && mesh.colours.cols() != mesh.vertices.cols())
-        throw file_error(name, "mesh has " + std::to_string(mesh.colours.cols()) + " colours for " +
+        throw core::file_error(name, "mesh has " + std::to_string(mesh.colours.cols()) + " colours for " +
                                    std::to_string(mesh.num_vertices()) + " vertices");
     if (mesh.uv.cols() != 0 && mesh.uv.cols() != mesh.vertices.cols())
-        throw file_error(name, "mesh has " + std::to_string(mesh.uv.cols()) + " uv pairs for " +
+        throw core::file_error(name, "mesh has " + std::to_string(mesh.uv.cols()) + " uv pairs for " +
                                    std::to_string(mesh.num_vertices()) + " vertices");
 }
 
@@ -92,31 +92,31 @@ double accessor_value(const tinygltf::Model& model, const tinygltf::Accessor& ac
 const tinygltf::Accessor& checked_accessor(const tinygltf::Model& model, int index, const std::string& file,
                                            const char* what) {
     if (index < 0 || static_cast<std::size_t>(index) >= model.accessors.size())
-        throw file_error(file, std::string(what) + ": accessor " + std::to_string(index) + " does not exist");
+        throw core::file_error(file, std::string(what) + ": accessor " + std::to_string(index) + " does not exist");
     const auto& accessor = model.accessors[static_cast<std::size_t>(index)];
-    if (accessor.sparse.isSparse) throw file_error(file, std::string(what) + ": sparse accessors are not supported");
+    if (accessor.sparse.isSparse) throw core::file_error(file, std::string(what) + ": sparse accessors are not supported");
     if (accessor.bufferView < 0 || static_cast<std::size_t>(accessor.bufferView) >= model.bufferViews.size())
-        throw file_error(file, std::string(what) + ": accessor has no valid buffer view");
+        throw core::file_error(file, std::string(what) + ": accessor has no valid buffer view");
     const auto& view = model.bufferViews[static_cast<std::size_t>(accessor.bufferView)];
     if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model.buffers.size())
-        throw file_error(file, std::string(what) + ": buffer view has no valid buffer");
+        throw core::file_error(file, std::string(what) + ": buffer view has no valid buffer");
     const int component_size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(accessor.componentType));
     const int components = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(accessor.type));
-    if (component_size <= 0 || components <= 0) throw file_error(file, std::string(what) + ": unknown component type");
+    if (component_size <= 0 || components <= 0) throw core::file_error(file, std::string(what) + ": unknown component type");
     const std::size_t element = static_cast<std::size_t>(component_size) * static_cast<std::size_t>(components);
     const std::size_t stride = view.byteStride ? view.byteStride : element;
     const std::size_t buffer_size = model.buffers[static_cast<std::size_t>(view.buffer)].data.size();
     if (accessor.count > 0 &&
         (view.byteOffset + view.byteLength > buffer_size ||
          accessor.byteOffset + (accessor.count - 1) * stride + element > view.byteLength))
-        throw file_error(file, std::string(what) + ": accessor reaches past the end of its buffer");
+        throw core::file_error(file, std::string(what) + ": accessor reaches past the end of its buffer");
     return accessor;
 }
 
 Mesh read_gltf(const std::filesystem::path& path) {
     const std::string name = path.string();
-    const std::string bytes = read_file(path);
-    if (bytes.empty()) throw file_error(name, "empty file (expected glTF)");
+    const std::string bytes = core::read_file(path);
+    if (bytes.empty()) throw core::file_error(name, "empty file (expected glTF)");
     tinygltf::TinyGLTF loader;
     tinygltf::Model model;
     std::string err, warn;
@@ -125,37 +125,37 @@ Mesh read_gltf(const std::filesystem::path& path) {
     const bool ok = lower_extension(path) == ".glb"
                         ? loader.LoadBinaryFromMemory(&model, &err, &warn, data, static_cast<unsigned int>(bytes.size()), base_dir)
                         : loader.LoadASCIIFromString(&model, &err, &warn, bytes.data(), static_cast<unsigned int>(bytes.size()), base_dir);
-    if (!ok) throw file_error(name, "invalid glTF: " + (err.empty() ? std::string("unknown error") : err));
-    if (model.meshes.empty() || model.meshes[0].primitives.empty()) throw file_error(name, "glTF has no mesh");
+    if (!ok) throw core::file_error(name, "invalid glTF: " + (err.empty() ? std::string("unknown error") : err));
+    if (model.meshes.empty() || model.meshes[0].primitives.empty()) throw core::file_error(name, "glTF has no mesh");
     const auto& primitive = model.meshes[0].primitives[0];
     if (primitive.mode != TINYGLTF_MODE_TRIANGLES && primitive.mode != -1)
-        throw file_error(name, "glTF primitive is not a triangle list");
+        throw core::file_error(name, "glTF primitive is not a triangle list");
     const auto position = primitive.attributes.find("POSITION");
-    if (position == primitive.attributes.end()) throw file_error(name, "glTF primitive has no POSITION");
+    if (position == primitive.attributes.end()) throw core::file_error(name, "glTF primitive has no POSITION");
     const auto& positions = checked_accessor(model, position->second, name, "POSITION");
     if (positions.type != TINYGLTF_TYPE_VEC3 || positions.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
-        throw file_error(name, "POSITION must be float VEC3");
+        throw core::file_error(name, "POSITION must be float VEC3");
 
     Mesh mesh;
     const auto count = static_cast<Eigen::Index>(positions.count);
     mesh.vertices.resize(3, count);
     for (Eigen::Index i = 0; i < count; ++i)
         for (int c = 0; c < 3; ++c) mesh.vertices(c, i) = static_cast<float>(accessor_value(model, positions, static_cast<std::size_t>(i), c));
-    if (!mesh.vertices.allFinite()) throw file_error(name, "POSITION contains NaN");
+    if (!mesh.vertices.allFinite()) throw core::file_error(name, "POSITION contains NaN");
 
     if (primitive.indices >= 0) {
         const auto& indices = checked_accessor(model, primitive.indices, name, "indices");
-        if (indices.count % 3 != 0) throw file_error(name, "index count " + std::to_string(indices.count) + " is not a multiple of 3");
+        if (indices.count % 3 != 0) throw core::file_error(name, "index count " + std::to_string(indices.count) + " is not a multiple of 3");
         mesh.triangles.resize(indices.count / 3);
         for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
             for (int k = 0; k < 3; ++k) {
                 const double id = accessor_value(model, indices, 3 * t + static_cast<std::size_t>(k), 0);
                 if (!(id >= 0 && id < static_cast<double>(count)))
-                    throw file_error(name, "triangle " + std::to_string(t) + " refers to a vertex that does not exist");
+                    throw core::file_error(name, "triangle " + std::to_string(t) + " refers to a vertex that does not exist");
                 mesh.triangles[t][static_cast<std::size_t>(k)] = static_cast<int>(id);
             }
     } else {
-        if (count % 3 != 0) throw file_error(name, "non-indexed triangle list with a vertex count not divisible by 3");
+        if (count % 3 != 0) throw core::file_error(name, "non-indexed triangle list with a vertex count not divisible by 3");
         for (int i = 0; i + 2 < count; i += 3) mesh.triangles.push_back({i, i + 1, i + 2});
     }
 
@@ -163,11 +163,11 @@ Mesh read_gltf(const std::filesystem::path& path) {
         const auto it = primitive.attributes.find(attribute);
         if (it == primitive.attributes.end()) return;
         const auto& accessor = checked_accessor(model, it->second, name, attribute);
-        if (static_cast<Eigen::Index>(accessor.count) != count) throw file_error(name, std::string(attribute) + " count differs from POSITION");
+        if (static_cast<Eigen::Index>(accessor.count) != count) throw core::file_error(name, std::string(attribute) + " count differs from POSITION");
         out.resize(rows, count);
         for (Eigen::Index i = 0; i < count; ++i)
             for (int c = 0; c < rows; ++c) out(c, i) = static_cast<float>(accessor_value(model, accessor, static_cast<std::size_t>(i), c));
-        if (!out.allFinite()) throw file_error(name, std::string(attribute) + " holds values this reader cannot convert");
+        if (!out.allFinite()) throw core::file_error(name, std::string(attribute) + " holds values this reader cannot convert");
     };
     Eigen::MatrixXf uv, colours;
     read_attribute("TEXCOORD_0", 2, uv);
@@ -186,17 +186,17 @@ int obj_index(const std::string& token, std::size_t count, const std::string& fi
     try {
         value = std::stol(token);
     } catch (const std::exception&) {
-        throw file_error(file, "line " + std::to_string(line) + ": bad index '" + token + "'");
+        throw core::file_error(file, "line " + std::to_string(line) + ": bad index '" + token + "'");
     }
     const long resolved = value < 0 ? static_cast<long>(count) + value : value - 1;
     if (value == 0 || resolved < 0 || resolved >= static_cast<long>(count))
-        throw file_error(file, "line " + std::to_string(line) + ": index " + token + " out of range");
+        throw core::file_error(file, "line " + std::to_string(line) + ": index " + token + " out of range");
     return static_cast<int>(resolved);
 }
 
 Mesh read_obj(const std::filesystem::path& path) {
     const std::string name = path.string();
-    const std::string text = read_file(path);
+    const std::string text = core::read_file(path);
     std::vector<Eigen::Vector3f> positions, colours;
     std::vector<Eigen::Vector2f> texcoords;
     std::vector<Triangle> triangles;
@@ -215,14 +215,14 @@ Mesh read_obj(const std::filesystem::path& path) {
             float x = 0;
             while (fields >> x) values.push_back(x);
             if (values.size() != 3 && values.size() != 6)
-                throw file_error(name, "line " + std::to_string(line_number) + ": 'v' needs x y z [r g b]");
+                throw core::file_error(name, "line " + std::to_string(line_number) + ": 'v' needs x y z [r g b]");
             for (float value : values)
-                if (!std::isfinite(value)) throw file_error(name, "line " + std::to_string(line_number) + ": value is not finite");
+                if (!std::isfinite(value)) throw core::file_error(name, "line " + std::to_string(line_number) + ": value is not finite");
             positions.emplace_back(values[0], values[1], values[2]);
             if (values.size() == 6) colours.emplace_back(values[3], values[4], values[5]);
         } else if (keyword == "vt") {
             float u = 0, v = 0;
-            if (!(fields >> u >> v)) throw file_error(name, "line " + std::to_string(line_number) + ": 'vt' needs u v");
+            if (!(fields >> u >> v)) throw core::file_error(name, "line " + std::to_string(line_number) + ": 'vt' needs u v");
             texcoords.emplace_back(u, 1.0f - v);  // OBJ's v points up; ours has v = 0 at the top
         } else if (keyword == "f") {
             std::vector<int> corners;
@@ -241,11 +241,11 @@ Mesh read_obj(const std::filesystem::path& path) {
                 }
                 corners.push_back(v);
             }
-            if (corners.size() < 3) throw file_error(name, "line " + std::to_string(line_number) + ": face with fewer than 3 corners");
+            if (corners.size() < 3) throw core::file_error(name, "line " + std::to_string(line_number) + ": face with fewer than 3 corners");
             for (std::size_t k = 1; k + 1 < corners.size(); ++k) triangles.push_back({corners[0], corners[k], corners[k + 1]});
         }
     }
-    if (positions.empty()) throw file_error(name, "no vertices (not an OBJ mesh?)");
+    if (positions.empty()) throw core::file_error(name, "no vertices (not an OBJ mesh?)");
     Mesh mesh;
     mesh.vertices.resize(3, static_cast<Eigen::Index>(positions.size()));
     for (std::size_t i = 0; i < positions.size(); ++i) mesh.vertices.col(static_cast<Eigen::Index>(i)) = positions[i];
@@ -288,7 +288,7 @@ void write_obj(const Mesh& mesh, const std::filesystem::path& path) {
         }
         out << '\n';
     }
-    write_file_atomically(path, out.str());
+    core::write_file_atomically(path, out.str());
 }
 
 void write_glb(const Mesh& mesh, const std::filesystem::path& path, std::span<const std::uint8_t> png_texture) {
@@ -324,7 +324,7 @@ void write_glb(const Mesh& mesh, const std::filesystem::path& path, std::span<co
     material.pbrMetallicRoughness.metallicFactor = 0.0;
     material.pbrMetallicRoughness.roughnessFactor = 0.8;
     if (!png_texture.empty()) {
-        if (mesh.uv.cols() == 0) throw file_error(path.string(), "a texture needs texture coordinates, the mesh has none");
+        if (mesh.uv.cols() == 0) throw core::file_error(path.string(), "a texture needs texture coordinates, the mesh has none");
         tinygltf::Image image;
         image.mimeType = "image/png";
         image.bufferView = add_view(model, png_texture.data(), png_texture.size(), 0);
@@ -359,8 +359,8 @@ void write_glb(const Mesh& mesh, const std::filesystem::path& path, std::span<co
 
     std::ostringstream stream;
     tinygltf::TinyGLTF writer;
-    if (!writer.WriteGltfSceneToStream(&model, stream, false, true)) throw file_error(path.string(), "glTF serialisation failed");
-    write_file_atomically(path, stream.str());
+    if (!writer.WriteGltfSceneToStream(&model, stream, false, true)) throw core::file_error(path.string(), "glTF serialisation failed");
+    core::write_file_atomically(path, stream.str());
 }
 
 bool is_mesh_file(const std::filesystem::path& path) {
@@ -372,7 +372,7 @@ Mesh read_mesh(const std::filesystem::path& path) {
     const std::string ext = lower_extension(path);
     if (ext == ".obj") return read_obj(path);
     if (ext == ".gltf" || ext == ".glb") return read_gltf(path);
-    throw file_error(path.string(), "unknown mesh format (expected .obj, .gltf or .glb)");
+    throw core::file_error(path.string(), "unknown mesh format (expected .obj, .gltf or .glb)");
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

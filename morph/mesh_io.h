@@ -1,14 +1,14 @@
 #pragma once
 // Mesh files: export to Wavefront OBJ and binary glTF 2.0 (.glb), import of OBJ and glTF
 // (.gltf/.glb) triangle meshes for `model build`. Writes are atomic; every failure is a
-// facesynth::Error naming the file.
+// core::Error naming the file.
 #include "morph/mesh.h"
 
 #include <cstdint>
 #include <filesystem>
 #include <span>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 // OBJ with `v x y z [r g b]` (per-vertex colour when the mesh has colours), `vt u v` (OBJ's v
 // points up, so v_obj = 1 - v), `vn` normals, and `f a/a/a ...` faces (1-based).
@@ -26,4 +26,4 @@ void write_glb(const Mesh& mesh, const std::filesystem::path& path, std::span<co
 // when the file has them per vertex. glTF: the first primitive of the first mesh, indexed or not.
 [[nodiscard]] Mesh read_mesh(const std::filesystem::path& path);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -1,30 +1,30 @@
 #include "morph/model.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/regions.h"
 
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 bool all_finite(const auto& matrix) { return matrix.size() == 0 || matrix.allFinite(); }
 
 void check_pca(const PcaModel& pca, int num_vertices, const std::string& what, const std::string& context) {
     if (pca.mean.size() != 3 * static_cast<Eigen::Index>(num_vertices))
-        throw Error(context + ": " + what + " mean has " + std::to_string(pca.mean.size()) +
+        throw core::Error(context + ": " + what + " mean has " + std::to_string(pca.mean.size()) +
                     " values, expected 3 x " + std::to_string(num_vertices));
     if (pca.basis.rows() != pca.mean.size())
-        throw Error(context + ": " + what + " basis has " + std::to_string(pca.basis.rows()) + " rows, expected " +
+        throw core::Error(context + ": " + what + " basis has " + std::to_string(pca.basis.rows()) + " rows, expected " +
                     std::to_string(pca.mean.size()));
     if (pca.eigenvalues.size() != pca.basis.cols())
-        throw Error(context + ": " + what + " has " + std::to_string(pca.basis.cols()) + " basis vectors but " +
+        throw core::Error(context + ": " + what + " has " + std::to_string(pca.basis.cols()) + " basis vectors but " +
                     std::to_string(pca.eigenvalues.size()) + " eigenvalues");
     if (!all_finite(pca.mean) || !all_finite(pca.basis) || !all_finite(pca.eigenvalues))
-        throw Error(context + ": " + what + " contains NaN or infinite values");
-    if ((pca.eigenvalues.array() < 0).any()) throw Error(context + ": " + what + " has negative eigenvalues");
+        throw core::Error(context + ": " + what + " contains NaN or infinite values");
+    if ((pca.eigenvalues.array() < 0).any()) throw core::Error(context + ": " + what + " has negative eigenvalues");
 }
 
 class Fnv1a {
@@ -118,7 +118,7 @@ Eigen::Matrix3Xf MorphableModel::landmark_positions(const Eigen::Matrix3Xf& vert
 
 void MorphableModel::validate(const std::string& context) const {
     const int v = num_vertices();
-    if (v <= 0) throw Error(context + ": model has no vertices");
+    if (v <= 0) throw core::Error(context + ": model has no vertices");
     check_pca(shape, v, "shape model", context);
     if (albedo && !albedo->empty()) check_pca(*albedo, v, "colour model", context);
     if (expression) {
@@ -127,43 +127,43 @@ void MorphableModel::validate(const std::string& context) const {
         } else {
             for (const auto& b : std::get<std::vector<Blendshape>>(*expression)) {
                 if (b.offsets.size() != 3 * static_cast<Eigen::Index>(v))
-                    throw Error(context + ": blendshape '" + b.name + "' has " + std::to_string(b.offsets.size()) +
+                    throw core::Error(context + ": blendshape '" + b.name + "' has " + std::to_string(b.offsets.size()) +
                                 " values, expected 3 x " + std::to_string(v));
-                if (!all_finite(b.offsets)) throw Error(context + ": blendshape '" + b.name + "' contains NaN");
+                if (!all_finite(b.offsets)) throw core::Error(context + ": blendshape '" + b.name + "' contains NaN");
             }
         }
     }
     for (std::size_t i = 0; i < triangles.size(); ++i)
         for (int id : triangles[i])
             if (id < 0 || id >= v)
-                throw Error(context + ": triangle " + std::to_string(i) + " refers to vertex " + std::to_string(id) +
+                throw core::Error(context + ": triangle " + std::to_string(i) + " refers to vertex " + std::to_string(id) +
                             " of " + std::to_string(v));
     if (uv.cols() != 0 && uv.cols() != v)
-        throw Error(context + ": " + std::to_string(uv.cols()) + " texture coordinates for " + std::to_string(v) +
+        throw core::Error(context + ": " + std::to_string(uv.cols()) + " texture coordinates for " + std::to_string(v) +
                     " vertices");
-    if (!all_finite(uv)) throw Error(context + ": texture coordinates contain NaN");
+    if (!all_finite(uv)) throw core::Error(context + ": texture coordinates contain NaN");
     for (std::size_t i = 0; i < landmarks.size(); ++i) {
         for (int id : landmarks[i].vertices)
             if (id < 0 || id >= v)
-                throw Error(context + ": landmark " + std::to_string(i + 1) + " refers to vertex " +
+                throw core::Error(context + ": landmark " + std::to_string(i + 1) + " refers to vertex " +
                             std::to_string(id) + " of " + std::to_string(v));
         for (float w : landmarks[i].weights)
-            if (!std::isfinite(w)) throw Error(context + ": landmark " + std::to_string(i + 1) + " has a NaN weight");
+            if (!std::isfinite(w)) throw core::Error(context + ": landmark " + std::to_string(i + 1) + " has a NaN weight");
     }
     for (const auto* chain : {&contour.right, &contour.left})
         for (int id : *chain)
-            if (id < 0 || id >= v) throw Error(context + ": contour vertex " + std::to_string(id) + " out of range");
+            if (id < 0 || id >= v) throw core::Error(context + ": contour vertex " + std::to_string(id) + " out of range");
     if (!symmetry.empty() && static_cast<int>(symmetry.size()) != v)
-        throw Error(context + ": symmetry map has " + std::to_string(symmetry.size()) + " entries for " +
+        throw core::Error(context + ": symmetry map has " + std::to_string(symmetry.size()) + " entries for " +
                     std::to_string(v) + " vertices");
     for (int id : symmetry)
-        if (id < -1 || id >= v) throw Error(context + ": symmetry map refers to vertex " + std::to_string(id));
+        if (id < -1 || id >= v) throw core::Error(context + ": symmetry map refers to vertex " + std::to_string(id));
     if (!vertex_labels.empty() && static_cast<int>(vertex_labels.size()) != v)
-        throw Error(context + ": " + std::to_string(vertex_labels.size()) + " vertex labels for " + std::to_string(v) +
+        throw core::Error(context + ": " + std::to_string(vertex_labels.size()) + " vertex labels for " + std::to_string(v) +
                     " vertices");
     for (std::size_t i = 0; i < vertex_labels.size(); ++i)
         if (vertex_labels[i] >= kNumRegions)
-            throw Error(context + ": vertex " + std::to_string(i) + " has region label " + std::to_string(vertex_labels[i]) +
+            throw core::Error(context + ": vertex " + std::to_string(i) + " has region label " + std::to_string(vertex_labels[i]) +
                         " (ids are 0-" + std::to_string(kNumRegions - 1) + ")");
 }
 
@@ -202,4 +202,4 @@ std::string MorphableModel::checksum() const {
     return hex;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -15,7 +15,7 @@
 #include <variant>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 // A PCA model over stacked 3-vectors (x0 y0 z0 x1 y1 z1 ...).
 struct PcaModel {
@@ -88,7 +88,7 @@ struct MorphableModel {
     // Landmark positions (3 x L) on the given vertices.
     [[nodiscard]] Eigen::Matrix3Xf landmark_positions(const Eigen::Matrix3Xf& vertices) const;
 
-    // Throws facesynth::Error (prefixed with `context`) if sizes disagree, indices are out of range
+    // Throws core::Error (prefixed with `context`) if sizes disagree, indices are out of range
     // or values are not finite.
     void validate(const std::string& context) const;
 
@@ -103,4 +103,4 @@ struct MorphableModel {
     return {stacked.data(), 3, stacked.size() / 3};
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

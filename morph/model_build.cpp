@@ -1,9 +1,9 @@
 #include "morph/model_build.h"
 
 #include "morph/bfm_io.h"
-#include "morph/error.h"
+#include "core/error.h"
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 Eigen::VectorXf stacked(const Eigen::Matrix3Xf& points) {
@@ -14,17 +14,17 @@ Eigen::VectorXf stacked(const Eigen::Matrix3Xf& points) {
 
 ModelBuildResult build_model(const std::vector<Mesh>& meshes, const std::vector<std::string>& sources,
                              const ModelBuildOptions& options) {
-    if (meshes.size() < 2) throw Error("model build needs at least 2 meshes, got " + std::to_string(meshes.size()));
-    if (sources.size() != meshes.size()) throw Error("model build: one source name per mesh expected");
+    if (meshes.size() < 2) throw core::Error("model build needs at least 2 meshes, got " + std::to_string(meshes.size()));
+    if (sources.size() != meshes.size()) throw core::Error("model build: one source name per mesh expected");
     const Mesh& first = meshes.front();
     bool all_coloured = true;
     for (std::size_t i = 0; i < meshes.size(); ++i) {
         const Mesh& m = meshes[i];
         if (m.num_vertices() != first.num_vertices())
-            throw file_error(sources[i], "has " + std::to_string(m.num_vertices()) + " vertices, " + sources[0] + " has " +
+            throw core::file_error(sources[i], "has " + std::to_string(m.num_vertices()) + " vertices, " + sources[0] + " has " +
                                              std::to_string(first.num_vertices()) + " (meshes must be in correspondence)");
         if (m.triangles != first.triangles)
-            throw file_error(sources[i], "has different triangles from " + sources[0] + " (meshes must share one topology)");
+            throw core::file_error(sources[i], "has different triangles from " + sources[0] + " (meshes must share one topology)");
         all_coloured = all_coloured && m.colours.cols() == m.num_vertices();
     }
 
@@ -59,4 +59,4 @@ ModelBuildResult build_model(const std::vector<Mesh>& meshes, const std::vector<
     return result;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 struct ModelBuildOptions {
     PcaBuildOptions shape;         // components / variance kept for the shape model
@@ -24,9 +24,9 @@ struct ModelBuildResult {
 
 // Shape PCA over the meshes' vertices; a colour PCA when every mesh has per-vertex colours (a
 // mean-only colour model when they are all the same); triangles and uv from the first mesh.
-// `sources` name the meshes in errors (same order as `meshes`). Throws facesynth::Error when there
+// `sources` name the meshes in errors (same order as `meshes`). Throws core::Error when there
 // are fewer than 2 meshes or their topologies differ.
 [[nodiscard]] ModelBuildResult build_model(const std::vector<Mesh>& meshes, const std::vector<std::string>& sources,
                                            const ModelBuildOptions& options = {});
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -1,11 +1,11 @@
 #include "morph/model_io.h"
 
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 #include "morph/bfm_io.h"
 #include "morph/builtin.h"
-#include "morph/byte_io.h"
+#include "core/byte_io.h"
 #include "morph/eos_io.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "morph/region_labels.h"
 
@@ -17,7 +17,7 @@
 #include <functional>
 #include <optional>
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 // .fsm layout (docs/model-format.md): magic, uint32 version, uint32 section count, 16-character
@@ -52,7 +52,7 @@ std::uint64_t fnv1a(std::string_view bytes) {
     return hash;
 }
 
-void write_pca(ByteWriter& out, const PcaModel& pca) {
+void write_pca(core::ByteWriter& out, const PcaModel& pca) {
     out.write(static_cast<std::uint32_t>(pca.num_vertices()));
     out.write(static_cast<std::uint32_t>(pca.num_components()));
     out.write_floats(pca.mean);
@@ -60,7 +60,7 @@ void write_pca(ByteWriter& out, const PcaModel& pca) {
     out.write_floats(pca.eigenvalues);
 }
 
-PcaModel read_pca(ByteReader& in) {
+PcaModel read_pca(core::ByteReader& in) {
     const auto vertices = in.read<std::uint32_t>("vertex count");
     const auto components = in.read<std::uint32_t>("component count");
     const std::uint64_t rows = 3ull * vertices;
@@ -80,13 +80,13 @@ PcaModel read_pca(ByteReader& in) {
 }
 
 template <typename T>
-void write_ints(ByteWriter& out, const std::vector<T>& values) {
+void write_ints(core::ByteWriter& out, const std::vector<T>& values) {
     out.write(static_cast<std::uint32_t>(values.size()));
     out.write_bytes(values.data(), values.size() * sizeof(T));
 }
 
 template <typename T>
-std::vector<T> read_ints(ByteReader& in, const char* what) {
+std::vector<T> read_ints(core::ByteReader& in, const char* what) {
     const auto count = in.read<std::uint32_t>(what);
     in.check_fits(count, sizeof(T), what);
     std::vector<T> values(count);
@@ -94,7 +94,7 @@ std::vector<T> read_ints(ByteReader& in, const char* what) {
     return values;
 }
 
-void add_section(ByteWriter& file, std::uint32_t section_tag, const ByteWriter& payload, std::uint32_t& count) {
+void add_section(core::ByteWriter& file, std::uint32_t section_tag, const core::ByteWriter& payload, std::uint32_t& count) {
     file.write(section_tag);
     file.write(static_cast<std::uint64_t>(payload.bytes().size()));
     file.write_bytes(payload.bytes().data(), payload.bytes().size());
@@ -102,7 +102,7 @@ void add_section(ByteWriter& file, std::uint32_t section_tag, const ByteWriter& 
 }
 
 std::string serialise(const MorphableModel& model) {
-    ByteWriter file;
+    core::ByteWriter file;
     file.write_bytes(kMagic.data(), kMagic.size());
     file.write(kFormatVersion);
     const std::size_t count_offset = file.bytes().size();
@@ -112,17 +112,17 @@ std::string serialise(const MorphableModel& model) {
 
     std::uint32_t sections = 0;
     {
-        ByteWriter s;
+        core::ByteWriter s;
         s.write_bytes(model.name.data(), model.name.size());
         add_section(file, kName, s, sections);
     }
     {
-        ByteWriter s;
+        core::ByteWriter s;
         write_pca(s, model.shape);
         add_section(file, kShape, s, sections);
     }
     if (model.expression) {
-        ByteWriter s;
+        core::ByteWriter s;
         if (const auto* pca = std::get_if<PcaModel>(&*model.expression)) {
             write_pca(s, *pca);
             add_section(file, kExpressionPca, s, sections);
@@ -139,39 +139,39 @@ std::string serialise(const MorphableModel& model) {
         }
     }
     if (model.albedo) {
-        ByteWriter s;
+        core::ByteWriter s;
         write_pca(s, *model.albedo);
         add_section(file, kAlbedo, s, sections);
     }
     {
-        ByteWriter s;
+        core::ByteWriter s;
         write_ints(s, model.triangles);
         add_section(file, kTriangles, s, sections);
     }
     if (model.uv.cols() > 0) {
-        ByteWriter s;
+        core::ByteWriter s;
         s.write(static_cast<std::uint32_t>(model.uv.cols()));
         s.write_floats(model.uv);
         add_section(file, kUv, s, sections);
     }
     if (!model.landmarks.empty()) {
-        ByteWriter s;
+        core::ByteWriter s;
         write_ints(s, model.landmarks);
         add_section(file, kLandmarks, s, sections);
     }
     if (!model.contour.right.empty() || !model.contour.left.empty()) {
-        ByteWriter s;
+        core::ByteWriter s;
         write_ints(s, model.contour.right);
         write_ints(s, model.contour.left);
         add_section(file, kContour, s, sections);
     }
     if (!model.symmetry.empty()) {
-        ByteWriter s;
+        core::ByteWriter s;
         write_ints(s, model.symmetry);
         add_section(file, kSymmetry, s, sections);
     }
     if (!model.vertex_labels.empty()) {
-        ByteWriter s;
+        core::ByteWriter s;
         s.write(static_cast<std::uint32_t>(model.vertex_labels.size()));
         s.write_bytes(model.vertex_labels.data(), model.vertex_labels.size());
         add_section(file, kLabels, s, sections);
@@ -181,7 +181,7 @@ std::string serialise(const MorphableModel& model) {
     return std::move(file.bytes());
 }
 
-void read_section(MorphableModel& model, std::uint32_t section_tag, ByteReader& in) {
+void read_section(MorphableModel& model, std::uint32_t section_tag, core::ByteReader& in) {
     if (section_tag == kName) {
         model.name.resize(in.remaining());
         in.read_bytes(model.name.data(), model.name.size(), "name");
@@ -258,7 +258,7 @@ MorphableModel load_model_file(const std::filesystem::path& path) {
             eos.model.landmarks = ibug68_from_mapping(eos.landmarks, path.string());
         return std::move(eos.model);
     }
-    throw file_error(path.string(), "unknown model format (expected .fsm, .h5 or an eos .bin)");
+    throw core::file_error(path.string(), "unknown model format (expected .fsm, .h5 or an eos .bin)");
 }
 
 // The single file in `dir` matching `accept`, or nothing; several matches are an error.
@@ -275,7 +275,7 @@ std::optional<std::filesystem::path> find_one(const std::filesystem::path& dir, 
             names += ' ';
             names += p.filename().string();
         }
-        throw file_error(dir.string(), std::string("several ") + what + " files:" + names + " (keep one)");
+        throw core::file_error(dir.string(), std::string("several ") + what + " files:" + names + " (keep one)");
     }
     return found.front();
 }
@@ -288,7 +288,7 @@ MorphableModel load_model_folder(const std::filesystem::path& dir) {
     const auto model_path = find_one(dir, "model", [](const std::filesystem::path& p) {
         return has_extension(p, {".fsm", ".h5", ".hdf5"}) || (has_extension(p, {".bin"}) && !name_contains(p, "blendshape"));
     });
-    if (!model_path) throw file_error(dir.string(), "no model file in the folder (expected .fsm, .h5 or an eos .bin)");
+    if (!model_path) throw core::file_error(dir.string(), "no model file in the folder (expected .fsm, .h5 or an eos .bin)");
 
     MorphableModel model;
     LandmarkMapping mapping;
@@ -334,31 +334,31 @@ MorphableModel load_model_folder(const std::filesystem::path& dir) {
 
 void write_model(const MorphableModel& model, const std::filesystem::path& path) {
     model.validate(path.string());
-    write_file_atomically(path, serialise(model));
+    core::write_file_atomically(path, serialise(model));
 }
 
 MorphableModel read_model(const std::filesystem::path& path) {
-    const std::string bytes = read_file(path);
+    const std::string bytes = core::read_file(path);
     const std::string name = path.string();
-    if (bytes.empty()) throw file_error(name, "empty file (expected a facesynth .fsm model)");
+    if (bytes.empty()) throw core::file_error(name, "empty file (expected a facesynth .fsm model)");
     if (bytes.size() < kMagic.size() || bytes.compare(0, kMagic.size(), kMagic.data(), kMagic.size()) != 0)
-        throw file_error(name, "not a facesynth model (wrong magic bytes)");
-    ByteReader header(bytes, name);
+        throw core::file_error(name, "not a facesynth model (wrong magic bytes)");
+    core::ByteReader header(bytes, name);
     header.skip(kMagic.size(), "magic");
     const auto version = header.read<std::uint32_t>("format version");
     if (version != kFormatVersion)
-        throw file_error(name, "unsupported .fsm format version " + std::to_string(version) + " (this build reads " +
+        throw core::file_error(name, "unsupported .fsm format version " + std::to_string(version) + " (this build reads " +
                                    std::to_string(kFormatVersion) + ")");
-    if (bytes.size() < kHeaderSize + sizeof(std::uint64_t)) throw file_error(name, "truncated (shorter than the header)");
+    if (bytes.size() < kHeaderSize + sizeof(std::uint64_t)) throw core::file_error(name, "truncated (shorter than the header)");
     const std::string_view body(bytes.data(), bytes.size() - sizeof(std::uint64_t));
     std::uint64_t stored_hash = 0;
     std::memcpy(&stored_hash, bytes.data() + body.size(), sizeof stored_hash);
-    if (stored_hash != fnv1a(body)) throw file_error(name, "file checksum mismatch (truncated or corrupt)");
+    if (stored_hash != fnv1a(body)) throw core::file_error(name, "file checksum mismatch (truncated or corrupt)");
 
     const auto sections = header.read<std::uint32_t>("section count");
     std::string checksum(16, '\0');
     header.read_bytes(checksum.data(), 16, "model checksum");
-    ByteReader in(body, name);
+    core::ByteReader in(body, name);
     in.skip(kHeaderSize, "header");
     MorphableModel model;
     for (std::uint32_t i = 0; i < sections; ++i) {
@@ -366,15 +366,15 @@ MorphableModel read_model(const std::filesystem::path& path) {
         const auto size = in.read<std::uint64_t>("section size");
         in.check_fits(size, 1, "section size");
         const std::size_t start = in.offset();
-        ByteReader section(body.substr(start, static_cast<std::size_t>(size)), name + " section " + tag_name(section_tag));
+        core::ByteReader section(body.substr(start, static_cast<std::size_t>(size)), name + " section " + tag_name(section_tag));
         read_section(model, section_tag, section);
         in.skip(static_cast<std::size_t>(size), "section");
     }
-    if (!in.at_end()) throw file_error(name, std::to_string(in.remaining()) + " bytes after the last section");
-    if (model.shape.empty()) throw file_error(name, "no shape model section");
+    if (!in.at_end()) throw core::file_error(name, std::to_string(in.remaining()) + " bytes after the last section");
+    if (model.shape.empty()) throw core::file_error(name, "no shape model section");
     model.validate(name);
     if (model.checksum() != checksum)
-        throw file_error(name, "model checksum " + model.checksum() + " differs from the stored " + checksum);
+        throw core::file_error(name, "model checksum " + model.checksum() + " differs from the stored " + checksum);
     return model;
 }
 
@@ -388,7 +388,7 @@ MorphableModel load_model(const std::string& spec) {
     } else if (std::filesystem::exists(path, ec)) {
         model = load_model_file(path);
     } else {
-        throw file_error(spec, "no such model file or folder (--model takes builtin, a model file or a folder)");
+        throw core::file_error(spec, "no such model file or folder (--model takes builtin, a model file or a folder)");
     }
     // Every reader's model without labels of its own (eos, Basel, an .fsm without LABL) gets them from
     // its landmarks, when it has the 68.
@@ -396,4 +396,4 @@ MorphableModel load_model(const std::string& spec) {
     return model;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

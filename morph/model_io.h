@@ -1,13 +1,13 @@
 #pragma once
 // Loading and saving morphable models. Every reader validates what it reads and throws
-// facesynth::Error naming the file and the problem; none trusts a size field before checking it
+// core::Error naming the file and the problem; none trusts a size field before checking it
 // against the file's length.
 #include "morph/model.h"
 
 #include <filesystem>
 #include <string>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 // `spec` as given to --model: "builtin", a model file (eos .bin, BFM 2017 .h5, our own .fsm), or a
 // folder holding a model with its side files (as ../shared/data/sfm/: model, blendshapes, landmark
@@ -18,4 +18,4 @@ namespace facesynth {
 void write_model(const MorphableModel& model, const std::filesystem::path& path);
 [[nodiscard]] MorphableModel read_model(const std::filesystem::path& path);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -1,23 +1,23 @@
 #include "morph/pca.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <Eigen/Eigenvalues>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 PcaModel build_pca(const std::vector<Eigen::VectorXf>& samples, const PcaBuildOptions& options) {
     const auto n = static_cast<Eigen::Index>(samples.size());
-    if (n < 2) throw Error("PCA needs at least 2 samples, got " + std::to_string(n));
+    if (n < 2) throw core::Error("PCA needs at least 2 samples, got " + std::to_string(n));
     const Eigen::Index d = samples[0].size();
-    if (d == 0) throw Error("PCA samples are empty");
+    if (d == 0) throw core::Error("PCA samples are empty");
     Eigen::MatrixXd data(d, n);
     for (Eigen::Index i = 0; i < n; ++i) {
         const auto& s = samples[static_cast<std::size_t>(i)];
         if (s.size() != d)
-            throw Error("PCA sample " + std::to_string(i) + " has " + std::to_string(s.size()) + " values, sample 0 has " +
+            throw core::Error("PCA sample " + std::to_string(i) + " has " + std::to_string(s.size()) + " values, sample 0 has " +
                         std::to_string(d));
-        if (!s.allFinite()) throw Error("PCA sample " + std::to_string(i) + " contains NaN or infinite values");
+        if (!s.allFinite()) throw core::Error("PCA sample " + std::to_string(i) + " contains NaN or infinite values");
         data.col(i) = s.cast<double>();
     }
     const Eigen::VectorXd mean = data.rowwise().mean();
@@ -27,7 +27,7 @@ PcaModel build_pca(const std::vector<Eigen::VectorXf>& samples, const PcaBuildOp
     // covariance: if G v = λ v then X v / sqrt(λ) is a unit eigenvector of X Xᵀ with eigenvalue λ.
     const Eigen::MatrixXd gram = data.transpose() * data;
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(gram);
-    if (solver.info() != Eigen::Success) throw Error("PCA eigen-decomposition failed");
+    if (solver.info() != Eigen::Success) throw core::Error("PCA eigen-decomposition failed");
     const Eigen::VectorXd lambda = solver.eigenvalues().reverse();  // descending
     const Eigen::MatrixXd vectors = solver.eigenvectors().rowwise().reverse();
 
@@ -42,7 +42,7 @@ PcaModel build_pca(const std::vector<Eigen::VectorXf>& samples, const PcaBuildOp
         explained += lambda[i];
         ++keep;
     }
-    if (keep == 0) throw Error("PCA: the samples do not vary");
+    if (keep == 0) throw core::Error("PCA: the samples do not vary");
 
     PcaModel pca;
     pca.mean = mean.cast<float>();
@@ -55,4 +55,4 @@ PcaModel build_pca(const std::vector<Eigen::VectorXf>& samples, const PcaBuildOp
     return pca;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

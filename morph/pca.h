@@ -5,7 +5,7 @@
 
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 struct PcaBuildOptions {
     int max_components = 0;           // 0: as many as the data supports (N - 1)
@@ -14,7 +14,7 @@ struct PcaBuildOptions {
 
 // Mean, orthonormal basis (columns sorted by decreasing variance) and eigenvalues = sample variances
 // (1 / (N - 1) normalisation) along each basis vector. Needs at least 2 samples of equal size.
-// Throws facesynth::Error on empty, mismatched or non-finite input.
+// Throws core::Error on empty, mismatched or non-finite input.
 [[nodiscard]] PcaModel build_pca(const std::vector<Eigen::VectorXf>& samples, const PcaBuildOptions& options = {});
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

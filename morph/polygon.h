@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 // Even-odd point-in-polygon test (the polygon is closed implicitly).
 [[nodiscard]] inline bool inside_polygon(const Eigen::Vector2f& p, const std::vector<Eigen::Vector2f>& polygon) {
@@ -26,4 +26,4 @@ namespace facesynth {
     return (p - (a + t * ab)).norm();
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

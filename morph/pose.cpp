@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 double radians(double degrees) { return degrees * std::numbers::pi / 180.0; }
@@ -45,4 +45,4 @@ EulerAngles euler_from_rotation(const Eigen::Matrix3d& m) {
     return a;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -12,7 +12,7 @@
 // Camera space (OpenCV): x right, y down, z forward. x_cam = kModelToCamera · R · X + t.
 #include <Eigen/Core>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 struct EulerAngles {
     double yaw = 0;    // degrees
@@ -30,4 +30,4 @@ struct EulerAngles {
     return Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -9,7 +9,7 @@
 #include <limits>
 #include <optional>
 
-namespace facesynth {
+namespace facesynth::morph {
 namespace {
 
 // The landmarks of the mean shape in the frontal view (x, y) and their depth z, with the sizes the
@@ -122,4 +122,4 @@ std::vector<std::uint8_t> derive_region_labels(const MorphableModel& model) {
     return labels;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

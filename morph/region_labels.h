@@ -8,11 +8,11 @@
 #include <cstdint>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 // One Region id per vertex of the model: brows, eyes, lips, mouth interior and nose from polygons
 // through the landmarks, neck below the jaw line, skin elsewhere (hair and ears are not derived).
 // Empty when the model lacks the 68 landmarks or they are degenerate (outer eye corners coincide).
 [[nodiscard]] std::vector<std::uint8_t> derive_region_labels(const MorphableModel& model);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

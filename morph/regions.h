@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <string_view>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 enum class Region : std::uint8_t {
     kBackground = 0, kSkin = 1, kBrows = 2, kEyes = 3, kLips = 4, kNose = 5, kMouthInterior = 6,
@@ -32,4 +32,4 @@ struct RegionColour {
     return i < kNumRegions ? colours[i] : RegionColour{255, 0, 255};
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

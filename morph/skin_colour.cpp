@@ -1,6 +1,6 @@
 #include "morph/skin_colour.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/region_labels.h"
 #include "morph/regions.h"
 #include "morph/sampling.h"
@@ -9,7 +9,7 @@
 #include <cmath>
 #include <utility>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 std::string flaw_names(std::uint8_t flaws) {
     constexpr std::array<std::pair<SkinColourFlaw, const char*>, 5> names{{{kSkinTooDark, "too_dark"},
@@ -28,13 +28,13 @@ std::string flaw_names(std::uint8_t flaws) {
 
 SkinColourCheck::SkinColourCheck(const MorphableModel& model, const SkinColourLimits& limits) : limits_(limits) {
     if (!model.albedo || model.albedo->empty())
-        throw Error("model '" + model.name + "' has no colour model, so there is no colour draw to check");
+        throw core::Error("model '" + model.name + "' has no colour model, so there is no colour draw to check");
     const std::vector<std::uint8_t> labels = model.vertex_labels.empty() ? derive_region_labels(model) : model.vertex_labels;
     std::vector<Eigen::Index> skin;
     for (std::size_t v = 0; v < labels.size(); ++v)
         if (labels[v] == static_cast<std::uint8_t>(Region::kSkin)) skin.push_back(static_cast<Eigen::Index>(v));
     if (skin.empty() || labels.size() != static_cast<std::size_t>(model.num_vertices()))
-        throw Error("model '" + model.name +
+        throw core::Error("model '" + model.name +
                     "' has no skin vertices: it has no region labels and no 68 iBUG landmarks to derive them from");
     const Eigen::MatrixXf basis = model.albedo->rescaled_basis();
     const auto rows = static_cast<Eigen::Index>(3 * skin.size());
@@ -76,9 +76,9 @@ SkinColourVerdict SkinColourCheck::check(std::span<const float> beta) const {
     return v;
 }
 
-AlbedoDraw draw_albedo(Rng& first, Rng& redraw, int count, double truncation, double scale, const SkinColourCheck* check,
+AlbedoDraw draw_albedo(core::Rng& first, core::Rng& redraw, int count, double truncation, double scale, const SkinColourCheck* check,
                        int max_redraws) {
-    const auto scaled = [&](Rng& rng) {
+    const auto scaled = [&](core::Rng& rng) {
         std::vector<float> beta = sample_coefficients(rng, count, truncation);
         for (float& b : beta) b = static_cast<float>(b * scale);
         return beta;
@@ -103,4 +103,4 @@ AlbedoDraw draw_albedo(Rng& first, Rng& redraw, int count, double truncation, do
     return draw;
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

@@ -5,7 +5,7 @@
 // gives the limits and why; `facesynth model albedo-check` measures a model with it and synth's
 // albedo.reject_implausible redraws what it rejects.
 #include "morph/model.h"
-#include "morph/random.h"
+#include "core/random.h"
 
 #include <Eigen/Core>
 
@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::morph {
 
 // Limits on the mean skin albedo (linear RGB; luminance Y = 0.2126 R + 0.7152 G + 0.0722 B).
 struct SkinColourLimits {
@@ -50,7 +50,7 @@ struct SkinColourVerdict {
 
 class SkinColourCheck {
 public:
-    // Throws facesynth::Error naming the model when it has no colour model or no skin vertices
+    // Throws core::Error naming the model when it has no colour model or no skin vertices
     // (region labels of its own, or derived from its 68 landmarks).
     explicit SkinColourCheck(const MorphableModel& model, const SkinColourLimits& limits = {});
 
@@ -76,7 +76,7 @@ struct AlbedoDraw {
 // without a check. While `check` rejects the draw, up to max_redraws further draws come from
 // `redraw`; if none passes, the first draw is scaled by 0.9, 0.8, ..., 0 until it passes (the mean
 // must pass: SkinColourCheck::check({}) is tested by the caller). Without a check: the first draw.
-[[nodiscard]] AlbedoDraw draw_albedo(Rng& first, Rng& redraw, int count, double truncation, double scale,
+[[nodiscard]] AlbedoDraw draw_albedo(core::Rng& first, core::Rng& redraw, int count, double truncation, double scale,
                                      const SkinColourCheck* check, int max_redraws);
 
-}  // namespace facesynth
+}  // namespace facesynth::morph

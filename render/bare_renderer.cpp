@@ -1,6 +1,6 @@
 #include "render/bare_renderer.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "render/gl_program.h"
 
 #include <array>
@@ -33,12 +33,12 @@ struct BareRenderer::Impl {
     int width = 0, height = 0;
     Eigen::Vector3f low, high;
 
-    Impl(const Mesh& mesh, const RendererOptions& options) {
-        if (mesh.num_vertices() == 0 || mesh.triangles.empty()) throw Error("render: the mesh is empty");
-        for (const Triangle& t : mesh.triangles)
+    Impl(const morph::Mesh& mesh, const RendererOptions& options) {
+        if (mesh.num_vertices() == 0 || mesh.triangles.empty()) throw core::Error("render: the mesh is empty");
+        for (const morph::Triangle& t : mesh.triangles)
             for (int i : t)
                 if (i < 0 || i >= mesh.num_vertices())
-                    throw Error("render: triangle vertex index " + std::to_string(i) + " out of range");
+                    throw core::Error("render: triangle vertex index " + std::to_string(i) + " out of range");
         context = detail::open_context(options);
         context->make_current();
         renderer_string = detail::load_functions(*context, gl);
@@ -56,7 +56,7 @@ struct BareRenderer::Impl {
         gl.EnableVertexAttribArray(0);
         gl.GenBuffers(1, &indices);
         gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, indices);
-        gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sizeof(Triangle) * mesh.triangles.size()),
+        gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sizeof(morph::Triangle) * mesh.triangles.size()),
                       mesh.triangles.data(), GL_STATIC_DRAW);
         index_count = static_cast<GLsizei>(3 * mesh.triangles.size());
         low = mesh.vertices.rowwise().minCoeff();
@@ -76,7 +76,7 @@ struct BareRenderer::Impl {
         if (!context) return;
         try {
             context->make_current();
-        } catch (const Error&) {
+        } catch (const core::Error&) {
             return;
         }
         release_targets();
@@ -113,7 +113,7 @@ struct BareRenderer::Impl {
             gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, formats[i].second, GL_RENDERBUFFER, targets[i]);
         }
         if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw Error("render (bare): framebuffer incomplete at " + std::to_string(w) + "x" + std::to_string(h));
+            throw core::Error("render (bare): framebuffer incomplete at " + std::to_string(w) + "x" + std::to_string(h));
         width = w;
         height = h;
         gl.Viewport(0, 0, w, h);
@@ -121,13 +121,13 @@ struct BareRenderer::Impl {
     }
 
     void render(const Camera& camera, cv::Mat& rgba) {
-        const Intrinsics& k = camera.intrinsics;
+        const morph::Intrinsics& k = camera.intrinsics;
         if (k.width <= 0 || k.height <= 0 || k.width > 16384 || k.height > 16384)
-            throw Error("render: image size " + std::to_string(k.width) + "x" + std::to_string(k.height) + " is out of range");
+            throw core::Error("render: image size " + std::to_string(k.width) + "x" + std::to_string(k.height) + " is out of range");
         context->make_current();
         ensure_targets(k.width, k.height);
         Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
-        model_to_camera.topLeftCorner<3, 3>() = model_to_camera_flip() * camera.pose.rotation;
+        model_to_camera.topLeftCorner<3, 3>() = morph::model_to_camera_flip() * camera.pose.rotation;
         model_to_camera.topRightCorner<3, 1>() = camera.pose.translation;
         const detail::DepthRange range = detail::depth_range(camera, low, high);
         const Eigen::Matrix4f clip = (detail::clip_from_camera(camera, range.near, range.far) * model_to_camera).cast<float>();
@@ -146,7 +146,7 @@ struct BareRenderer::Impl {
     }
 };
 
-BareRenderer::BareRenderer(const Mesh& mesh, const RendererOptions& options)
+BareRenderer::BareRenderer(const morph::Mesh& mesh, const RendererOptions& options)
     : impl_(std::make_unique<Impl>(mesh, options)) {}
 BareRenderer::~BareRenderer() = default;
 BareRenderer::BareRenderer(BareRenderer&&) noexcept = default;

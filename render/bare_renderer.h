@@ -18,7 +18,7 @@ namespace facesynth::render {
 
 class BareRenderer {
 public:
-    explicit BareRenderer(const Mesh& mesh, const RendererOptions& options = {});
+    explicit BareRenderer(const morph::Mesh& mesh, const RendererOptions& options = {});
     ~BareRenderer();
     BareRenderer(BareRenderer&&) noexcept;
     BareRenderer& operator=(BareRenderer&&) noexcept;

@@ -1,6 +1,6 @@
 #include "render/edge_antialiasing.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <algorithm>
 #include <array>
@@ -9,7 +9,7 @@
 
 namespace facesynth::render {
 
-void EdgeTopology::build(const Mesh& mesh) {
+void EdgeTopology::build(const morph::Mesh& mesh) {
     source.assign(mesh);
     struct HalfEdge {
         int low, high, triangle, opposite;
@@ -17,7 +17,7 @@ void EdgeTopology::build(const Mesh& mesh) {
     std::vector<HalfEdge> half_edges;
     half_edges.reserve(3 * mesh.triangles.size());
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-        const Triangle& tri = mesh.triangles[t];
+        const morph::Triangle& tri = mesh.triangles[t];
         for (int k = 0; k < 3; ++k) {
             const int a = tri[static_cast<std::size_t>(k)], b = tri[static_cast<std::size_t>((k + 1) % 3)];
             half_edges.push_back({std::min(a, b), std::max(a, b), static_cast<int>(t), tri[static_cast<std::size_t>((k + 2) % 3)]});
@@ -58,19 +58,19 @@ struct ScreenEdge {
 
 }  // namespace
 
-EdgeAntialiasingStats EdgeAntialiasing::apply(const Mesh& mesh, const Camera& camera, bool cull_back_faces,
+EdgeAntialiasingStats EdgeAntialiasing::apply(const morph::Mesh& mesh, const Camera& camera, bool cull_back_faces,
                                               const cv::Mat& depth, cv::Mat& rgb, cv::Mat& mask) {
     const int width = camera.intrinsics.width, height = camera.intrinsics.height;
     if (rgb.type() != CV_8UC3 || mask.type() != CV_8UC1 || depth.type() != CV_32FC1 || rgb.cols != width ||
         rgb.rows != height || mask.size() != rgb.size() || depth.size() != rgb.size() || !rgb.isContinuous() ||
         !mask.isContinuous() || !depth.isContinuous())
-        throw Error("render: edge anti-aliasing needs continuous rgb, mask and depth images of the camera's size");
+        throw core::Error("render: edge anti-aliasing needs continuous rgb, mask and depth images of the camera's size");
     if (!topology_.matches(mesh)) topology_.build(mesh);
 
     // Vertices in pixels and camera z, exactly as project_point() maps them (the renderer's camera).
-    const Intrinsics& k = camera.intrinsics;
+    const morph::Intrinsics& k = camera.intrinsics;
     const bool perspective = camera.projection == Projection::kPerspective;
-    const Eigen::Matrix3d rotation = model_to_camera_flip() * camera.pose.rotation;
+    const Eigen::Matrix3d rotation = morph::model_to_camera_flip() * camera.pose.rotation;
     const Eigen::Vector3d& translation = camera.pose.translation;
     const auto vertex_count = static_cast<std::size_t>(mesh.num_vertices());
     screen_x_.resize(vertex_count);

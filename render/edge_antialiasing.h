@@ -36,9 +36,9 @@ struct EdgeTopology {
     // edge instead of the 24 of `edges` (a synth worker finds them out of cache at every sample).
     std::vector<std::array<int, 2>> sides;
 
-    [[nodiscard]] bool matches(const Mesh& mesh) const { return source.matches(mesh); }
-    // Throws facesynth::Error on a vertex index out of range.
-    void build(const Mesh& mesh);
+    [[nodiscard]] bool matches(const morph::Mesh& mesh) const { return source.matches(mesh); }
+    // Throws core::Error on a vertex index out of range.
+    void build(const morph::Mesh& mesh);
 };
 
 // What one pass did (for tests and benchmarks).
@@ -53,7 +53,7 @@ public:
     // Blends the pixels cut by visible silhouette edges in `rgb` (CV_8UC3, premultiplied by `mask`)
     // and `mask` (CV_8UC1), reading `depth` (CV_32FC1 camera z at pixel centres, 0 = background) of
     // the same single-sample render of `mesh` seen by `camera`. `cull_back_faces` as rendered.
-    EdgeAntialiasingStats apply(const Mesh& mesh, const Camera& camera, bool cull_back_faces, const cv::Mat& depth,
+    EdgeAntialiasingStats apply(const morph::Mesh& mesh, const Camera& camera, bool cull_back_faces, const cv::Mat& depth,
                                 cv::Mat& rgb, cv::Mat& mask);
 
     // A silhouette edge is hidden at a pixel column when the surface seen on its far side lies more

@@ -1,6 +1,6 @@
 #include "render/gl_context.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
@@ -62,18 +62,18 @@ public:
         if (software_device && try_device(DeviceKind::kSoftware, "egl-software-device")) return;
         const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
         if (!has_extension(client, "EGL_MESA_platform_surfaceless"))
-            throw Error("EGL: the surfaceless platform (EGL_MESA_platform_surfaceless) is not available");
+            throw core::Error("EGL: the surfaceless platform (EGL_MESA_platform_surfaceless) is not available");
         auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
-        if (!get_platform_display) throw Error("EGL: eglGetPlatformDisplayEXT is not available");
+        if (!get_platform_display) throw core::Error("EGL: eglGetPlatformDisplayEXT is not available");
         display_ = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
-        if (display_ == EGL_NO_DISPLAY) throw Error(egl_error_text("eglGetPlatformDisplayEXT(surfaceless)"));
+        if (display_ == EGL_NO_DISPLAY) throw core::Error(egl_error_text("eglGetPlatformDisplayEXT(surfaceless)"));
         EGLint major = 0, minor = 0;
-        if (!eglInitialize(display_, &major, &minor)) throw Error(egl_error_text("eglInitialize(surfaceless)"));
+        if (!eglInitialize(display_, &major, &minor)) throw core::Error(egl_error_text("eglInitialize(surfaceless)"));
         name_ = "egl-surfaceless";
         if (!try_create_context()) {
             const std::string message = egl_error_text("creating an OpenGL 3.3 core context");
             eglTerminate(display_);
-            throw Error(message);
+            throw core::Error(message);
         }
     }
 
@@ -92,7 +92,7 @@ public:
         // EGL may believe this context is still bound after OSMesa took the thread: unbind first.
         if (eglGetCurrentContext() == context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_))
-            throw Error(egl_error_text("eglMakeCurrent"));
+            throw core::Error(egl_error_text("eglMakeCurrent"));
         last_bound_context() = this;
     }
     void release() override {

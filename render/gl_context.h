@@ -21,9 +21,9 @@ public:
 // EGL: a GPU device from the EGL device platform when a driver offers one (and `allow_device`),
 // else Mesa's software rasteriser on the surfaceless platform, or on its software device when
 // `software_device` and Mesa lists one (a second display, so a second llvmpipe screen). Throws
-// facesynth::Error saying what failed.
+// core::Error saying what failed.
 [[nodiscard]] std::unique_ptr<GlContext> create_egl_context(bool allow_device, bool software_device);
-// Mesa's classic off-screen path. Throws facesynth::Error saying what failed.
+// Mesa's classic off-screen path. Throws core::Error saying what failed.
 [[nodiscard]] std::unique_ptr<GlContext> create_osmesa_context();
 
 // EGL and OSMesa share Mesa's GL dispatch (one current context per thread), but neither knows when

@@ -94,7 +94,7 @@ struct GlFunctions {
     FACESYNTH_GL_FUNCTIONS(FACESYNTH_GL_MEMBER)
 #undef FACESYNTH_GL_MEMBER
 
-    // Resolves every entry point; throws facesynth::Error naming the first one missing.
+    // Resolves every entry point; throws core::Error naming the first one missing.
     void load(const std::function<void*(const char*)>& get_proc_address, const std::string& backend);
 };
 

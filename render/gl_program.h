@@ -14,7 +14,7 @@
 namespace facesynth::render::detail {
 
 // EGL then OSMesa for Backend::kAuto (one warning per process when OSMesa takes over), or the one
-// asked for; throws facesynth::Error saying what failed.
+// asked for; throws core::Error saying what failed.
 [[nodiscard]] std::unique_ptr<GlContext> open_context(const RendererOptions& options);
 
 // Camera space to clip space for a pinhole (or orthographic) camera in OpenCV pixels: window
@@ -29,10 +29,10 @@ struct DepthRange {
 
 // Resolves the GL entry points of the current `context` into `gl`; returns "GL_RENDERER | GL_VERSION".
 [[nodiscard]] std::string load_functions(const GlContext& context, GlFunctions& gl);
-// Throws facesynth::Error naming `stage` when the context has a GL error pending.
+// Throws core::Error naming `stage` when the context has a GL error pending.
 void check_gl(const GlFunctions& gl, const char* stage);
 
-// Throws facesynth::Error with the compiler's or linker's log. link_shaders deletes the shaders.
+// Throws core::Error with the compiler's or linker's log. link_shaders deletes the shaders.
 [[nodiscard]] GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& source);
 [[nodiscard]] GLuint link_shaders(const GlFunctions& gl, std::span<const GLuint> shaders);
 

@@ -1,7 +1,7 @@
 #include "render/landmarks.h"
 
 #include "morph/camera.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/jaw_contour.h"
 #include "morph/landmarks.h"
 
@@ -18,7 +18,7 @@ namespace {
 
 // Camera ray through a pixel: origin and direction in camera space.
 void pixel_ray(const Camera& camera, const Eigen::Vector2d& pixel, Eigen::Vector3d& origin, Eigen::Vector3d& direction) {
-    const Intrinsics& k = camera.intrinsics;
+    const morph::Intrinsics& k = camera.intrinsics;
     const double x = (pixel.x() - k.cx) / k.fx, y = (pixel.y() - k.cy) / k.fy;
     if (camera.projection == Projection::kPerspective) {
         origin.setZero();
@@ -42,7 +42,7 @@ bool inside_image(const cv::Mat& image, const Eigen::Vector2d& p) {
 // The exact ray test behind is_unoccluded, with what it needs per mesh and camera computed once.
 class RayOcclusion {
 public:
-    RayOcclusion(const Mesh& mesh, const Camera& camera, const LandmarkTopology& topology)
+    RayOcclusion(const morph::Mesh& mesh, const Camera& camera, const LandmarkTopology& topology)
         : camera_(camera), triangles_(mesh.triangles), vertices_(to_camera(camera.pose, mesh.vertices)), first_(topology.first),
           around_(topology.around) {
         seen_.assign(triangles_.size(), 0);
@@ -54,7 +54,7 @@ public:
     // smaller than a pixel and cover no pixel centre; its neighbours on the same surface do.
     [[nodiscard]] bool unoccluded(const Frame& frame, const Eigen::Vector2d& pixel, const Eigen::Vector3d& camera_point,
                                   const LandmarkOptions& options) {
-        if (frame.triangle_ids.empty()) throw Error("render: landmark visibility needs the triangle-id buffer (settings.geometry)");
+        if (frame.triangle_ids.empty()) throw core::Error("render: landmark visibility needs the triangle-id buffer (settings.geometry)");
         if (!inside_image(frame.triangle_ids, pixel)) return false;
         // The segment from the camera (its centre, or the image plane when orthographic) to the point.
         const Eigen::Vector3d origin = camera_.projection == Projection::kPerspective
@@ -93,7 +93,7 @@ private:
     // Whether the ray origin + s·direction, 0 < s < reach, crosses the front face of `triangle`
     // (Möller–Trumbore). Back faces are culled in the render, so they hide nothing in the image.
     [[nodiscard]] bool crosses(int triangle, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double reach) const {
-        const Triangle& t = triangles_[static_cast<std::size_t>(triangle)];
+        const morph::Triangle& t = triangles_[static_cast<std::size_t>(triangle)];
         const Eigen::Vector3d a = vertices_.col(t[0]);
         const Eigen::Vector3d e1 = vertices_.col(t[1]) - a, e2 = vertices_.col(t[2]) - a;
         const Eigen::Vector3d p = direction.cross(e2);
@@ -110,7 +110,7 @@ private:
     }
 
     const Camera& camera_;
-    const std::vector<Triangle>& triangles_;
+    const std::vector<morph::Triangle>& triangles_;
     Eigen::Matrix3Xd vertices_;  // camera space
     const std::vector<int>& first_;  // around_[first_[v] .. first_[v + 1]): the triangles around vertex v
     const std::vector<int>& around_;
@@ -121,9 +121,9 @@ private:
 
 }  // namespace
 
-std::optional<Eigen::Vector3d> ray_barycentrics(const Mesh& mesh, const Camera& camera, int triangle,
+std::optional<Eigen::Vector3d> ray_barycentrics(const morph::Mesh& mesh, const Camera& camera, int triangle,
                                                 const Eigen::Vector2d& pixel) {
-    const Triangle& t = mesh.triangles.at(static_cast<std::size_t>(triangle));
+    const morph::Triangle& t = mesh.triangles.at(static_cast<std::size_t>(triangle));
     const Eigen::Vector3d a = to_camera(camera.pose, Eigen::Vector3d(mesh.vertices.col(t[0]).cast<double>()));
     const Eigen::Vector3d b = to_camera(camera.pose, Eigen::Vector3d(mesh.vertices.col(t[1]).cast<double>()));
     const Eigen::Vector3d c = to_camera(camera.pose, Eigen::Vector3d(mesh.vertices.col(t[2]).cast<double>()));
@@ -140,21 +140,21 @@ std::optional<Eigen::Vector3d> ray_barycentrics(const Mesh& mesh, const Camera& 
     return Eigen::Vector3d(1.0 - u - v, u, v);
 }
 
-std::optional<Eigen::Vector3d> surface_point_at(const Mesh& mesh, const Camera& camera, const Frame& frame, int x, int y) {
-    if (frame.triangle_ids.empty()) throw Error("render: surface_point_at needs the triangle-id buffer");
+std::optional<Eigen::Vector3d> surface_point_at(const morph::Mesh& mesh, const Camera& camera, const Frame& frame, int x, int y) {
+    if (frame.triangle_ids.empty()) throw core::Error("render: surface_point_at needs the triangle-id buffer");
     if (x < 0 || y < 0 || x >= frame.triangle_ids.cols || y >= frame.triangle_ids.rows) return std::nullopt;
     const int triangle = frame.triangle_ids.at<int>(y, x);
     if (triangle < 0 || triangle >= mesh.num_triangles()) return std::nullopt;
     const auto weights = ray_barycentrics(mesh, camera, triangle, Eigen::Vector2d(x, y));
     if (!weights) return std::nullopt;
-    const Triangle& t = mesh.triangles[static_cast<std::size_t>(triangle)];
+    const morph::Triangle& t = mesh.triangles[static_cast<std::size_t>(triangle)];
     Eigen::Vector3d point = Eigen::Vector3d::Zero();
     for (int i = 0; i < 3; ++i) point += (*weights)[i] * mesh.vertices.col(t[static_cast<std::size_t>(i)]).cast<double>();
     return point;
 }
 
 bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z, const LandmarkOptions& options) {
-    if (frame.depth.empty()) throw Error("render: landmark visibility needs the depth buffer (settings.geometry)");
+    if (frame.depth.empty()) throw core::Error("render: landmark visibility needs the depth buffer (settings.geometry)");
     if (!inside_image(frame.depth, pixel)) return false;
     const int cx = static_cast<int>(std::lround(pixel.x())), cy = static_cast<int>(std::lround(pixel.y()));
     // Background in the window: the point is on the outline, where the depth of the rim pixels
@@ -168,20 +168,20 @@ bool is_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_
     return false;
 }
 
-bool is_unoccluded(const Mesh& mesh, const Camera& camera, const Frame& frame, const Eigen::Vector2d& pixel,
+bool is_unoccluded(const morph::Mesh& mesh, const Camera& camera, const Frame& frame, const Eigen::Vector2d& pixel,
                    const Eigen::Vector3d& camera_point, const LandmarkOptions& options) {
     const LandmarkTopology topology = landmark_topology(mesh.triangles, mesh.num_vertices());
     return RayOcclusion(mesh, camera, topology).unoccluded(frame, pixel, camera_point, options);
 }
 
-LandmarkTopology landmark_topology(const std::vector<Triangle>& triangles, int num_vertices, const JawContourRegion* contour_region) {
+LandmarkTopology landmark_topology(const std::vector<morph::Triangle>& triangles, int num_vertices, const morph::JawContourRegion* contour_region) {
     LandmarkTopology topology;
     // Triangles around each vertex, compressed rows.
     topology.first.assign(static_cast<std::size_t>(num_vertices) + 1, 0);
-    for (const Triangle& t : triangles)
+    for (const morph::Triangle& t : triangles)
         for (const int v : t) {
             if (v < 0 || v >= num_vertices)
-                throw Error("render: a triangle refers to vertex " + std::to_string(v) + " of a " + std::to_string(num_vertices) + "-vertex mesh");
+                throw core::Error("render: a triangle refers to vertex " + std::to_string(v) + " of a " + std::to_string(num_vertices) + "-vertex mesh");
             ++topology.first[static_cast<std::size_t>(v) + 1];
         }
     for (std::size_t v = 1; v < topology.first.size(); ++v) topology.first[v] += topology.first[v - 1];
@@ -193,12 +193,12 @@ LandmarkTopology landmark_topology(const std::vector<Triangle>& triangles, int n
         // The jaw points lie on the face's outline: decided against the face region's own triangles.
         std::vector<char> in_region(static_cast<std::size_t>(num_vertices), 0);
         for (const int v : contour_region->vertices) {
-            if (v < 0 || v >= num_vertices) throw Error("render: contour region refers to a vertex outside the mesh");
+            if (v < 0 || v >= num_vertices) throw core::Error("render: contour region refers to a vertex outside the mesh");
             in_region[static_cast<std::size_t>(v)] = 1;
         }
         topology.face_triangles.resize(triangles.size());
         for (std::size_t t = 0; t < triangles.size(); ++t) {
-            const Triangle& tri = triangles[t];
+            const morph::Triangle& tri = triangles[t];
             topology.face_triangles[t] = static_cast<char>(in_region[static_cast<std::size_t>(tri[0])] || in_region[static_cast<std::size_t>(tri[1])] ||
                                                            in_region[static_cast<std::size_t>(tri[2])]);
         }
@@ -208,8 +208,8 @@ LandmarkTopology landmark_topology(const std::vector<Triangle>& triangles, int n
 
 bool is_outline_visible(const Frame& frame, const Eigen::Vector2d& pixel, double camera_z, double pixels_per_mm,
                         std::span<const char> face_triangles, const LandmarkOptions& options) {
-    if (frame.depth.empty()) throw Error("render: landmark visibility needs the depth buffer (settings.geometry)");
-    if (frame.triangle_ids.empty()) throw Error("render: outline visibility needs the triangle-id buffer (settings.geometry)");
+    if (frame.depth.empty()) throw core::Error("render: landmark visibility needs the depth buffer (settings.geometry)");
+    if (frame.triangle_ids.empty()) throw core::Error("render: outline visibility needs the triangle-id buffer (settings.geometry)");
     if (!inside_image(frame.depth, pixel)) return false;
     const int cx = static_cast<int>(std::lround(pixel.x())), cy = static_cast<int>(std::lround(pixel.y()));
     const int n = options.neighbourhood_px;
@@ -234,31 +234,31 @@ bool is_outline_visible(const Frame& frame, const Eigen::Vector2d& pixel, double
            face_triangles[static_cast<std::size_t>(covering)] != 0;
 }
 
-ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, const Mesh& mesh, const Camera& camera,
+ProjectedLandmarks project_landmarks(std::span<const morph::SurfacePoint> landmarks, const morph::Mesh& mesh, const Camera& camera,
                                      const Frame& frame, const LandmarkOptions& options,
-                                     const JawContourRegion* contour_region, const LandmarkTopology* topology) {
+                                     const morph::JawContourRegion* contour_region, const LandmarkTopology* topology) {
     if (frame.mask.empty() || frame.depth.empty())
-        throw Error("render: landmarks need a frame rendered with geometry (depth and mask)");
+        throw core::Error("render: landmarks need a frame rendered with geometry (depth and mask)");
     const int count = static_cast<int>(landmarks.size());
     ProjectedLandmarks out;
     out.pixels.resize(2, count);
     out.model_points.resize(3, count);
     out.camera_points.resize(3, count);
     out.visible.assign(static_cast<std::size_t>(count), 0);
-    const bool jaw = count == kNumIbugLandmarks && contour_region && !contour_region->vertices.empty();
+    const bool jaw = count == morph::kNumIbugLandmarks && contour_region && !contour_region->vertices.empty();
     std::optional<LandmarkTopology> own_topology;
     if (!topology) topology = &own_topology.emplace(landmark_topology(mesh.triangles, mesh.num_vertices(), jaw ? contour_region : nullptr));
     if (topology->first.size() != static_cast<std::size_t>(mesh.num_vertices()) + 1 ||
         (jaw && topology->face_triangles.size() != mesh.triangles.size()))
-        throw Error("render: landmark topology of another mesh (" + std::to_string(topology->first.size() - 1) + " vertices, " +
+        throw core::Error("render: landmark topology of another mesh (" + std::to_string(topology->first.size() - 1) + " vertices, " +
                     std::to_string(topology->face_triangles.size()) + " face triangles) for a " + std::to_string(mesh.num_vertices()) +
                     "-vertex, " + std::to_string(mesh.triangles.size()) + "-triangle mesh");
     RayOcclusion occlusion(mesh, camera, *topology);
     for (int i = 0; i < count; ++i) {
-        const SurfacePoint& point = landmarks[static_cast<std::size_t>(i)];
+        const morph::SurfacePoint& point = landmarks[static_cast<std::size_t>(i)];
         for (int v : point.vertices)
             if (v < 0 || v >= mesh.num_vertices())
-                throw Error("render: landmark " + std::to_string(i) + " refers to vertex " + std::to_string(v) +
+                throw core::Error("render: landmark " + std::to_string(i) + " refers to vertex " + std::to_string(v) +
                             " of a " + std::to_string(mesh.num_vertices()) + "-vertex mesh");
         const Eigen::Vector3d x = point.position(mesh.vertices).cast<double>();
         out.model_points.col(i) = x;
@@ -266,14 +266,14 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
         out.pixels.col(i) = project_point(camera, x);
         // The jaw points lie on the face's outline, where the face's own surface may cover them by a
         // little: the depth test here, the outline rule below when there is a contour region.
-        const bool jaw_point = count == kNumIbugLandmarks && i < kNumJawLandmarks;
+        const bool jaw_point = count == morph::kNumIbugLandmarks && i < morph::kNumJawLandmarks;
         out.visible[static_cast<std::size_t>(i)] =
             jaw_point ? is_visible(frame, out.pixels.col(i), out.camera_points(2, i), options)
                       : occlusion.unoccluded(frame, out.pixels.col(i), out.camera_points.col(i), options);
     }
     const std::vector<char>& face_triangles = topology->face_triangles;
     if (jaw) {
-        for (int i = 0; i < kNumJawLandmarks; ++i) {
+        for (int i = 0; i < morph::kNumJawLandmarks; ++i) {
             const double z = out.camera_points(2, i);
             out.visible[static_cast<std::size_t>(i)] =
                 is_outline_visible(frame, out.pixels.col(i), z, pixels_per_mm(camera, z), face_triangles, options) ? 1 : 0;
@@ -282,7 +282,7 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
     out.contour_pixels = out.pixels;
     out.contour_model_points = out.model_points;
     out.contour_visible = out.visible;
-    const int side = jaw ? far_side(camera.pose.rotation) : 0;
+    const int side = jaw ? morph::far_side(camera.pose.rotation) : 0;
     if (side == 0) return out;  // frontal: the jaw line is the outline
 
     // The shared definition (morph/jaw_contour.h) on the rendered shape with the render's camera.
@@ -291,18 +291,18 @@ ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, co
     for (std::size_t r = 0; r < region.vertices.size(); ++r) region_points.col(static_cast<Eigen::Index>(r)) = mesh.vertices.col(region.vertices[r]);
     const Eigen::Matrix2Xd projected = project_points(camera, region_points);
     std::vector<int> far_points;  // near side and chin keep the fixed points
-    std::vector<JawContourQuery> queries;
-    for (int i = 0; i < kNumJawLandmarks; ++i) {
-        if (!jaw_on_side(i, side)) continue;
+    std::vector<morph::JawContourQuery> queries;
+    for (int i = 0; i < morph::kNumJawLandmarks; ++i) {
+        if (!morph::jaw_on_side(i, side)) continue;
         const Eigen::Vector3d x = out.model_points.col(i);
         const Eigen::Vector2d toward_left = (project_point(camera, x + Eigen::Vector3d::UnitX()) - out.pixels.col(i)).normalized();
         // Points 0-7 are on the subject's right (model -x), 9-16 on the left.
-        const Eigen::Vector2d outward = i < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
+        const Eigen::Vector2d outward = i < morph::kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
         far_points.push_back(i);
         queries.push_back({out.pixels.col(i), outward});
     }
     // One pass over the region's edges for all far-side points (the same hits as one search each).
-    const auto hits = jaw_contour_points(region, projected, queries);
+    const auto hits = morph::jaw_contour_points(region, projected, queries);
     for (std::size_t q = 0; q < far_points.size(); ++q) {
         const int i = far_points[q];
         const auto& hit = hits[q];

@@ -54,18 +54,18 @@ struct LandmarkTopology {
     std::vector<int> around;
     std::vector<char> face_triangles;  // per triangle, 1 = has a vertex in the contour region; empty without one
 };
-// Throws facesynth::Error when the contour region names a vertex outside the mesh.
-[[nodiscard]] LandmarkTopology landmark_topology(const std::vector<Triangle>& triangles, int num_vertices,
-                                                 const JawContourRegion* contour_region = nullptr);
+// Throws core::Error when the contour region names a vertex outside the mesh.
+[[nodiscard]] LandmarkTopology landmark_topology(const std::vector<morph::Triangle>& triangles, int num_vertices,
+                                                 const morph::JawContourRegion* contour_region = nullptr);
 
 // Needs frame.depth (settings.geometry) and frame.mask from a render of `mesh` with `camera`.
 // `contour_region` (jaw_contour_region of the model `mesh` is an instance of) enables contour mode.
 // `topology`, when given, is landmark_topology of the mesh's triangles and the same contour region
 // (the result is the same as without it; a topology of another size is an error).
-[[nodiscard]] ProjectedLandmarks project_landmarks(std::span<const SurfacePoint> landmarks, const Mesh& mesh,
+[[nodiscard]] ProjectedLandmarks project_landmarks(std::span<const morph::SurfacePoint> landmarks, const morph::Mesh& mesh,
                                                    const Camera& camera, const Frame& frame,
                                                    const LandmarkOptions& options = {},
-                                                   const JawContourRegion* contour_region = nullptr,
+                                                   const morph::JawContourRegion* contour_region = nullptr,
                                                    const LandmarkTopology* topology = nullptr);
 
 // Whether a camera-space depth `camera_z` at `pixel` is unoccluded in the frame's depth buffer.
@@ -78,7 +78,7 @@ struct LandmarkTopology {
 // centres next to it, unless it is thinner than a pixel there). A depth tolerance cannot decide next
 // to an outline: beside the nose's edge the far eye's corners have, within a pixel, both the nose
 // 10-20 mm in front and their own surface. False outside the image.
-[[nodiscard]] bool is_unoccluded(const Mesh& mesh, const Camera& camera, const Frame& frame, const Eigen::Vector2d& pixel,
+[[nodiscard]] bool is_unoccluded(const morph::Mesh& mesh, const Camera& camera, const Frame& frame, const Eigen::Vector2d& pixel,
                                  const Eigen::Vector3d& camera_point, const LandmarkOptions& options = {});
 
 // Visibility of a point on the face's outline (the jaw points, fixed and contour). At a silhouette the
@@ -98,11 +98,11 @@ struct LandmarkTopology {
 
 // Barycentric weights of the camera ray through `pixel` on triangle `triangle` (may lie outside
 // [0, 1] when the ray misses it); nullopt when the ray is parallel to the triangle's plane.
-[[nodiscard]] std::optional<Eigen::Vector3d> ray_barycentrics(const Mesh& mesh, const Camera& camera, int triangle,
+[[nodiscard]] std::optional<Eigen::Vector3d> ray_barycentrics(const morph::Mesh& mesh, const Camera& camera, int triangle,
                                                               const Eigen::Vector2d& pixel);
 
 // The model-space surface point seen at pixel (x, y)'s centre (frame.triangle_ids), or nullopt on background.
-[[nodiscard]] std::optional<Eigen::Vector3d> surface_point_at(const Mesh& mesh, const Camera& camera,
+[[nodiscard]] std::optional<Eigen::Vector3d> surface_point_at(const morph::Mesh& mesh, const Camera& camera,
                                                               const Frame& frame, int x, int y);
 
 }  // namespace facesynth::render

@@ -1,6 +1,6 @@
 #include "render/lighting.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <nlohmann/json.hpp>
 
@@ -25,7 +25,7 @@ void read_key(const nlohmann::json& j, const char* key, T& value) {
     try {
         j.at(key).get_to(value);
     } catch (const nlohmann::json::exception& e) {
-        throw Error(std::string("lighting: key '") + key + "': " + e.what());
+        throw core::Error(std::string("lighting: key '") + key + "': " + e.what());
     }
 }
 
@@ -43,7 +43,7 @@ void to_json(nlohmann::json& j, const Lighting& lighting) {
 }
 
 void from_json(const nlohmann::json& j, Lighting& lighting) {
-    if (!j.is_object()) throw Error("lighting: expected a JSON object");
+    if (!j.is_object()) throw core::Error("lighting: expected a JSON object");
     read_key(j, "sh", lighting.sh);
     read_key(j, "ambient", lighting.ambient);
     read_key(j, "lights", lighting.lights);

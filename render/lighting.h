@@ -43,7 +43,7 @@ inline constexpr float kShUniformDc = 3.5449077f;
 void to_json(nlohmann::json& j, const DirectionalLight& light);
 void from_json(const nlohmann::json& j, DirectionalLight& light);
 void to_json(nlohmann::json& j, const Lighting& lighting);
-// Missing keys keep their defaults; wrong types throw facesynth::Error naming the key.
+// Missing keys keep their defaults; wrong types throw core::Error naming the key.
 void from_json(const nlohmann::json& j, Lighting& lighting);
 
 }  // namespace facesynth::render

@@ -1,6 +1,6 @@
 #include "render/gl_context.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <GL/osmesa.h>
 
@@ -18,7 +18,7 @@ void check_gallium_driver() {
     if (driver == nullptr || *driver == '\0') return;
     const std::string_view name(driver);
     if (name != "llvmpipe" && name != "softpipe")
-        throw Error("OSMesa: GALLIUM_DRIVER='" + std::string(name) +
+        throw core::Error("OSMesa: GALLIUM_DRIVER='" + std::string(name) +
                     "' is not a software rasteriser OSMesa provides (llvmpipe or softpipe); unset it or choose one");
 }
 
@@ -30,7 +30,7 @@ public:
                                   OSMESA_ACCUM_BITS, 0, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                                   OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
         context_ = OSMesaCreateContextAttribs(attributes, nullptr);
-        if (context_ == nullptr) throw Error("OSMesa: creating an OpenGL 3.3 core context failed");
+        if (context_ == nullptr) throw core::Error("OSMesa: creating an OpenGL 3.3 core context failed");
         make_current();
     }
     ~OsmesaContext() override {
@@ -44,7 +44,7 @@ public:
         if (last_bound_context() == this && OSMesaGetCurrentContext() == context_) return;
         // Rendering goes to framebuffer objects; the default framebuffer is a 1x1 placeholder.
         if (!OSMesaMakeCurrent(context_, placeholder_.data(), GL_UNSIGNED_BYTE, 1, 1))
-            throw Error("OSMesa: OSMesaMakeCurrent failed");
+            throw core::Error("OSMesa: OSMesaMakeCurrent failed");
         last_bound_context() = this;
     }
     void release() override {

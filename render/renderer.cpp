@@ -1,6 +1,6 @@
 #include "render/renderer.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "render/edge_antialiasing.h"
 #include "render/gl_context.h"
 #include "render/gl_functions.h"
@@ -27,7 +27,7 @@ Backend parse_backend(std::string_view name) {
     if (name == "auto") return Backend::kAuto;
     if (name == "egl") return Backend::kEgl;
     if (name == "osmesa") return Backend::kOsmesa;
-    throw Error("unknown render backend '" + std::string(name) + "' (expected auto, egl or osmesa)");
+    throw core::Error("unknown render backend '" + std::string(name) + "' (expected auto, egl or osmesa)");
 }
 
 std::string to_string(Backend backend) {
@@ -41,13 +41,13 @@ std::string to_string(Backend backend) {
 
 namespace {
 
-Eigen::Matrix3d model_to_camera_rotation(const CameraPose& pose) { return model_to_camera_flip() * pose.rotation; }
+Eigen::Matrix3d model_to_camera_rotation(const morph::CameraPose& pose) { return morph::model_to_camera_flip() * pose.rotation; }
 
 }  // namespace
 
 Eigen::Vector2d project_point(const Camera& camera, const Eigen::Vector3d& model_point) {
     const Eigen::Vector3d c = to_camera(camera.pose, model_point);
-    const Intrinsics& k = camera.intrinsics;
+    const morph::Intrinsics& k = camera.intrinsics;
     if (camera.projection == Projection::kOrthographic) return {k.fx * c.x() + k.cx, k.fy * c.y() + k.cy};
     return project(k, c);
 }
@@ -82,7 +82,7 @@ std::unique_ptr<GlContext> open_context(const RendererOptions& options) {
     if (backend != Backend::kOsmesa) {
         try {
             context = create_egl_context(options.allow_gpu_device, options.software_display % 2 != 0);
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             if (backend == Backend::kEgl) throw;
             failures = e.what();
         }
@@ -90,9 +90,9 @@ std::unique_ptr<GlContext> open_context(const RendererOptions& options) {
     if (!context) {
         try {
             context = create_osmesa_context();
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             if (backend == Backend::kOsmesa) throw;
-            throw Error("render: no OpenGL backend available (" + failures + "; " + e.what() + ")");
+            throw core::Error("render: no OpenGL backend available (" + failures + "; " + e.what() + ")");
         }
         if (!failures.empty()) warn_egl_fallback(failures);
     }
@@ -103,7 +103,7 @@ std::unique_ptr<GlContext> open_context(const RendererOptions& options) {
 // (pixel u's centre), window y = v + 0.5 with GL row 0 holding image row 0, so read-back needs no
 // flip. z_ndc runs from -1 at `near` to +1 at `far` (camera-space z, mm).
 Eigen::Matrix4d clip_from_camera(const Camera& camera, double near, double far) {
-    const Intrinsics& k = camera.intrinsics;
+    const morph::Intrinsics& k = camera.intrinsics;
     const double w = k.width, h = k.height;
     Eigen::Matrix4d p = Eigen::Matrix4d::Zero();
     if (camera.projection == Projection::kPerspective) {
@@ -148,7 +148,7 @@ GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& sou
         std::array<char, 4096> log{};
         gl.GetShaderInfoLog(shader, static_cast<GLsizei>(log.size()), nullptr, log.data());
         gl.DeleteShader(shader);
-        throw Error(std::string("render: shader compilation failed: ") + log.data());
+        throw core::Error(std::string("render: shader compilation failed: ") + log.data());
     }
     return shader;
 }
@@ -164,7 +164,7 @@ void check_gl(const GlFunctions& gl, const char* stage) {
     if (error != GL_NO_ERROR) {
         char code[16];
         std::snprintf(code, sizeof code, "0x%04x", error);
-        throw Error(std::string("render: OpenGL error ") + code + " during " + stage);
+        throw core::Error(std::string("render: OpenGL error ") + code + " during " + stage);
     }
 }
 
@@ -179,7 +179,7 @@ GLuint link_shaders(const GlFunctions& gl, std::span<const GLuint> shaders) {
         std::array<char, 4096> log{};
         gl.GetProgramInfoLog(program, static_cast<GLsizei>(log.size()), nullptr, log.data());
         gl.DeleteProgram(program);
-        throw Error(std::string("render: shader program link failed: ") + log.data());
+        throw core::Error(std::string("render: shader program link failed: ") + log.data());
     }
     return program;
 }
@@ -199,7 +199,7 @@ constexpr float kFastGamma = 2.2f;
 // i.e. fine = factor · (coarse + 0.5) − 0.5 in OpenCV pixel coordinates (centre of pixel 0 at 0).
 Camera supersampled_camera(const Camera& camera, int factor) {
     Camera fine = camera;
-    Intrinsics& k = fine.intrinsics;
+    morph::Intrinsics& k = fine.intrinsics;
     const double f = factor;
     k.width *= factor;
     k.height *= factor;
@@ -254,18 +254,18 @@ struct ProvokingTopology {
     std::vector<int> copied_from;        // for vertex slot source.vertices() + i: the vertex it copies
     std::vector<GLuint> triangle_of_slot;  // id + 1 of the triangle a slot provokes, 0 if none
 
-    [[nodiscard]] bool matches(const Mesh& mesh) const { return source.matches(mesh); }
+    [[nodiscard]] bool matches(const morph::Mesh& mesh) const { return source.matches(mesh); }
     [[nodiscard]] int slots() const { return source.vertices() + static_cast<int>(copied_from.size()); }
 
-    void build(const Mesh& mesh) {
+    void build(const morph::Mesh& mesh) {
         source.assign(mesh);
-        const std::vector<Triangle>& triangles = source.triangles();
+        const std::vector<morph::Triangle>& triangles = source.triangles();
         indices.clear();
         indices.reserve(3 * triangles.size());
         copied_from.clear();
         triangle_of_slot.assign(static_cast<std::size_t>(source.vertices()), 0u);
         for (std::size_t t = 0; t < triangles.size(); ++t) {
-            const Triangle& tri = triangles[t];
+            const morph::Triangle& tri = triangles[t];
             GLuint provoking = static_cast<GLuint>(tri[2]);
             if (triangle_of_slot[provoking] != 0) {
                 provoking = static_cast<GLuint>(triangle_of_slot.size());
@@ -327,13 +327,13 @@ namespace {
 
 // Directional lights in camera space (OpenCV axes), unit, toward the light.
 std::vector<Eigen::Vector3d> light_directions_in_camera(const Lighting& lighting) {
-    if (lighting.lights.size() > 4) throw Error("render: at most 4 directional lights are supported");
+    if (lighting.lights.size() > 4) throw core::Error("render: at most 4 directional lights are supported");
     std::vector<Eigen::Vector3d> directions;
     for (std::size_t i = 0; i < lighting.lights.size(); ++i) {
         const auto& d = lighting.lights[i].direction;
         const Eigen::Vector3d view(d[0], d[1], d[2]);
-        if (view.norm() == 0) throw Error("render: directional light " + std::to_string(i) + " has a zero direction");
-        directions.emplace_back(model_to_camera_flip() * view.normalized());
+        if (view.norm() == 0) throw core::Error("render: directional light " + std::to_string(i) + " has a zero direction");
+        directions.emplace_back(morph::model_to_camera_flip() * view.normalized());
     }
     return directions;
 }
@@ -406,7 +406,7 @@ void split_colour_and_coverage(const cv::Mat& rgba, cv::Mat& rgb, cv::Mat& alpha
 // (shaders.h COLOUR_PER_VERTEX). Where the albedo varies, interpolating it after the per-vertex power
 // shifts sharp features (the built-in model's iris, lids and hairline: up to 64 levels under strong
 // light), so those meshes keep the per-pixel encoding.
-bool uniform_albedo(const Mesh& mesh) {
+bool uniform_albedo(const morph::Mesh& mesh) {
     if (mesh.colours.cols() == 0) return true;
     const Eigen::Vector3f first = mesh.colours.col(0);
     for (Eigen::Index i = 1; i < mesh.colours.cols(); ++i)
@@ -499,7 +499,7 @@ struct Renderer::Impl {
         if (!context) return;
         try {
             context->make_current();
-        } catch (const Error&) {
+        } catch (const core::Error&) {
             return;  // the context goes with it
         }
         release_targets();
@@ -584,7 +584,7 @@ struct Renderer::Impl {
         targets[kDepthTarget] = storage(GL_DEPTH_COMPONENT32F, 0);
         gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, targets[kDepthTarget]);
         if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw Error("render: framebuffer incomplete at " + std::to_string(target_width) + "x" + std::to_string(target_height));
+            throw core::Error("render: framebuffer incomplete at " + std::to_string(target_width) + "x" + std::to_string(target_height));
         if (samples > 1) {
             gl.BindFramebuffer(GL_FRAMEBUFFER, msaa_fbo);
             msaa_targets[0] = storage(GL_RGBA8, samples);
@@ -592,7 +592,7 @@ struct Renderer::Impl {
             msaa_targets[1] = storage(GL_DEPTH_COMPONENT24, samples);
             gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, msaa_targets[1]);
             if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-                throw Error("render: multisample framebuffer incomplete (" + std::to_string(samples) + " samples)");
+                throw core::Error("render: multisample framebuffer incomplete (" + std::to_string(samples) + " samples)");
         }
         check("creating render targets");
     }
@@ -618,7 +618,7 @@ struct Renderer::Impl {
         upload(attribute, expanded.data(), sizeof(float) * expanded.size(), rows, GL_FLOAT);
     }
 
-    void upload_positions(const Mesh& mesh) {
+    void upload_positions(const morph::Mesh& mesh) {
         if (!topology.matches(mesh)) {
             topology.build(mesh);
             gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sizeof(GLuint) * topology.indices.size()),
@@ -641,9 +641,9 @@ struct Renderer::Impl {
         for (Attribute attribute : {kNormal, kAlbedo, kUv}) gl.DisableVertexAttribArray(attribute);
     }
 
-    void upload_mesh(const Mesh& mesh, const MeshExtras& extras, bool with_texture) {
+    void upload_mesh(const morph::Mesh& mesh, const MeshExtras& extras, bool with_texture) {
         upload_positions(mesh);
-        normals = vertex_normals(mesh.vertices, mesh.triangles);
+        normals = morph::vertex_normals(mesh.vertices, mesh.triangles);
         upload_expanded(kNormal, normals.data(), 3);
         if (mesh.colours.cols() == mesh.num_vertices()) {
             upload_expanded(kAlbedo, mesh.colours.data(), 3);
@@ -676,10 +676,10 @@ struct Renderer::Impl {
         // Labels are flat per triangle, from its provoking (last) vertex: looked up from the ids, which
         // are written as triangle + 1 (0 = background).
         triangle_labels.resize(mesh.triangles.size() + 1);
-        triangle_labels[0] = static_cast<std::uint8_t>(Region::kBackground);
+        triangle_labels[0] = static_cast<std::uint8_t>(morph::Region::kBackground);
         for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
             triangle_labels[t + 1] = extras.vertex_labels.empty()
-                                         ? static_cast<std::uint8_t>(Region::kSkin)
+                                         ? static_cast<std::uint8_t>(morph::Region::kSkin)
                                          : extras.vertex_labels[static_cast<std::size_t>(mesh.triangles[t][2])];
     }
 
@@ -719,10 +719,10 @@ struct Renderer::Impl {
         gl.Uniform3fv(program.light_colour, 4, colours.data());
         gl.Uniform1f(program.specular, lighting.specular);
         gl.Uniform1f(program.shininess, lighting.shininess);
-        if (!(lighting.gamma > 0)) throw Error("render: gamma must be positive");
+        if (!(lighting.gamma > 0)) throw core::Error("render: gamma must be positive");
         gl.Uniform1f(program.inverse_gamma, 1.0f / lighting.gamma);
         gl.Uniform1i(program.perspective, perspective ? 1 : 0);
-        const Intrinsics& k = camera.intrinsics;
+        const morph::Intrinsics& k = camera.intrinsics;
         const std::array<float, 4> window_to_ray{static_cast<float>(1.0 / k.fx), static_cast<float>(1.0 / k.fy),
                                                  static_cast<float>(k.cx + 0.5), static_cast<float>(k.cy + 0.5)};
         gl.Uniform4fv(program.window_to_ray, 1, window_to_ray.data());
@@ -760,7 +760,7 @@ struct Renderer::Impl {
         gl.DrawBuffers(1, &none);
         gl.ReadBuffer(GL_NONE);
         if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw Error("render: shadow-map framebuffer incomplete at " + std::to_string(size) + "x" + std::to_string(size));
+            throw core::Error("render: shadow-map framebuffer incomplete at " + std::to_string(size) + "x" + std::to_string(size));
         shadow_size = size;
         shadow_layers = layers;
         check("creating shadow maps");
@@ -768,10 +768,10 @@ struct Renderer::Impl {
 
     // One depth-only pass per light, seen along the light with an orthographic box fitted to the mesh;
     // fills the lookup matrices and bias scales that set_uniforms hands to the shading pass.
-    void render_shadow_maps(const Mesh& mesh, const Camera& camera, const std::vector<Eigen::Vector3d>& toward_lights,
+    void render_shadow_maps(const morph::Mesh& mesh, const Camera& camera, const std::vector<Eigen::Vector3d>& toward_lights,
                             int size) {
         if (size < kMinShadowMapSize || size > max_texture_size)
-            throw Error("render: shadow_map_size " + std::to_string(size) + " is out of range [" +
+            throw core::Error("render: shadow_map_size " + std::to_string(size) + " is out of range [" +
                         std::to_string(kMinShadowMapSize) + ", " + std::to_string(max_texture_size) + "]");
         ensure_shadow_maps(size, static_cast<int>(toward_lights.size()));
         Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
@@ -812,7 +812,7 @@ struct Renderer::Impl {
         gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(topology.indices.size()), GL_UNSIGNED_INT, nullptr);
     }
 
-    void render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
+    void render(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
                 const MeshExtras& extras) {
         validate(mesh, camera, settings, extras);
         context->make_current();
@@ -892,7 +892,7 @@ struct Renderer::Impl {
     }
 
     // After the single-sample read-back: blends the pixels cut by visible silhouette edges.
-    void antialias_edges(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame) {
+    void antialias_edges(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame) {
         if (!settings.geometry) read_depth(edge_depth);
         (void)edge_antialiasing.apply(mesh, camera, settings.cull_back_faces, settings.geometry ? frame.depth : edge_depth,
                                       frame.rgb, frame.mask);
@@ -941,12 +941,12 @@ struct Renderer::Impl {
         supersample_targets[1] = sized_storage(GL_DEPTH_COMPONENT24, supersample_width, supersample_height);
         gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, supersample_targets[1]);
         if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw Error("render: supersampling framebuffer incomplete at " + std::to_string(w) + "x" + std::to_string(h));
+            throw core::Error("render: supersampling framebuffer incomplete at " + std::to_string(w) + "x" + std::to_string(h));
         check("creating supersampling targets");
     }
 
     // The nearest surface only: the fragment stage writes nothing, and only the depth buffer is read.
-    void render_depth(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame) {
+    void render_depth(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame) {
         const int w = camera.intrinsics.width, h = camera.intrinsics.height;
         ensure_targets(w, h, 0);
         gl.BindVertexArray(vao);
@@ -1065,33 +1065,33 @@ struct Renderer::Impl {
         else frame.barycentrics.release();
     }
 
-    void validate(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, const MeshExtras& extras) const {
-        const Intrinsics& k = camera.intrinsics;
+    void validate(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings, const MeshExtras& extras) const {
+        const morph::Intrinsics& k = camera.intrinsics;
         if (k.width <= 0 || k.height <= 0 || k.width > 16384 || k.height > 16384)
-            throw Error("render: image size " + std::to_string(k.width) + "x" + std::to_string(k.height) + " is out of range");
+            throw core::Error("render: image size " + std::to_string(k.width) + "x" + std::to_string(k.height) + " is out of range");
         if (settings.supersampling < 1 || settings.supersampling > kMaxSupersampling)
-            throw Error("render: supersampling " + std::to_string(settings.supersampling) + " is out of range [1, " +
+            throw core::Error("render: supersampling " + std::to_string(settings.supersampling) + " is out of range [1, " +
                         std::to_string(kMaxSupersampling) + "]");
         if (settings.supersampling > 1 && settings.msaa_samples > 1)
-            throw Error("render: supersampling and msaa_samples are alternatives; set msaa_samples to 0 with supersampling");
+            throw core::Error("render: supersampling and msaa_samples are alternatives; set msaa_samples to 0 with supersampling");
         if (settings.edge_antialiasing && (settings.msaa_samples > 1 || settings.supersampling > 1))
-            throw Error("render: edge_antialiasing works on a single-sample render; set msaa_samples to 0 and supersampling to 1 with it");
+            throw core::Error("render: edge_antialiasing works on a single-sample render; set msaa_samples to 0 and supersampling to 1 with it");
         if (static_cast<long>(settings.supersampling) * std::max(k.width, k.height) > max_texture_size)
-            throw Error("render: a " + std::to_string(k.width) + "x" + std::to_string(k.height) + " image supersampled " +
+            throw core::Error("render: a " + std::to_string(k.width) + "x" + std::to_string(k.height) + " image supersampled " +
                         std::to_string(settings.supersampling) + "x exceeds the largest render target (" +
                         std::to_string(max_texture_size) + ")");
-        if (!(k.fx > 0) || !(k.fy > 0)) throw Error("render: camera focal lengths must be positive");
-        if (mesh.num_vertices() == 0 || mesh.triangles.empty()) throw Error("render: the mesh is empty");
+        if (!(k.fx > 0) || !(k.fy > 0)) throw core::Error("render: camera focal lengths must be positive");
+        if (mesh.num_vertices() == 0 || mesh.triangles.empty()) throw core::Error("render: the mesh is empty");
         if (mesh.colours.cols() != 0 && mesh.colours.cols() != mesh.num_vertices())
-            throw Error("render: mesh has " + std::to_string(mesh.colours.cols()) + " colours for " +
+            throw core::Error("render: mesh has " + std::to_string(mesh.colours.cols()) + " colours for " +
                         std::to_string(mesh.num_vertices()) + " vertices");
         if (!extras.vertex_labels.empty() && extras.vertex_labels.size() != static_cast<std::size_t>(mesh.num_vertices()))
-            throw Error("render: " + std::to_string(extras.vertex_labels.size()) + " vertex labels for " +
+            throw core::Error("render: " + std::to_string(extras.vertex_labels.size()) + " vertex labels for " +
                         std::to_string(mesh.num_vertices()) + " vertices");
         if (extras.texture != nullptr) {
             if (extras.texture->type() != CV_8UC3 || extras.texture->empty())
-                throw Error("render: the texture must be a non-empty 8-bit RGB image");
-            if (mesh.uv.cols() != mesh.num_vertices()) throw Error("render: a texture needs per-vertex uv coordinates");
+                throw core::Error("render: the texture must be a non-empty 8-bit RGB image");
+            if (mesh.uv.cols() != mesh.num_vertices()) throw core::Error("render: a texture needs per-vertex uv coordinates");
         }
         // Triangle indices are checked when the provoking topology is built (once per triangle list).
     }
@@ -1102,12 +1102,12 @@ Renderer::~Renderer() = default;
 Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 
-void Renderer::render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
+void Renderer::render(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
                       const MeshExtras& extras) {
     impl_->render(mesh, camera, settings, frame, extras);
 }
 
-Frame Renderer::render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, const MeshExtras& extras) {
+Frame Renderer::render(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings, const MeshExtras& extras) {
     Frame frame;
     impl_->render(mesh, camera, settings, frame, extras);
     return frame;

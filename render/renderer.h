@@ -21,7 +21,7 @@
 namespace facesynth::render {
 
 enum class Backend { kAuto, kEgl, kOsmesa };
-// "auto", "egl" or "osmesa"; throws facesynth::Error otherwise.
+// "auto", "egl" or "osmesa"; throws core::Error otherwise.
 [[nodiscard]] Backend parse_backend(std::string_view name);
 [[nodiscard]] std::string to_string(Backend backend);
 
@@ -30,8 +30,8 @@ enum class Projection { kPerspective, kOrthographic };
 // Perspective: pixel = K · x_cam / z. Orthographic (scaled orthographic / affine fits, frontal
 // views): pixel = (fx · x_cam.x + cx, fy · x_cam.y + cy), fx and fy in pixels per millimetre.
 struct Camera {
-    Intrinsics intrinsics;  // image size comes from here
-    CameraPose pose;
+    morph::Intrinsics intrinsics;  // image size comes from here
+    morph::CameraPose pose;
     Projection projection = Projection::kPerspective;
 };
 
@@ -40,7 +40,7 @@ struct Camera {
 [[nodiscard]] Eigen::Vector2d project_point(const Camera& camera, const Eigen::Vector3d& model_point);
 
 // Semantic region ids for the per-vertex label input and the label image (morph/regions.h).
-using facesynth::Region;
+using facesynth::morph::Region;
 
 // What the mesh carries beyond morph::Mesh. Spans must outlive the render call.
 struct MeshExtras {
@@ -116,10 +116,10 @@ public:
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
 
-    // Renders into `frame`; throws facesynth::Error on invalid input or GL failure.
-    void render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
+    // Renders into `frame`; throws core::Error on invalid input or GL failure.
+    void render(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
                 const MeshExtras& extras = {});
-    [[nodiscard]] Frame render(const Mesh& mesh, const Camera& camera, const RenderSettings& settings = {},
+    [[nodiscard]] Frame render(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings = {},
                                const MeshExtras& extras = {});
 
     // Unbinds the context from the calling thread, so that another thread can render with this

@@ -1,6 +1,6 @@
 #include "report/html.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "report/svg_plot.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -38,7 +38,7 @@ std::string img_tag(const cv::Mat& image, ImageCoding coding, std::string_view a
     cv::Mat encodable = image;
     if (!png && image.channels() == 4) cv::cvtColor(image, encodable, cv::COLOR_BGRA2BGR);
     if (image.empty() || !cv::imencode(png ? ".png" : ".jpg", encodable, bytes, params))
-        throw Error("report: cannot encode image '" + std::string(alt) + "'");
+        throw core::Error("report: cannot encode image '" + std::string(alt) + "'");
     std::string tag = "<img alt=\"" + xml_escape(alt) + "\" src=\"data:image/" + (png ? "png" : "jpeg") + ";base64," +
                       base64(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())) + "\"";
     if (display_width > 0) tag += " width=\"" + std::to_string(display_width) + "\"";

@@ -12,7 +12,7 @@ namespace facesynth::report {
 [[nodiscard]] std::string base64(std::string_view bytes);
 
 // An <img> holding `image` (8-bit BGR, BGRA or grey) encoded as PNG (lossless: plots, isomaps with
-// alpha) or JPEG (photographs, contact sheets); throws facesynth::Error when encoding fails.
+// alpha) or JPEG (photographs, contact sheets); throws core::Error when encoding fails.
 enum class ImageCoding { kPng, kJpeg };
 [[nodiscard]] std::string img_tag(const cv::Mat& image, ImageCoding coding, std::string_view alt, int display_width = 0);
 

@@ -1,7 +1,7 @@
 #include "report/report.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "report/html.h"
 #include "report/svg_plot.h"
 
@@ -64,12 +64,12 @@ std::string text_at(const json& j, const std::string& key) {
 
 std::optional<json> load_json(const fs::path& path, Context& context) {
     try {
-        json j = json::parse(read_file(path));
-        if (!j.is_object()) throw Error("not a JSON object");
+        json j = json::parse(core::read_file(path));
+        if (!j.is_object()) throw core::Error("not a JSON object");
         return j;
     } catch (const json::exception& e) {
         context.warn(path.string() + ": invalid JSON (" + e.what() + ")");
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         context.warn(std::string(e.what()));
     }
     return std::nullopt;
@@ -100,7 +100,7 @@ std::vector<std::string> split_csv_line(const std::string& line) {
 }
 
 Csv read_csv(const fs::path& path) {
-    std::stringstream stream(read_file(path));
+    std::stringstream stream(core::read_file(path));
     Csv csv;
     std::string line;
     int number = 0;
@@ -114,11 +114,11 @@ Csv read_csv(const fs::path& path) {
             continue;
         }
         if (cells.size() != csv.header.size())
-            throw file_error(path.string(), "line " + std::to_string(number) + " has " + std::to_string(cells.size()) + " fields, the header " +
+            throw core::file_error(path.string(), "line " + std::to_string(number) + " has " + std::to_string(cells.size()) + " fields, the header " +
                                                 std::to_string(csv.header.size()));
         csv.rows.push_back(std::move(cells));
     }
-    if (csv.header.empty()) throw file_error(path.string(), "empty CSV");
+    if (csv.header.empty()) throw core::file_error(path.string(), "empty CSV");
     return csv;
 }
 
@@ -130,7 +130,7 @@ double parse_number(const std::string& text, const fs::path& path) {
         if (used == text.size()) return v;
     } catch (const std::exception&) {
     }
-    throw file_error(path.string(), "'" + text + "' is not a number");
+    throw core::file_error(path.string(), "'" + text + "' is not a number");
 }
 
 std::vector<fs::path> files_matching(const fs::path& dir, std::string_view prefix, std::string_view suffix) {
@@ -417,9 +417,9 @@ void landmarks_section(const fs::path& evals, Context& context) {
                 s.dashed = r > 1;
                 plot.series.push_back(std::move(s));
             }
-            if (plot.series.empty()) throw file_error(csv_path.string(), "no regressor1 column");
+            if (plot.series.empty()) throw core::file_error(csv_path.string(), "no regressor1 column");
             plots.push_back(inline_svg(line_plot_svg(plot)));
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             context.warn(e.what());
         }
     }
@@ -438,13 +438,13 @@ cv::Mat thumbnail(const cv::Mat& image, int side) {
 
 cv::Mat read_image(const fs::path& path, int flags = cv::IMREAD_COLOR) {
     cv::Mat image = cv::imread(path.string(), flags);
-    if (image.empty()) throw file_error(path.string(), "cannot read image");
+    if (image.empty()) throw core::file_error(path.string(), "cannot read image");
     return image;
 }
 
 // The input photograph with its 68 landmarks (0-based pixels) as dots sized to the face.
 cv::Mat landmarks_overlay(const cv::Mat& image, const json& landmarks, const fs::path& source) {
-    if (!landmarks.is_array() || landmarks.size() != 68) throw file_error(source.string(), "'landmarks' is not a list of 68 points");
+    if (!landmarks.is_array() || landmarks.size() != 68) throw core::file_error(source.string(), "'landmarks' is not a list of 68 points");
     cv::Mat overlay = image.clone();
     double min_x = 1e18, max_x = -1e18;
     for (const auto& p : landmarks) {
@@ -475,9 +475,9 @@ bool frontalised_strips(const fs::path& dir, Context& context) {
         try {
             json record;
             try {
-                record = json::parse(read_file(json_path));
+                record = json::parse(core::read_file(json_path));
             } catch (const json::exception& e) {
-                throw file_error(json_path.string(), std::string("invalid JSON: ") + e.what());
+                throw core::file_error(json_path.string(), std::string("invalid JSON: ") + e.what());
             }
             // The input's path as frontalise was given it; relative paths may be relative to another folder.
             fs::path input_path = record.at("image").get<std::string>();
@@ -499,7 +499,7 @@ bool frontalised_strips(const fs::path& dir, Context& context) {
             ++count;
         } catch (const json::exception& e) {
             context.warn(json_path.string() + ": " + e.what());
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             context.warn(e.what());
         }
     }
@@ -572,7 +572,7 @@ void recognition_det_plots(const fs::path& csv_path, Context& context, std::vect
     const int gallery_col = csv.column("gallery_deg"), low_col = csv.column("probe_yaw_low"), high_col = csv.column("probe_yaw_high"),
               method_col = csv.column("method"), far_col = csv.column("far"), frr_col = csv.column("frr");
     if (std::min({gallery_col, low_col, high_col, method_col, far_col, frr_col}) < 0)
-        throw file_error(csv_path.string(), "needs the columns gallery_deg, probe_yaw_low, probe_yaw_high, method, far, frr");
+        throw core::file_error(csv_path.string(), "needs the columns gallery_deg, probe_yaw_low, probe_yaw_high, method, far, frr");
     // gallery -> (probe bin, method) -> curve
     std::map<int, std::map<std::pair<std::pair<int, int>, std::string>, Series>> curves;
     for (const auto& row : csv.rows) {
@@ -669,7 +669,7 @@ void recognition_section(const fs::path& evals, Context& context) {
     if (fs::exists(det_path)) {
         try {
             recognition_det_plots(det_path, context, plots);
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             context.warn(e.what());
         }
     } else {
@@ -697,7 +697,7 @@ Report build_report(const ReportInputs& inputs) {
     Context context{page, report};
     if (!inputs.evals.empty()) {
         std::error_code error;
-        if (!fs::is_directory(inputs.evals, error)) throw file_error(inputs.evals.string(), "not a folder (--evals)");
+        if (!fs::is_directory(inputs.evals, error)) throw core::file_error(inputs.evals.string(), "not a folder (--evals)");
     }
     page.raw("<p>Made by <code>facesynth report</code>" +
              (inputs.evals.empty() ? std::string(" without a results folder") : " from results in <code>" + xml_escape(inputs.evals.string()) + "</code>") +

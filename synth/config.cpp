@@ -1,7 +1,7 @@
 #include "synth/config.h"
 
-#include "morph/error.h"
-#include "morph/toml_file.h"
+#include "core/error.h"
+#include "core/toml_file.h"
 
 #include <charconv>
 #include <cmath>
@@ -23,7 +23,7 @@ void add_angle(std::vector<ConfigField>& f, const std::string& name, AngleDistri
 const ConfigField& find_field(const std::vector<ConfigField>& fields, std::string_view key, const std::string& context) {
     for (const auto& field : fields)
         if (field.key == key) return field;
-    throw Error(context + "unknown config key '" + std::string(key) + "'");
+    throw core::Error(context + "unknown config key '" + std::string(key) + "'");
 }
 
 std::string type_name(const ConfigField& field) {
@@ -108,7 +108,7 @@ void apply_toml_table(const std::vector<ConfigField>& fields, const toml::table&
             continue;
         }
         const auto& field = find_field(fields, key, context);
-        if (!set_from_toml(field, value)) throw Error(context + "config key '" + key + "' must be " + type_name(field));
+        if (!set_from_toml(field, value)) throw core::Error(context + "config key '" + key + "' must be " + type_name(field));
     }
 }
 
@@ -128,7 +128,7 @@ void apply_json_object(const std::vector<ConfigField>& fields, const nlohmann::j
 }
 
 void require(bool ok, const std::string& key, const std::string& problem) {
-    if (!ok) throw Error("config key '" + key + "': " + problem);
+    if (!ok) throw core::Error("config key '" + key + "': " + problem);
 }
 
 void validate_share(double v, const std::string& key) { require(v >= 0 && v <= 1, key, "must be in [0, 1]"); }
@@ -244,21 +244,21 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
 }
 
 void apply_toml_file(SynthConfig& config, const std::filesystem::path& path) {
-    const toml::value root = read_toml_file(path);
-    if (!root.is_table()) throw file_error(path.string(), "not a TOML table");
+    const toml::value root = core::read_toml_file(path);
+    if (!root.is_table()) throw core::file_error(path.string(), "not a TOML table");
     apply_toml_table(config_fields(config), root.as_table(), "", path.string() + ": ");
 }
 
 void apply_override(SynthConfig& config, std::string_view assignment) {
     const auto eq = assignment.find('=');
     if (eq == std::string_view::npos || eq == 0)
-        throw Error("--set '" + std::string(assignment) + "': expected key.sub=value");
+        throw core::Error("--set '" + std::string(assignment) + "': expected key.sub=value");
     const auto key = assignment.substr(0, eq);
     const auto text = assignment.substr(eq + 1);
     const auto fields = config_fields(config);
     const auto& field = find_field(fields, key, "--set: ");
     if (!set_from_text(field, text))
-        throw Error("--set: config key '" + std::string(key) + "' must be " + type_name(field) + ", got '" + std::string(text) + "'");
+        throw core::Error("--set: config key '" + std::string(key) + "' must be " + type_name(field) + ", got '" + std::string(text) + "'");
 }
 
 void validate(const SynthConfig& c) {
@@ -395,9 +395,9 @@ OutputFormats parse_formats(const std::string& formats) {
         if (name == "folder") out.folder = true;
         else if (name == "wds") out.wds = true;
         else if (name == "coco") out.coco = true;
-        else throw Error("config key 'output.formats': unknown format '" + name + "' (expected folder, wds, coco)");
+        else throw core::Error("config key 'output.formats': unknown format '" + name + "' (expected folder, wds, coco)");
     }
-    if (!out.folder && !out.wds && !out.coco) throw Error("config key 'output.formats': name at least one format");
+    if (!out.folder && !out.wds && !out.coco) throw core::Error("config key 'output.formats': name at least one format");
     return out;
 }
 

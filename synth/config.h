@@ -182,12 +182,12 @@ struct ConfigField {
 // Every key of `config`, in documentation order. The pointers refer into `config`.
 [[nodiscard]] std::vector<ConfigField> config_fields(SynthConfig& config);
 
-// Applies a TOML file's keys to `config`; unknown keys and wrong types throw facesynth::Error naming
+// Applies a TOML file's keys to `config`; unknown keys and wrong types throw core::Error naming
 // the file and the key.
 void apply_toml_file(SynthConfig& config, const std::filesystem::path& path);
-// Applies one `key.sub=value` override; throws facesynth::Error naming the key.
+// Applies one `key.sub=value` override; throws core::Error naming the key.
 void apply_override(SynthConfig& config, std::string_view assignment);
-// Throws facesynth::Error naming the first key whose value is out of range.
+// Throws core::Error naming the first key whose value is out of range.
 void validate(const SynthConfig& config);
 
 // The full resolved configuration as nested JSON objects (keys as in TOML).

@@ -1,7 +1,7 @@
 #include "synth/dataset.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "synth/exr.h"
 #include "synth/png.h"
@@ -78,7 +78,7 @@ std::string encode_image(const cv::Mat& rgb, const SynthConfig& config, PngEncod
     cv::Mat bgr;
     cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
     std::vector<uchar> bytes;
-    if (!cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, config.output.jpeg_quality})) throw Error(context + ": image encoding failed");
+    if (!cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, config.output.jpeg_quality})) throw core::Error(context + ": image encoding failed");
     return {bytes.begin(), bytes.end()};
 }
 
@@ -209,7 +209,7 @@ nlohmann::json dataset_identity(const nlohmann::json& config_json, const std::st
     return identity;
 }
 
-nlohmann::json dataset_json(const SynthConfig& config, const MorphableModel& model, const std::string& checksum) {
+nlohmann::json dataset_json(const SynthConfig& config, const morph::MorphableModel& model, const std::string& checksum) {
     return {{"format", "facesynth-synth"},
             {"format_version", 1},
             {"tool_version", FACESYNTH_SYNTH_VERSION},
@@ -233,32 +233,32 @@ void remove_dataset_outputs(const fs::path& out) {
 
 // Checks (or creates) dataset.json. A folder made with a different config is refused unless
 // overwrite, which removes the old dataset first.
-void prepare_folder(const fs::path& out, const SynthConfig& config, const MorphableModel& model, const std::string& checksum,
+void prepare_folder(const fs::path& out, const SynthConfig& config, const morph::MorphableModel& model, const std::string& checksum,
                     bool overwrite) {
     std::error_code error;
     fs::create_directories(out, error);
-    if (error) throw file_error(out.string(), "cannot create output folder: " + error.message());
+    if (error) throw core::file_error(out.string(), "cannot create output folder: " + error.message());
     const fs::path info_path = out / "dataset.json";
     const nlohmann::json mine = dataset_json(config, model, checksum);
     if (fs::exists(info_path)) {
         nlohmann::json theirs;
         try {
-            theirs = nlohmann::json::parse(read_file(info_path));
+            theirs = nlohmann::json::parse(core::read_file(info_path));
         } catch (const nlohmann::json::exception& e) {
-            if (!overwrite) throw file_error(info_path.string(), std::string("unreadable dataset.json (use --overwrite to replace): ") + e.what());
+            if (!overwrite) throw core::file_error(info_path.string(), std::string("unreadable dataset.json (use --overwrite to replace): ") + e.what());
         }
         if (!theirs.is_null()) {
             const auto difference = identity_mismatch(dataset_identity(theirs.value("config", nlohmann::json::object()), theirs.value("model_checksum", "")),
                                                       dataset_identity(mine["config"], checksum));
             if (!difference.empty() && !overwrite)
-                throw file_error(out.string(), "holds a dataset made with a different config ('" + difference +
+                throw core::file_error(out.string(), "holds a dataset made with a different config ('" + difference +
                                                    "' differs); use --overwrite to replace it or choose another folder");
             if (!difference.empty() || overwrite) remove_dataset_outputs(out);
         }
     } else if (overwrite) {
         remove_dataset_outputs(out);
     }
-    write_file_atomically(info_path, mine.dump(2) + "\n");
+    core::write_file_atomically(info_path, mine.dump(2) + "\n");
 }
 
 bool process_alive(const std::string& pid_text) {
@@ -341,17 +341,17 @@ Shard parse_shard(std::string_view text, int auto_total) {
             if (!value || !*value) return std::nullopt;
             int v = 0;
             const auto end = value + std::strlen(value);
-            if (std::from_chars(value, end, v).ptr != end) throw Error(std::string("--shard auto: environment variable ") + name + " is not an integer");
+            if (std::from_chars(value, end, v).ptr != end) throw core::Error(std::string("--shard auto: environment variable ") + name + " is not an integer");
             return v;
         };
         if (const auto k8s = env_int("JOB_COMPLETION_INDEX")) {
             shard.index = *k8s;
             shard.count = auto_total > 0 ? auto_total : env_int("FACESYNTH_SHARD_COUNT").value_or(0);
-            if (shard.count <= 0) throw Error("--shard auto: JOB_COMPLETION_INDEX is set but the total is not (pass --shard-count or set FACESYNTH_SHARD_COUNT)");
+            if (shard.count <= 0) throw core::Error("--shard auto: JOB_COMPLETION_INDEX is set but the total is not (pass --shard-count or set FACESYNTH_SHARD_COUNT)");
         } else if (const auto slurm = env_int("SLURM_ARRAY_TASK_ID")) {
             shard.index = *slurm - env_int("SLURM_ARRAY_TASK_MIN").value_or(0);
             shard.count = auto_total > 0 ? auto_total : env_int("SLURM_ARRAY_TASK_COUNT").value_or(0);
-            if (shard.count <= 0) throw Error("--shard auto: SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not (pass --shard-count)");
+            if (shard.count <= 0) throw core::Error("--shard auto: SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not (pass --shard-count)");
         }
     } else {
         const auto slash = text.find('/');
@@ -360,10 +360,10 @@ Shard parse_shard(std::string_view text, int auto_total) {
             return r.ec == std::errc() && r.ptr == part.data() + part.size();
         };
         if (slash == std::string_view::npos || !parse(text.substr(0, slash), shard.index) || !parse(text.substr(slash + 1), shard.count))
-            throw Error("--shard '" + std::string(text) + "': expected K/N (0-based K) or auto");
+            throw core::Error("--shard '" + std::string(text) + "': expected K/N (0-based K) or auto");
     }
     if (shard.count < 1 || shard.index < 0 || shard.index >= shard.count)
-        throw Error("--shard: index " + std::to_string(shard.index) + " is outside 0.." + std::to_string(shard.count - 1));
+        throw core::Error("--shard: index " + std::to_string(shard.index) + " is outside 0.." + std::to_string(shard.count - 1));
     return shard;
 }
 
@@ -389,7 +389,7 @@ std::string wds_tar_name(const SynthConfig& config, std::int64_t tar_index) {
     return config.output.wds_prefix + "-" + number + ".tar";
 }
 
-std::string sample_meta(const Sample& sample, const SynthConfig& config, const MorphableModel& model, const std::string& checksum) {
+std::string sample_meta(const Sample& sample, const SynthConfig& config, const morph::MorphableModel& model, const std::string& checksum) {
     const auto& s = sample.spec;
     const auto& k = s.intrinsics;
     const auto& labels = sample.labels;
@@ -496,10 +496,10 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const M
     return j.text();
 }
 
-RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
+RunResult run_synth(const RunOptions& options, const morph::MorphableModel& model) {
     const SynthConfig& config = options.config;
     validate(config);
-    if (options.threads < 1) throw Error("--threads must be at least 1");
+    if (options.threads < 1) throw core::Error("--threads must be at least 1");
     const auto formats = parse_formats(config.output.formats);
     const std::string checksum = model.checksum();
     const fs::path& out = options.out;
@@ -509,7 +509,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
     for (const auto& file : files) {
         std::error_code error;
         fs::create_directories(root / file.folder, error);
-        if (error) throw file_error((root / file.folder).string(), "cannot create folder: " + error.message());
+        if (error) throw core::file_error((root / file.folder).string(), "cannot create folder: " + error.message());
     }
     remove_stale_temporaries(out, root, config, options.shard);
 
@@ -529,7 +529,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
         const std::int64_t samples = std::min(config.count, (t + 1) * tar_size) - t * tar_size;
         try {
             return list_tar(tar).size() == static_cast<std::size_t>(samples) * files.size();
-        } catch (const Error&) {
+        } catch (const core::Error&) {
             return false;
         }
     };
@@ -555,9 +555,9 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
 
     // Rebuild the manifest from what is on disk, then append as samples finish.
     const fs::path manifest_path = out / manifest_name(options.shard);
-    write_file_atomically(manifest_path, manifest_text({done.begin(), done.end()}, config));
+    core::write_file_atomically(manifest_path, manifest_text({done.begin(), done.end()}, config));
     std::FILE* manifest = std::fopen(manifest_path.c_str(), "a");
-    if (!manifest) throw file_error(manifest_path.string(), "cannot open for appending");
+    if (!manifest) throw core::file_error(manifest_path.string(), "cannot open for appending");
     struct Closer {
         std::FILE* f;
         ~Closer() { std::fclose(f); }
@@ -591,7 +591,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
     if (!config.albedo.texture_folder.empty() || !config.albedo.texture_bank.empty()) {
         const std::string key = config.albedo.texture_bank.empty() ? "albedo.texture_folder" : "albedo.texture_bank";
         if (model.uv.cols() != model.num_vertices())
-            throw Error(key + ": model '" + model.name + "' has no uv coordinates to map a texture with");
+            throw core::Error(key + ": model '" + model.name + "' has no uv coordinates to map a texture with");
         textures = config.albedo.texture_bank.empty() ? ImageLibrary(config.albedo.texture_folder, "texture")
                                                       : load_texture_bank(config.albedo.texture_bank, model);
     }
@@ -629,7 +629,7 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                     contents.reserve(files.size());
                     for (const auto& file : files) {
                         if (file.folder == "images") contents.push_back(encode_image(sample.image, config, png, key));
-                        else if (file.folder == "landmarks") contents.push_back(format_pts(chosen_landmarks(sample.labels, config.landmarks.mode)));
+                        else if (file.folder == "landmarks") contents.push_back(morph::format_pts(chosen_landmarks(sample.labels, config.landmarks.mode)));
                         else if (file.folder == "depth") contents.push_back(encode_depth_exr(sample.depth, key));
                         else if (file.folder == "mask") contents.push_back(png.encode(sample.mask, key));
                         else if (file.folder == "normals") contents.push_back(encode_normals(sample.normals, png, key));
@@ -638,13 +638,13 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                     }
                     clock.lap(times.encode);
                     for (std::size_t f = 0; f < files.size(); ++f)
-                        write_file_atomically(root / files[f].folder / (key + files[f].suffix), contents[f]);
+                        core::write_file_atomically(root / files[f].folder / (key + files[f].suffix), contents[f]);
                     bool tar_ready = false;
                     {
                         std::lock_guard lock(mutex);
                         const std::string line = manifest_entry(index, config).dump() + "\n";
                         if (std::fputs(line.c_str(), manifest) < 0 || std::fflush(manifest) != 0)
-                            throw file_error(manifest_path.string(), "write failed (disk full?)");
+                            throw core::file_error(manifest_path.string(), "write failed (disk full?)");
                         ++generated;
                         if (formats.wds) tar_ready = --tar_remaining[tar_of(index)] == 0;
                         if (options.on_sample) options.on_sample();
@@ -655,10 +655,10 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
                         ++tars_written;
                     }
                     clock.lap(times.write);
-                } catch (const Error& e) {
-                    throw Error("sample " + key + ": " + e.what());
+                } catch (const core::Error& e) {
+                    throw core::Error("sample " + key + ": " + e.what());
                 } catch (const std::exception& e) {
-                    throw Error("sample " + key + ": " + e.what());
+                    throw core::Error("sample " + key + ": " + e.what());
                 }
             }
             std::lock_guard lock(mutex);
@@ -689,8 +689,8 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
     std::vector<std::int64_t> all;
     for (std::int64_t i = 0; i < config.count; ++i)
         if (in_shard(i, options.shard, unit)) all.push_back(i);
-    write_file_atomically(manifest_path, manifest_text(all, config));
-    if (formats.coco) write_file_atomically(out / coco_name(options.shard), coco_from_meta(out, all, config).dump() + "\n");
+    core::write_file_atomically(manifest_path, manifest_text(all, config));
+    if (formats.coco) core::write_file_atomically(out / coco_name(options.shard), coco_from_meta(out, all, config).dump() + "\n");
     if (!formats.folder && !formats.coco) {
         std::error_code ignored;
         fs::remove_all(out / kStagingFolder, ignored);  // succeeds only when other shards left nothing there either
@@ -700,15 +700,15 @@ RunResult run_synth(const RunOptions& options, const MorphableModel& model) {
 
 nlohmann::json read_json_file(const fs::path& path) {
     try {
-        return nlohmann::json::parse(read_file(path));
+        return nlohmann::json::parse(core::read_file(path));
     } catch (const nlohmann::json::exception& e) {
-        throw file_error(path.string(), std::string("invalid JSON: ") + e.what());
+        throw core::file_error(path.string(), std::string("invalid JSON: ") + e.what());
     }
 }
 
 nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::int64_t>& indices, const SynthConfig& config) {
     nlohmann::json names = nlohmann::json::array();
-    for (int i = 1; i <= kNumIbugLandmarks; ++i) names.push_back("ibug_" + std::to_string(i));
+    for (int i = 1; i <= morph::kNumIbugLandmarks; ++i) names.push_back("ibug_" + std::to_string(i));
     // 1-based COCO skeleton along the iBUG contours: jaw, brows, nose bridge and base, eyes, lips.
     nlohmann::json skeleton = nlohmann::json::array();
     const auto chain = [&](int first, int last, bool closed) {
@@ -735,7 +735,7 @@ nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::in
         try {
             const auto side = [&](const char* name) {  // checked as a double: a huge value must not overflow int
                 const double v = meta.at(name).get<double>();
-                if (!(v >= 1 && v <= 1e6)) throw file_error(meta_path.string(), std::string(name) + " out of range");
+                if (!(v >= 1 && v <= 1e6)) throw core::file_error(meta_path.string(), std::string(name) + " out of range");
                 return static_cast<int>(v);
             };
             const int width = side("image_width"), height = side("image_height");
@@ -760,7 +760,7 @@ nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::in
                                    {"bbox", box}, {"area", box.at(2).get<double>() * box.at(3).get<double>()},
                                    {"num_keypoints", labelled}, {"keypoints", keypoints}});
         } catch (const nlohmann::json::exception& e) {
-            throw file_error(meta_path.string(), std::string("not a facesynth meta file: ") + e.what());
+            throw core::file_error(meta_path.string(), std::string("not a facesynth meta file: ") + e.what());
         }
     }
     return {{"info", {{"description", "facesynth synthetic faces"}, {"version", "1"}}},
@@ -772,13 +772,13 @@ nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::in
 SynthConfig read_dataset_config(const fs::path& dataset) {
     const fs::path path = dataset / "dataset.json";
     try {
-        SynthConfig config = config_from_json(nlohmann::json::parse(read_file(path)).at("config"));
+        SynthConfig config = config_from_json(nlohmann::json::parse(core::read_file(path)).at("config"));
         validate(config);  // a hand-edited file must not reach merge with, say, wds_shard_size 0
         return config;
     } catch (const nlohmann::json::exception& e) {
-        throw file_error(path.string(), std::string("not a facesynth dataset.json: ") + e.what());
-    } catch (const Error& e) {
-        throw file_error(path.string(), e.what());
+        throw core::file_error(path.string(), std::string("not a facesynth dataset.json: ") + e.what());
+    } catch (const core::Error& e) {
+        throw core::file_error(path.string(), e.what());
     }
 }
 
@@ -790,12 +790,12 @@ nlohmann::json read_dataset_identity(const fs::path& dataset) {
     const fs::path path = dataset / "dataset.json";
     (void)read_dataset_config(dataset);
     try {
-        const nlohmann::json info = nlohmann::json::parse(read_file(path));
+        const nlohmann::json info = nlohmann::json::parse(core::read_file(path));
         const auto checksum = info.find("model_checksum");
-        if (checksum != info.end() && !checksum->is_string()) throw file_error(path.string(), "model_checksum must be a string");
+        if (checksum != info.end() && !checksum->is_string()) throw core::file_error(path.string(), "model_checksum must be a string");
         return dataset_identity(info.at("config"), checksum == info.end() ? "" : checksum->get<std::string>());
     } catch (const nlohmann::json::exception& e) {
-        throw file_error(path.string(), std::string("not a facesynth dataset.json: ") + e.what());
+        throw core::file_error(path.string(), std::string("not a facesynth dataset.json: ") + e.what());
     }
 }
 
@@ -803,7 +803,7 @@ nlohmann::json read_dataset_identity(const fs::path& dataset) {
 // "index" below count, or a "key" that is not that index's) is an error naming file and line.
 std::int64_t manifest_line_index(const std::string& line, const SynthConfig& config, const fs::path& manifest, int line_number) {
     const auto bad = [&](const std::string& problem) {
-        return file_error(manifest.string(), "line " + std::to_string(line_number) + ": " + problem);
+        return core::file_error(manifest.string(), "line " + std::to_string(line_number) + ": " + problem);
     };
     const auto parsed = nlohmann::json::parse(line, nullptr, false);
     if (parsed.is_discarded() || !parsed.is_object()) throw bad("not a manifest entry (a JSON object per line)");
@@ -821,7 +821,7 @@ std::int64_t manifest_line_index(const std::string& line, const SynthConfig& con
 }  // namespace
 
 MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& out) {
-    if (inputs.empty()) throw Error("synth merge: name at least one dataset folder");
+    if (inputs.empty()) throw core::Error("synth merge: name at least one dataset folder");
     const fs::path first_info = inputs.front() / "dataset.json";
     const SynthConfig config = read_dataset_config(inputs.front());
     const auto formats = parse_formats(config.output.formats);
@@ -831,11 +831,11 @@ MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& 
     for (const auto& input : inputs) {
         const auto difference = identity_mismatch(identity, read_dataset_identity(input));
         if (!difference.empty())
-            throw file_error(input.string(), "made with a different config than " + inputs.front().string() + " ('" + difference + "' differs)");
+            throw core::file_error(input.string(), "made with a different config than " + inputs.front().string() + " ('" + difference + "' differs)");
         for (const auto& entry : fs::directory_iterator(input)) {
             const std::string name = entry.path().filename().string();
             if (!name.starts_with("manifest") || !name.ends_with(".jsonl")) continue;
-            std::stringstream lines(read_file(entry.path()));
+            std::stringstream lines(core::read_file(entry.path()));
             std::string line;
             int line_number = 0;
             while (std::getline(lines, line)) {
@@ -859,17 +859,17 @@ MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& 
     }
     // Every file is checked before the first is linked: a missing one leaves `out` as it was.
     for (const auto& [from, to] : links)
-        if (!fs::exists(from)) throw file_error(from.string(), "listed in a manifest but missing");
+        if (!fs::exists(from)) throw core::file_error(from.string(), "listed in a manifest but missing");
     std::error_code error;
     fs::create_directories(out, error);
-    if (error) throw file_error(out.string(), "cannot create output folder: " + error.message());
+    if (error) throw core::file_error(out.string(), "cannot create output folder: " + error.message());
     for (const auto& [from, to] : links) {
         if (fs::equivalent(from.parent_path(), to.parent_path(), error) || fs::exists(to)) continue;
         fs::create_directories(to.parent_path());
-        const auto temp = temporary_path_for(to);
+        const auto temp = core::temporary_path_for(to);
         fs::create_hard_link(from, temp, error);
         if (error) fs::copy_file(from, temp);
-        commit_temporary_file(temp, to);
+        core::commit_temporary_file(temp, to);
     }
     for (std::int64_t i = 0; i < config.count; ++i)
         if (!sources.count(i)) ++result.missing;
@@ -877,9 +877,9 @@ MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& 
     // The COCO file is built (reading every meta file) before anything is written, so that a
     // damaged meta file leaves no manifest behind.
     const std::string coco = formats.coco ? coco_from_meta(out, indices, config).dump() + "\n" : "";
-    if (!fs::exists(out / "dataset.json") || !fs::equivalent(inputs.front(), out)) write_file_atomically(out / "dataset.json", read_file(first_info));
-    write_file_atomically(out / "manifest.jsonl", manifest_text(indices, config));
-    if (formats.coco) write_file_atomically(out / "coco.json", coco);
+    if (!fs::exists(out / "dataset.json") || !fs::equivalent(inputs.front(), out)) core::write_file_atomically(out / "dataset.json", core::read_file(first_info));
+    core::write_file_atomically(out / "manifest.jsonl", manifest_text(indices, config));
+    if (formats.coco) core::write_file_atomically(out / "coco.json", coco);
     return result;
 }
 

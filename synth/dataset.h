@@ -62,13 +62,13 @@ struct RunResult {
     std::string renderer;          // backend and GL renderer string, each distinct one the workers used joined by " + "
 };
 
-// Generates (or completes) this shard of the dataset in options.out. Throws facesynth::Error naming
+// Generates (or completes) this shard of the dataset in options.out. Throws core::Error naming
 // the file or sample on failure; completed samples stay intact.
-RunResult run_synth(const RunOptions& options, const MorphableModel& model);
+RunResult run_synth(const RunOptions& options, const morph::MorphableModel& model);
 
 // The meta file of one sample: compact JSON text with a final newline, keys sorted (docs/synth.md
 // lists them).
-[[nodiscard]] std::string sample_meta(const Sample& sample, const SynthConfig& config, const MorphableModel& model,
+[[nodiscard]] std::string sample_meta(const Sample& sample, const SynthConfig& config, const morph::MorphableModel& model,
                                       const std::string& model_checksum);
 
 struct MergeResult {
@@ -86,11 +86,11 @@ MergeResult merge_datasets(const std::vector<std::filesystem::path>& inputs, con
 [[nodiscard]] nlohmann::json coco_from_meta(const std::filesystem::path& dataset, const std::vector<std::int64_t>& indices,
                                             const SynthConfig& config);
 
-// Parses a JSON file of a dataset folder (a meta file); throws facesynth::Error
+// Parses a JSON file of a dataset folder (a meta file); throws core::Error
 // "<path>: invalid JSON: …" when it is not JSON.
 [[nodiscard]] nlohmann::json read_json_file(const std::filesystem::path& path);
 
-// Reads dataset.json's configuration; throws facesynth::Error naming the file.
+// Reads dataset.json's configuration; throws core::Error naming the file.
 [[nodiscard]] SynthConfig read_dataset_config(const std::filesystem::path& dataset);
 
 }  // namespace facesynth::synth

@@ -1,6 +1,6 @@
 #include "synth/exr.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
@@ -8,11 +8,11 @@
 namespace facesynth::synth {
 
 std::string encode_depth_exr(const cv::Mat& depth, const std::string& context) {
-    if (depth.type() != CV_32FC1 || !depth.isContinuous()) throw Error(context + ": depth map must be a continuous CV_32FC1 image");
+    if (depth.type() != CV_32FC1 || !depth.isContinuous()) throw core::Error(context + ": depth map must be a continuous CV_32FC1 image");
     std::vector<unsigned char> bytes;
     OIIO::Filesystem::IOVecOutput proxy(bytes);
     auto output = OIIO::ImageOutput::create("openexr");
-    if (!output) throw Error(context + ": OpenImageIO has no OpenEXR writer");
+    if (!output) throw core::Error(context + ": OpenImageIO has no OpenEXR writer");
     OIIO::ImageSpec spec(depth.cols, depth.rows, 1, OIIO::TypeDesc::FLOAT);
     spec.channelnames = {"Z"};
     spec.attribute("compression", "zip");
@@ -21,7 +21,7 @@ std::string encode_depth_exr(const cv::Mat& depth, const std::string& context) {
     spec.attribute("DateTime", "");
     output->set_ioproxy(&proxy);
     if (!output->open("depth.exr", spec) || !output->write_image(OIIO::TypeDesc::FLOAT, depth.ptr<float>()) || !output->close())
-        throw Error(context + ": EXR encoding failed: " + output->geterror());
+        throw core::Error(context + ": EXR encoding failed: " + output->geterror());
     return {bytes.begin(), bytes.end()};
 }
 

@@ -6,7 +6,7 @@
 
 namespace facesynth::synth {
 
-// CV_32FC1 -> single-channel float EXR ("Z"); throws facesynth::Error prefixed with `context`.
+// CV_32FC1 -> single-channel float EXR ("Z"); throws core::Error prefixed with `context`.
 [[nodiscard]] std::string encode_depth_exr(const cv::Mat& depth, const std::string& context);
 
 }  // namespace facesynth::synth

@@ -1,11 +1,11 @@
 #include "synth/head_parts.h"
 
-#include "morph/atomic_file.h"
-#include "morph/byte_io.h"
-#include "morph/error.h"
-#include "morph/random.h"
+#include "core/atomic_file.h"
+#include "core/byte_io.h"
+#include "core/error.h"
+#include "core/random.h"
 #include "morph/regions.h"
-#include "morph/srgb.h"
+#include "core/srgb.h"
 
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
@@ -32,7 +32,7 @@ Eigen::Vector2f patch_uv(int patch, const Eigen::Vector2f& uv) {
 class SrgbTable {
 public:
     SrgbTable() {
-        for (int i = 0; i <= kSteps; ++i) table_[static_cast<std::size_t>(i)] = cv::saturate_cast<uchar>(255 * srgb_encode(static_cast<double>(i) / kSteps));
+        for (int i = 0; i <= kSteps; ++i) table_[static_cast<std::size_t>(i)] = cv::saturate_cast<uchar>(255 * core::srgb_encode(static_cast<double>(i) / kSteps));
     }
     [[nodiscard]] cv::Vec3b operator()(const Eigen::Vector3d& linear) const { return {at(linear.x()), at(linear.y()), at(linear.z())}; }
 
@@ -55,7 +55,7 @@ void add_back_side(HeadPart& part) {
     const std::size_t front = part.triangles.size();
     const int offset = static_cast<int>(n);
     for (std::size_t t = 0; t < front; ++t) {
-        const Triangle f = part.triangles[t];
+        const morph::Triangle f = part.triangles[t];
         part.triangles.push_back({f[2] + offset, f[1] + offset, f[0] + offset});
     }
 }
@@ -65,14 +65,14 @@ void add_back_side(HeadPart& part) {
 std::filesystem::path default_head_parts_file() { return std::filesystem::path(FACESYNTH_ASSET_DIR) / "head_parts.bin"; }
 
 HeadParts read_head_parts(const std::filesystem::path& file) {
-    const std::string bytes = read_file(file);
-    ByteReader in(bytes, file.string());
+    const std::string bytes = core::read_file(file);
+    core::ByteReader in(bytes, file.string());
     std::string magic(kMagic.size(), '\0');
     in.read_bytes(magic.data(), magic.size(), "magic");
-    if (magic != kMagic) throw file_error(file.string(), "not a head parts file (made by tools/makehuman_parts.py)");
+    if (magic != kMagic) throw core::file_error(file.string(), "not a head parts file (made by tools/makehuman_parts.py)");
     HeadParts parts;
     const std::size_t anchors = in.read_count(3 * sizeof(float), "anchor count");
-    if (anchors != kNumHeadAnchors) throw file_error(file.string(), "expected " + std::to_string(kNumHeadAnchors) + " anchors, found " + std::to_string(anchors));
+    if (anchors != kNumHeadAnchors) throw core::file_error(file.string(), "expected " + std::to_string(kNumHeadAnchors) + " anchors, found " + std::to_string(anchors));
     parts.anchors.resize(3, kNumHeadAnchors);
     in.read_floats(parts.anchors, "anchors");
     const std::size_t count = in.read_count(1, "part count");
@@ -109,15 +109,15 @@ HeadParts read_head_parts(const std::filesystem::path& file) {
         parts.parts.push_back(std::move(part));
     }
     if (!in.at_end()) throw in.error("trailing bytes after the last part");
-    if (parts.skin.empty() || parts.clothing.empty()) throw file_error(file.string(), "needs at least one skin and one clothing part");
+    if (parts.skin.empty() || parts.clothing.empty()) throw core::file_error(file.string(), "needs at least one skin and one clothing part");
     return parts;
 }
 
-HeadPlacement::HeadPlacement(const MorphableModel& model, const HeadParts& parts) : model_(&model), anchors_(parts.anchors) {
-    if (model.landmarks.size() < 68) throw Error("head.body: model '" + model.name + "' has no 68 landmarks to place the head parts by");
+HeadPlacement::HeadPlacement(const morph::MorphableModel& model, const HeadParts& parts) : model_(&model), anchors_(parts.anchors) {
+    if (model.landmarks.size() < 68) throw core::Error("head.body: model '" + model.name + "' has no 68 landmarks to place the head parts by");
     const Eigen::Matrix3Xf mean = model.shape_instance({}, {});
     for (int v = 0; v < static_cast<int>(model.vertex_labels.size()); ++v)
-        if (model.vertex_labels[static_cast<std::size_t>(v)] == static_cast<std::uint8_t>(Region::kEars)) (mean(0, v) < 0 ? right_ear_ : left_ear_).push_back(v);
+        if (model.vertex_labels[static_cast<std::size_t>(v)] == static_cast<std::uint8_t>(morph::Region::kEars)) (mean(0, v) < 0 ? right_ear_ : left_ear_).push_back(v);
 }
 
 Eigen::Matrix4f HeadPlacement::transform(const Eigen::Matrix3Xf& shape) const {
@@ -168,7 +168,7 @@ void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::
     out.triangles.reserve(triangles);
 
     // The torso's rotation in the head's (model) frame: rendered through the head's pose it has its own.
-    const Eigen::AngleAxisf twist(Eigen::Matrix3f((head_rotation.transpose() * rotation_from_euler(spec.torso)).cast<float>()));
+    const Eigen::AngleAxisf twist(Eigen::Matrix3f((head_rotation.transpose() * morph::rotation_from_euler(spec.torso)).cast<float>()));
     const Eigen::Matrix3f linear = placement.topLeftCorner<3, 3>();
     const Eigen::Vector3f shift = placement.topRightCorner<3, 1>();
     const Eigen::Vector3f pivot = linear * parts.anchors.col(static_cast<int>(HeadAnchor::kNeckJoint)) + shift;
@@ -176,7 +176,7 @@ void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::
     for (const HeadPart* part : worn) {
         const bool skin = part->kind == HeadPartKind::kSkin, hair = part->kind == HeadPartKind::kHair;
         const bool head = part->kind == HeadPartKind::kHead || part->kind == HeadPartKind::kEars;
-        const Region head_region = part->kind == HeadPartKind::kEars ? Region::kEars : Region::kSkin;
+        const morph::Region head_region = part->kind == HeadPartKind::kEars ? morph::Region::kEars : morph::Region::kSkin;
         for (Eigen::Index v = 0; v < part->vertices.cols(); ++v) {
             const Eigen::Vector3f p = part->vertices.col(v);
             // The shirt: the skin below the neckline, lower at the front by up to the dip.
@@ -184,7 +184,7 @@ void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::
             const bool covered = skin && spec.shirt && p.y() < spec.neckline - spec.neckline_dip * front;
             const bool bare = head || (skin && !covered);
             const int patch = hair ? kHairPatch : bare ? kSkinPatch : kClothPatch;
-            const Region region = hair ? Region::kHair : head ? head_region : bare ? Region::kNeck : Region::kClothing;
+            const morph::Region region = hair ? morph::Region::kHair : head ? head_region : bare ? morph::Region::kNeck : morph::Region::kClothing;
             const Eigen::Vector3d colour = hair ? hair_colour : bare ? skin_colour : spec.clothing_colour;
             const Eigen::Vector3f on_head = linear * p + shift;
             // The neck turns by a share of the torso's rotation that grows toward the shoulders
@@ -196,7 +196,7 @@ void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::
             out.colours.col(first + v) = colour.cast<float>();
             out.labels[static_cast<std::size_t>(first + v)] = static_cast<std::uint8_t>(region);
         }
-        for (const Triangle& t : part->triangles)
+        for (const morph::Triangle& t : part->triangles)
             out.triangles.push_back({t[0] + static_cast<int>(first), t[1] + static_cast<int>(first), t[2] + static_cast<int>(first)});
         first += part->vertices.cols();
     }
@@ -207,7 +207,7 @@ void make_parts_atlas(const cv::Mat& face, const HeadPartsSpec& spec, const Eige
     const int strip = static_cast<int>(std::lround(face.rows * (1 - kFaceShare) / kFaceShare));
     atlas.create(face.rows + strip, face.cols, CV_8UC3);
     face.copyTo(atlas.rowRange(0, face.rows));
-    Rng rng(spec.pattern_seed, 0, 0);
+    core::Rng rng(spec.pattern_seed, 0, 0);
     const SrgbTable encoded;
     const int width = face.cols;
     const auto patch = [&](int k) {
@@ -247,7 +247,7 @@ void make_parts_atlas(const cv::Mat& face, const HeadPartsSpec& spec, const Eige
     }
 }
 
-Eigen::Vector3d texture_colour_of(const cv::Mat& texture, const MorphableModel& model, Region region) {
+Eigen::Vector3d texture_colour_of(const cv::Mat& texture, const morph::MorphableModel& model, morph::Region region) {
     // Medians of the 8-bit values by histogram; decoding is monotonic, so it commutes with the median.
     std::array<std::array<int, 256>, 3> histogram{};
     int count = 0;
@@ -265,7 +265,7 @@ Eigen::Vector3d texture_colour_of(const cv::Mat& texture, const MorphableModel& 
     for (int c = 0; c < 3; ++c) {
         int below = 0, level = 0;
         while (level < 255 && (below += histogram[static_cast<std::size_t>(c)][static_cast<std::size_t>(level)]) <= count / 2) ++level;
-        median[c] = srgb_decode(level / 255.0);
+        median[c] = core::srgb_decode(level / 255.0);
     }
     return median;
 }

@@ -30,7 +30,7 @@ struct HeadPart {
     Eigen::Matrix3Xf vertices;  // mm, the asset's frame (x to the viewer's right, y up, z to the front)
     Eigen::Matrix2Xf uv;        // the source mesh's texture coordinates in [0, 1]
     Eigen::VectorXf head_weight;  // 1 = moves with the head, 0 = with the torso
-    std::vector<Triangle> triangles;
+    std::vector<morph::Triangle> triangles;
 };
 
 // Anchor order in the file and in head_anchor_points.
@@ -45,7 +45,7 @@ struct HeadParts {
 
 // The asset in the source tree (assets/head_parts.bin).
 [[nodiscard]] std::filesystem::path default_head_parts_file();
-// Throws facesynth::Error naming the file when it is missing, truncated or not a parts file.
+// Throws core::Error naming the file when it is missing, truncated or not a parts file.
 [[nodiscard]] HeadParts read_head_parts(const std::filesystem::path& file);
 
 // What one sample wears (drawn by sample_scene from the kHead stream; choices modulo the counts).
@@ -60,7 +60,7 @@ struct HeadPartsSpec {
     int clothing_pattern = 0;        // 0 plain, 1 stripes, 2 checks
     double pattern_period = 0.05;    // uv units
     std::uint64_t pattern_seed = 0;  // fabric and hair-strand noise
-    EulerAngles torso;               // the torso's rotation, degrees (the head's is the sample's pose)
+    morph::EulerAngles torso;               // the torso's rotation, degrees (the head's is the sample's pose)
     // A shirt on the body's skin below a neckline: its height (mm, the asset's frame, where the neck
     // joint is at 589 and the shoulders near 520) and how far it dips at the front (a U or V neck).
     bool shirt = true;
@@ -74,14 +74,14 @@ struct HeadPartsSpec {
 // asset's proportions.
 class HeadPlacement {
 public:
-    HeadPlacement(const MorphableModel& model, const HeadParts& parts);
+    HeadPlacement(const morph::MorphableModel& model, const HeadParts& parts);
     // Similarity (4 x 4, homogeneous) taking the asset's frame to the model's for `shape`.
     [[nodiscard]] Eigen::Matrix4f transform(const Eigen::Matrix3Xf& shape) const;
     // A face-only model (no vertices labelled ears): it wears the asset's head and ears too.
     [[nodiscard]] bool face_only() const { return right_ear_.empty() || left_ear_.empty(); }
 
 private:
-    const MorphableModel* model_;
+    const morph::MorphableModel* model_;
     Eigen::Matrix3Xf anchors_;  // the parts'
     std::vector<int> right_ear_, left_ear_;
 };
@@ -92,7 +92,7 @@ struct DressedParts {
     Eigen::Matrix2Xf uv;  // into the atlas's part patches (make_parts_atlas)
     Eigen::Matrix3Xf colours;  // linear RGB, for renders without a texture
     std::vector<std::uint8_t> labels;
-    std::vector<Triangle> triangles;  // indices from 0 (the caller offsets them)
+    std::vector<morph::Triangle> triangles;  // indices from 0 (the caller offsets them)
 };
 
 // `head_rotation` is the sample's pose rotation (model to camera, before the axis flip); the torso
@@ -111,6 +111,6 @@ inline constexpr double kAtlasFaceShare = 0.8;
 
 // The median linear colour of `texture` (8-bit RGB, sRGB) at the uv of the model vertices labelled
 // `region` (of all its vertices when none is).
-[[nodiscard]] Eigen::Vector3d texture_colour_of(const cv::Mat& texture, const MorphableModel& model, Region region);
+[[nodiscard]] Eigen::Vector3d texture_colour_of(const cv::Mat& texture, const morph::MorphableModel& model, morph::Region region);
 
 }  // namespace facesynth::synth

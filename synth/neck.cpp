@@ -13,7 +13,7 @@ struct NeckFrame {
     float centre_x = 0, centre_z = 0, radius_x = 0, radius_z = 0, top_y = 0, bottom_y = 0;
 };
 
-NeckFrame neck_frame(const MorphableModel& model, const Eigen::Matrix3Xf& shape) {
+NeckFrame neck_frame(const morph::MorphableModel& model, const Eigen::Matrix3Xf& shape) {
     const Eigen::Matrix3Xf l = model.landmark_positions(shape);
     const Eigen::Vector3f chin = l.col(8);                   // iBUG 9
     const float face_height = l(1, 27) - chin.y();           // nose bridge (iBUG 28) to chin
@@ -34,7 +34,7 @@ Eigen::Vector3f neck_point(const NeckFrame& f, float angle, float y) {
 
 }  // namespace
 
-std::optional<NeckTemplate> make_neck_template(const MorphableModel& model) {
+std::optional<NeckTemplate> make_neck_template(const morph::MorphableModel& model) {
     if (model.landmarks.size() < 68 || model.num_vertices() == 0) return std::nullopt;
     NeckTemplate neck;
     neck.first_vertex = model.num_vertices();
@@ -47,7 +47,7 @@ std::optional<NeckTemplate> make_neck_template(const MorphableModel& model) {
         }
     // Each neck vertex takes the look of the model vertex under the chin nearest in angle round the
     // neck: among the vertices below the mouth, the lowest one in each angular sector of the mean face.
-    const Eigen::Matrix3Xf mean = as_points(model.shape.mean);
+    const Eigen::Matrix3Xf mean = morph::as_points(model.shape.mean);
     const NeckFrame f = neck_frame(model, mean);
     const float mouth_y = model.landmark_positions(mean)(1, 57);  // iBUG 58
     std::vector<int> lowest(static_cast<std::size_t>(segments), -1);
@@ -81,7 +81,7 @@ std::optional<NeckTemplate> make_neck_template(const MorphableModel& model) {
     return neck;
 }
 
-void append_neck_vertices(const NeckTemplate& neck, const MorphableModel& model, Mesh& mesh) {
+void append_neck_vertices(const NeckTemplate& neck, const morph::MorphableModel& model, morph::Mesh& mesh) {
     const NeckFrame f = neck_frame(model, mesh.vertices.leftCols(neck.first_vertex));
     mesh.vertices.conservativeResize(3, neck.first_vertex + neck.rings * neck.segments);
     const float step = 2 * std::numbers::pi_v<float> / static_cast<float>(neck.segments);
@@ -91,13 +91,13 @@ void append_neck_vertices(const NeckTemplate& neck, const MorphableModel& model,
     }
 }
 
-std::vector<Triangle> mesh_triangles_with_neck(const MorphableModel& model, const NeckTemplate& neck) {
-    std::vector<Triangle> triangles = model.triangles;
+std::vector<morph::Triangle> mesh_triangles_with_neck(const morph::MorphableModel& model, const NeckTemplate& neck) {
+    std::vector<morph::Triangle> triangles = model.triangles;
     triangles.insert(triangles.end(), neck.triangles.begin(), neck.triangles.end());
     return triangles;
 }
 
-Eigen::Matrix2Xf uv_with_neck(const MorphableModel& model, const NeckTemplate& neck) {
+Eigen::Matrix2Xf uv_with_neck(const morph::MorphableModel& model, const NeckTemplate& neck) {
     if (model.uv.cols() != model.num_vertices()) return {};
     Eigen::Matrix2Xf uv(2, neck.first_vertex + static_cast<int>(neck.source.size()));
     uv.leftCols(neck.first_vertex) = model.uv;
@@ -105,10 +105,10 @@ Eigen::Matrix2Xf uv_with_neck(const MorphableModel& model, const NeckTemplate& n
     return uv;
 }
 
-std::vector<std::uint8_t> labels_with_neck(const MorphableModel& model, const NeckTemplate& neck) {
+std::vector<std::uint8_t> labels_with_neck(const morph::MorphableModel& model, const NeckTemplate& neck) {
     if (model.vertex_labels.empty()) return {};
     std::vector<std::uint8_t> labels = model.vertex_labels;
-    labels.resize(labels.size() + neck.source.size(), static_cast<std::uint8_t>(Region::kNeck));
+    labels.resize(labels.size() + neck.source.size(), static_cast<std::uint8_t>(morph::Region::kNeck));
     return labels;
 }
 

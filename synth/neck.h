@@ -20,20 +20,20 @@ struct NeckTemplate {
     int rings = 8;                    // rings of vertices from the top (inside the head) down
     int segments = 32;                // vertices per ring, round the neck
     int first_vertex = 0;             // index of the first neck vertex (the model's vertex count)
-    std::vector<Triangle> triangles;  // the neck's, outward counter-clockwise, indices from first_vertex
+    std::vector<morph::Triangle> triangles;  // the neck's, outward counter-clockwise, indices from first_vertex
     std::vector<int> source;          // per neck vertex: the model vertex whose uv and colour it takes
 };
 
 // The neck of `model`, or nothing when it has no 68 landmarks to place it by.
-[[nodiscard]] std::optional<NeckTemplate> make_neck_template(const MorphableModel& model);
+[[nodiscard]] std::optional<NeckTemplate> make_neck_template(const morph::MorphableModel& model);
 
 // Appends the neck's vertices to `mesh`, whose first vertices are the sample's model shape.
-void append_neck_vertices(const NeckTemplate& neck, const MorphableModel& model, Mesh& mesh);
+void append_neck_vertices(const NeckTemplate& neck, const morph::MorphableModel& model, morph::Mesh& mesh);
 
 // The model's triangles, uv, region labels and colours (3 x V) followed by the neck's.
-[[nodiscard]] std::vector<Triangle> mesh_triangles_with_neck(const MorphableModel& model, const NeckTemplate& neck);
-[[nodiscard]] Eigen::Matrix2Xf uv_with_neck(const MorphableModel& model, const NeckTemplate& neck);
-[[nodiscard]] std::vector<std::uint8_t> labels_with_neck(const MorphableModel& model, const NeckTemplate& neck);
+[[nodiscard]] std::vector<morph::Triangle> mesh_triangles_with_neck(const morph::MorphableModel& model, const NeckTemplate& neck);
+[[nodiscard]] Eigen::Matrix2Xf uv_with_neck(const morph::MorphableModel& model, const NeckTemplate& neck);
+[[nodiscard]] std::vector<std::uint8_t> labels_with_neck(const morph::MorphableModel& model, const NeckTemplate& neck);
 [[nodiscard]] Eigen::Matrix3Xf colours_with_neck(const Eigen::Matrix3Xf& colours, const NeckTemplate& neck, float shade = 0.8f);
 
 }  // namespace facesynth::synth

@@ -1,6 +1,6 @@
 #include "synth/photo_backgrounds.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 namespace facesynth::synth {
 
 cv::Rect face_exclusion_box(const cv::Size& image, const Eigen::Matrix2Xd& landmarks, const FaceExclusion& grow) {
-    if (landmarks.cols() == 0 || !landmarks.allFinite()) throw Error("backgrounds: the landmarks are empty or not finite");
+    if (landmarks.cols() == 0 || !landmarks.allFinite()) throw core::Error("backgrounds: the landmarks are empty or not finite");
     const Eigen::Vector2d low = landmarks.rowwise().minCoeff(), high = landmarks.rowwise().maxCoeff();
     const double w = high.x() - low.x(), h = high.y() - low.y();
     const int x0 = static_cast<int>(std::floor(low.x() - grow.side * w));

@@ -22,7 +22,7 @@ struct FaceExclusion {
 [[nodiscard]] cv::Rect face_exclusion_box(const cv::Size& image, const Eigen::Matrix2Xd& landmarks, const FaceExclusion& grow = {});
 
 // The strips of `image` outside face_exclusion_box (left, right, above, below), each at least
-// `min_side` pixels on its shorter side; none of them meets the box. Throws facesynth::Error when the
+// `min_side` pixels on its shorter side; none of them meets the box. Throws core::Error when the
 // landmarks are empty or not finite.
 [[nodiscard]] std::vector<cv::Rect> background_regions(const cv::Size& image, const Eigen::Matrix2Xd& landmarks, int min_side,
                                                        const FaceExclusion& grow = {});

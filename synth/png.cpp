@@ -1,6 +1,6 @@
 #include "synth/png.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <libdeflate.h>
 
@@ -38,9 +38,9 @@ void append_chunk(std::string& out, std::string_view type, const unsigned char* 
 void PngEncoder::FreeCompressor::operator()(libdeflate_compressor* compressor) const { libdeflate_free_compressor(compressor); }
 
 PngEncoder::PngEncoder(int level) : level_(level) {
-    if (level < 0 || level > 9) throw Error("PNG compression level " + std::to_string(level) + " is outside 0-9");
+    if (level < 0 || level > 9) throw core::Error("PNG compression level " + std::to_string(level) + " is outside 0-9");
     compressor_.reset(libdeflate_alloc_compressor(level));
-    if (!compressor_) throw Error("PNG encoder: cannot allocate a deflate compressor (out of memory?)");
+    if (!compressor_) throw core::Error("PNG encoder: cannot allocate a deflate compressor (out of memory?)");
 }
 
 PngEncoder::~PngEncoder() = default;
@@ -49,7 +49,7 @@ PngEncoder& PngEncoder::operator=(PngEncoder&&) noexcept = default;
 
 std::string PngEncoder::encode(const cv::Mat& image, const std::string& context) {
     if (image.empty() || (image.type() != CV_8UC1 && image.type() != CV_8UC3))
-        throw Error(context + ": PNG encoding needs a non-empty 8-bit grey or RGB image");
+        throw core::Error(context + ": PNG encoding needs a non-empty 8-bit grey or RGB image");
     const int channels = image.channels();
     const auto row_bytes = static_cast<std::size_t>(image.cols) * static_cast<std::size_t>(channels);
     // Stored (level 0) rows gain nothing from a filter.
@@ -69,7 +69,7 @@ std::string PngEncoder::encode(const cv::Mat& image, const std::string& context)
     deflated_.resize(libdeflate_zlib_compress_bound(compressor_.get(), filtered_.size()));
     const std::size_t deflated_size =
         libdeflate_zlib_compress(compressor_.get(), filtered_.data(), filtered_.size(), deflated_.data(), deflated_.size());
-    if (deflated_size == 0) throw Error(context + ": PNG compression failed");
+    if (deflated_size == 0) throw core::Error(context + ": PNG compression failed");
 
     std::string png;
     png.reserve(deflated_size + 64 + 12 * (deflated_size / kMaxChunk));

@@ -17,7 +17,7 @@ namespace facesynth::synth {
 class PngEncoder {
 public:
     // `level`: deflate level, 0 (stored, no filter) to 9; 1 is the fastest that compresses. Throws
-    // facesynth::Error outside that range.
+    // core::Error outside that range.
     explicit PngEncoder(int level);
     ~PngEncoder();
     PngEncoder(PngEncoder&&) noexcept;
@@ -26,7 +26,7 @@ public:
     PngEncoder& operator=(const PngEncoder&) = delete;
 
     // The bytes of a PNG file holding `image`: 8-bit grey (CV_8UC1) or RGB (CV_8UC3, stored in R G B
-    // order as given). Throws facesynth::Error starting with `context` for any other type.
+    // order as given). Throws core::Error starting with `context` for any other type.
     [[nodiscard]] std::string encode(const cv::Mat& image, const std::string& context);
 
 private:

@@ -1,9 +1,9 @@
 #include "synth/sample.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
-#include "morph/random.h"
-#include "morph/srgb.h"
+#include "core/random.h"
+#include "core/srgb.h"
 #include "render/landmarks.h"
 #include "synth/neck.h"
 
@@ -49,7 +49,7 @@ void procedural(cv::Mat& out, const BackgroundSpec& b, cv::Mat& canvas) {
     canvas.create((out.rows + 1) / 2, (out.cols + 1) / 2, CV_8UC3);
     gradient(canvas, b);
     constexpr int kHalf = 1;  // OpenCV drawing's fractional bits: full-size coordinates land at half
-    Rng rng(b.pattern_seed, 0, 0);
+    core::Rng rng(b.pattern_seed, 0, 0);
     const int shapes = rng.uniform_int(3, 12);
     const int side = std::max(out.cols, out.rows);
     for (int i = 0; i < shapes; ++i) {
@@ -75,7 +75,7 @@ void procedural(cv::Mat& out, const BackgroundSpec& b, cv::Mat& canvas) {
 }
 
 void image_crop(cv::Mat& out, const BackgroundSpec& b, const ImageLibrary& library) {
-    Rng rng(b.pattern_seed, 0, 0);
+    core::Rng rng(b.pattern_seed, 0, 0);
     const cv::Mat& source = library.image(rng.next_u64());
     // A random crop of the output's aspect ratio covering 30-100% of the image's shorter side.
     const double aspect = static_cast<double>(out.cols) / out.rows;
@@ -163,7 +163,7 @@ void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::
         cv::LUT(image, lut, image);
     }
     if (d.noise_sigma > 0) {
-        Rng rng = make_rng(seed, static_cast<std::uint64_t>(index), RandomStream::kNoise);
+        core::Rng rng = core::make_rng(seed, static_cast<std::uint64_t>(index), core::RandomStream::kNoise);
         for (int y = 0; y < image.rows; ++y) {
             auto* row = image.ptr<uchar>(y);
             for (int x = 0; x < image.cols * 3; ++x) row[x] = cv::saturate_cast<uchar>(row[x] + rng.normal(0, d.noise_sigma));
@@ -182,8 +182,8 @@ void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::
 void tone_texture(const cv::Mat& rgb, const Eigen::Vector3d& gain, cv::Mat& out) {
     cv::Mat lut(1, 256, CV_8UC3);
     for (int v = 0; v < 256; ++v) {
-        const double linear = srgb_decode(v / 255.0);
-        for (int c = 0; c < 3; ++c) lut.at<cv::Vec3b>(v)[c] = cv::saturate_cast<uchar>(255.0 * srgb_encode(linear * gain[c]));
+        const double linear = core::srgb_decode(v / 255.0);
+        for (int c = 0; c < 3; ++c) lut.at<cv::Vec3b>(v)[c] = cv::saturate_cast<uchar>(255.0 * core::srgb_encode(linear * gain[c]));
     }
     cv::LUT(rgb, lut, out);
 }
@@ -228,7 +228,7 @@ void StageClock::lap(StageTimes::Stage& stage) {
 
 ImageLibrary::ImageLibrary(const std::filesystem::path& folder, const std::string& kind) {
     std::error_code error;
-    if (!std::filesystem::is_directory(folder, error)) throw file_error(folder.string(), kind + " folder not found");
+    if (!std::filesystem::is_directory(folder, error)) throw core::file_error(folder.string(), kind + " folder not found");
     std::vector<std::filesystem::path> files;
     for (const auto& entry : std::filesystem::directory_iterator(folder))
         if (entry.is_regular_file()) files.push_back(entry.path());
@@ -244,20 +244,20 @@ ImageLibrary::ImageLibrary(const std::filesystem::path& folder, const std::strin
         images_.push_back(std::move(rgb));
         names_.push_back(file.filename().string());
     }
-    if (images_.empty()) throw file_error(folder.string(), "no readable " + kind + " images");
+    if (images_.empty()) throw core::file_error(folder.string(), "no readable " + kind + " images");
 }
 
-SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel& model, const ImageLibrary& backgrounds,
+SampleGenerator::SampleGenerator(const SynthConfig& config, const morph::MorphableModel& model, const ImageLibrary& backgrounds,
                                  const ImageLibrary& textures, const render::RendererOptions& renderer_options)
     : config_(config), model_(model), backgrounds_(backgrounds), textures_(textures),
-      contour_region_(jaw_contour_region(model)),
+      contour_region_(morph::jaw_contour_region(model)),
       albedo_check_(make_albedo_check(config, model)), renderer_(renderer_options) {
     mesh_.triangles = model.triangles;
     mesh_.uv = model.uv;
     vertex_labels_ = model.vertex_labels;
     if (config.head.neck) {
         neck_ = make_neck_template(model);
-        if (!neck_) throw Error("head.neck: model '" + model.name + "' has no 68 landmarks to place a neck by");
+        if (!neck_) throw core::Error("head.neck: model '" + model.name + "' has no 68 landmarks to place a neck by");
         mesh_.triangles = mesh_triangles_with_neck(model, *neck_);
         mesh_.uv = uv_with_neck(model, *neck_);
         vertex_labels_ = labels_with_neck(model, *neck_);
@@ -272,17 +272,17 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const MorphableModel
     if (!landmark_topology_.face_triangles.empty())
         std::fill(landmark_topology_.face_triangles.begin() + static_cast<std::ptrdiff_t>(model.triangles.size()), landmark_topology_.face_triangles.end(), 0);
     if ((config.background.type == "images" || config.background.type == "wallpapers") && backgrounds.empty())
-        throw Error("background.type = \"" + config.background.type + "\" needs readable background images");
+        throw core::Error("background.type = \"" + config.background.type + "\" needs readable background images");
     if (!config.albedo.texture_folder.empty() && textures.empty())
-        throw Error("albedo.texture_folder needs a folder with readable texture images");
+        throw core::Error("albedo.texture_folder needs a folder with readable texture images");
     if (!config.albedo.texture_bank.empty() && textures.empty())
-        throw Error("albedo.texture_bank: the bank " + config.albedo.texture_bank + " was not loaded");
+        throw core::Error("albedo.texture_bank: the bank " + config.albedo.texture_bank + " was not loaded");
     // Checked here, before any sample is written, rather than at the first sample that draws such a texture.
     if (config.identity.source == "texture") {
         const auto shapes = textures.shapes();
         for (std::size_t t = 0; t < textures.size(); ++t)
             if (t >= shapes.size() || static_cast<int>(shapes[t].size()) != model.num_shape_components())
-                throw Error("identity.source = \"texture\": texture " + textures.name(t) + " of the bank " + config.albedo.texture_bank +
+                throw core::Error("identity.source = \"texture\": texture " + textures.name(t) + " of the bank " + config.albedo.texture_bank +
                             " has no stored shape for model '" + model.name + "' (a bank made before shapes were stored: rebuild it)");
     }
 }
@@ -294,7 +294,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     StageTimes local;
     Sample s;
     s.spec = sample_scene(config_, model_, index, albedo_check_ ? &*albedo_check_ : nullptr, &mesh_.vertices, textures_.shapes());
-    Mesh& mesh = mesh_;
+    morph::Mesh& mesh = mesh_;
     if (s.spec.skin_tone) mesh.colours = s.spec.skin_tone->cast<float>().replicate(1, model_.num_vertices());
     else mesh.colours = model_.albedo_instance(s.spec.beta);
     if (neck_) {
@@ -369,16 +369,16 @@ const cv::Mat* SampleGenerator::dress(Sample& s, const cv::Mat* texture) {
     // The body's skin and (by choice) the hair take the face's own colours.
     Eigen::Vector3d skin = Eigen::Vector3d::Constant(0.5), hair = spec.hair_colour;
     if (texture) {
-        skin = texture_colour_of(*texture, model_, Region::kSkin);
+        skin = texture_colour_of(*texture, model_, morph::Region::kSkin);
         // The scalp of a texture shows hair only when the photograph's hairline came into it: a
         // scalp no darker than the skin is skin or background, and the drawn colour is used.
-        const Eigen::Vector3d scalp = texture_colour_of(*texture, model_, Region::kHair);
+        const Eigen::Vector3d scalp = texture_colour_of(*texture, model_, morph::Region::kHair);
         if (spec.hair_colour_from_texture && scalp.sum() < 0.8 * skin.sum()) hair = scalp;
     } else {
         Eigen::Vector3d sum = Eigen::Vector3d::Zero();
         int n = 0;
         for (int v = 0; v < model_vertices; ++v)
-            if (model_.vertex_labels.empty() || model_.vertex_labels[static_cast<std::size_t>(v)] == static_cast<std::uint8_t>(Region::kSkin))
+            if (model_.vertex_labels.empty() || model_.vertex_labels[static_cast<std::size_t>(v)] == static_cast<std::uint8_t>(morph::Region::kSkin))
                 sum += mesh_.colours.col(v).cast<double>(), ++n;
         if (n > 0) skin = sum / n;
     }
@@ -391,10 +391,10 @@ const cv::Mat* SampleGenerator::dress(Sample& s, const cv::Mat* texture) {
     mesh_.vertices.conservativeResize(3, total);
     mesh_.vertices.rightCols(dressed_.vertices.cols()) = dressed_.vertices;
     mesh_.triangles.assign(model_.triangles.begin(), model_.triangles.end());
-    for (const Triangle& t : dressed_.triangles) mesh_.triangles.push_back({t[0] + model_vertices, t[1] + model_vertices, t[2] + model_vertices});
+    for (const morph::Triangle& t : dressed_.triangles) mesh_.triangles.push_back({t[0] + model_vertices, t[1] + model_vertices, t[2] + model_vertices});
     // A model without labels is skin throughout (as the renderer takes an empty label list).
     dressed_labels_.assign(vertex_labels_.begin(), vertex_labels_.begin() + std::min<std::ptrdiff_t>(std::ssize(vertex_labels_), model_vertices));
-    dressed_labels_.resize(static_cast<std::size_t>(model_vertices), static_cast<std::uint8_t>(Region::kSkin));
+    dressed_labels_.resize(static_cast<std::size_t>(model_vertices), static_cast<std::uint8_t>(morph::Region::kSkin));
     dressed_labels_.insert(dressed_labels_.end(), dressed_.labels.begin(), dressed_.labels.end());
     mesh_.colours.conservativeResize(3, total);
     mesh_.colours.rightCols(dressed_.colours.cols()) = dressed_.colours.cast<float>();

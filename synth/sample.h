@@ -103,7 +103,7 @@ private:
 // One per worker thread: owns its Renderer (GL context), created once.
 class SampleGenerator {
 public:
-    SampleGenerator(const SynthConfig& config, const MorphableModel& model, const ImageLibrary& backgrounds,
+    SampleGenerator(const SynthConfig& config, const morph::MorphableModel& model, const ImageLibrary& backgrounds,
                     const ImageLibrary& textures, const render::RendererOptions& renderer_options);
     [[nodiscard]] Sample generate(std::int64_t index, StageTimes* times = nullptr);
     [[nodiscard]] std::string renderer_description() const;
@@ -114,12 +114,12 @@ private:
     const cv::Mat* dress(Sample& s, const cv::Mat* texture);
 
     const SynthConfig& config_;
-    const MorphableModel& model_;
+    const morph::MorphableModel& model_;
     const ImageLibrary& backgrounds_;
     const ImageLibrary& textures_;
-    JawContourRegion contour_region_;  // the face region of the jaw contour definition
+    morph::JawContourRegion contour_region_;  // the face region of the jaw contour definition
     render::LandmarkTopology landmark_topology_;  // the model's, for project_landmarks
-    std::optional<SkinColourCheck> albedo_check_;  // albedo.reject_implausible
+    std::optional<morph::SkinColourCheck> albedo_check_;  // albedo.reject_implausible
     std::optional<NeckTemplate> neck_;  // head.neck
     std::optional<HeadParts> head_parts_;  // head.body
     std::optional<HeadPlacement> head_placement_;
@@ -131,7 +131,7 @@ private:
     std::vector<std::uint8_t> vertex_labels_;  // the model's, then the neck's
     render::Renderer renderer_;
     render::Frame frame_;
-    Mesh mesh_;  // the model's triangles and uv, set once; vertices and colours per sample
+    morph::Mesh mesh_;  // the model's triangles and uv, set once; vertices and colours per sample
     cv::Mat background_, background_canvas_;  // per sample, in buffers kept between samples
     cv::Mat toned_texture_;  // the sample's texture times its albedo.texture_tone_jitter gains
 };

@@ -1,9 +1,9 @@
 #include "synth/scene.h"
 
-#include "morph/error.h"
-#include "morph/random.h"
+#include "core/error.h"
+#include "core/random.h"
 #include "morph/sampling.h"
-#include "morph/srgb.h"
+#include "core/srgb.h"
 
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
@@ -20,7 +20,7 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-double sample_angle(Rng& rng, const AngleDistribution& a) {
+double sample_angle(core::Rng& rng, const AngleDistribution& a) {
     if (a.distribution == "normal") {
         for (;;) {
             const double v = rng.normal(a.mean, a.stddev);
@@ -30,15 +30,15 @@ double sample_angle(Rng& rng, const AngleDistribution& a) {
     return rng.uniform(a.min, a.max);
 }
 
-bool chance(Rng& rng, double probability) { return rng.uniform() < probability; }
+bool chance(core::Rng& rng, double probability) { return rng.uniform() < probability; }
 
-std::vector<float> sample_expression(const SynthConfig& config, const MorphableModel& model, std::int64_t index) {
-    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kExpression);
+std::vector<float> sample_expression(const SynthConfig& config, const morph::MorphableModel& model, std::int64_t index) {
+    core::Rng rng = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kExpression);
     const int n = model.num_expression_components();
     if (n == 0 || !model.expression) return {};
     if (chance(rng, config.expression.neutral_share)) return {};
-    if (std::holds_alternative<PcaModel>(*model.expression))
-        return sample_coefficients(rng, n, config.expression.truncation);
+    if (std::holds_alternative<morph::PcaModel>(*model.expression))
+        return morph::sample_coefficients(rng, n, config.expression.truncation);
     std::vector<float> weights(static_cast<std::size_t>(n), 0.0f);
     std::vector<int> order(static_cast<std::size_t>(n));
     std::iota(order.begin(), order.end(), 0);
@@ -52,7 +52,7 @@ std::vector<float> sample_expression(const SynthConfig& config, const MorphableM
 }
 
 // A skin colour between a light and a dark sRGB tone with a little hue variation, as linear RGB.
-Eigen::Vector3d sample_skin_tone(Rng& rng) {
+Eigen::Vector3d sample_skin_tone(core::Rng& rng) {
     const Eigen::Vector3d light(0.92, 0.76, 0.66), dark(0.34, 0.21, 0.15);
     const double t = rng.uniform();
     Eigen::Vector3d srgb = (1 - t) * light + t * dark;
@@ -69,7 +69,7 @@ std::vector<float> scaled(std::vector<float> values, double scale) {
 }
 
 // A unit vector within `max_angle` degrees of `axis` (uniform over the spherical cap).
-Eigen::Vector3d direction_in_cone(Rng& rng, const Eigen::Vector3d& axis, double max_angle) {
+Eigen::Vector3d direction_in_cone(core::Rng& rng, const Eigen::Vector3d& axis, double max_angle) {
     const double cos_max = std::cos(max_angle * kDegree);
     const double z = rng.uniform(cos_max, 1.0);
     const double phi = rng.uniform(0.0, 2.0 * std::numbers::pi);
@@ -103,7 +103,7 @@ void white_balance(LightingSpec& spec, double share) {
 
 LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
     const auto& c = config.lighting;
-    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kLighting);
+    core::Rng rng = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kLighting);
     LightingSpec spec;
     auto& l = spec.lighting;
     spec.environment_radiance = rng.uniform(c.environment_min, c.environment_max);
@@ -134,10 +134,10 @@ LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
     return spec;
 }
 
-Eigen::Vector3d random_colour(Rng& rng) { return {rng.uniform(), rng.uniform(), rng.uniform()}; }
+Eigen::Vector3d random_colour(core::Rng& rng) { return {rng.uniform(), rng.uniform(), rng.uniform()}; }
 
 BackgroundSpec sample_background(const SynthConfig& config, std::int64_t index) {
-    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kBackground);
+    core::Rng rng = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kBackground);
     BackgroundSpec b;
     b.type = config.background.type;
     b.colour = random_colour(rng);
@@ -149,7 +149,7 @@ BackgroundSpec sample_background(const SynthConfig& config, std::int64_t index) 
 
 DegradationSpec sample_degradation(const SynthConfig& config, std::int64_t index) {
     const auto& c = config.degrade;
-    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kDegradation);
+    core::Rng rng = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kDegradation);
     DegradationSpec d;
     // Every draw happens whatever the probabilities, so changing one probability never moves another value.
     const double blur = rng.uniform(0.3, c.blur_sigma_max);
@@ -170,7 +170,7 @@ DegradationSpec sample_degradation(const SynthConfig& config, std::int64_t index
 
 std::vector<OccluderSpec> sample_occluders(const SynthConfig& config, std::int64_t index, const Eigen::Matrix2Xd& landmarks) {
     const auto& c = config.occluders;
-    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kOccluder);
+    core::Rng rng = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kOccluder);
     std::vector<OccluderSpec> out;
     if (!chance(rng, c.probability)) return out;
     const Eigen::Vector2d low = landmarks.rowwise().minCoeff();
@@ -216,26 +216,26 @@ Eigen::Vector3d colour_of_temperature(double kelvin) {
     return rgb / rgb.maxCoeff();
 }
 
-std::optional<SkinColourCheck> make_albedo_check(const SynthConfig& config, const MorphableModel& model) {
+std::optional<morph::SkinColourCheck> make_albedo_check(const SynthConfig& config, const morph::MorphableModel& model) {
     if (!config.albedo.reject_implausible || model.num_albedo_components() == 0) return std::nullopt;
-    SkinColourCheck check(model);
-    const SkinColourVerdict mean = check.check({});
+    morph::SkinColourCheck check(model);
+    const morph::SkinColourVerdict mean = check.check({});
     if (!mean.plausible())
-        throw Error("model '" + model.name + "': its mean colour already fails the skin colour check (" + flaw_names(mean.flaws) +
+        throw core::Error("model '" + model.name + "': its mean colour already fails the skin colour check (" + morph::flaw_names(mean.flaws) +
                     "); set albedo.reject_implausible = false to sample it unchecked");
     return check;
 }
 
-AlbedoDraw sample_albedo(const SynthConfig& config, const MorphableModel& model, std::int64_t index, const SkinColourCheck* albedo_check) {
+morph::AlbedoDraw sample_albedo(const SynthConfig& config, const morph::MorphableModel& model, std::int64_t index, const morph::SkinColourCheck* albedo_check) {
     const auto i = static_cast<std::uint64_t>(index);
-    Rng first = make_rng(config.seed, i, RandomStream::kAlbedo);
-    Rng redraw = make_rng(config.seed, i, RandomStream::kAlbedoRedraw);
-    return draw_albedo(first, redraw, model.num_albedo_components(), config.albedo.truncation, config.albedo.scale, albedo_check,
+    core::Rng first = core::make_rng(config.seed, i, core::RandomStream::kAlbedo);
+    core::Rng redraw = core::make_rng(config.seed, i, core::RandomStream::kAlbedoRedraw);
+    return morph::draw_albedo(first, redraw, model.num_albedo_components(), config.albedo.truncation, config.albedo.scale, albedo_check,
                        kMaxAlbedoRedraws);
 }
 
-HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, const EulerAngles& head) {
-    Rng rng = make_rng(config.seed, static_cast<std::uint64_t>(index), RandomStream::kHead);
+HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, const morph::EulerAngles& head) {
+    core::Rng rng = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kHead);
     HeadPartsSpec h;
     h.hair = rng.uniform() < config.head.hair_probability;
     h.hair_choice = rng.next_u64();
@@ -250,7 +250,7 @@ HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, c
     std::size_t shade = 0;
     while (shade + 1 < kWeights.size() && pick >= kWeights[shade]) pick -= kWeights[shade++];
     const double gain = rng.uniform(0.85, 1.15);
-    for (int c = 0; c < 3; ++c) h.hair_colour[c] = srgb_decode(std::min(1.0, gain * shades[shade][c] / 255.0));
+    for (int c = 0; c < 3; ++c) h.hair_colour[c] = core::srgb_decode(std::min(1.0, gain * shades[shade][c] / 255.0));
     h.hair_colour_from_texture = rng.uniform() < 0.5;
     const auto fabric = [&rng] {
         // Any hue; greys, darks and muted colours as often as bright ones.
@@ -259,7 +259,7 @@ HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, c
         cv::Mat3f rgb;
         cv::cvtColor(hsv, rgb, cv::COLOR_HSV2RGB);
         const cv::Vec3f c = rgb(0, 0);
-        return Eigen::Vector3d(srgb_decode(c[0]), srgb_decode(c[1]), srgb_decode(c[2]));
+        return Eigen::Vector3d(core::srgb_decode(c[0]), core::srgb_decode(c[1]), core::srgb_decode(c[2]));
     };
     h.clothing_colour = fabric();
     h.clothing_colour2 = fabric();
@@ -277,7 +277,7 @@ HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, c
     return h;
 }
 
-SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index, const SkinColourCheck* albedo_check,
+SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& model, std::int64_t index, const morph::SkinColourCheck* albedo_check,
                         Eigen::Matrix3Xf* shape, std::span<const std::vector<float>> texture_shapes) {
     const auto i = static_cast<std::uint64_t>(index);
     SampleSpec s;
@@ -285,26 +285,26 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
     s.index = index;
     s.key = sample_key(index);
     if (config.identity.source != "texture") {  // else the texture's shape, below
-        Rng rng = make_rng(config.seed, i, RandomStream::kIdentity);
-        s.alpha = scaled(sample_coefficients(rng, model.num_shape_components(), config.identity.truncation), config.identity.scale);
+        core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kIdentity);
+        s.alpha = scaled(morph::sample_coefficients(rng, model.num_shape_components(), config.identity.truncation), config.identity.scale);
     }
     s.psi = sample_expression(config, model, index);
     if (model.num_albedo_components() > 0) {
-        std::optional<SkinColourCheck> local_check;
+        std::optional<morph::SkinColourCheck> local_check;
         if (albedo_check == nullptr && config.albedo.reject_implausible) {
             local_check = make_albedo_check(config, model);
             albedo_check = &*local_check;
         }
-        AlbedoDraw albedo = sample_albedo(config, model, index, config.albedo.reject_implausible ? albedo_check : nullptr);
+        morph::AlbedoDraw albedo = sample_albedo(config, model, index, config.albedo.reject_implausible ? albedo_check : nullptr);
         s.beta = std::move(albedo.beta);
         s.albedo_redraws = albedo.redraws;
         s.albedo_shrink = albedo.shrink;
     } else {
-        Rng rng = make_rng(config.seed, i, RandomStream::kAlbedo);
+        core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kAlbedo);
         s.skin_tone = sample_skin_tone(rng);
     }
     if (!config.albedo.texture_folder.empty() || !config.albedo.texture_bank.empty()) {
-        Rng rng = make_rng(config.seed, i, RandomStream::kTexture);
+        core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kTexture);
         s.texture_choice = rng.next_u64();
         const double jitter = config.albedo.texture_tone_jitter;
         if (jitter > 0)
@@ -312,26 +312,26 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
     }
     if (config.identity.source == "texture") {
         if (!s.texture_choice || texture_shapes.empty())
-            throw Error("identity.source = \"texture\": no texture bank shapes were given (albedo.texture_bank)");
+            throw core::Error("identity.source = \"texture\": no texture bank shapes were given (albedo.texture_bank)");
         const std::vector<float>& fitted = texture_shapes[*s.texture_choice % texture_shapes.size()];
         if (static_cast<int>(fitted.size()) != model.num_shape_components())
-            throw Error("identity.source = \"texture\": the bank's texture " + std::to_string(*s.texture_choice % texture_shapes.size()) +
+            throw core::Error("identity.source = \"texture\": the bank's texture " + std::to_string(*s.texture_choice % texture_shapes.size()) +
                         " has " + std::to_string(fitted.size()) + " shape coefficients, model '" + model.name + "' " +
                         std::to_string(model.num_shape_components()) + " (a bank made before shapes were stored: rebuild it)");
         s.alpha = fitted;
     }
     {
-        Rng rng = make_rng(config.seed, i, RandomStream::kPose);
+        core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kPose);
         s.angles.yaw = sample_angle(rng, config.pose.yaw);
         s.angles.pitch = sample_angle(rng, config.pose.pitch);
         s.angles.roll = sample_angle(rng, config.pose.roll);
-        s.pose.rotation = rotation_from_euler(s.angles);
+        s.pose.rotation = morph::rotation_from_euler(s.angles);
     }
 
     const auto& cam = config.camera;
-    Rng rng = make_rng(config.seed, i, RandomStream::kCamera);
+    core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kCamera);
     s.fov = rng.uniform(cam.fov_min, cam.fov_max);
-    s.intrinsics = intrinsics_from_fov(s.fov, cam.width, cam.height);
+    s.intrinsics = morph::intrinsics_from_fov(s.fov, cam.width, cam.height);
     s.intrinsics.cx += cam.principal_point_jitter * cam.width * rng.uniform(-1.0, 1.0);
     s.intrinsics.cy += cam.principal_point_jitter * cam.height * rng.uniform(-1.0, 1.0);
     const double face_scale = rng.uniform(cam.face_scale_min, cam.face_scale_max);
@@ -344,8 +344,8 @@ SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, 
     // distance from the pinhole scale, then one correction from the true perspective projection.
     Eigen::Matrix3Xf vertices = model.shape_instance(s.alpha, s.psi);
     const Eigen::Matrix3Xf landmarks = model.landmark_positions(vertices);
-    if (landmarks.cols() == 0) throw Error("model '" + model.name + "' has no landmarks; synth needs the 68 iBUG landmarks");
-    const Eigen::Matrix3Xd rotated = (model_to_camera_flip() * s.pose.rotation) * landmarks.cast<double>();
+    if (landmarks.cols() == 0) throw core::Error("model '" + model.name + "' has no landmarks; synth needs the 68 iBUG landmarks");
+    const Eigen::Matrix3Xd rotated = (morph::model_to_camera_flip() * s.pose.rotation) * landmarks.cast<double>();
     const Eigen::Vector3d low = rotated.rowwise().minCoeff();
     const Eigen::Vector3d high = rotated.rowwise().maxCoeff();
     const Eigen::Vector3d box_centre = 0.5 * (low + high);

@@ -69,9 +69,9 @@ struct SampleSpec {
     std::optional<std::uint64_t> texture_choice;
     // With albedo.texture_tone_jitter: per-channel gain on the texture's linear albedo (R G B).
     Eigen::Vector3d texture_gain = Eigen::Vector3d::Ones();
-    EulerAngles angles;
-    CameraPose pose;
-    Intrinsics intrinsics;
+    morph::EulerAngles angles;
+    morph::CameraPose pose;
+    morph::Intrinsics intrinsics;
     double fov = 0;  // vertical, degrees
     LightingSpec lighting;
     BackgroundSpec background;
@@ -90,24 +90,24 @@ struct SampleSpec {
 // there, so that a renderer need not evaluate the model a second time.
 // `texture_shapes` are the texture bank's fitted shapes, one per texture (ImageLibrary::shapes), which
 // identity.source = "texture" needs.
-[[nodiscard]] SampleSpec sample_scene(const SynthConfig& config, const MorphableModel& model, std::int64_t index,
-                                      const SkinColourCheck* albedo_check = nullptr, Eigen::Matrix3Xf* shape = nullptr,
+[[nodiscard]] SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& model, std::int64_t index,
+                                      const morph::SkinColourCheck* albedo_check = nullptr, Eigen::Matrix3Xf* shape = nullptr,
                                       std::span<const std::vector<float>> texture_shapes = {});
 
 // What sample `index` wears with head.body (the kHead stream); `head` is its head pose.
-[[nodiscard]] HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, const EulerAngles& head);
+[[nodiscard]] HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, const morph::EulerAngles& head);
 
 // Redraws per sample before falling back to shrinking the first draw (albedo.reject_implausible).
 inline constexpr int kMaxAlbedoRedraws = 16;
 
 // The check albedo.reject_implausible applies: none when the key is off or the model has no colour
-// model. Throws facesynth::Error naming the model when its mean colour fails the check itself.
-[[nodiscard]] std::optional<SkinColourCheck> make_albedo_check(const SynthConfig& config, const MorphableModel& model);
+// model. Throws core::Error naming the model when its mean colour fails the check itself.
+[[nodiscard]] std::optional<morph::SkinColourCheck> make_albedo_check(const SynthConfig& config, const morph::MorphableModel& model);
 
 // The colour coefficients of sample `index` (the model must have a colour model): the kAlbedo
 // stream's draw, and while `albedo_check` rejects it, draws from the kAlbedoRedraw stream.
-[[nodiscard]] AlbedoDraw sample_albedo(const SynthConfig& config, const MorphableModel& model, std::int64_t index,
-                                       const SkinColourCheck* albedo_check);
+[[nodiscard]] morph::AlbedoDraw sample_albedo(const SynthConfig& config, const morph::MorphableModel& model, std::int64_t index,
+                                       const morph::SkinColourCheck* albedo_check);
 
 // Linear RGB of a black body at `kelvin`, normalised to a maximum component of 1.
 [[nodiscard]] Eigen::Vector3d colour_of_temperature(double kelvin);

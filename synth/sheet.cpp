@@ -1,8 +1,8 @@
 #include "synth/sheet.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
-#include "morph/image_header.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/image_header.h"
 #include "synth/dataset.h"
 
 #include <nlohmann/json.hpp>
@@ -40,18 +40,18 @@ SheetItem read_sheet_item(const std::filesystem::path& meta_path) {
         SheetItem item;
         item.key = meta.at("key").get<std::string>();
         if (item.key != meta_path.stem().string())
-            throw file_error(meta_path.string(), "key '" + item.key + "' does not match the file name");
+            throw core::file_error(meta_path.string(), "key '" + item.key + "' does not match the file name");
         item.yaw = meta.at("yaw").get<double>();
         const auto& points = meta.at("landmarks");
         const auto& visible = meta.at("visibility");
         const auto& occluded = meta.at("occluded");
         if (!points.is_array() || !visible.is_array() || !occluded.is_array() || visible.size() != points.size() ||
             occluded.size() != points.size())
-            throw file_error(meta_path.string(), "landmarks, visibility and occluded must be arrays of one length");
+            throw core::file_error(meta_path.string(), "landmarks, visibility and occluded must be arrays of one length");
         for (std::size_t p = 0; p < points.size(); ++p) {
             SheetPoint point{points.at(p).at(0).get<double>(), points.at(p).at(1).get<double>()};
             if (!std::isfinite(point.x) || !std::isfinite(point.y) || !std::isfinite(item.yaw))
-                throw file_error(meta_path.string(), "landmark " + std::to_string(p) + " or yaw is not a finite number");
+                throw core::file_error(meta_path.string(), "landmark " + std::to_string(p) + " or yaw is not a finite number");
             if (occluded.at(p).get<double>() != 0)
                 point.state = PointState::kCovered;
             else if (visible.at(p).get<double>() == 0)
@@ -60,7 +60,7 @@ SheetItem read_sheet_item(const std::filesystem::path& meta_path) {
         }
         return item;
     } catch (const nlohmann::json::exception& e) {
-        throw file_error(meta_path.string(), std::string("not a facesynth meta file: ") + e.what());
+        throw core::file_error(meta_path.string(), std::string("not a facesynth meta file: ") + e.what());
     }
 }
 
@@ -68,10 +68,10 @@ cv::Mat read_sample_image(const std::filesystem::path& dataset, const std::strin
     auto image_path = dataset / "images" / (key + ".png");
     if (!std::filesystem::exists(image_path)) image_path = dataset / "images" / (key + ".jpg");
     if (!std::filesystem::exists(image_path))
-        throw file_error((dataset / "images" / (key + ".png")).string(), "missing (no .png or .jpg for " + meta_path.string() + ")");
-    check_image_not_too_large(image_path);
+        throw core::file_error((dataset / "images" / (key + ".png")).string(), "missing (no .png or .jpg for " + meta_path.string() + ")");
+    core::check_image_not_too_large(image_path);
     cv::Mat bgr = cv::imread(image_path.string(), cv::IMREAD_COLOR);
-    if (bgr.empty()) throw file_error(image_path.string(), "cannot read image");
+    if (bgr.empty()) throw core::file_error(image_path.string(), "cannot read image");
     return bgr;
 }
 
@@ -89,19 +89,19 @@ cv::Scalar colour_of(PointState state) {
 cv::Mat contact_sheet(const std::filesystem::path& dataset, const SheetOptions& options) {
     std::vector<std::filesystem::path> metas;
     const auto meta_dir = dataset / "meta";
-    if (!std::filesystem::is_directory(meta_dir)) throw file_error(dataset.string(), "no meta/ folder (not a facesynth dataset with the folder format)");
+    if (!std::filesystem::is_directory(meta_dir)) throw core::file_error(dataset.string(), "no meta/ folder (not a facesynth dataset with the folder format)");
     for (const auto& entry : std::filesystem::directory_iterator(meta_dir))
         if (entry.path().extension() == ".json") metas.push_back(entry.path());
     std::sort(metas.begin(), metas.end());
-    if (metas.empty()) throw file_error(dataset.string(), "no samples in meta/");
+    if (metas.empty()) throw core::file_error(dataset.string(), "no samples in meta/");
     metas.resize(std::min<std::size_t>(metas.size(), static_cast<std::size_t>(std::max(options.count, 1))));
 
     const int columns = std::max(1, options.columns);
     const int tile_side = std::max(1, options.tile);
     const auto rows = static_cast<std::int64_t>((metas.size() + static_cast<std::size_t>(columns) - 1) / static_cast<std::size_t>(columns));
-    if (rows * tile_side * static_cast<std::int64_t>(std::min<std::size_t>(metas.size(), static_cast<std::size_t>(columns))) * tile_side > kMaxImagePixels)
-        throw Error("synth sheet: " + std::to_string(metas.size()) + " tiles of " + std::to_string(tile_side) + " px make a sheet over " +
-                    std::to_string(kMaxImagePixels / 1'000'000) + " megapixels (lower --count or --tile)");
+    if (rows * tile_side * static_cast<std::int64_t>(std::min<std::size_t>(metas.size(), static_cast<std::size_t>(columns))) * tile_side > core::kMaxImagePixels)
+        throw core::Error("synth sheet: " + std::to_string(metas.size()) + " tiles of " + std::to_string(tile_side) + " px make a sheet over " +
+                    std::to_string(core::kMaxImagePixels / 1'000'000) + " megapixels (lower --count or --tile)");
     cv::Mat sheet(static_cast<int>(rows) * tile_side, columns * tile_side, CV_8UC3, cv::Scalar(30, 30, 30));
     for (std::size_t n = 0; n < metas.size(); ++n) {
         const SheetItem item = read_sheet_item(metas[n]);

@@ -14,7 +14,7 @@ struct SheetOptions {
 
 // RGB image: each tile is a sample with its .pts-mode landmarks (green visible, red self-occluded,
 // orange covered by an occluder) and its key and yaw. Reads meta/ and images/; throws
-// facesynth::Error naming the file on failure or when the dataset folder has no samples.
+// core::Error naming the file on failure or when the dataset folder has no samples.
 [[nodiscard]] cv::Mat contact_sheet(const std::filesystem::path& dataset, const SheetOptions& options = {});
 
 }  // namespace facesynth::synth

@@ -1,7 +1,7 @@
 #include "synth/tar.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 
 #include <archive.h>
 #include <archive_entry.h>
@@ -27,19 +27,19 @@ struct Entry {
 }  // namespace
 
 void write_tar_file(const std::filesystem::path& path, const std::vector<TarMember>& members) {
-    const auto temp = temporary_path_for(path);
+    const auto temp = core::temporary_path_for(path);
     {
         ArchiveWriter writer;
         // POSIX ustar: no pax extended headers (which would carry times), names up to 100 bytes.
         if (archive_write_set_format_ustar(writer.a) != ARCHIVE_OK || archive_write_open_filename(writer.a, temp.c_str()) != ARCHIVE_OK)
-            throw file_error(path.string(), std::string("cannot create tar: ") + archive_error_string(writer.a));
+            throw core::file_error(path.string(), std::string("cannot create tar: ") + archive_error_string(writer.a));
         const auto fail = [&](const std::string& what) {
             const std::string message = what + ": " + (archive_error_string(writer.a) ? archive_error_string(writer.a) : "unknown error");
             std::filesystem::remove(temp);
-            return file_error(path.string(), message);
+            return core::file_error(path.string(), message);
         };
         for (const auto& member : members) {
-            const std::string bytes = read_file(member.source);
+            const std::string bytes = core::read_file(member.source);
             Entry entry;
             archive_entry_set_pathname(entry.e, member.name.c_str());
             archive_entry_set_size(entry.e, static_cast<la_int64_t>(bytes.size()));
@@ -54,14 +54,14 @@ void write_tar_file(const std::filesystem::path& path, const std::vector<TarMemb
         }
         if (archive_write_close(writer.a) != ARCHIVE_OK) throw fail("closing");
     }
-    commit_temporary_file(temp, path);
+    core::commit_temporary_file(temp, path);
 }
 
 std::vector<TarEntry> list_tar(const std::filesystem::path& path) {
     ArchiveReader reader;
     archive_read_support_format_tar(reader.a);
     if (archive_read_open_filename(reader.a, path.c_str(), 1 << 16) != ARCHIVE_OK)
-        throw file_error(path.string(), std::string("cannot open tar: ") + archive_error_string(reader.a));
+        throw core::file_error(path.string(), std::string("cannot open tar: ") + archive_error_string(reader.a));
     std::vector<TarEntry> entries;
     archive_entry* entry = nullptr;
     int status = ARCHIVE_OK;
@@ -69,7 +69,7 @@ std::vector<TarEntry> list_tar(const std::filesystem::path& path) {
         entries.push_back({archive_entry_pathname(entry), static_cast<std::size_t>(archive_entry_size(entry))});
         archive_read_data_skip(reader.a);
     }
-    if (status != ARCHIVE_EOF) throw file_error(path.string(), std::string("corrupt tar: ") + archive_error_string(reader.a));
+    if (status != ARCHIVE_EOF) throw core::file_error(path.string(), std::string("corrupt tar: ") + archive_error_string(reader.a));
     return entries;
 }
 

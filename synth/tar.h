@@ -12,7 +12,7 @@ struct TarMember {
     std::filesystem::path source;    // file whose bytes become the member
 };
 
-// Writes the tar to a temporary name and renames it into place; throws facesynth::Error naming the
+// Writes the tar to a temporary name and renames it into place; throws core::Error naming the
 // tar or the member on failure.
 void write_tar_file(const std::filesystem::path& path, const std::vector<TarMember>& members);
 

@@ -1,7 +1,7 @@
 #include "synth/texture_bank.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -19,11 +19,11 @@ constexpr const char* kManifestName = "bank.json";
 
 template <typename T>
 T required(const nlohmann::json& j, const char* key, const std::string& origin) {
-    if (!j.is_object() || !j.contains(key)) throw file_error(origin, std::string("missing key '") + key + "'");
+    if (!j.is_object() || !j.contains(key)) throw core::file_error(origin, std::string("missing key '") + key + "'");
     try {
         return j.at(key).get<T>();
     } catch (const nlohmann::json::exception&) {
-        throw file_error(origin, std::string("key '") + key + "' has the wrong type");
+        throw core::file_error(origin, std::string("key '") + key + "' has the wrong type");
     }
 }
 
@@ -53,27 +53,27 @@ nlohmann::json to_json(const TextureBankManifest& m) {
 
 TextureBankManifest texture_bank_from_json(const nlohmann::json& j, const std::string& origin) {
     if (!j.is_object() || !j.contains("format") || !j["format"].is_string() || j["format"] != kTextureBankFormat)
-        throw file_error(origin, std::string("not a texture bank manifest (no \"format\": \"") + kTextureBankFormat + "\")");
+        throw core::file_error(origin, std::string("not a texture bank manifest (no \"format\": \"") + kTextureBankFormat + "\")");
     const int version = required<int>(j, "version", origin);
     if (version != kTextureBankVersion)
-        throw file_error(origin, "texture bank version " + std::to_string(version) + " is not supported (expected " +
+        throw core::file_error(origin, "texture bank version " + std::to_string(version) + " is not supported (expected " +
                                      std::to_string(kTextureBankVersion) + ")");
     TextureBankManifest m;
     m.model = required<std::string>(j, "model", origin);
     m.model_checksum = required<std::string>(j, "model_checksum", origin);
     m.vertices = required<int>(j, "vertices", origin);
     m.size = required<int>(j, "size", origin);
-    if (m.size < 8 || m.size > 8192) throw file_error(origin, "texture size " + std::to_string(m.size) + " is out of range (8..8192)");
+    if (m.size < 8 || m.size > 8192) throw core::file_error(origin, "texture size " + std::to_string(m.size) + " is out of range (8..8192)");
     if (j.contains("settings")) m.settings = j["settings"];
     const auto textures = required<nlohmann::json>(j, "textures", origin);
-    if (!textures.is_array()) throw file_error(origin, "key 'textures' is not an array");
+    if (!textures.is_array()) throw core::file_error(origin, "key 'textures' is not an array");
     for (std::size_t i = 0; i < textures.size(); ++i) {
         const std::string where = origin + ": textures[" + std::to_string(i) + "]";
         const nlohmann::json& t = textures[i];
         TextureBankEntry e;
         e.file = required<std::string>(t, "file", where);
         if (e.file.empty() || fs::path(e.file).is_absolute() || e.file.find("..") != std::string::npos)
-            throw Error(where + ": file '" + e.file + "' must be a relative path inside the bank");
+            throw core::Error(where + ": file '" + e.file + "' must be a relative path inside the bank");
         e.source = t.value("source", std::string());
         e.landmarks_source = t.value("landmarks_source", std::string());
         e.yaw_deg = t.value("yaw_deg", 0.0);
@@ -88,7 +88,7 @@ TextureBankManifest texture_bank_from_json(const nlohmann::json& j, const std::s
         if (t.contains("shape")) {
             e.shape = required<std::vector<float>>(t, "shape", where);
             for (const float a : e.shape)
-                if (!std::isfinite(a)) throw Error(where + ": key 'shape' holds a value that is not a finite number");
+                if (!std::isfinite(a)) throw core::Error(where + ": key 'shape' holds a value that is not a finite number");
         }
         m.textures.push_back(std::move(e));
     }
@@ -99,14 +99,14 @@ TextureBankManifest texture_bank_from_json(const nlohmann::json& j, const std::s
 
 TextureBankManifest read_texture_bank_manifest(const fs::path& bank) {
     std::error_code error;
-    if (!fs::is_directory(bank, error)) throw file_error(bank.string(), "texture bank folder not found");
+    if (!fs::is_directory(bank, error)) throw core::file_error(bank.string(), "texture bank folder not found");
     const fs::path manifest = bank / kManifestName;
-    if (!fs::is_regular_file(manifest, error)) throw file_error(bank.string(), std::string("not a texture bank (no ") + kManifestName + ")");
+    if (!fs::is_regular_file(manifest, error)) throw core::file_error(bank.string(), std::string("not a texture bank (no ") + kManifestName + ")");
     nlohmann::json j;
     try {
-        j = nlohmann::json::parse(read_file(manifest));
+        j = nlohmann::json::parse(core::read_file(manifest));
     } catch (const nlohmann::json::exception& e) {
-        throw file_error(manifest.string(), std::string("not valid JSON: ") + e.what());
+        throw core::file_error(manifest.string(), std::string("not valid JSON: ") + e.what());
     }
     return texture_bank_from_json(j, manifest.string());
 }
@@ -114,12 +114,12 @@ TextureBankManifest read_texture_bank_manifest(const fs::path& bank) {
 TextureBankWriter::TextureBankWriter(fs::path bank, TextureBankManifest header) : bank_(std::move(bank)), manifest_(std::move(header)) {
     std::error_code error;
     if (fs::exists(bank_, error) && !fs::exists(bank_ / kManifestName, error))
-        throw file_error(bank_.string(), "exists and is not a texture bank; refusing to replace it");
+        throw core::file_error(bank_.string(), "exists and is not a texture bank; refusing to replace it");
     temporary_ = bank_;
     temporary_ += ".partial." + std::to_string(::getpid());
     fs::remove_all(temporary_, error);
     fs::create_directories(temporary_ / "textures", error);
-    if (error) throw file_error(temporary_.string(), "cannot create the folder: " + error.message());
+    if (error) throw core::file_error(temporary_.string(), "cannot create the folder: " + error.message());
     manifest_.textures.clear();
     manifest_.rejected.clear();
 }
@@ -132,15 +132,15 @@ TextureBankWriter::~TextureBankWriter() {
 
 void TextureBankWriter::add(const cv::Mat& texture, TextureBankEntry entry) {
     if (texture.type() != CV_8UC3 || texture.rows != manifest_.size || texture.cols != manifest_.size)
-        throw Error("texture bank: texture from " + entry.source + " is not a " + std::to_string(manifest_.size) + "² RGB image");
+        throw core::Error("texture bank: texture from " + entry.source + " is not a " + std::to_string(manifest_.size) + "² RGB image");
     char name[32];
     std::snprintf(name, sizeof name, "textures/%06zu.png", manifest_.textures.size());
     entry.file = name;
     cv::Mat bgr;
     cv::cvtColor(texture, bgr, cv::COLOR_RGB2BGR);
     std::vector<unsigned char> png;
-    if (!cv::imencode(".png", bgr, png)) throw file_error((temporary_ / name).string(), "PNG encoding failed");
-    write_file_atomically(temporary_ / name, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+    if (!cv::imencode(".png", bgr, png)) throw core::file_error((temporary_ / name).string(), "PNG encoding failed");
+    core::write_file_atomically(temporary_ / name, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
     manifest_.textures.push_back(std::move(entry));
 }
 
@@ -148,25 +148,25 @@ void TextureBankWriter::reject(std::string source, std::string reason) { manifes
 
 void TextureBankWriter::commit() {
     if (committed_) return;
-    write_file_atomically(temporary_ / kManifestName, to_json(manifest_).dump(1) + "\n");
+    core::write_file_atomically(temporary_ / kManifestName, to_json(manifest_).dump(1) + "\n");
     std::error_code error;
     if (fs::exists(bank_, error)) {
         fs::remove_all(bank_, error);
-        if (error) throw file_error(bank_.string(), "cannot replace the earlier bank: " + error.message());
+        if (error) throw core::file_error(bank_.string(), "cannot replace the earlier bank: " + error.message());
     }
     fs::rename(temporary_, bank_, error);
-    if (error) throw file_error(bank_.string(), "cannot move the finished bank into place: " + error.message());
+    if (error) throw core::file_error(bank_.string(), "cannot move the finished bank into place: " + error.message());
     committed_ = true;
 }
 
-ImageLibrary load_texture_bank(const fs::path& bank, const MorphableModel& model) {
+ImageLibrary load_texture_bank(const fs::path& bank, const morph::MorphableModel& model) {
     const TextureBankManifest m = read_texture_bank_manifest(bank);
     const std::string manifest = (bank / kManifestName).string();
     if (m.model_checksum != model.checksum() || m.vertices != model.num_vertices())
-        throw file_error(manifest, "made for model '" + m.model + "' (" + std::to_string(m.vertices) + " vertices, checksum " + m.model_checksum +
+        throw core::file_error(manifest, "made for model '" + m.model + "' (" + std::to_string(m.vertices) + " vertices, checksum " + m.model_checksum +
                                        "), not for '" + model.name + "' (" + std::to_string(model.num_vertices()) + " vertices, checksum " +
                                        model.checksum() + ")");
-    if (m.textures.empty()) throw file_error(manifest, "the bank holds no texture (every photograph was rejected?)");
+    if (m.textures.empty()) throw core::file_error(manifest, "the bank holds no texture (every photograph was rejected?)");
     std::vector<cv::Mat> images;
     std::vector<std::string> names;
     std::vector<std::vector<float>> shapes;
@@ -174,16 +174,16 @@ ImageLibrary load_texture_bank(const fs::path& bank, const MorphableModel& model
     for (const TextureBankEntry& e : m.textures) {
         const fs::path file = bank / e.file;
         const cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
-        if (bgr.empty()) throw file_error(file.string(), "cannot read the texture (missing, not an image, or corrupt)");
+        if (bgr.empty()) throw core::file_error(file.string(), "cannot read the texture (missing, not an image, or corrupt)");
         if (bgr.rows != m.size || bgr.cols != m.size)
-            throw file_error(file.string(), std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) + " texture in a bank of " +
+            throw core::file_error(file.string(), std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) + " texture in a bank of " +
                                                 std::to_string(m.size) + "² textures");
         cv::Mat rgb;
         cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
         images.push_back(std::move(rgb));
         names.push_back(e.file);
         if (!e.shape.empty() && static_cast<int>(e.shape.size()) != model.num_shape_components())
-            throw file_error(manifest, e.file + ": " + std::to_string(e.shape.size()) + " shape coefficients, the model has " +
+            throw core::file_error(manifest, e.file + ": " + std::to_string(e.shape.size()) + " shape coefficients, the model has " +
                                            std::to_string(model.num_shape_components()));
         shapes.push_back(e.shape);
     }

@@ -48,9 +48,9 @@ struct TextureBankManifest {
 };
 
 [[nodiscard]] nlohmann::json to_json(const TextureBankManifest& manifest);
-// Throws facesynth::Error naming `origin` (the manifest's path) and the key at fault.
+// Throws core::Error naming `origin` (the manifest's path) and the key at fault.
 [[nodiscard]] TextureBankManifest texture_bank_from_json(const nlohmann::json& json, const std::string& origin);
-// Reads BANK/bank.json; throws facesynth::Error naming the file when it is missing or not a bank.
+// Reads BANK/bank.json; throws core::Error naming the file when it is missing or not a bank.
 [[nodiscard]] TextureBankManifest read_texture_bank_manifest(const std::filesystem::path& bank);
 
 // Writes a bank: textures go into a temporary folder beside `bank`; commit() writes the manifest and
@@ -75,9 +75,9 @@ private:
     bool committed_ = false;
 };
 
-// The bank's textures for `model`, in manifest order. Throws facesynth::Error naming the bank (and the
+// The bank's textures for `model`, in manifest order. Throws core::Error naming the bank (and the
 // file) when it was made for another model, holds no texture, or a texture is unreadable or of the
 // wrong size.
-[[nodiscard]] ImageLibrary load_texture_bank(const std::filesystem::path& bank, const MorphableModel& model);
+[[nodiscard]] ImageLibrary load_texture_bank(const std::filesystem::path& bank, const morph::MorphableModel& model);
 
 }  // namespace facesynth::synth

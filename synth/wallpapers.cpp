@@ -1,6 +1,6 @@
 #include "synth/wallpapers.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -70,9 +70,9 @@ ImageLibrary load_wallpaper_photos(int max_side, const std::filesystem::path& ro
         std::filesystem::path file = photo.file;
         if (std::filesystem::is_directory(file, error)) file = largest_landscape(file);
         const std::string hint = " (background.type = \"wallpapers\" needs the Debian package " + photo.package + "; tools/install-deps.sh installs it)";
-        if (file.empty() || !std::filesystem::is_regular_file(file, error)) throw file_error(photo.file.string(), "wallpaper photograph not found" + hint);
+        if (file.empty() || !std::filesystem::is_regular_file(file, error)) throw core::file_error(photo.file.string(), "wallpaper photograph not found" + hint);
         cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
-        if (bgr.empty()) throw file_error(file.string(), "cannot read the wallpaper photograph" + hint);
+        if (bgr.empty()) throw core::file_error(file.string(), "cannot read the wallpaper photograph" + hint);
         const double scale = static_cast<double>(max_side) / std::max(bgr.cols, bgr.rows);
         if (scale < 1) cv::resize(bgr, bgr, cv::Size(), scale, scale, cv::INTER_AREA);
         cv::Mat rgb;

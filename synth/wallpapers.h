@@ -21,7 +21,7 @@ struct WallpaperPhoto {
 [[nodiscard]] std::vector<WallpaperPhoto> debian_wallpaper_photos(const std::filesystem::path& root = "/");
 
 // Reads every listed photograph, RGB, its longer side reduced to at most `max_side` pixels (a background
-// crop needs no more, and 36 full-size wallpapers would take 300 MB). Throws facesynth::Error naming the
+// crop needs no more, and 36 full-size wallpapers would take 300 MB). Throws core::Error naming the
 // first missing or unreadable file and its package, so that a dataset never depends on which of the
 // packages happen to be installed.
 [[nodiscard]] ImageLibrary load_wallpaper_photos(int max_side = 1024, const std::filesystem::path& root = "/");

@@ -1,7 +1,7 @@
 #include "cli_common.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -102,19 +102,19 @@ CLI::Validator finite_range(double min, double max) {
 }
 
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value) {
-    write_file_atomically(path, value.dump(2) + "\n");
+    core::write_file_atomically(path, value.dump(2) + "\n");
 }
 
 void write_png_file(const std::filesystem::path& path, const cv::Mat& image) {
     std::vector<unsigned char> bytes;
-    if (!cv::imencode(".png", image, bytes)) throw file_error(path.string(), "PNG encoding failed");
-    write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    if (!cv::imencode(".png", image, bytes)) throw core::file_error(path.string(), "PNG encoding failed");
+    core::write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 void create_output_folder(const std::filesystem::path& dir) {
     std::error_code error;
     std::filesystem::create_directories(dir, error);
-    if (error) throw file_error(dir.string(), "cannot create the output folder: " + error.message());
+    if (error) throw core::file_error(dir.string(), "cannot create the output folder: " + error.message());
 }
 
 nlohmann::json matrix_json(const Eigen::MatrixXd& m) {

@@ -50,7 +50,7 @@ CLI::Option* add_detector_option(CLI::App& command, std::string& value);
 // A number in [min, max]; NaN and infinities are refused (CLI::Range lets NaN through).
 [[nodiscard]] CLI::Validator finite_range(double min, double max);
 
-// Creates an output folder (and its parents); throws facesynth::Error naming it when it cannot.
+// Creates an output folder (and its parents); throws core::Error naming it when it cannot.
 void create_output_folder(const std::filesystem::path& dir);
 
 // Writes a flat JSON object atomically to `path` (pretty-printed, trailing newline).

@@ -1,15 +1,15 @@
-// Appearance from photographs for synth: `facesynth textures` (a texture bank: fit/frontal/photo_texture.h
+// Appearance from photographs for synth: `facesynth textures` (a texture bank: frontal/photo_texture.h
 // for one photograph, synth/texture_bank.h on disk) and `facesynth backgrounds` (the photographs with
 // their annotated face cut away: synth/photo_backgrounds.h; a face detector rejects strips that show
 // another face). docs/textures.md.
 #include "cli_common.h"
 #include "commands.h"
 
-#include "fit/frontal/photo_texture.h"
-#include "morph/error.h"
-#include "morph/image_header.h"
+#include "frontal/photo_texture.h"
+#include "core/error.h"
+#include "core/image_header.h"
 #include "morph/landmarks.h"
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 #include "morph/model_io.h"
 #include "synth/photo_backgrounds.h"
 #include "synth/texture_bank.h"
@@ -55,12 +55,12 @@ struct TexturesArgs {
 // The images of a folder, sorted (the bank and the backgrounds must not depend on directory order).
 std::vector<fs::path> photographs_in(const std::string& folder) {
     const fs::path photos(folder);
-    if (!fs::is_directory(photos)) throw file_error(folder, "photo folder not found");
+    if (!fs::is_directory(photos)) throw core::file_error(folder, "photo folder not found");
     std::vector<fs::path> images;
     for (const auto& entry : fs::directory_iterator(photos))
-        if (entry.is_regular_file() && is_image_file(entry.path())) images.push_back(entry.path());
+        if (entry.is_regular_file() && core::is_image_file(entry.path())) images.push_back(entry.path());
     std::sort(images.begin(), images.end());
-    if (images.empty()) throw file_error(folder, "no images in the folder");
+    if (images.empty()) throw core::file_error(folder, "no images in the folder");
     return images;
 }
 
@@ -71,7 +71,7 @@ void run_textures(const TexturesArgs& a) {
     const std::vector<fs::path> images = photographs_in(a.photos);
     const fs::path photos(a.photos);
 
-    const MorphableModel model = load_model(a.model);
+    const morph::MorphableModel model = morph::load_model(a.model);
     frontal::PhotoTextureOptions options;
     options.size = a.size;
     options.remove_shading = !a.keep_shading;
@@ -82,7 +82,7 @@ void run_textures(const TexturesArgs& a) {
     options.align_features = a.align_features;
     frontal::Frontaliser frontaliser(model);
     if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
-        throw Error("textures: model '" + model.name + "' (" + a.model + ") has no symmetry map to fill the hidden side with");
+        throw core::Error("textures: model '" + model.name + "' (" + a.model + ") has no symmetry map to fill the hidden side with");
 
     synth::TextureBankManifest header;
     header.model = model.name;
@@ -106,16 +106,16 @@ void run_textures(const TexturesArgs& a) {
     for (const fs::path& path : images) {
         std::string source = "pts";
         try {
-            check_image_not_too_large(path);
+            core::check_image_not_too_large(path);
             const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
-            if (image.empty()) throw file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
+            if (image.empty()) throw core::file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
             fs::path pts = path;
             pts.replace_extension(".pts");
             Eigen::Matrix2Xd landmarks;
             if (fs::exists(pts)) {
-                landmarks = read_pts(pts);
-                if (landmarks.cols() != kNumIbugLandmarks)
-                    throw file_error(pts.string(), "has " + std::to_string(landmarks.cols()) + " points, expected 68 (iBUG)");
+                landmarks = morph::read_pts(pts);
+                if (landmarks.cols() != morph::kNumIbugLandmarks)
+                    throw core::file_error(pts.string(), "has " + std::to_string(landmarks.cols()) + " points, expected 68 (iBUG)");
                 ++from_pts;
             } else {
                 if (!regressor) {
@@ -125,7 +125,7 @@ void run_textures(const TexturesArgs& a) {
                 }
                 const cv::Mat gray = train::to_gray8(image);
                 const auto boxes = detector->detect(gray);
-                if (boxes.empty()) throw file_error(path.string(), "no face found (and no .pts beside it)");
+                if (boxes.empty()) throw core::file_error(path.string(), "no face found (and no .pts beside it)");
                 landmarks = regressor->predict(gray, boxes.front());
                 source = regressor->label();
                 ++detected;
@@ -144,7 +144,7 @@ void run_textures(const TexturesArgs& a) {
                 e.shape = t.shape;
                 bank.add(t.texture, std::move(e));
             }
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             ++reasons["unreadable"];
             bank.reject(path.string(), e.what());
             if (!a.quiet) std::fprintf(stderr, "facesynth: warning: %s (skipped)\n", e.what());
@@ -153,7 +153,7 @@ void run_textures(const TexturesArgs& a) {
     }
     progress.finish();
     const auto& m = bank.manifest();
-    if (m.textures.empty()) throw file_error(a.photos, "no usable texture in " + std::to_string(images.size()) + " photographs; no bank written");
+    if (m.textures.empty()) throw core::file_error(a.photos, "no usable texture in " + std::to_string(images.size()) + " photographs; no bank written");
     const std::size_t kept = m.textures.size(), rejected = m.rejected.size();
     bank.commit();
     if (!a.quiet) {
@@ -189,7 +189,7 @@ struct BackgroundsArgs {
 void run_backgrounds(const BackgroundsArgs& a) {
     const std::vector<fs::path> images = photographs_in(a.photos);
     const fs::path out(a.out);
-    if (fs::exists(out)) throw file_error(a.out, "exists already; choose a new folder");
+    if (fs::exists(out)) throw core::file_error(a.out, "exists already; choose a new folder");
     fs::path temporary = out;
     temporary += ".partial";
     std::error_code error;
@@ -204,11 +204,11 @@ void run_backgrounds(const BackgroundsArgs& a) {
             try {
                 fs::path pts = path;
                 pts.replace_extension(".pts");
-                if (!fs::exists(pts)) throw file_error(path.string(), "no .pts beside it: the face to cut away is not known");
-                const Eigen::Matrix2Xd landmarks = read_pts(pts);
-                check_image_not_too_large(path);
+                if (!fs::exists(pts)) throw core::file_error(path.string(), "no .pts beside it: the face to cut away is not known");
+                const Eigen::Matrix2Xd landmarks = morph::read_pts(pts);
+                core::check_image_not_too_large(path);
                 const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
-                if (image.empty()) throw file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
+                if (image.empty()) throw core::file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
                 int k = 0;
                 for (const cv::Rect& region : synth::background_regions(image.size(), landmarks, a.min_side)) {
                     const cv::Mat strip = image(region);
@@ -221,17 +221,17 @@ void run_backgrounds(const BackgroundsArgs& a) {
                     std::vector<unsigned char> jpeg;
                     cv::imencode(".jpg", strip, jpeg, {cv::IMWRITE_JPEG_QUALITY, 95});
                     const fs::path file = temporary / (path.stem().string() + "_" + std::to_string(k++) + ".jpg");
-                    write_file_atomically(file, std::string_view(reinterpret_cast<const char*>(jpeg.data()), jpeg.size()));
+                    core::write_file_atomically(file, std::string_view(reinterpret_cast<const char*>(jpeg.data()), jpeg.size()));
                     ++written;
                 }
-            } catch (const Error& e) {
+            } catch (const core::Error& e) {
                 ++skipped;
                 if (!a.quiet) std::fprintf(stderr, "facesynth: warning: %s (skipped)\n", e.what());
             }
             progress.advance();
         }
         progress.finish();
-        if (written == 0) throw file_error(a.photos, "no background strip of at least " + std::to_string(a.min_side) + " px without a face");
+        if (written == 0) throw core::file_error(a.photos, "no background strip of at least " + std::to_string(a.min_side) + " px without a face");
         fs::rename(temporary, out);
     } catch (...) {
         fs::remove_all(temporary, error);
@@ -268,8 +268,8 @@ std::vector<train::LabelledImage> near_frontal(const std::vector<train::Labelled
             try {
                 fit::FitOptions options;
                 options.jaw = fit::JawMode::kContour;
-                yaw = fitter->fit(read_pts(image.pts), options).pose.angles.yaw;
-            } catch (const Error&) {
+                yaw = fitter->fit(morph::read_pts(image.pts), options).pose.angles.yaw;
+            } catch (const core::Error&) {
                 yaw.reset();  // unreadable or degenerate: measure_realism reports it when kept
             }
         }
@@ -285,7 +285,7 @@ void add_side(nlohmann::json& j, const std::string& prefix, const train::Realism
     j[prefix + "_nme_median"] = side.nme.median;
     j[prefix + "_failure_rate_008"] = side.nme.failure_rate_008;
     j[prefix + "_auc_008"] = side.nme.auc_008;
-    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         char key[48];
         std::snprintf(key, sizeof key, "%s_bias_x_%02d", prefix.c_str(), i + 1);
         j[key] = side.bias(0, i);
@@ -298,14 +298,14 @@ void run_realism(const RealismArgs& a) {
     const auto renders_all = train::list_labelled_images({fs::path(a.data)});
     const auto renders = near_frontal(renders_all, a.max_yaw, true, nullptr);
     if (renders.empty())
-        throw file_error(a.data, "no render with |yaw| <= " + std::to_string(a.max_yaw) + "° (needs a facesynth synth dataset with meta/)");
+        throw core::file_error(a.data, "no render with |yaw| <= " + std::to_string(a.max_yaw) + "° (needs a facesynth synth dataset with meta/)");
     std::vector<train::LabelledImage> photos;
-    std::optional<MorphableModel> model;
+    std::optional<morph::MorphableModel> model;
     if (!a.photos.empty()) {
-        model = load_model("builtin");
+        model = morph::load_model("builtin");
         const fit::Fitter fitter(*model);
         photos = near_frontal(train::list_labelled_images({fs::path(a.photos)}), a.max_yaw, false, &fitter);
-        if (photos.empty()) throw file_error(a.photos, "no photograph with |yaw| <= " + std::to_string(a.max_yaw) + "° by its fitted annotation");
+        if (photos.empty()) throw core::file_error(a.photos, "no photograph with |yaw| <= " + std::to_string(a.max_yaw) + "° by its fitted annotation");
     }
     const auto regressor = train::open_regressor(a.regressor);
     const train::LandmarkRegressor* const regressors[] = {regressor.get()};
@@ -330,8 +330,8 @@ void run_realism(const RealismArgs& a) {
         }
         // The landmarks the predictor places most differently on renders than on photographs.
         const Eigen::Matrix2Xd gap = photos.empty() ? render_side.bias : Eigen::Matrix2Xd(render_side.bias - photo_side.bias);
-        std::vector<int> order(kNumIbugLandmarks);
-        for (int i = 0; i < kNumIbugLandmarks; ++i) order[static_cast<std::size_t>(i)] = i;
+        std::vector<int> order(morph::kNumIbugLandmarks);
+        for (int i = 0; i < morph::kNumIbugLandmarks; ++i) order[static_cast<std::size_t>(i)] = i;
         std::sort(order.begin(), order.end(), [&](int x, int y) { return gap.col(x).norm() > gap.col(y).norm(); });
         std::printf("  largest bias gaps (renders%s, face frame, IOD):", photos.empty() ? "" : " - photographs");
         for (int k = 0; k < 6; ++k) std::printf(" %d (%+.3f, %+.3f)", order[static_cast<std::size_t>(k)] + 1, gap(0, order[static_cast<std::size_t>(k)]), gap(1, order[static_cast<std::size_t>(k)]));

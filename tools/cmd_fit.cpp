@@ -9,9 +9,9 @@
 #include "fit/fit.h"
 #include "fit/overlay.h"
 #include "fit/refine.h"
-#include "morph/atomic_file.h"
-#include "morph/error.h"
-#include "morph/image_header.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/image_header.h"
 #include "morph/landmarks.h"
 #include "morph/mesh_io.h"
 #include "morph/model_io.h"
@@ -49,24 +49,24 @@ struct FitArgs {
 fit::JawMode parse_jaw(const std::string& s) {
     if (s == "fixed") return fit::JawMode::kFixed;
     if (s == "contour") return fit::JawMode::kContour;
-    throw Error("--jaw '" + s + "': expected fixed or contour");
+    throw core::Error("--jaw '" + s + "': expected fixed or contour");
 }
 
 void run_fit(const FitArgs& a) {
     const auto start = std::chrono::steady_clock::now();
-    const MorphableModel model = load_model(a.model);
-    const Eigen::Matrix2Xd landmarks = read_pts(a.landmarks);
-    if (landmarks.cols() != kNumIbugLandmarks)
-        throw file_error(a.landmarks, "has " + std::to_string(landmarks.cols()) + " points, expected 68 (iBUG)");
+    const morph::MorphableModel model = morph::load_model(a.model);
+    const Eigen::Matrix2Xd landmarks = morph::read_pts(a.landmarks);
+    if (landmarks.cols() != morph::kNumIbugLandmarks)
+        throw core::file_error(a.landmarks, "has " + std::to_string(landmarks.cols()) + " points, expected 68 (iBUG)");
     cv::Mat image;
     if (!a.image.empty()) {
-        check_image_not_too_large(a.image);
+        core::check_image_not_too_large(a.image);
         image = cv::imread(a.image, cv::IMREAD_COLOR);
-        if (image.empty()) throw file_error(a.image, "cannot read the image");
+        if (image.empty()) throw core::file_error(a.image, "cannot read the image");
     }
 
     fit::FitOptions options;
-    const auto subset = landmark_subset(parse_landmark_subset(a.landmark_set));
+    const auto subset = morph::landmark_subset(morph::parse_landmark_subset(a.landmark_set));
     options.subset.assign(subset.begin(), subset.end());
     options.jaw = parse_jaw(a.jaw);
     options.lambda = options.expression_lambda = a.lambda;
@@ -78,8 +78,8 @@ void run_fit(const FitArgs& a) {
     fit::FitResult linear;
     try {
         linear = fitter.fit(landmarks, options);
-    } catch (const Error& e) {
-        throw file_error(a.landmarks, e.what());
+    } catch (const core::Error& e) {
+        throw core::file_error(a.landmarks, e.what());
     }
     nlohmann::json j;
     j["model"] = model.name;
@@ -92,7 +92,7 @@ void run_fit(const FitArgs& a) {
     std::vector<float> alpha = linear.alpha, psi = linear.psi;
     Eigen::Matrix2Xd vertices_px;
     Eigen::Matrix2Xd fitted_landmarks = linear.projected;
-    const EulerAngles* angles = &linear.pose.angles;
+    const morph::EulerAngles* angles = &linear.pose.angles;
     Eigen::Matrix3d rotation = linear.pose.rotation;
     double rms = linear.reprojection_rms_px;
     fit::RefineResult refined;
@@ -132,7 +132,7 @@ void run_fit(const FitArgs& a) {
     j["psi"] = psi;
     j["reprojection_rms_px"] = rms;
 
-    const Mesh mesh = model.instance(alpha, psi);
+    const morph::Mesh mesh = model.instance(alpha, psi);
     vertices_px.resize(2, mesh.num_vertices());
     if (a.refine) {
         vertices_px = project(refined.intrinsics, refined.pose, mesh.vertices);
@@ -141,8 +141,8 @@ void run_fit(const FitArgs& a) {
     }
     const std::filesystem::path out(a.out);
     create_output_folder(out);
-    write_obj(mesh, out / "mesh.obj");
-    write_glb(mesh, out / "mesh.glb");
+    morph::write_obj(mesh, out / "mesh.obj");
+    morph::write_glb(mesh, out / "mesh.glb");
     if (!image.empty()) write_png_file(out / "overlay.png", fit::draw_fit_overlay(image, vertices_px, mesh.triangles, landmarks, fitted_landmarks));
     j["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     write_json_file(out / "fit.json", j);
@@ -164,10 +164,10 @@ struct LambdaArgs {
 };
 
 void run_lambda(const LambdaArgs& a) {
-    const MorphableModel model = load_model(a.model);
+    const morph::MorphableModel model = morph::load_model(a.model);
     const fit::Fitter fitter(model);
     fit::FitOptions base;
-    const auto subset = landmark_subset(parse_landmark_subset(a.landmark_set));
+    const auto subset = morph::landmark_subset(morph::parse_landmark_subset(a.landmark_set));
     base.subset.assign(subset.begin(), subset.end());
     base.jaw = fit::JawMode::kFixed;
     nlohmann::json j;
@@ -236,7 +236,7 @@ void print_summary(const fit::YawBinnedSummary& summary, bool skip_empty) {
 
 fit::EvalOptions eval_options(const FitEvalArgs& a, fit::JawMode jaw) {
     fit::EvalOptions o;
-    const auto subset = landmark_subset(parse_landmark_subset(a.landmark_set));
+    const auto subset = morph::landmark_subset(morph::parse_landmark_subset(a.landmark_set));
     o.fit.subset.assign(subset.begin(), subset.end());
     o.fit.jaw = jaw;
     o.fit.lambda = o.fit.expression_lambda = a.lambda;
@@ -245,7 +245,7 @@ fit::EvalOptions eval_options(const FitEvalArgs& a, fit::JawMode jaw) {
     return o;
 }
 
-void write_eval_header(nlohmann::json& j, const FitEvalArgs& a, const MorphableModel& model) {
+void write_eval_header(nlohmann::json& j, const FitEvalArgs& a, const morph::MorphableModel& model) {
     j["model"] = model.name;
     j["model_checksum"] = model.checksum();
     j["noise_px"] = a.noise;
@@ -259,7 +259,7 @@ void write_eval_header(nlohmann::json& j, const FitEvalArgs& a, const MorphableM
 // Ground-truth evaluation on a synthetic test set generated in code (landmarks projected from random
 // faces and poses with fixed jaw correspondences, plus noise); see docs/fit.md.
 void run_eval_generated(const FitEvalArgs& a) {
-    const MorphableModel model = load_model(a.model);
+    const morph::MorphableModel model = morph::load_model(a.model);
     const fit::Fitter fitter(model);
     fit::EvalOptions o = eval_options(a, fit::JawMode::kFixed);
     fit::SyntheticOptions s;
@@ -290,13 +290,13 @@ void run_eval_generated(const FitEvalArgs& a) {
 // missing or corrupt, or whose fit fails, is reported on one line and skipped; the command then exits 1
 // saying how many failed. A dataset made with another model is refused at once.
 void run_eval_dataset(const FitEvalArgs& a) {
-    const MorphableModel model = load_model(a.model);
+    const morph::MorphableModel model = morph::load_model(a.model);
     const std::string checksum = model.checksum();
     const std::filesystem::path dir(a.data);
     const std::vector<fit::DatasetEntry> entries = fit::read_dataset_manifest(dir);
-    if (entries.empty()) throw file_error((dir / "manifest.jsonl").string(), "lists no samples");
+    if (entries.empty()) throw core::file_error((dir / "manifest.jsonl").string(), "lists no samples");
     auto mismatch = [&](const std::string& theirs) {
-        return Error("dataset " + dir.string() + " was made with model checksum " + theirs + ", but --model " + a.model + " (" + model.name +
+        return core::Error("dataset " + dir.string() + " was made with model checksum " + theirs + ", but --model " + a.model + " (" + model.name +
                      ") has checksum " + checksum + ": evaluate with the dataset's model");
     };
     if (const std::string theirs = fit::dataset_model_checksum(dir); !theirs.empty() && theirs != checksum) throw mismatch(theirs);
@@ -314,7 +314,7 @@ void run_eval_dataset(const FitEvalArgs& a) {
         fit::DatasetSample sample;
         try {
             sample = fit::read_sample_meta(entry.meta);
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             std::fprintf(stderr, "facesynth: error: sample %s: %s\n", entry.key.c_str(), e.what());
             ++failed;
             progress.advance();
@@ -323,7 +323,7 @@ void run_eval_dataset(const FitEvalArgs& a) {
         if (sample.model_checksum != checksum) throw mismatch(sample.model_checksum + " (" + entry.meta.string() + ")");
         try {
             summary.add(fit::evaluate_dataset_sample(fitter, sample, o));
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             std::fprintf(stderr, "facesynth: error: sample %s (%s): fit failed: %s\n", entry.key.c_str(), entry.meta.string().c_str(), e.what());
             ++failed;
         }
@@ -340,7 +340,7 @@ void run_eval_dataset(const FitEvalArgs& a) {
     if (!a.quiet) print_summary(summary, true);
     if (!a.json.empty()) write_json_file(a.json, j);
     if (failed > 0)
-        throw Error("eval fit: " + std::to_string(failed) + " of " + std::to_string(entries.size()) + " samples of " + dir.string() +
+        throw core::Error("eval fit: " + std::to_string(failed) + " of " + std::to_string(entries.size()) + " samples of " + dir.string() +
                     " failed (see the lines above); the metrics cover the other " + std::to_string(summary.all.count));
 }
 
@@ -362,7 +362,7 @@ struct ConventionsArgs {
 
 void run_conventions(const ConventionsArgs& a) {
     const fs::path dir(a.photos);
-    if (!fs::is_directory(dir)) throw file_error(a.photos, "folder not found");
+    if (!fs::is_directory(dir)) throw core::file_error(a.photos, "folder not found");
     std::vector<fs::path> files;
     for (const auto& entry : fs::directory_iterator(dir))
         if (entry.is_regular_file() && entry.path().extension() == ".pts") files.push_back(entry.path());
@@ -371,27 +371,27 @@ void run_conventions(const ConventionsArgs& a) {
     int unreadable = 0;
     for (const fs::path& file : files) {
         try {
-            Eigen::Matrix2Xd points = read_pts(file);
-            if (points.cols() != kNumIbugLandmarks) throw file_error(file.string(), "expected 68 points");
+            Eigen::Matrix2Xd points = morph::read_pts(file);
+            if (points.cols() != morph::kNumIbugLandmarks) throw core::file_error(file.string(), "expected 68 points");
             annotations.push_back(std::move(points));
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             ++unreadable;
             std::fprintf(stderr, "facesynth: warning: %s (skipped)\n", e.what());
         }
     }
-    if (annotations.empty()) throw file_error(a.photos, "no readable 68-point .pts files");
-    const MorphableModel model = load_model(a.model);
+    if (annotations.empty()) throw core::file_error(a.photos, "no readable 68-point .pts files");
+    const morph::MorphableModel model = morph::load_model(a.model);
     const fit::Fitter fitter(model);
     fit::FitOptions options;
     options.jaw = a.jaw == "fixed" ? fit::JawMode::kFixed : fit::JawMode::kContour;
     const fit::ConventionStudy study = fit::study_conventions(fitter, annotations, options, a.max_yaw);
-    if (study.faces == 0) throw file_error(a.photos, "no annotation fitted within |yaw| <= " + std::to_string(a.max_yaw) + "°");
+    if (study.faces == 0) throw core::file_error(a.photos, "no annotation fitted within |yaw| <= " + std::to_string(a.max_yaw) + "°");
     if (!a.quiet) {
         std::printf("%s fitted to %d annotations (|yaw| <= %.0f°; %d turned further, %d failed, %d unreadable), %s jaw\n", model.name.c_str(),
                     study.faces, a.max_yaw, study.skipped_pose, study.failed, unreadable, a.jaw.c_str());
         std::printf("mean (annotation - model point), face frame, inter-ocular distances; largest first:\n");
-        std::vector<int> order(kNumIbugLandmarks);
-        for (int i = 0; i < kNumIbugLandmarks; ++i) order[static_cast<std::size_t>(i)] = i;
+        std::vector<int> order(morph::kNumIbugLandmarks);
+        for (int i = 0; i < morph::kNumIbugLandmarks; ++i) order[static_cast<std::size_t>(i)] = i;
         std::sort(order.begin(), order.end(), [&](int x, int y) { return study.mean.col(x).norm() > study.mean.col(y).norm(); });
         for (int k = 0; k < 12; ++k) {
             const int i = order[static_cast<std::size_t>(k)];
@@ -407,7 +407,7 @@ void run_conventions(const ConventionsArgs& a) {
         j["skipped_pose"] = study.skipped_pose;
         j["failed"] = study.failed;
         j["unreadable"] = unreadable;
-        for (int i = 0; i < kNumIbugLandmarks; ++i) {
+        for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
             char key[32];
             for (int axis = 0; axis < 2; ++axis) {
                 std::snprintf(key, sizeof key, "mean_%c_%02d", axis == 0 ? 'x' : 'y', i + 1);

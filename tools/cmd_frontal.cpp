@@ -1,19 +1,19 @@
 // `facesynth frontalise` (photographs -> isomap + frontal render), `facesynth eval frontalise` (the
 // ground-truth benchmark on synthetic faces) and `facesynth bench frontalise`. The algorithms live in
-// fit/frontal/; face detection and landmarking (train/) are chosen here and passed in as landmarks.
+// frontal/; face detection and landmarking (train/) are chosen here and passed in as landmarks.
 #include "cli_common.h"
 #include "commands.h"
 
-#include "fit/frontal/evaluate.h"
-#include "fit/frontal/image_metrics.h"
-#include "fit/frontal/frontalise.h"
-#include "morph/atomic_file.h"
-#include "morph/error.h"
-#include "morph/image_header.h"
+#include "frontal/evaluate.h"
+#include "frontal/image_metrics.h"
+#include "frontal/frontalise.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/image_header.h"
 #include "morph/landmarks.h"
 #include "morph/mesh_io.h"
 #include "morph/model_io.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "report/svg_plot.h"
 #include "train/face_box.h"
 #include "train/regressor.h"
@@ -41,7 +41,7 @@ std::optional<cv::Vec3b> parse_background(const std::string& text) {
     int r = 0, g = 0, b = 0;
     char tail = 0;
     if (std::sscanf(text.c_str(), "%d,%d,%d%c", &r, &g, &b, &tail) != 3 || std::min({r, g, b}) < 0 || std::max({r, g, b}) > 255)
-        throw Error("--background '" + text + "': expected R,G,B with values 0..255, or none");
+        throw core::Error("--background '" + text + "': expected R,G,B with values 0..255, or none");
     return cv::Vec3b(static_cast<std::uint8_t>(b), static_cast<std::uint8_t>(g), static_cast<std::uint8_t>(r));
 }
 
@@ -54,7 +54,7 @@ std::vector<fs::path> expand_inputs(const std::vector<std::string>& inputs) {
         if (fs::is_directory(path)) {
             std::vector<fs::path> found;
             for (const auto& entry : fs::directory_iterator(path))
-                if (entry.is_regular_file() && is_image_file(entry.path())) found.push_back(entry.path());
+                if (entry.is_regular_file() && core::is_image_file(entry.path())) found.push_back(entry.path());
             std::sort(found.begin(), found.end());
             if (found.empty()) std::fprintf(stderr, "facesynth: warning: %s: no image files in this folder\n", input.c_str());
             images.insert(images.end(), found.begin(), found.end());
@@ -96,21 +96,21 @@ public:
         if (regressor_) return regressor_->label();
         return args_.pts.empty() ? "pts beside the image" : "pts " + args_.pts;
     }
-    // 68 landmarks per face, largest face first; throws facesynth::Error naming the image otherwise.
+    // 68 landmarks per face, largest face first; throws core::Error naming the image otherwise.
     [[nodiscard]] std::vector<Eigen::Matrix2Xd> faces(const fs::path& image_path, const cv::Mat& image) const {
         if (regressor_) {
             const cv::Mat gray = train::to_gray8(image);
             const auto boxes = detector_->detect(gray);
-            if (boxes.empty()) throw file_error(image_path.string(), "no face found");
+            if (boxes.empty()) throw core::file_error(image_path.string(), "no face found");
             std::vector<Eigen::Matrix2Xd> out;
             out.reserve(boxes.size());
             for (const auto& box : boxes) out.push_back(regressor_->predict(gray, box));
             return out;
         }
         const fs::path pts = args_.pts.empty() ? pts_for(image_path) : fs::path(args_.pts);
-        Eigen::Matrix2Xd points = read_pts(pts);
-        if (points.cols() != kNumIbugLandmarks)
-            throw file_error(pts.string(), "has " + std::to_string(points.cols()) + " points, expected 68 (iBUG)");
+        Eigen::Matrix2Xd points = morph::read_pts(pts);
+        if (points.cols() != morph::kNumIbugLandmarks)
+            throw core::file_error(pts.string(), "has " + std::to_string(points.cols()) + " points, expected 68 (iBUG)");
         return {points};
     }
 
@@ -122,7 +122,7 @@ private:
         if (fs::exists(beside)) return beside;
         fs::path dataset = image.parent_path().parent_path() / "landmarks" / (image.stem().string() + ".pts");
         if (fs::exists(dataset)) return dataset;
-        throw file_error(image.string(), "no landmarks: neither " + beside.string() + " nor " + dataset.string() + " exists");
+        throw core::file_error(image.string(), "no landmarks: neither " + beside.string() + " nor " + dataset.string() + " exists");
     }
 
     const FrontaliseArgs& args_;
@@ -131,7 +131,7 @@ private:
 };
 
 nlohmann::json face_record(const fs::path& image, int face, const std::string& source, const Eigen::Matrix2Xd& landmarks,
-                           const frontal::Frontalisation& r, const MorphableModel& model, const frontal::FrontaliseOptions& o,
+                           const frontal::Frontalisation& r, const morph::MorphableModel& model, const frontal::FrontaliseOptions& o,
                            double detect_ms) {
     nlohmann::json j;
     j["image"] = image.string();
@@ -171,32 +171,32 @@ nlohmann::json face_record(const fs::path& image, int face, const std::string& s
     return j;
 }
 
-void write_face_outputs(const fs::path& out, const std::string& stem, const frontal::Frontalisation& r, const MorphableModel& model,
+void write_face_outputs(const fs::path& out, const std::string& stem, const frontal::Frontalisation& r, const morph::MorphableModel& model,
                         const nlohmann::json& record) {
     std::vector<unsigned char> isomap_png;
-    if (!cv::imencode(".png", r.isomap, isomap_png)) throw file_error((out / (stem + ".isomap.png")).string(), "PNG encoding failed");
-    write_file_atomically(out / (stem + ".isomap.png"), std::string_view(reinterpret_cast<const char*>(isomap_png.data()), isomap_png.size()));
+    if (!cv::imencode(".png", r.isomap, isomap_png)) throw core::file_error((out / (stem + ".isomap.png")).string(), "PNG encoding failed");
+    core::write_file_atomically(out / (stem + ".isomap.png"), std::string_view(reinterpret_cast<const char*>(isomap_png.data()), isomap_png.size()));
     write_png_file(out / (stem + ".frontal.png"), r.frontal.image);
-    Mesh mesh;
+    morph::Mesh mesh;
     mesh.vertices = r.vertices;
     mesh.triangles = model.triangles;
     mesh.uv = model.uv;  // no vertex colours: glTF would multiply them into the texture
-    write_glb(mesh, out / (stem + ".glb"), isomap_png);
+    morph::write_glb(mesh, out / (stem + ".glb"), isomap_png);
     write_json_file(out / (stem + ".json"), record);
 }
 
 void run_frontalise(const FrontaliseArgs& a) {
-    const MorphableModel model = load_model(a.model);
+    const morph::MorphableModel model = morph::load_model(a.model);
     frontal::FrontaliseOptions options;
     options.isomap.size = a.isomap_size;
     options.frontal.size = a.size;
     options.frontal.background = parse_background(a.background);
     options.mirror_fill = a.mirror_fill;
     if (a.mirror_fill && model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
-        throw Error("--mirror-fill: model '" + model.name + "' (" + a.model + ") has no symmetry map");
+        throw core::Error("--mirror-fill: model '" + model.name + "' (" + a.model + ") has no symmetry map");
     const std::vector<fs::path> images = expand_inputs(a.inputs);
-    if (images.empty()) throw Error("frontalise: no images to process");
-    if (!a.pts.empty() && images.size() != 1) throw Error("--pts gives the landmarks of one image, but " + std::to_string(images.size()) + " were given");
+    if (images.empty()) throw core::Error("frontalise: no images to process");
+    if (!a.pts.empty() && images.size() != 1) throw core::Error("--pts gives the landmarks of one image, but " + std::to_string(images.size()) + " were given");
     const LandmarkSource source(a);
     frontal::Frontaliser frontaliser(model);
     const fs::path out(a.out);
@@ -208,10 +208,10 @@ void run_frontalise(const FrontaliseArgs& a) {
     Progress progress("frontalise", images.size(), a.quiet);
     for (const fs::path& path : images) {
         try {
-            if (!fs::is_regular_file(path)) throw file_error(path.string(), "file not found");
-            check_image_not_too_large(path);
+            if (!fs::is_regular_file(path)) throw core::file_error(path.string(), "file not found");
+            core::check_image_not_too_large(path);
             const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
-            if (image.empty()) throw file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
+            if (image.empty()) throw core::file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
             const auto detect_start = std::chrono::steady_clock::now();
             const std::vector<Eigen::Matrix2Xd> landmarks = source.faces(path, image);
             const double detect_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - detect_start).count();
@@ -219,8 +219,8 @@ void run_frontalise(const FrontaliseArgs& a) {
                 frontal::Frontalisation r;
                 try {
                     r = frontaliser.frontalise(image, landmarks[k], options);
-                } catch (const Error& e) {
-                    throw file_error(path.string(), std::string("face ") + std::to_string(k) + ": " + e.what());
+                } catch (const core::Error& e) {
+                    throw core::file_error(path.string(), std::string("face ") + std::to_string(k) + ": " + e.what());
                 }
                 const std::string stem = path.stem().string() + (k == 0 ? "" : "_" + std::to_string(k));
                 write_face_outputs(out, stem, r, model, face_record(path, static_cast<int>(k), source.label(), landmarks[k], r, model, options, detect_ms));
@@ -228,7 +228,7 @@ void run_frontalise(const FrontaliseArgs& a) {
                 sum += r.times;
             }
             detect_ms_sum += detect_ms;
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             ++failed;
             std::fprintf(stderr, "facesynth: error: %s\n", e.what());
         }
@@ -259,7 +259,7 @@ void run_frontalise(const FrontaliseArgs& a) {
         j["cpu_ms_per_face"] = sum.total_cpu_ms() / n;
         write_json_file(a.json, j);
     }
-    if (failed > 0) throw Error(std::to_string(failed) + " of " + std::to_string(images.size()) + " images failed (see the lines above)");
+    if (failed > 0) throw core::Error(std::to_string(failed) + " of " + std::to_string(images.size()) + " images failed (see the lines above)");
 }
 
 
@@ -381,11 +381,11 @@ std::string psnr_plot_svg(const std::vector<std::pair<std::string, std::array<do
 }
 
 void run_eval_frontalise(const FrontaliseEvalArgs& a) {
-    const MorphableModel model = load_model(a.model);
+    const morph::MorphableModel model = morph::load_model(a.model);
     if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
-        throw Error("eval frontalise: model '" + model.name + "' has no symmetry map, so the mirror-fill half cannot be measured");
+        throw core::Error("eval frontalise: model '" + model.name + "' has no symmetry map, so the mirror-fill half cannot be measured");
     frontal::Frontaliser frontaliser(model);
-    const JawContourRegion region = jaw_contour_region(model);
+    const morph::JawContourRegion region = morph::jaw_contour_region(model);
     const cv::Mat layout = frontal::layout_mask(frontaliser.uv_raster(a.isomap_size));
     frontal::ViewOptions view_options;
     view_options.size = a.image_size;
@@ -393,7 +393,7 @@ void run_eval_frontalise(const FrontaliseEvalArgs& a) {
     view_options.framing = a.framing;
     if (a.lighting == "sky") view_options.lighting = render::Lighting{};
     if (!a.regressor.empty() && a.detection_framing < a.framing)
-        throw Error("eval frontalise: --detection-framing " + std::to_string(a.detection_framing) + " is below --framing " + std::to_string(a.framing) +
+        throw core::Error("eval frontalise: --detection-framing " + std::to_string(a.detection_framing) + " is below --framing " + std::to_string(a.framing) +
                     " (the detector's view shows the standard view and more)");
     // The detected-landmark run sees the same camera with more around the face (the detectors need
     // the head's outline), and is scored against the same truth at the standard framing.
@@ -416,7 +416,7 @@ void run_eval_frontalise(const FrontaliseEvalArgs& a) {
         const auto index = static_cast<std::uint64_t>(i);
         const frontal::TexturedFace face = frontal::make_textured_face(model, frontaliser, static_cast<std::uint64_t>(a.seed), index, a.isomap_size);
         const frontal::TrueFrontal truth = frontal::render_true_frontal(frontaliser, face, a.size, view_options.lighting);
-        Rng yaw_rng = make_rng(static_cast<std::uint64_t>(a.seed), index, RandomStream::kPose);
+        core::Rng yaw_rng = core::make_rng(static_cast<std::uint64_t>(a.seed), index, core::RandomStream::kPose);
         for (int b = 0; b < kYawBins; ++b) {
             const double magnitude = 10.0 * b + yaw_rng.uniform(0, 10);
             const double yaw = yaw_rng.uniform() < 0.5 ? -magnitude : magnitude;
@@ -425,8 +425,8 @@ void run_eval_frontalise(const FrontaliseEvalArgs& a) {
             const bool keep = !a.examples.empty() && i < 2;
             try {
                 truth_bins[static_cast<std::size_t>(b)].add(score_view(frontaliser, face, view, view.landmarks, truth, layout, a, keep ? &stem : nullptr));
-            } catch (const Error& e) {
-                throw Error("eval frontalise: identity " + std::to_string(i) + " at yaw " + std::to_string(yaw) + ": " + e.what());
+            } catch (const core::Error& e) {
+                throw core::Error("eval frontalise: identity " + std::to_string(i) + " at yaw " + std::to_string(yaw) + ": " + e.what());
             }
             if (regressor) {
                 const frontal::SyntheticView wide = detection_view_options.size == view_options.size
@@ -442,7 +442,7 @@ void run_eval_frontalise(const FrontaliseEvalArgs& a) {
                 try {
                     detected_bins[static_cast<std::size_t>(b)].add(
                         score_view(frontaliser, face, wide, regressor->predict(gray, *box), truth, layout, a, nullptr));
-                } catch (const Error& e) {
+                } catch (const core::Error& e) {
                     ++detector_misses;  // a fit that fails on detected landmarks counts as a miss
                     ++bin_misses[static_cast<std::size_t>(b)];
                 }
@@ -527,7 +527,7 @@ void run_eval_frontalise(const FrontaliseEvalArgs& a) {
             series.emplace_back("detected", psnr_of(detected_bins, false));
             series.emplace_back("detected + mirror", psnr_of(detected_bins, true));
         }
-        write_file_atomically(a.plot, psnr_plot_svg(series));
+        core::write_file_atomically(a.plot, psnr_plot_svg(series));
     }
     if (!a.json.empty()) write_json_file(a.json, j);
 }
@@ -545,9 +545,9 @@ struct FrontaliseBenchArgs {
 // Times the library pipeline (fit + isomap + frontal render, no detection) on `count` posed renders of
 // different identities at yaws within ±60°, after one warm-up face (uv raster, shader compilation).
 void run_bench_frontalise(const FrontaliseBenchArgs& a) {
-    const MorphableModel model = load_model(a.model);
+    const morph::MorphableModel model = morph::load_model(a.model);
     frontal::Frontaliser frontaliser(model);
-    const JawContourRegion region = jaw_contour_region(model);
+    const morph::JawContourRegion region = morph::jaw_contour_region(model);
     frontal::FrontaliseOptions options;
     options.isomap.size = a.isomap_size;
     options.frontal.size = a.size;
@@ -556,7 +556,7 @@ void run_bench_frontalise(const FrontaliseBenchArgs& a) {
     std::vector<frontal::SyntheticView> views;
     for (int i = 0; i <= a.count; ++i) {
         const frontal::TexturedFace face = frontal::make_textured_face(model, frontaliser, kSeed, static_cast<std::uint64_t>(i), a.isomap_size);
-        Rng rng = make_rng(kSeed, static_cast<std::uint64_t>(i), RandomStream::kPose);
+        core::Rng rng = core::make_rng(kSeed, static_cast<std::uint64_t>(i), core::RandomStream::kPose);
         views.push_back(frontal::render_view(frontaliser.renderer(), model, face, rng.uniform(-60, 60), {}, &region));
     }
     (void)frontaliser.frontalise(views.front().image, views.front().landmarks, options);

@@ -4,12 +4,12 @@
 #include "cli_common.h"
 #include "commands.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "morph/mesh_io.h"
 #include "morph/model_build.h"
 #include "morph/model_io.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "morph/sampling.h"
 #include "morph/skin_colour.h"
 #include "synth/scene.h"
@@ -84,13 +84,13 @@ std::vector<float> parse_floats(const std::string& text, const char* option) {
     return values;
 }
 
-std::string expression_kind(const MorphableModel& m) {
+std::string expression_kind(const morph::MorphableModel& m) {
     if (!m.expression) return "none";
-    return std::holds_alternative<PcaModel>(*m.expression) ? "pca" : "blendshapes";
+    return std::holds_alternative<morph::PcaModel>(*m.expression) ? "pca" : "blendshapes";
 }
 
 void run_info(const InfoArgs& a) {
-    const MorphableModel m = load_model(a.model);
+    const morph::MorphableModel m = morph::load_model(a.model);
     const Eigen::Matrix3Xf mean = m.shape_instance({});
     const Eigen::Vector3f lo = mean.rowwise().minCoeff(), hi = mean.rowwise().maxCoeff();
     const long mirrored = std::count_if(m.symmetry.begin(), m.symmetry.end(), [](int s) { return s >= 0; });
@@ -102,9 +102,9 @@ void run_info(const InfoArgs& a) {
     std::printf("triangles:            %zu\n", m.triangles.size());
     std::printf("shape components:     %d\n", m.num_shape_components());
     std::printf("expression:           %d (%s)", m.num_expression_components(), expression_kind(m).c_str());
-    if (m.expression && std::holds_alternative<std::vector<Blendshape>>(*m.expression)) {
+    if (m.expression && std::holds_alternative<std::vector<morph::Blendshape>>(*m.expression)) {
         std::string names;
-        for (const auto& b : std::get<std::vector<Blendshape>>(*m.expression)) {
+        for (const auto& b : std::get<std::vector<morph::Blendshape>>(*m.expression)) {
             if (!names.empty()) names += ", ";
             names += b.name;
         }
@@ -156,35 +156,35 @@ void run_export(const ExportArgs& a) {
     std::vector<float> alpha = parse_floats(a.alpha, "--alpha");
     std::vector<float> beta = parse_floats(a.albedo, "--albedo");
     const std::vector<float> psi = parse_floats(a.expression, "--expression");
-    const MorphableModel m = load_model(a.model);
+    const morph::MorphableModel m = morph::load_model(a.model);
     if (static_cast<int>(alpha.size()) > m.num_shape_components())
-        throw Error("--alpha has " + std::to_string(alpha.size()) + " values, the model has " +
+        throw core::Error("--alpha has " + std::to_string(alpha.size()) + " values, the model has " +
                     std::to_string(m.num_shape_components()) + " shape components");
     if (static_cast<int>(psi.size()) > m.num_expression_components())
-        throw Error("--expression has " + std::to_string(psi.size()) + " values, the model has " +
+        throw core::Error("--expression has " + std::to_string(psi.size()) + " values, the model has " +
                     std::to_string(m.num_expression_components()) + " expression components");
     if (static_cast<int>(beta.size()) > m.num_albedo_components())
-        throw Error("--albedo has " + std::to_string(beta.size()) + " values, the model has " +
+        throw core::Error("--albedo has " + std::to_string(beta.size()) + " values, the model has " +
                     std::to_string(m.num_albedo_components()) + " albedo components");
     if (a.random) {
         const auto seed = static_cast<std::uint64_t>(a.seed);
-        Rng identity = make_rng(seed, 0, RandomStream::kIdentity);
-        alpha = sample_coefficients(identity, m.num_shape_components(), a.truncation);
+        core::Rng identity = core::make_rng(seed, 0, core::RandomStream::kIdentity);
+        alpha = morph::sample_coefficients(identity, m.num_shape_components(), a.truncation);
         if (beta.empty()) {
-            Rng albedo = make_rng(seed, 0, RandomStream::kAlbedo);
-            beta = sample_coefficients(albedo, m.num_albedo_components(), a.truncation);
+            core::Rng albedo = core::make_rng(seed, 0, core::RandomStream::kAlbedo);
+            beta = morph::sample_coefficients(albedo, m.num_albedo_components(), a.truncation);
         }
     }
-    const Mesh mesh = m.instance(alpha, psi, beta);
+    const morph::Mesh mesh = m.instance(alpha, psi, beta);
     if (ext == ".obj") {
-        write_obj(mesh, a.out);
+        morph::write_obj(mesh, a.out);
     } else {
         std::string png;
         if (!a.texture.empty()) {
-            png = read_file(a.texture);
-            if (png.size() < 8 || png.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0) throw file_error(a.texture, "not a PNG file");
+            png = core::read_file(a.texture);
+            if (png.size() < 8 || png.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0) throw core::file_error(a.texture, "not a PNG file");
         }
-        write_glb(mesh, a.out, std::span(reinterpret_cast<const std::uint8_t*>(png.data()), png.size()));
+        morph::write_glb(mesh, a.out, std::span(reinterpret_cast<const std::uint8_t*>(png.data()), png.size()));
     }
     std::printf("wrote %s: %d vertices, %d triangles%s%s\n", a.out.c_str(), mesh.num_vertices(), mesh.num_triangles(),
                 mesh.uv.cols() ? ", uv" : "", a.texture.empty() ? ", vertex colours" : ", texture");
@@ -193,53 +193,53 @@ void run_export(const ExportArgs& a) {
 void run_convert(const ConvertArgs& a) {
     if (std::filesystem::path(a.out).extension() != ".fsm")
         throw CLI::ValidationError("--out", "'" + a.out + "' must end in .fsm (the facesynth model format)");
-    const MorphableModel m = load_model(a.model);
-    write_model(m, a.out);
+    const morph::MorphableModel m = morph::load_model(a.model);
+    morph::write_model(m, a.out);
     std::printf("wrote %s (%d vertices, checksum %s)\n", a.out.c_str(), m.num_vertices(), m.checksum().c_str());
 }
 
 void run_build(const BuildArgs& a) {
     if (std::filesystem::path(a.out).extension() != ".fsm")
         throw CLI::ValidationError("--out", "'" + a.out + "' must end in .fsm (the facesynth model format)");
-    if (!std::filesystem::is_directory(a.meshes)) throw file_error(a.meshes, "not a folder");
+    if (!std::filesystem::is_directory(a.meshes)) throw core::file_error(a.meshes, "not a folder");
     std::vector<std::filesystem::path> files;
     for (const auto& entry : std::filesystem::directory_iterator(a.meshes))
-        if (entry.is_regular_file() && is_mesh_file(entry.path())) files.push_back(entry.path());
+        if (entry.is_regular_file() && morph::is_mesh_file(entry.path())) files.push_back(entry.path());
     std::sort(files.begin(), files.end());
     if (files.size() < 2)
-        throw file_error(a.meshes, "holds " + std::to_string(files.size()) + " mesh files (.obj, .gltf, .glb); need at least 2");
+        throw core::file_error(a.meshes, "holds " + std::to_string(files.size()) + " mesh files (.obj, .gltf, .glb); need at least 2");
 
-    std::vector<Mesh> meshes;
+    std::vector<morph::Mesh> meshes;
     std::vector<std::string> sources;
     Progress progress("reading meshes", files.size(), a.quiet);
     for (const auto& f : files) {
-        meshes.push_back(read_mesh(f));
+        meshes.push_back(morph::read_mesh(f));
         sources.push_back(f.string());
         progress.advance();
     }
     progress.finish();
 
-    ModelBuildOptions options;
+    morph::ModelBuildOptions options;
     options.shape.max_components = a.components;
     options.shape.variance_fraction = a.variance;
     options.colour = options.shape;
     options.name = a.name.empty() ? std::filesystem::path(a.out).stem().string() : a.name;
-    ModelBuildResult built = build_model(meshes, sources, options);
+    morph::ModelBuildResult built = morph::build_model(meshes, sources, options);
     if (built.length_scale != 1.0)
         std::fprintf(stderr, "facesynth: warning: %s: coordinates look like %s; scaled by %g to mm\n", sources[0].c_str(),
                      built.length_scale < 1.0 ? "micrometres" : "metres", built.length_scale);
     if (!a.like.empty()) {
         // Landmarks, contours and symmetry are facts about the topology: take them from a model
         // with the same mesh.
-        const MorphableModel like = load_model(a.like);
+        const morph::MorphableModel like = morph::load_model(a.like);
         if (like.num_vertices() != built.model.num_vertices() || like.triangles != built.model.triangles)
-            throw Error("--like " + a.like + ": its mesh differs from the built meshes (vertex count or triangles)");
+            throw core::Error("--like " + a.like + ": its mesh differs from the built meshes (vertex count or triangles)");
         built.model.landmarks = like.landmarks;
         built.model.contour = like.contour;
         built.model.symmetry = like.symmetry;
         if (built.model.uv.cols() == 0) built.model.uv = like.uv;
     }
-    write_model(built.model, a.out);
+    morph::write_model(built.model, a.out);
     std::printf("wrote %s: %zu meshes, %d vertices, %d shape components, %d albedo components, checksum %s\n",
                 a.out.c_str(), meshes.size(), built.model.num_vertices(), built.model.num_shape_components(),
                 built.model.num_albedo_components(), built.model.checksum().c_str());
@@ -257,14 +257,14 @@ double quantile(std::vector<double>& values, double p) {
 // albedo.scale, seed) and counts the draws the skin colour check rejects, by reason; then what
 // albedo.reject_implausible makes of them.
 void run_albedo_check(const AlbedoCheckArgs& a) {
-    const MorphableModel m = load_model(a.model);
+    const morph::MorphableModel m = morph::load_model(a.model);
     synth::SynthConfig config;
     config.seed = static_cast<std::uint64_t>(a.seed);
     config.albedo.truncation = a.truncation;
     config.albedo.scale = a.scale;
-    const SkinColourCheck check(m);
-    const SkinColourVerdict mean = check.check({});
-    constexpr std::array<SkinColourFlaw, 5> kFlaws{kSkinTooDark, kSkinTooLight, kSkinTooRed, kSkinWrongHue, kSkinClamped};
+    const morph::SkinColourCheck check(m);
+    const morph::SkinColourVerdict mean = check.check({});
+    constexpr std::array<morph::SkinColourFlaw, 5> kFlaws{morph::kSkinTooDark, morph::kSkinTooLight, morph::kSkinTooRed, morph::kSkinWrongHue, morph::kSkinClamped};
     std::array<std::int64_t, kFlaws.size()> per_flaw{};
     std::int64_t implausible = 0, redrawn = 0, redraws = 0, shrunk = 0, implausible_after = 0;
     std::string indices;  // the first implausible sample indices, for looking at them
@@ -272,8 +272,8 @@ void run_albedo_check(const AlbedoCheckArgs& a) {
     std::vector<double> luminance, green_over_red;
     Progress progress("checking colour draws", static_cast<std::size_t>(a.count), a.quiet);
     for (std::int64_t i = 0; i < a.count; ++i) {
-        const AlbedoDraw first = synth::sample_albedo(config, m, i, nullptr);
-        const SkinColourVerdict v = check.check(first.beta);
+        const morph::AlbedoDraw first = synth::sample_albedo(config, m, i, nullptr);
+        const morph::SkinColourVerdict v = check.check(first.beta);
         luminance.push_back(v.luminance);
         green_over_red.push_back(v.green_over_red);
         if (!v.plausible()) {
@@ -281,7 +281,7 @@ void run_albedo_check(const AlbedoCheckArgs& a) {
             for (std::size_t f = 0; f < kFlaws.size(); ++f)
                 if ((v.flaws & kFlaws[f]) != 0) ++per_flaw[f];
             if (listed++ < 40) indices += (indices.empty() ? "" : ",") + std::to_string(i);
-            const AlbedoDraw fixed = synth::sample_albedo(config, m, i, &check);
+            const morph::AlbedoDraw fixed = synth::sample_albedo(config, m, i, &check);
             ++redrawn;
             redraws += fixed.redraws;
             shrunk += fixed.shrink < 1.0 ? 1 : 0;
@@ -291,7 +291,7 @@ void run_albedo_check(const AlbedoCheckArgs& a) {
     }
     progress.finish();
     const double share = a.count > 0 ? static_cast<double>(implausible) / static_cast<double>(a.count) : 0.0;
-    const SkinColourLimits& l = check.limits();
+    const morph::SkinColourLimits& l = check.limits();
 
     std::printf("model:              %s (%s, checksum %s)\n", a.model.c_str(), m.name.c_str(), m.checksum().c_str());
     std::printf("skin vertices:      %d\n", check.skin_vertices());
@@ -300,10 +300,10 @@ void run_albedo_check(const AlbedoCheckArgs& a) {
     std::printf("limits:             luminance %g..%g, green/red %g..%g, blue/green <= %g, clamped skin <= %g\n", l.min_luminance,
                 l.max_luminance, l.min_green_over_red, l.max_green_over_red, l.max_blue_over_green, l.max_clamped_share);
     std::printf("mean colour:        luminance %.3f, green/red %.3f, blue/green %.3f (%s)\n", mean.luminance, mean.green_over_red,
-                mean.blue_over_green, mean.plausible() ? "plausible" : flaw_names(mean.flaws).c_str());
+                mean.blue_over_green, mean.plausible() ? "plausible" : morph::flaw_names(mean.flaws).c_str());
     std::printf("implausible:        %lld (%.2f %%)\n", static_cast<long long>(implausible), 100.0 * share);
     for (std::size_t f = 0; f < kFlaws.size(); ++f)
-        std::printf("  %-17s %lld\n", (flaw_names(kFlaws[f]) + ":").c_str(), static_cast<long long>(per_flaw[f]));
+        std::printf("  %-17s %lld\n", (morph::flaw_names(kFlaws[f]) + ":").c_str(), static_cast<long long>(per_flaw[f]));
     if (!indices.empty()) std::printf("first implausible:  %s\n", indices.c_str());
     const double lum_p01 = quantile(luminance, 0.01), lum_p50 = quantile(luminance, 0.5), lum_p99 = quantile(luminance, 0.99);
     const double gr_p01 = quantile(green_over_red, 0.01), gr_p50 = quantile(green_over_red, 0.5), gr_p99 = quantile(green_over_red, 0.99);
@@ -324,7 +324,7 @@ void run_albedo_check(const AlbedoCheckArgs& a) {
         j["skin_vertices"] = check.skin_vertices();
         j["implausible"] = implausible;
         j["implausible_share"] = share;
-        for (std::size_t f = 0; f < kFlaws.size(); ++f) j[flaw_names(kFlaws[f])] = per_flaw[f];
+        for (std::size_t f = 0; f < kFlaws.size(); ++f) j[morph::flaw_names(kFlaws[f])] = per_flaw[f];
         j["implausible_indices"] = indices;
         j["mean_luminance"] = mean.luminance;
         j["mean_green_over_red"] = mean.green_over_red;

@@ -1,16 +1,16 @@
-// `facesynth eval recognition`: the pose-invariant verification experiment (fit/recognition/,
+// `facesynth eval recognition`: the pose-invariant verification experiment (recognition/,
 // docs/recognition.md): FRR at a fixed FAR per gallery pose and probe yaw bin, org vs LM.
 #include "cli_common.h"
 #include "commands.h"
 
-#include "fit/frontal/frontalise.h"
-#include "fit/recognition/experiment.h"
+#include "frontal/frontalise.h"
+#include "recognition/experiment.h"
 #include "morph/landmarks.h"
 #include "train/face_box.h"
 #include "train/regressor.h"
-#include "morph/atomic_file.h"
-#include "morph/error.h"
-#include "morph/image_header.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/image_header.h"
 #include "morph/model_io.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -49,16 +49,16 @@ std::string bin_prefix(const recognition::BinScores& bin) {
 // regressor on the largest Haar face. Images without a face are reported and left out.
 void run_eval_recognition_photos(const RecognitionArgs& a) {
     namespace fs = std::filesystem;
-    const MorphableModel model = load_model(a.model);
+    const morph::MorphableModel model = morph::load_model(a.model);
     std::vector<std::pair<std::string, fs::path>> files;  // identity, image
     for (const auto& folder : fs::directory_iterator(a.photos)) {
         if (!folder.is_directory()) continue;
         for (const auto& entry : fs::directory_iterator(folder.path())) {
-            if (entry.is_regular_file() && is_image_file(entry.path())) files.emplace_back(folder.path().filename().string(), entry.path());
+            if (entry.is_regular_file() && core::is_image_file(entry.path())) files.emplace_back(folder.path().filename().string(), entry.path());
         }
     }
     std::sort(files.begin(), files.end());
-    if (files.empty()) throw file_error(a.photos.string(), "no <identity>/<image> files with an image extension");
+    if (files.empty()) throw core::file_error(a.photos.string(), "no <identity>/<image> files with an image extension");
 
     const std::unique_ptr<train::LandmarkRegressor> regressor = train::open_regressor(a.regressor);
     const train::FaceDetector detector;
@@ -74,17 +74,17 @@ void run_eval_recognition_photos(const RecognitionArgs& a) {
     for (const auto& [who, path] : files) {
         try {
             const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
-            if (image.empty()) throw file_error(path.string(), "cannot read image");
+            if (image.empty()) throw core::file_error(path.string(), "cannot read image");
             fs::path pts = path;
             pts.replace_extension(".pts");
             Eigen::Matrix2Xd landmarks;
             if (fs::exists(pts)) {
-                landmarks = read_pts(pts);
+                landmarks = morph::read_pts(pts);
                 ++from_pts;
             } else {
                 const cv::Mat gray = train::to_gray8(image);
                 auto boxes = detector.detect(gray);
-                if (boxes.empty()) throw file_error(path.string(), "no face found");
+                if (boxes.empty()) throw core::file_error(path.string(), "no face found");
                 const auto largest = std::max_element(boxes.begin(), boxes.end(), [](const train::FaceBox& x, const train::FaceBox& y) { return x.width < y.width; });
                 landmarks = regressor->predict(gray, *largest);
             }
@@ -92,7 +92,7 @@ void run_eval_recognition_photos(const RecognitionArgs& a) {
             lm.push_back(recognition::frontal_crop(frontaliser.frontalise(image, landmarks, options).frontal.image, a.experiment.crop));
             if (names.empty() || names.back() != who) names.push_back(who);
             identity.push_back(static_cast<int>(names.size()) - 1);
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             std::fprintf(stderr, "facesynth: error: %s (left out)\n", e.what());
             ++skipped;
         }
@@ -100,7 +100,7 @@ void run_eval_recognition_photos(const RecognitionArgs& a) {
     }
     progress.finish();
     if (identity.size() < 2)
-        throw file_error(a.photos.string(), std::to_string(identity.size()) + " usable photos (" + std::to_string(skipped) + " left out): at least 2 are needed");
+        throw core::file_error(a.photos.string(), std::to_string(identity.size()) + " usable photos (" + std::to_string(skipped) + " left out): at least 2 are needed");
     const recognition::MatchScores org_scores = recognition::match_all_pairs(org, identity, a.experiment);
     const recognition::MatchScores lm_scores = recognition::match_all_pairs(lm, identity, a.experiment);
     nlohmann::json j;
@@ -131,12 +131,12 @@ void run_eval_recognition_photos(const RecognitionArgs& a) {
                         100 * j["photos_frr_lm"].get<double>(), j["photos_auc_org"].get<double>(), j["photos_auc_lm"].get<double>());
     }
     if (!a.json.empty()) write_json_file(a.json, j);
-    if (!both) throw Error(a.photos.string() + ": the usable photos form no genuine or no impostor pair");
+    if (!both) throw core::Error(a.photos.string() + ": the usable photos form no genuine or no impostor pair");
 }
 
 void run_eval_recognition(const RecognitionArgs& a) {
     if (!a.photos.empty()) return run_eval_recognition_photos(a);
-    const MorphableModel model = load_model(a.model);
+    const morph::MorphableModel model = morph::load_model(a.model);
     const std::clock_t cpu_start = std::clock();
     std::unique_ptr<train::LandmarkRegressor> regressor;
     std::unique_ptr<train::FaceDetector> detector;
@@ -229,11 +229,11 @@ void run_eval_recognition(const RecognitionArgs& a) {
                         result.detector_misses);
     }
     if (!a.json.empty()) write_json_file(a.json, j);
-    if (!a.det_csv.empty()) write_file_atomically(a.det_csv, det);
+    if (!a.det_csv.empty()) core::write_file_atomically(a.det_csv, det);
     if (!a.examples.empty()) {
         std::vector<unsigned char> png;
-        if (result.examples.empty() || !cv::imencode(".png", result.examples, png)) throw file_error(a.examples.string(), "PNG encoding failed");
-        write_file_atomically(a.examples, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+        if (result.examples.empty() || !cv::imencode(".png", result.examples, png)) throw core::file_error(a.examples.string(), "PNG encoding failed");
+        core::write_file_atomically(a.examples, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
     }
 }
 

@@ -3,10 +3,10 @@
 #include "cli_common.h"
 #include "commands.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "morph/model_io.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "morph/regions.h"
 #include "morph/sampling.h"
 #include "render/bare_renderer.h"
@@ -109,11 +109,11 @@ render::RenderSettings view_settings(const ViewArgs& v) {
     settings.lights_per_vertex = v.lights_per_vertex;
     if (!v.lighting_file.empty()) {
         try {
-            settings.lighting = nlohmann::json::parse(read_file(v.lighting_file)).get<render::Lighting>();
+            settings.lighting = nlohmann::json::parse(core::read_file(v.lighting_file)).get<render::Lighting>();
         } catch (const nlohmann::json::exception& e) {
-            throw file_error(v.lighting_file, e.what());
-        } catch (const Error& e) {
-            throw file_error(v.lighting_file, e.what());
+            throw core::file_error(v.lighting_file, e.what());
+        } catch (const core::Error& e) {
+            throw core::file_error(v.lighting_file, e.what());
         }
     }
     if (v.shadows) settings.lighting.shadows = true;
@@ -128,25 +128,25 @@ void warn_if_shadows_have_no_light(const render::RenderSettings& settings, bool 
 }
 
 // A camera looking at the centre of the mesh's bounding box with the requested pose.
-render::Camera frame_camera(const ViewArgs& v, const Mesh& mesh) {
+render::Camera frame_camera(const ViewArgs& v, const morph::Mesh& mesh) {
     const int width = v.width > 0 ? v.width : v.size, height = v.height > 0 ? v.height : v.size;
     const Eigen::Vector3f low = mesh.vertices.rowwise().minCoeff(), high = mesh.vertices.rowwise().maxCoeff();
     const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
     const double extent = std::max(high.x() - low.x(), high.y() - low.y());
     render::Camera camera;
-    camera.pose.rotation = rotation_from_euler({v.yaw, v.pitch, v.roll});
+    camera.pose.rotation = morph::rotation_from_euler({v.yaw, v.pitch, v.roll});
     const double fill = 0.8 * std::min(width, height);
     if (v.orthographic) {
         camera.projection = render::Projection::kOrthographic;
-        camera.intrinsics = intrinsics_from_fov(v.fov, width, height);
+        camera.intrinsics = morph::intrinsics_from_fov(v.fov, width, height);
         camera.intrinsics.fx = camera.intrinsics.fy = fill / extent;
     } else {
-        camera.intrinsics = intrinsics_from_fov(v.fov, width, height);
+        camera.intrinsics = morph::intrinsics_from_fov(v.fov, width, height);
     }
     const double distance = v.distance > 0 ? v.distance
                                            : 0.5 * extent * camera.intrinsics.fy / (0.5 * fill) +
                                                  0.5 * static_cast<double>(high.z() - low.z());
-    camera.pose.translation = -(model_to_camera_flip() * camera.pose.rotation * centre) + Eigen::Vector3d(0, 0, distance);
+    camera.pose.translation = -(morph::model_to_camera_flip() * camera.pose.rotation * centre) + Eigen::Vector3d(0, 0, distance);
     return camera;
 }
 
@@ -174,7 +174,7 @@ cv::Mat labels_picture(const cv::Mat& labels) {
     cv::Mat bgr(labels.size(), CV_8UC3);
     for (int y = 0; y < labels.rows; ++y)
         for (int x = 0; x < labels.cols; ++x) {
-            const RegionColour c = region_colour(static_cast<Region>(labels.at<std::uint8_t>(y, x)));
+            const morph::RegionColour c = morph::region_colour(static_cast<morph::Region>(labels.at<std::uint8_t>(y, x)));
             bgr.at<cv::Vec3b>(y, x) = cv::Vec3b(c.b, c.g, c.r);
         }
     return bgr;
@@ -219,21 +219,21 @@ nlohmann::json points_json(const Eigen::MatrixXd& points) {
 }
 
 void run_render(const RenderArgs& a) {
-    const MorphableModel model = load_model(a.view.model);
+    const morph::MorphableModel model = morph::load_model(a.view.model);
     std::vector<float> alpha, psi, beta;
     if (a.seed) {
         const auto seed = static_cast<std::uint64_t>(*a.seed);
-        Rng identity = make_rng(seed, 0, RandomStream::kIdentity);
-        alpha = sample_coefficients(identity, model.num_shape_components(), a.truncation);
-        Rng albedo = make_rng(seed, 0, RandomStream::kAlbedo);
-        beta = sample_coefficients(albedo, model.num_albedo_components(), a.truncation);
+        core::Rng identity = core::make_rng(seed, 0, core::RandomStream::kIdentity);
+        alpha = morph::sample_coefficients(identity, model.num_shape_components(), a.truncation);
+        core::Rng albedo = core::make_rng(seed, 0, core::RandomStream::kAlbedo);
+        beta = morph::sample_coefficients(albedo, model.num_albedo_components(), a.truncation);
     }
-    const Mesh mesh = model.instance(alpha, psi, beta);
+    const morph::Mesh mesh = model.instance(alpha, psi, beta);
     const render::Camera camera = frame_camera(a.view, mesh);
     render::RenderSettings settings = view_settings(a.view);
     settings.barycentrics = false;
     warn_if_shadows_have_no_light(settings, a.quiet);
-    const JawContourRegion contour_region = jaw_contour_region(model);
+    const morph::JawContourRegion contour_region = morph::jaw_contour_region(model);
     render::Renderer renderer({render::parse_backend(a.view.backend), true});
     render::MeshExtras extras;
     extras.vertex_labels = model.vertex_labels;
@@ -245,7 +245,7 @@ void run_render(const RenderArgs& a) {
     write_png_file(out / "image.png", to_bgr(frame.rgb));
     write_png_file(out / "mask.png", frame.mask);
     const std::string exr = synth::encode_depth_exr(frame.depth, (out / "depth.exr").string());
-    write_file_atomically(out / "depth.exr", exr);
+    core::write_file_atomically(out / "depth.exr", exr);
     write_png_file(out / "normals.png", normals_picture(frame.normals, frame.mask));
     write_png_file(out / "labels.png", frame.labels);
     write_png_file(out / "labels_colour.png", labels_picture(frame.labels));
@@ -312,8 +312,8 @@ void check_bare_options(const RenderBenchArgs& b) {
 
 void run_bench(const RenderBenchArgs& b) {
     check_bare_options(b);
-    const MorphableModel model = load_model(b.view.model);
-    const Mesh mesh = model.instance({});
+    const morph::MorphableModel model = morph::load_model(b.view.model);
+    const morph::Mesh mesh = model.instance({});
     const int threads = std::max(1, b.threads);
     const int per_thread = std::max(1, b.count / threads);
     std::vector<std::string> errors(static_cast<std::size_t>(threads));
@@ -333,7 +333,7 @@ void run_bench(const RenderBenchArgs& b) {
     }
     render::RenderSettings settings = view_settings(b.view);
     if (settings.lighting.shadows && settings.lighting.lights.empty())
-        throw Error("bench render: --shadows needs directional lights to measure (--lighting FILE with \"lights\")");
+        throw core::Error("bench render: --shadows needs directional lights to measure (--lighting FILE with \"lights\")");
     settings.geometry = !b.colour_only;
     settings.normals = !b.no_normals;
     settings.barycentrics = b.barycentrics;
@@ -353,7 +353,7 @@ void run_bench(const RenderBenchArgs& b) {
             for (int i = 0; i < 5; ++i) render_one(frame_camera(view, mesh));
             std::vector<render::Camera> cameras;
             for (int i = 0; i < per_thread; ++i) {
-                Rng rng = make_rng(1, static_cast<std::uint64_t>(t) * static_cast<std::uint64_t>(per_thread) + static_cast<std::uint64_t>(i), RandomStream::kPose);
+                core::Rng rng = core::make_rng(1, static_cast<std::uint64_t>(t) * static_cast<std::uint64_t>(per_thread) + static_cast<std::uint64_t>(i), core::RandomStream::kPose);
                 view.yaw = rng.uniform(-60, 60);
                 view.pitch = rng.uniform(-20, 20);
                 view.roll = rng.uniform(-15, 15);
@@ -395,7 +395,7 @@ void run_bench(const RenderBenchArgs& b) {
     const double cpu_seconds = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
     progress.finish();
     for (const auto& e : errors)
-        if (!e.empty()) throw Error("bench render: " + e);
+        if (!e.empty()) throw core::Error("bench render: " + e);
     const double wall = *std::max_element(seconds.begin(), seconds.end());
     const int total = per_thread * threads;
     const double rate = total / wall;

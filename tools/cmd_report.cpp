@@ -2,8 +2,8 @@
 #include "cli_common.h"
 #include "commands.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "report/report.h"
 #include "synth/sheet.h"
 
@@ -35,7 +35,7 @@ void run_report(const ReportArgs& args) {
         inputs.contact_sheet = synth::contact_sheet(args.dataset, sheet);  // a bad --dataset is the user's error: exit 1
     }
     const report::Report result = report::build_report(inputs);
-    write_file_atomically(args.out, result.html);
+    core::write_file_atomically(args.out, result.html);
     for (const auto& warning : result.warnings) std::fprintf(stderr, "facesynth: warning: %s\n", warning.c_str());
     if (!args.quiet) {
         std::printf("report: %s (%.1f MB): %zu sections with results", args.out.c_str(), static_cast<double>(result.html.size()) / 1e6,

@@ -2,8 +2,8 @@
 #include "cli_common.h"
 #include "commands.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "morph/model_io.h"
 #include "synth/dataset.h"
 #include "synth/sheet.h"
@@ -55,7 +55,7 @@ synth::SynthConfig resolve_config(const SynthArgs& a) {
         } else if (std::sscanf(a.size.c_str(), "%d%c", &width, &rest) == 1) {
             height = width;
         } else {
-            throw Error("--size '" + a.size + "': expected N or WxH");
+            throw core::Error("--size '" + a.size + "': expected N or WxH");
         }
         config.camera.width = width;
         config.camera.height = height;
@@ -84,7 +84,7 @@ void run_generate(const SynthArgs& a) {
     options.shard = synth::parse_shard(a.shard, a.shard_count);
     options.overwrite = a.overwrite;
     options.renderer.backend = render::parse_backend(a.backend);
-    const MorphableModel model = load_model(options.config.model);
+    const morph::MorphableModel model = morph::load_model(options.config.model);
     std::unique_ptr<Progress> progress;
     options.on_start = [&](std::size_t todo, std::size_t done) {
         if (!a.quiet && done > 0) std::fprintf(stderr, "synth: resuming, %zu samples of this shard already complete\n", done);
@@ -124,7 +124,7 @@ void run_bench(SynthBenchArgs& b) {
     a.count = b.count;
     a.formats = "folder";
     const synth::SynthConfig config = resolve_config(a);
-    const MorphableModel model = load_model(config.model);
+    const morph::MorphableModel model = morph::load_model(config.model);
     const std::filesystem::path work = b.work.empty() ? std::filesystem::temp_directory_path() / ("facesynth-bench-synth-" + std::to_string(::getpid())) : std::filesystem::path(b.work);
     nlohmann::json report = {{"model", model.name}, {"vertices", model.num_vertices()}, {"width", config.camera.width},
                              {"height", config.camera.height}, {"count", config.count}, {"image_format", config.output.image_format},
@@ -235,8 +235,8 @@ void register_synth_commands(CLI::App& app) {
         cv::Mat bgr;
         cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
         std::vector<uchar> bytes;
-        if (!cv::imencode(".png", bgr, bytes)) throw Error(*sheet_out + ": PNG encoding failed");
-        write_file_atomically(*sheet_out, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+        if (!cv::imencode(".png", bgr, bytes)) throw core::Error(*sheet_out + ": PNG encoding failed");
+        core::write_file_atomically(*sheet_out, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
     });
 
     synth_cmd->callback([=] {

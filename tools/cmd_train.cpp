@@ -2,9 +2,9 @@
 #include "cli_common.h"
 #include "commands.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
-#include "morph/image_header.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/image_header.h"
 #include "morph/landmarks.h"
 #include "report/svg_plot.h"
 #include "train/dataset.h"
@@ -67,20 +67,20 @@ struct TrainArgs {
 Eigen::Matrix2Xd read_label_offsets(const std::filesystem::path& path) {
     nlohmann::json j;
     try {
-        j = nlohmann::json::parse(read_file(path));
+        j = nlohmann::json::parse(core::read_file(path));
     } catch (const nlohmann::json::exception& e) {
-        throw file_error(path.string(), std::string("not valid JSON: ") + e.what());
+        throw core::file_error(path.string(), std::string("not valid JSON: ") + e.what());
     }
-    Eigen::Matrix2Xd offsets(2, kNumIbugLandmarks);
-    for (int i = 0; i < kNumIbugLandmarks; ++i)
+    Eigen::Matrix2Xd offsets(2, morph::kNumIbugLandmarks);
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i)
         for (int axis = 0; axis < 2; ++axis) {
             char key[16];
             std::snprintf(key, sizeof key, "mean_%c_%02d", axis == 0 ? 'x' : 'y', i + 1);
             if (!j.is_object() || !j.contains(key) || !j[key].is_number())
-                throw file_error(path.string(), std::string("no number '") + key + "' (expected the --json of eval conventions)");
+                throw core::file_error(path.string(), std::string("no number '") + key + "' (expected the --json of eval conventions)");
             offsets(axis, i) = j[key].get<double>();
             if (!std::isfinite(offsets(axis, i)) || std::abs(offsets(axis, i)) > 1)
-                throw file_error(path.string(), std::string("'") + key + "' is not a finite offset within one inter-ocular distance");
+                throw core::file_error(path.string(), std::string("'") + key + "' is not a finite offset within one inter-ocular distance");
         }
     return offsets;
 }
@@ -96,7 +96,7 @@ void run_train(const TrainArgs& args) {
     if (!args.view_overlap.empty() && args.cascades == "single")
         throw CLI::ValidationError("--view-overlap", "only applies to view-specific cascades");
     if (args.feature_pca > 0 && args.method != "sdm") throw CLI::ValidationError("--feature-pca", "only applies to --method sdm");
-    if (const int dims = kNumIbugLandmarks * hog_dims(args.hog_cells); args.feature_pca > dims)
+    if (const int dims = morph::kNumIbugLandmarks * hog_dims(args.hog_cells); args.feature_pca > dims)
         throw CLI::ValidationError("--feature-pca", std::to_string(args.feature_pca) + " is more than the feature dimension " +
                                                         std::to_string(dims) + " (68 * " + std::to_string(args.hog_cells) +
                                                         "^2 cells * 16)");
@@ -309,20 +309,20 @@ void run_detect(const DetectArgs& args) {
     Progress progress("images", args.images.size(), args.quiet);
     for (const auto& path : args.images) {
         try {
-            if (!std::filesystem::is_regular_file(path)) throw file_error(path.string(), "file not found");
-            check_image_not_too_large(path);
+            if (!std::filesystem::is_regular_file(path)) throw core::file_error(path.string(), "file not found");
+            core::check_image_not_too_large(path);
             const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
-            if (image.empty()) throw file_error(path.string(), "cannot read image");
+            if (image.empty()) throw core::file_error(path.string(), "cannot read image");
             const cv::Mat gray = to_gray8(image);
             const auto boxes = detector.detect(gray);
-            if (boxes.empty()) throw file_error(path.string(), "no face found");
+            if (boxes.empty()) throw core::file_error(path.string(), "no face found");
             const std::string stem = path.stem().string();
             cv::Mat overlay = image.clone();
             nlohmann::json faces = nlohmann::json::array();
             const int thickness = std::max(1, image.cols / 400);
             for (std::size_t k = 0; k < boxes.size(); ++k) {
                 const Eigen::Matrix2Xd points = regressor->predict(gray, boxes[k]);
-                write_pts(args.out / (stem + "_" + std::to_string(k) + ".pts"), points);
+                morph::write_pts(args.out / (stem + "_" + std::to_string(k) + ".pts"), points);
                 const cv::Rect2d rect = rect_from_face_box(boxes[k]);
                 cv::rectangle(overlay, rect, cv::Scalar(255, 160, 0), thickness);
                 nlohmann::json landmarks = nlohmann::json::array();
@@ -342,9 +342,9 @@ void run_detect(const DetectArgs& args) {
                                            {"detector", detector_name(detector.kind())},
                                            {"coordinates", "0-based pixels; box = [x, y, width, height]"},
                                            {"faces", faces}};
-            write_file_atomically(args.out / (stem + ".json"), record.dump(2) + "\n");
+            core::write_file_atomically(args.out / (stem + ".json"), record.dump(2) + "\n");
             faces_total += static_cast<int>(boxes.size());
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             ++failed;
             std::fprintf(stderr, "facesynth: error: %s\n", e.what());
         } catch (const cv::Exception& e) {  // an OpenCV failure on this image only: the batch goes on
@@ -357,7 +357,7 @@ void run_detect(const DetectArgs& args) {
     if (!args.quiet)
         std::printf("%d faces in %zu images written to %s\n", faces_total, args.images.size() - failed,
                     args.out.string().c_str());
-    if (failed) throw Error(std::to_string(failed) + " of " + std::to_string(args.images.size()) + " images failed");
+    if (failed) throw core::Error(std::to_string(failed) + " of " + std::to_string(args.images.size()) + " images failed");
 }
 
 struct LandmarkEvalArgs {
@@ -497,20 +497,20 @@ void run_eval_landmarks(const LandmarkEvalArgs& args) {
         for (std::size_t r = 0; r < evaluation.regressors.size(); ++r)
             curves.push_back({args.regressors[r], evaluation.regressors[r].nmes});
         if (args.ced.extension() == ".png") {
-            write_file_atomically(args.ced, ced_png(curves));
+            core::write_file_atomically(args.ced, ced_png(curves));
         } else {
             report::LinePlot plot = report::ced_plot("CED");
             for (std::size_t r = 0; r < curves.size(); ++r) {
                 plot.series.push_back(report::cumulative_series(curves[r].label, curves[r].nmes, plot.x.max));
                 plot.series.back().dashed = r > 0;
             }
-            write_file_atomically(args.ced, report::line_plot_svg(plot));
+            core::write_file_atomically(args.ced, report::line_plot_svg(plot));
         }
     }
-    if (!args.nme_csv.empty()) write_file_atomically(args.nme_csv, per_face_nme_csv(evaluation));
+    if (!args.nme_csv.empty()) core::write_file_atomically(args.nme_csv, per_face_nme_csv(evaluation));
     // The report counts unreadable items as misses; the exit code still says that some failed.
     if (!evaluation.warnings.empty())
-        throw Error(std::to_string(evaluation.warnings.size()) + " of " + std::to_string(images.size()) +
+        throw core::Error(std::to_string(evaluation.warnings.size()) + " of " + std::to_string(images.size()) +
                     " images or landmark files could not be read (counted as misses)");
 }
 

@@ -55,7 +55,7 @@ corpus=$build_dir/corpus/$name findings=$build_dir/findings/$name
 mkdir -p "$corpus" "$findings"
 # Leaks count as findings (LeakSanitizer with the project's narrow suppressions for Mesa/HDF5).
 # An impossible malloc returns NULL as it does outside ASan: HDF5 (C) then reports an error, which
-# the reader turns into facesynth::Error; in our C++ code it is std::bad_alloc, still a finding, and
+# the reader turns into core::Error; in our C++ code it is std::bad_alloc, still a finding, and
 # any allocation over -malloc_limit_mb is reported by libFuzzer before that.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1}
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/tools/lsan.supp:print_suppressions=0}

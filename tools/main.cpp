@@ -2,7 +2,7 @@
 // failure into one line on stderr and an exit code (2: usage error, 1: failure).
 #include "commands.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <cstdio>
 #include <exception>
@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         std::fprintf(stderr, "facesynth: usage error: %s\nRun with --help for usage.\n", e.what());
         return 2;
-    } catch (const facesynth::Error& e) {
+    } catch (const facesynth::core::Error& e) {
         std::fprintf(stderr, "facesynth: error: %s\n", e.what());
         return 1;
     } catch (const std::exception& e) {

@@ -18,7 +18,7 @@ struct LabelledImage {
 };
 
 // Every image (.png .jpg .jpeg .ppm .pgm .bmp .tif .tiff) with a same-stem .pts, sorted by path within
-// each folder, folders in the order given. Throws facesynth::Error for a folder that does not exist
+// each folder, folders in the order given. Throws core::Error for a folder that does not exist
 // or holds no labelled image.
 [[nodiscard]] std::vector<LabelledImage> list_labelled_images(const std::vector<std::filesystem::path>& folders);
 
@@ -27,8 +27,8 @@ struct LoadedFace {
     Eigen::Matrix2Xd truth;
     cv::Mat gray;
 };
-// Throws facesynth::Error naming the file: unreadable .pts, not 68 points, an image over the size limit
-// (morph/image_header.h) or one that cannot be decoded.
+// Throws core::Error naming the file: unreadable .pts, not 68 points, an image over the size limit
+// (core/image_header.h) or one that cannot be decoded.
 [[nodiscard]] LoadedFace load_labelled_face(const LabelledImage& image);
 
 // The sample's true yaw in degrees from a `facesynth synth` meta file (DIR/meta/<stem>.json beside

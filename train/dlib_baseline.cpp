@@ -1,7 +1,7 @@
 #include "train/dlib_baseline.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 
 #include <dlib/image_processing.h>
 #include <dlib/opencv/cv_image.h>
@@ -28,13 +28,13 @@ struct DlibShapePredictor::Impl {
 
 DlibShapePredictor::DlibShapePredictor(const std::filesystem::path& path) : impl_(std::make_unique<Impl>()) {
     if (!std::filesystem::exists(path))
-        throw file_error(path.string(), "dlib shape predictor not found (Debian package libdlib-data)");
+        throw core::file_error(path.string(), "dlib shape predictor not found (Debian package libdlib-data)");
     try {
         dlib::deserialize(path.string()) >> impl_->predictor;
     } catch (const std::exception& e) {
-        throw file_error(path.string(), std::string("not a dlib shape predictor: ") + e.what());
+        throw core::file_error(path.string(), std::string("not a dlib shape predictor: ") + e.what());
     }
-    if (impl_->predictor.num_parts() == 0) throw file_error(path.string(), "dlib shape predictor has no parts");
+    if (impl_->predictor.num_parts() == 0) throw core::file_error(path.string(), "dlib shape predictor has no parts");
 }
 
 DlibShapePredictor::~DlibShapePredictor() = default;
@@ -44,7 +44,7 @@ DlibShapePredictor& DlibShapePredictor::operator=(DlibShapePredictor&&) noexcept
 int DlibShapePredictor::num_parts() const { return static_cast<int>(impl_->predictor.num_parts()); }
 
 Eigen::Matrix2Xd DlibShapePredictor::predict(const cv::Mat& gray, const FaceBox& box) const {
-    if (gray.type() != CV_8UC1) throw Error("dlib predictor: expected an 8-bit grey image");
+    if (gray.type() != CV_8UC1) throw core::Error("dlib predictor: expected an 8-bit grey image");
     const dlib::cv_image<unsigned char> image(gray);
     const dlib::full_object_detection shape = impl_->predictor(image, to_dlib_rect(box));
     Eigen::Matrix2Xd points(2, shape.num_parts());
@@ -53,7 +53,7 @@ Eigen::Matrix2Xd DlibShapePredictor::predict(const cv::Mat& gray, const FaceBox&
 }
 
 void train_dlib_ert(std::span<const TrainingFace> faces, const ErtTrainOptions& options, const std::filesystem::path& out) {
-    if (faces.empty()) throw Error("dlib ERT training needs at least one face");
+    if (faces.empty()) throw core::Error("dlib ERT training needs at least one face");
     dlib::array<dlib::array2d<unsigned char>> images(faces.size());
     std::vector<std::vector<dlib::full_object_detection>> shapes(faces.size());
     const dlib::rectangle rect = to_dlib_rect(canonical_face_box());
@@ -74,7 +74,7 @@ void train_dlib_ert(std::span<const TrainingFace> faces, const ErtTrainOptions& 
     const dlib::shape_predictor predictor = trainer.train(images, shapes);
     std::ostringstream stream;
     dlib::serialize(predictor, stream);
-    write_file_atomically(out, stream.str());
+    core::write_file_atomically(out, stream.str());
 }
 
 }  // namespace facesynth::train

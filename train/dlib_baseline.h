@@ -19,7 +19,7 @@ namespace facesynth::train {
 
 class DlibShapePredictor {
 public:
-    // Throws facesynth::Error naming the file when it is missing or not a dlib shape predictor.
+    // Throws core::Error naming the file when it is missing or not a dlib shape predictor.
     explicit DlibShapePredictor(const std::filesystem::path& path);
     ~DlibShapePredictor();
     DlibShapePredictor(DlibShapePredictor&&) noexcept;

@@ -1,6 +1,6 @@
 #include "train/dlib_face_detector.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <dlib/image_processing/frontal_face_detector.h>
 #include <dlib/opencv/cv_image.h>
@@ -26,7 +26,7 @@ DlibHogDetector::DlibHogDetector(DlibHogDetector&&) noexcept = default;
 DlibHogDetector& DlibHogDetector::operator=(DlibHogDetector&&) noexcept = default;
 
 std::vector<DlibDetection> DlibHogDetector::detect(const cv::Mat& gray) const {
-    if (gray.type() != CV_8UC1 || gray.empty()) throw Error("dlib face detector: expected a non-empty 8-bit grey image");
+    if (gray.type() != CV_8UC1 || gray.empty()) throw core::Error("dlib face detector: expected a non-empty 8-bit grey image");
     std::vector<dlib::rect_detection> found;
     impl_->detector(dlib::cv_image<unsigned char>(gray), found, adjust_threshold_);
     std::vector<DlibDetection> detections;

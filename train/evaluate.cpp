@@ -1,8 +1,8 @@
 #include "train/evaluate.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
-#include "morph/image_header.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/image_header.h"
 #include "morph/landmarks.h"
 #include "train/sdm.h"
 
@@ -58,7 +58,7 @@ Evaluation evaluate_landmarks(const std::vector<LabelledImage>& images, std::spa
                 face.nme.push_back(landmark_nme(predicted, truth));
             }
             if (box) ++detected_faces;
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             result.warnings.push_back(std::string(e.what()) + " (counted as a miss)");
             face.detected = false;
             face.nme.assign(regressors.size(), inf);

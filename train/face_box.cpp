@@ -1,6 +1,6 @@
 #include "train/face_box.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "train/dlib_face_detector.h"
 
 #include <opencv2/imgproc.hpp>
@@ -41,7 +41,7 @@ const char* detector_name(DetectorKind kind) {
 DetectorKind parse_detector_kind(const std::string& name) {
     for (const auto kind : {DetectorKind::kFrontal, DetectorKind::kMultiView, DetectorKind::kDlib, DetectorKind::kDlibProfile})
         if (name == detector_name(kind)) return kind;
-    throw Error("unknown face detector '" + name + "' (expected frontal, multiview, dlib or dlib+profile)");
+    throw core::Error("unknown face detector '" + name + "' (expected frontal, multiview, dlib or dlib+profile)");
 }
 
 bool detector_has_views(DetectorKind kind) { return kind != DetectorKind::kFrontal; }
@@ -56,9 +56,9 @@ double overlap_of_smaller(const FaceBox& a, const FaceBox& b) {
 
 cv::CascadeClassifier load_cascade(const std::filesystem::path& path) {
     if (!std::filesystem::exists(path))
-        throw file_error(path.string(), "face detector cascade not found (install Debian package opencv-data)");
+        throw core::file_error(path.string(), "face detector cascade not found (install Debian package opencv-data)");
     cv::CascadeClassifier cascade;
-    if (!cascade.load(path.string())) throw file_error(path.string(), "cannot load the cascade");
+    if (!cascade.load(path.string())) throw core::file_error(path.string(), "cannot load the cascade");
     return cascade;
 }
 
@@ -130,7 +130,7 @@ FaceDetector::FaceDetector(FaceDetector&&) noexcept = default;
 FaceDetector& FaceDetector::operator=(FaceDetector&&) noexcept = default;
 
 std::vector<ScoredBox> FaceDetector::detect_unmerged(const cv::Mat& gray) const {
-    if (gray.type() != CV_8UC1 || gray.empty()) throw Error("face detector: expected a non-empty 8-bit grey image");
+    if (gray.type() != CV_8UC1 || gray.empty()) throw core::Error("face detector: expected a non-empty 8-bit grey image");
     cv::Mat equalised;
     cv::equalizeHist(gray, equalised);
     std::vector<ScoredBox> found;
@@ -193,9 +193,9 @@ Eigen::Matrix2Xd FaceFrame::to_image(const Eigen::Matrix2Xd& canonical_points) c
 }
 
 cv::Mat canonical_crop(const cv::Mat& gray, const FaceFrame& frame) {
-    if (gray.type() != CV_8UC1 || gray.empty()) throw Error("canonical_crop: expected a non-empty 8-bit grey image");
+    if (gray.type() != CV_8UC1 || gray.empty()) throw core::Error("canonical_crop: expected a non-empty 8-bit grey image");
     const double scale = frame.scale();
-    if (!(scale > 0) || !std::isfinite(scale)) throw Error("canonical_crop: invalid face box");
+    if (!(scale > 0) || !std::isfinite(scale)) throw core::Error("canonical_crop: invalid face box");
     // The image region the crop covers, with a margin for interpolation and pyramid filtering.
     const double half = (kCanonicalCropSide / 2.0) / scale + 4.0;
     const cv::Rect wanted(static_cast<int>(std::floor(frame.box.centre.x() - half)),

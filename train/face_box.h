@@ -45,7 +45,7 @@ enum class DetectorKind : std::uint8_t { kFrontal = 0, kMultiView = 1, kDlib = 2
 inline constexpr DetectorKind kLastDetectorKind = DetectorKind::kDlibProfile;
 // "frontal", "multiview", "dlib", "dlib+profile"
 [[nodiscard]] const char* detector_name(DetectorKind kind);
-// One of the names above; throws facesynth::Error for anything else.
+// One of the names above; throws core::Error for anything else.
 [[nodiscard]] DetectorKind parse_detector_kind(const std::string& name);
 // Whether the detector's boxes carry profile views (all but the frontal Haar cascade).
 [[nodiscard]] bool detector_has_views(DetectorKind kind);

@@ -1,7 +1,7 @@
 #include "train/feature_pca.h"
 
-#include "morph/error.h"
-#include "morph/random.h"
+#include "core/error.h"
+#include "core/random.h"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
@@ -23,7 +23,7 @@ Eigen::MatrixXd orthonormal_basis(const Eigen::MatrixXd& columns) {
 // Eigenpairs of a small symmetric matrix, largest first, the first `count` kept.
 LeadingEigenpairs largest_first(const Eigen::MatrixXd& symmetric, int count) {
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(symmetric);
-    if (solver.info() != Eigen::Success) throw Error("feature PCA: the eigensolver did not converge");
+    if (solver.info() != Eigen::Success) throw core::Error("feature PCA: the eigensolver did not converge");
     return {solver.eigenvalues().tail(count).reverse(), solver.eigenvectors().rightCols(count).rowwise().reverse()};
 }
 
@@ -32,11 +32,11 @@ LeadingEigenpairs largest_first(const Eigen::MatrixXd& symmetric, int count) {
 LeadingEigenpairs leading_eigenpairs(const Eigen::MatrixXd& symmetric, int count, std::uint64_t seed) {
     const Eigen::Index n = symmetric.rows();
     if (count < 1 || count > n)
-        throw Error("feature PCA: " + std::to_string(count) + " components requested of a " + std::to_string(n) +
+        throw core::Error("feature PCA: " + std::to_string(count) + " components requested of a " + std::to_string(n) +
                     "-dimensional space");
     const Eigen::Index width = count + kOversampling;
     if (4 * width > n) return largest_first(symmetric, count);
-    Rng rng(seed, 0, kPcaStream);
+    core::Rng rng(seed, 0, kPcaStream);
     Eigen::MatrixXd start(n, width);
     for (Eigen::Index j = 0; j < width; ++j)
         for (Eigen::Index i = 0; i < n; ++i) start(i, j) = rng.normal();

@@ -1,6 +1,6 @@
 #include "train/hog.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 
 #include <algorithm>
@@ -22,8 +22,8 @@ constexpr float kTextureScale = 0.2357f;
 void compute_hog(const cv::Mat& patch, int cells, int cell_size, std::span<float> out) {
     const int side = cells * cell_size + 2;
     if (patch.type() != CV_8UC1 || patch.rows != side || patch.cols != side)
-        throw Error("compute_hog: expected an 8-bit grey patch of " + std::to_string(side) + " pixels square");
-    if (static_cast<int>(out.size()) != hog_dims(cells)) throw Error("compute_hog: output size mismatch");
+        throw core::Error("compute_hog: expected an 8-bit grey patch of " + std::to_string(side) + " pixels square");
+    if (static_cast<int>(out.size()) != hog_dims(cells)) throw core::Error("compute_hog: output size mismatch");
 
     constexpr float kTan22_5 = 0.41421356f;
     const int num_cells = cells * cells;
@@ -101,7 +101,7 @@ void compute_hog(const cv::Mat& patch, int cells, int cell_size, std::span<float
 
 void extract_patch(const cv::Mat& gray, const Eigen::Vector2d& centre, double side_px, int cells, int cell_size,
                    cv::Mat& patch) {
-    if (gray.type() != CV_8UC1 || gray.empty()) throw Error("extract_patch: expected a non-empty 8-bit grey image");
+    if (gray.type() != CV_8UC1 || gray.empty()) throw core::Error("extract_patch: expected a non-empty 8-bit grey image");
     const int inner = cells * cell_size;
     const int side = inner + 2;
     patch.create(side, side, CV_8UC1);
@@ -115,7 +115,7 @@ void extract_patch(const cv::Mat& gray, const Eigen::Vector2d& centre, double si
     // Column offsets and weights are the same for every output row.
     int x_low[64 * 8 + 2], x_high[64 * 8 + 2];
     float x_weight[64 * 8 + 2];
-    if (side > static_cast<int>(std::size(x_low))) throw Error("extract_patch: patch too large");
+    if (side > static_cast<int>(std::size(x_low))) throw core::Error("extract_patch: patch too large");
     for (int u = 0; u < side; ++u) {
         const float x = std::clamp(x_start + step * static_cast<float>(u), 0.f, static_cast<float>(max_x));
         const int x0 = std::min(static_cast<int>(x), max_x);

@@ -1,7 +1,7 @@
 #include "train/lbf_baseline.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "train/face_box.h"
 
 #include <opencv2/face.hpp>
@@ -34,7 +34,7 @@ cv::Ptr<cv::face::FacemarkLBF> make_lbf(const cv::face::FacemarkLBF::Params& par
 
 void check_lbf_options(const LbfTrainOptions& o) {
     const auto require = [](bool ok, const std::string& what) {
-        if (!ok) throw Error("LBF option " + what);
+        if (!ok) throw core::Error("LBF option " + what);
     };
     require(o.augment >= 1, "augment must be at least 1");
     require(o.stages >= 1 && o.stages <= 20, "stages must lie in 1-20");
@@ -73,7 +73,7 @@ std::vector<cv::Point2f> to_points(const Eigen::Matrix2Xd& points) {
 Eigen::Matrix2Xd fit_canonical(cv::face::FacemarkLBF& lbf, const cv::Mat& crop) {
     std::vector<cv::Rect> boxes = {canonical_rect()};
     std::vector<std::vector<cv::Point2f>> shapes;
-    if (!lbf.fit(crop, boxes, shapes) || shapes.empty() || shapes[0].empty()) throw Error("OpenCV LBF fit failed");
+    if (!lbf.fit(crop, boxes, shapes) || shapes.empty() || shapes[0].empty()) throw core::Error("OpenCV LBF fit failed");
     Eigen::Matrix2Xd points(2, static_cast<Eigen::Index>(shapes[0].size()));
     for (std::size_t i = 0; i < shapes[0].size(); ++i) points.col(static_cast<Eigen::Index>(i)) << shapes[0][i].x, shapes[0][i].y;
     return points;
@@ -84,7 +84,7 @@ Eigen::Matrix2Xd fit_canonical(cv::face::FacemarkLBF& lbf, const cv::Mat& crop) 
 LbfTrainReport train_lbf(std::span<const TrainingFace> faces, const LbfTrainOptions& options,
                          const std::filesystem::path& out) {
     check_lbf_options(options);
-    const auto temp = temporary_path_for(out);
+    const auto temp = core::temporary_path_for(out);
     cv::face::FacemarkLBF::Params params;
     params.n_landmarks = 68;
     params.initShape_n = options.augment;
@@ -104,7 +104,7 @@ LbfTrainReport train_lbf(std::span<const TrainingFace> faces, const LbfTrainOpti
     LbfTrainReport report;
     std::vector<const TrainingFace*> used;
     for (const auto& face : faces) {
-        if (face.truth.cols() != 68) throw Error("LBF training needs 68 landmarks per face");
+        if (face.truth.cols() != 68) throw core::Error("LBF training needs 68 landmarks per face");
         if (!fits_lbf_box_test(face.truth)) {
             ++report.faces_outside_box;
             continue;
@@ -115,16 +115,16 @@ LbfTrainReport train_lbf(std::span<const TrainingFace> faces, const LbfTrainOpti
     }
     // OpenCV draws each initial shape from another face, so it needs two.
     if (used.size() < 2)
-        throw Error("LBF training needs at least 2 faces that pass its box test (" + std::to_string(used.size()) +
+        throw core::Error("LBF training needs at least 2 faces that pass its box test (" + std::to_string(used.size()) +
                     " of " + std::to_string(faces.size()) + ")");
     try {
         lbf->training();
     } catch (const cv::Exception& e) {
         std::filesystem::remove(params.model_filename);
-        throw Error(std::string("OpenCV LBF training failed: ") + e.what());
+        throw core::Error(std::string("OpenCV LBF training failed: ") + e.what());
     }
     std::filesystem::rename(params.model_filename, temp);
-    commit_temporary_file(temp, out);
+    core::commit_temporary_file(temp, out);
 
     report.faces_used = static_cast<int>(used.size());
     Eigen::Matrix2Xd mean = Eigen::Matrix2Xd::Zero(2, 68);
@@ -149,13 +149,13 @@ void check_lbf_model_file(const std::filesystem::path& path) {
     try {
         fs.open(path.string(), cv::FileStorage::READ);
     } catch (const cv::Exception& e) {
-        throw file_error(path.string(), std::string("not an OpenCV LBF model (unreadable YAML): ") + e.err);
+        throw core::file_error(path.string(), std::string("not an OpenCV LBF model (unreadable YAML): ") + e.err);
     }
-    if (!fs.isOpened()) throw file_error(path.string(), "not an OpenCV LBF model (unreadable YAML)");
+    if (!fs.isOpened()) throw core::file_error(path.string(), "not an OpenCV LBF model (unreadable YAML)");
     const auto integer = [&](const char* key, int low, int high) {
         const cv::FileNode node = fs[key];
         if (!node.isInt() || static_cast<int>(node) < low || static_cast<int>(node) > high)
-            throw file_error(path.string(), std::string("not an OpenCV LBF model: ") + key + " missing or outside " +
+            throw core::file_error(path.string(), std::string("not an OpenCV LBF model: ") + key + " missing or outside " +
                                                 std::to_string(low) + "-" + std::to_string(high));
         return static_cast<int>(node);
     };
@@ -171,7 +171,7 @@ void check_lbf_model_file(const std::filesystem::path& path) {
             m = cv::Mat();
         }
         if (m.rows != rows || m.cols != cols || m.depth() != CV_64F)
-            throw file_error(path.string(), "not an OpenCV LBF model: " + key + " missing or not " + std::to_string(rows) +
+            throw core::file_error(path.string(), "not an OpenCV LBF model: " + key + " missing or not " + std::to_string(rows) +
                                                 "x" + std::to_string(cols));
     };
     matrix("regressor_meanshape", landmarks, 2);
@@ -183,7 +183,7 @@ void check_lbf_model_file(const std::filesystem::path& path) {
                 const std::string suffix = std::to_string(k) + "_" + std::to_string(i) + "_" + std::to_string(j);
                 matrix("tree_" + suffix, 2 * leaves, 4);
                 if (fs["thresholds_" + suffix].size() != 2 * static_cast<std::size_t>(leaves))
-                    throw file_error(path.string(), "not an OpenCV LBF model: thresholds_" + suffix + " missing or short");
+                    throw core::file_error(path.string(), "not an OpenCV LBF model: thresholds_" + suffix + " missing or short");
             }
     }
 }
@@ -191,7 +191,7 @@ void check_lbf_model_file(const std::filesystem::path& path) {
 }  // namespace
 
 LbfPredictor::LbfPredictor(const std::filesystem::path& path) : impl_(std::make_unique<Impl>()) {
-    if (!std::filesystem::is_regular_file(path)) throw file_error(path.string(), "LBF model not found");
+    if (!std::filesystem::is_regular_file(path)) throw core::file_error(path.string(), "LBF model not found");
     check_lbf_model_file(path);
     cv::face::FacemarkLBF::Params params;
     params.verbose = false;
@@ -199,7 +199,7 @@ LbfPredictor::LbfPredictor(const std::filesystem::path& path) : impl_(std::make_
     try {
         impl_->lbf->loadModel(path.string());
     } catch (const cv::Exception& e) {
-        throw file_error(path.string(), std::string("not an OpenCV LBF model: ") + e.err);
+        throw core::file_error(path.string(), std::string("not an OpenCV LBF model: ") + e.err);
     }
 }
 

@@ -29,7 +29,7 @@ struct LbfTrainOptions {
     bool verbose = false;    // OpenCV's own print-out: per-stage forest and regression times, liblinear iterations
 };
 
-// Throws facesynth::Error when a count is out of range or a per-stage list is shorter than stages.
+// Throws core::Error when a count is out of range or a per-stage list is shorter than stages.
 void check_lbf_options(const LbfTrainOptions& options);
 
 struct LbfTrainReport {
@@ -47,7 +47,7 @@ LbfTrainReport train_lbf(std::span<const TrainingFace> faces, const LbfTrainOpti
 
 class LbfPredictor {
 public:
-    // Throws facesynth::Error naming the file when it is missing or not an LBF model.
+    // Throws core::Error naming the file when it is missing or not an LBF model.
     explicit LbfPredictor(const std::filesystem::path& path);
     ~LbfPredictor();
     LbfPredictor(LbfPredictor&&) noexcept;

@@ -1,8 +1,8 @@
 #include "train/model_file.h"
 
-#include "morph/atomic_file.h"
-#include "morph/byte_io.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/byte_io.h"
+#include "core/error.h"
 #include "train/hog.h"
 
 #include <cmath>
@@ -24,21 +24,21 @@ namespace {
 
 constexpr char kSdmMagic[8] = {'F', 'S', 'Y', 'N', 'S', 'D', 'M', '\0'};
 
-void write_doubles(ByteWriter& w, const double* values, std::size_t count) { w.write_bytes(values, count * sizeof(double)); }
+void write_doubles(core::ByteWriter& w, const double* values, std::size_t count) { w.write_bytes(values, count * sizeof(double)); }
 
-void read_doubles(ByteReader& r, double* values, std::size_t count, const char* what) {
+void read_doubles(core::ByteReader& r, double* values, std::size_t count, const char* what) {
     r.read_bytes(values, count * sizeof(double), what);
     for (std::size_t i = 0; i < count; ++i)
         if (!std::isfinite(values[i])) throw r.error(std::string(what) + " contains NaN or infinite values");
 }
 
-void write_stage(ByteWriter& payload, const SdmModel& model, const SdmStage& stage, const std::filesystem::path& path) {
+void write_stage(core::ByteWriter& payload, const SdmModel& model, const SdmStage& stage, const std::filesystem::path& path) {
     const int outputs = 2 * model.num_landmarks;
     const int dims = model.feature_dims(stage.settings);
     const auto rank = stage.basis.cols();
     if (stage.basis.rows() != outputs || rank < 1 || rank > outputs || stage.weights.rows() != rank ||
         stage.weights.cols() != dims || stage.bias.size() != outputs)
-        throw file_error(path.string(), "cannot write a model whose stage matrices do not match its header");
+        throw core::file_error(path.string(), "cannot write a model whose stage matrices do not match its header");
     payload.write(stage.settings.patch_relative);
     payload.write(static_cast<std::int32_t>(stage.settings.cell_size));
     payload.write(static_cast<std::int32_t>(stage.settings.jaw_features ? 1 : 0));
@@ -48,7 +48,7 @@ void write_stage(ByteWriter& payload, const SdmModel& model, const SdmStage& sta
     payload.write_floats(stage.bias);
 }
 
-SdmStage read_stage(ByteReader& r, const SdmModel& model, std::uint32_t version, const std::string& which) {
+SdmStage read_stage(core::ByteReader& r, const SdmModel& model, std::uint32_t version, const std::string& which) {
     const int outputs = 2 * model.num_landmarks;
     SdmStage stage;
     stage.settings.patch_relative = r.read<double>((which + " patch size").c_str());
@@ -83,7 +83,7 @@ SdmStage read_stage(ByteReader& r, const SdmModel& model, std::uint32_t version,
 }  // namespace
 
 void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
-    ByteWriter payload;
+    core::ByteWriter payload;
     write_doubles(payload, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()));
     const BoxStatistics& b = model.boxes;
     payload.write(static_cast<std::int32_t>(b.detector_matched));
@@ -97,7 +97,7 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
     for (std::size_t v = 0; v < kFaceViews; ++v) {
         const auto& view_mean = model.view_mean_shapes[v];
         if (view_mean.size() && (view_mean.rows() != 2 || view_mean.cols() != model.num_landmarks))
-            throw file_error(path.string(), "cannot write a model whose view mean shape has the wrong size");
+            throw core::file_error(path.string(), "cannot write a model whose view mean shape has the wrong size");
         payload.write(static_cast<std::int32_t>(b.view_matched[v]));
         payload.write(static_cast<std::int32_t>(model.view_faces[v]));
         payload.write(static_cast<std::int32_t>(view_mean.size() ? 1 : 0));
@@ -109,7 +109,7 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
         const ProfileCascade& profile = *model.profile;
         if (profile.stages.size() != model.stages.size() || profile.mean_shape.rows() != 2 ||
             profile.mean_shape.cols() != model.num_landmarks)
-            throw file_error(path.string(), "cannot write a model whose profile cascade does not match its frontal one");
+            throw core::file_error(path.string(), "cannot write a model whose profile cascade does not match its frontal one");
         payload.write(static_cast<std::int32_t>(profile.faces));
         const double spreads[] = {profile.init_translation_std, profile.init_scale_std, profile.init_rotation_std_deg};
         write_doubles(payload, spreads, std::size(spreads));
@@ -117,7 +117,7 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
         for (const auto& stage : profile.stages) write_stage(payload, model, stage, path);
     }
 
-    ByteWriter file;
+    core::ByteWriter file;
     file.write_bytes(kSdmMagic, sizeof(kSdmMagic));
     file.write(kSdmModelVersion);
     file.write(static_cast<std::uint32_t>(model.num_landmarks));
@@ -133,19 +133,19 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
     file.write(static_cast<std::uint64_t>(payload.bytes().size()));
     file.write(fnv1a_64(payload.bytes()));
     file.bytes() += payload.bytes();
-    write_file_atomically(path, file.bytes());
+    core::write_file_atomically(path, file.bytes());
 }
 
 SdmModel read_sdm_model(const std::filesystem::path& path) {
-    if (!std::filesystem::exists(path)) throw file_error(path.string(), "model file not found");
-    const std::string bytes = read_file(path);
-    ByteReader r(bytes, path.string());
+    if (!std::filesystem::exists(path)) throw core::file_error(path.string(), "model file not found");
+    const std::string bytes = core::read_file(path);
+    core::ByteReader r(bytes, path.string());
     if (bytes.size() < sizeof(kSdmMagic) || std::memcmp(bytes.data(), kSdmMagic, sizeof(kSdmMagic)) != 0)
-        throw file_error(path.string(), "not a facesynth SDM model (bad magic)");
+        throw core::file_error(path.string(), "not a facesynth SDM model (bad magic)");
     r.skip(sizeof(kSdmMagic), "magic");
     const auto version = r.read<std::uint32_t>("version");
     if (version < 1 || version > kSdmModelVersion)
-        throw file_error(path.string(), "unsupported SDM model version " + std::to_string(version) + " (this build reads 1 to " +
+        throw core::file_error(path.string(), "unsupported SDM model version " + std::to_string(version) + " (this build reads 1 to " +
                                             std::to_string(kSdmModelVersion) + ")");
     SdmModel model;
     model.num_landmarks = static_cast<int>(r.read<std::uint32_t>("landmark count"));
@@ -156,22 +156,22 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
     const auto crop_side = r.read<std::uint32_t>("crop side");
     const auto box_width = r.read<double>("box width");
     if (model.num_landmarks != 68 || stages < 1 || stages > 16 || model.hog_cells < 1 || model.hog_cells > 16)
-        throw file_error(path.string(), "implausible header (landmarks " + std::to_string(model.num_landmarks) +
+        throw core::file_error(path.string(), "implausible header (landmarks " + std::to_string(model.num_landmarks) +
                                             ", stages " + std::to_string(stages) + ", HOG cells " +
                                             std::to_string(model.hog_cells) + "): corrupt file");
     if (orientations != kHogOrientations || dims_per_cell != kHogDimsPerCell ||
         crop_side != static_cast<std::uint32_t>(kCanonicalCropSide) || box_width != kCanonicalBoxWidth)
-        throw file_error(path.string(), "HOG layout or face frame differs from this build's; retrain the model");
+        throw core::file_error(path.string(), "HOG layout or face frame differs from this build's; retrain the model");
     model.training_checksum = r.read<std::uint64_t>("training checksum");
     model.training_faces = r.read<std::uint32_t>("training faces");
     model.augment = r.read<std::uint32_t>("augment");
     const auto payload_size = r.read<std::uint64_t>("payload size");
     const auto payload_checksum = r.read<std::uint64_t>("payload checksum");
     if (payload_size != r.remaining())
-        throw file_error(path.string(), "payload is " + std::to_string(r.remaining()) + " bytes, header says " +
+        throw core::file_error(path.string(), "payload is " + std::to_string(r.remaining()) + " bytes, header says " +
                                             std::to_string(payload_size) + " (truncated or corrupt)");
     if (fnv1a_64(std::string_view(bytes).substr(r.offset())) != payload_checksum)
-        throw file_error(path.string(), "payload checksum mismatch (corrupt file)");
+        throw core::file_error(path.string(), "payload checksum mismatch (corrupt file)");
 
     model.mean_shape.resize(2, model.num_landmarks);
     read_doubles(r, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()), "mean shape");

@@ -19,9 +19,9 @@ inline constexpr std::uint32_t kSdmModelVersion = 4;
 // FNV-1a 64, the checksum of the model files' payloads.
 [[nodiscard]] std::uint64_t fnv1a_64(std::string_view bytes);
 
-// Atomic write; throws facesynth::Error naming the file.
+// Atomic write; throws core::Error naming the file.
 void write_sdm_model(const std::filesystem::path& path, const SdmModel& model);
-// Throws facesynth::Error naming the file for a missing, foreign, wrong-version, truncated or corrupt
+// Throws core::Error naming the file for a missing, foreign, wrong-version, truncated or corrupt
 // file, or one whose HOG layout this build does not produce.
 [[nodiscard]] SdmModel read_sdm_model(const std::filesystem::path& path);
 

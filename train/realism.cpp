@@ -1,6 +1,6 @@
 #include "train/realism.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "train/sdm.h"
 
@@ -11,7 +11,7 @@ namespace facesynth::train {
 RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor, DetectorKind detector_kind,
                             const std::function<void()>& on_image) {
     RealismSide side;
-    side.bias = Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks);
+    side.bias = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks);
     const FaceDetector detector(detector_kind);
     for (const LabelledImage& image : images) {
         ++side.faces;
@@ -21,10 +21,10 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
             if (const auto box = match_detection(detector.detect(gray), truth)) {
                 const Eigen::Matrix2Xd predicted = regressor.predict(gray, *box);
                 nme = landmark_nme(predicted, truth);
-                side.bias += face_frame_offsets(predicted, truth);
+                side.bias += morph::face_frame_offsets(predicted, truth);
                 ++side.detected;
             }
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             side.warnings.push_back(std::string(e.what()) + " (counted as a miss)");
         }
         side.nmes.push_back(nme);

@@ -6,7 +6,7 @@
 #include "train/sdm.h"
 #include "train/view_baselines.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 namespace facesynth::train {
 namespace {
@@ -17,7 +17,7 @@ public:
     SdmRegressor(std::string label, const std::string& path, int stages)
         : LandmarkRegressor(std::move(label)), model_(read_sdm_model(path)) {
         if (stages > static_cast<int>(model_.stages.size()))
-            throw file_error(path, "has " + std::to_string(model_.stages.size()) + " stages, asked for " +
+            throw core::file_error(path, "has " + std::to_string(model_.stages.size()) + " stages, asked for " +
                                        std::to_string(stages));
         if (stages >= 0) {
             model_.stages.resize(static_cast<std::size_t>(stages));
@@ -58,8 +58,8 @@ public:
             const ScopedTemporaryFile file(contents, label);
             try {
                 return std::make_unique<Predictor>(file.path());
-            } catch (const Error& e) {
-                throw file_error(label, e.what());
+            } catch (const core::Error& e) {
+                throw core::file_error(label, e.what());
             }
         };
         frontal_ = load(bundle.frontal_model, "frontal");
@@ -103,7 +103,7 @@ std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec) {
             if (colon != std::string::npos) stages = std::stoi(spec.substr(4, colon - 4));
         } catch (const std::exception&) {
         }
-        if (stages < 0) throw Error("regressor spec '" + spec + "': expected sdm@K:FILE with K >= 0 stages");
+        if (stages < 0) throw core::Error("regressor spec '" + spec + "': expected sdm@K:FILE with K >= 0 stages");
         return std::make_unique<SdmRegressor>(spec, spec.substr(colon + 1), stages);
     }
     return std::make_unique<SdmRegressor>("sdm:" + spec, spec, -1);

@@ -35,7 +35,7 @@ private:
     std::string label_;
 };
 
-// Throws facesynth::Error naming the file for unreadable models.
+// Throws core::Error naming the file for unreadable models.
 [[nodiscard]] std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec);
 
 // The commands' --detector option: a detector_name, or "auto": the detector recorded in the

@@ -1,8 +1,8 @@
 #include "train/sdm.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "train/feature_pca.h"
 #include "train/hog.h"
 #include "train/parallel.h"
@@ -62,7 +62,7 @@ double standard_deviation(const std::vector<double>& values) {
 }
 
 void apply_update(Eigen::Matrix2Xd& shape, const float* delta) {
-    const double ied = inter_eye_centre_distance(shape);
+    const double ied = morph::inter_eye_centre_distance(shape);
     for (Eigen::Index i = 0; i < shape.cols(); ++i) {
         shape(0, i) += ied * delta[2 * i];
         shape(1, i) += ied * delta[2 * i + 1];
@@ -89,7 +89,7 @@ Eigen::MatrixXd ridge_solution(const Eigen::MatrixXd& scatter, const std::option
 std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_features_from) {
     static constexpr double kRelative[] = {1.0, 0.7, 0.4, 0.25, 0.2, 0.15, 0.12, 0.1};
     static constexpr int kCells[] = {8, 7, 6, 5, 5, 5, 5, 5};
-    if (stages < 1 || stages > 8) throw Error("SDM: stages must be between 1 and 8, got " + std::to_string(stages));
+    if (stages < 1 || stages > 8) throw core::Error("SDM: stages must be between 1 and 8, got " + std::to_string(stages));
     std::vector<SdmStageSettings> settings;
     settings.reserve(static_cast<std::size_t>(stages));
     for (int k = 0; k < stages; ++k) settings.push_back({kRelative[k], kCells[k], k + 1 >= jaw_features_from});
@@ -97,7 +97,7 @@ std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_feature
 }
 
 int feature_landmark_count(const SdmStageSettings& stage) {
-    return stage.jaw_features ? kNumIbugLandmarks : kNumIbugLandmarks - kNumJawLandmarks;
+    return stage.jaw_features ? morph::kNumIbugLandmarks : morph::kNumIbugLandmarks - morph::kNumJawLandmarks;
 }
 
 int SdmModel::feature_dims(const SdmStageSettings& stage) const {
@@ -112,10 +112,10 @@ const Eigen::Matrix2Xd& SdmModel::initial_shape(FaceView view) const {
 void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
                   std::span<float> out) {
     const int per_landmark = hog_dims(hog_cells);
-    const Eigen::Index first = stage.jaw_features ? 0 : kNumJawLandmarks;  // the jaw points are iBUG 1-17
+    const Eigen::Index first = stage.jaw_features ? 0 : morph::kNumJawLandmarks;  // the jaw points are iBUG 1-17
     if (out.size() != static_cast<std::size_t>((shape.cols() - first) * per_landmark))
-        throw Error("sdm_features: output size mismatch");
-    const double side = stage.patch_relative * inter_eye_centre_distance(shape);
+        throw core::Error("sdm_features: output size mismatch");
+    const double side = stage.patch_relative * morph::inter_eye_centre_distance(shape);
     cv::Mat patch;
     for (Eigen::Index i = first; i < shape.cols(); ++i) {
         extract_patch(crop, shape.col(i), side, hog_cells, stage.cell_size, patch);
@@ -159,9 +159,9 @@ Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const Fa
 }
 
 Eigen::Matrix2Xd mirror_canonical_shape(const Eigen::Matrix2Xd& shape) {
-    const auto partner = ibug_mirror_pairs();
+    const auto partner = morph::ibug_mirror_pairs();
     if (shape.cols() != static_cast<Eigen::Index>(partner.size()))
-        throw Error("mirror_canonical_shape: expected " + std::to_string(partner.size()) + " points, got " +
+        throw core::Error("mirror_canonical_shape: expected " + std::to_string(partner.size()) + " points, got " +
                     std::to_string(shape.cols()));
     Eigen::Matrix2Xd mirrored(2, shape.cols());
     for (Eigen::Index i = 0; i < shape.cols(); ++i) {
@@ -185,26 +185,26 @@ TrainingFace mirror_training_face(const TrainingFace& face) {
 }
 
 double landmark_nme(const Eigen::Matrix2Xd& predicted, const Eigen::Matrix2Xd& truth) {
-    return (predicted - truth).colwise().norm().mean() / inter_ocular_distance(truth);
+    return (predicted - truth).colwise().norm().mean() / morph::inter_ocular_distance(truth);
 }
 
 SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, const SdmTrainOptions& options) {
     for (const auto& f : faces)
-        if (f.truth.cols() != kNumIbugLandmarks) throw Error("SDM training needs 68-point landmarks");
-    if (options.augment < 1) throw Error("SDM training: --augment must be at least 1");
-    if (options.lambda_factors.empty()) throw Error("SDM training: no λ factor given");
+        if (f.truth.cols() != morph::kNumIbugLandmarks) throw core::Error("SDM training needs 68-point landmarks");
+    if (options.augment < 1) throw core::Error("SDM training: --augment must be at least 1");
+    if (options.lambda_factors.empty()) throw core::Error("SDM training: no λ factor given");
     for (double f : options.lambda_factors)
-        if (!(f > 0) || !std::isfinite(f)) throw Error("SDM training: λ factors must be positive");
-    if (options.ranks.empty()) throw Error("SDM training: no rank candidate given");
-    if (options.feature_components < 0 || options.feature_components > kNumIbugLandmarks * hog_dims(options.hog_cells))
-        throw Error("SDM training: --feature-pca must be between 0 and the feature dimension " +
-                    std::to_string(kNumIbugLandmarks * hog_dims(options.hog_cells)) + ", got " +
+        if (!(f > 0) || !std::isfinite(f)) throw core::Error("SDM training: λ factors must be positive");
+    if (options.ranks.empty()) throw core::Error("SDM training: no rank candidate given");
+    if (options.feature_components < 0 || options.feature_components > morph::kNumIbugLandmarks * hog_dims(options.hog_cells))
+        throw core::Error("SDM training: --feature-pca must be between 0 and the feature dimension " +
+                    std::to_string(morph::kNumIbugLandmarks * hog_dims(options.hog_cells)) + ", got " +
                     std::to_string(options.feature_components));
     for (int r : options.ranks)
-        if (r < 1 || r > 2 * kNumIbugLandmarks)
-            throw Error("SDM training: ranks must be between 1 and " + std::to_string(2 * kNumIbugLandmarks));
+        if (r < 1 || r > 2 * morph::kNumIbugLandmarks)
+            throw core::Error("SDM training: ranks must be between 1 and " + std::to_string(2 * morph::kNumIbugLandmarks));
     if (options.validation_share < 0 || options.validation_share >= 1)
-        throw Error("SDM training: the validation share must be in [0, 1)");
+        throw core::Error("SDM training: the validation share must be in [0, 1)");
     const auto settings = options.stage_settings.empty() ? default_stage_settings(options.stages, options.jaw_features_from)
                                                          : options.stage_settings;
 
@@ -215,15 +215,15 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
     for (std::size_t f = 0; f < faces.size(); ++f)
         (stride && f % stride == stride - 1 ? validation_faces : train_faces).push_back(f);
     if (train_faces.size() < 2)
-        throw Error("SDM training needs at least 2 training faces, got " + std::to_string(train_faces.size()));
+        throw core::Error("SDM training needs at least 2 training faces, got " + std::to_string(train_faces.size()));
     const bool choose = options.lambda_factors.size() > 1 || options.ranks.size() > 1;
     if (choose && validation_faces.empty())
-        throw Error("SDM training: choosing among " + std::to_string(options.lambda_factors.size()) + " λ factors and " +
+        throw core::Error("SDM training: choosing among " + std::to_string(options.lambda_factors.size()) + " λ factors and " +
                     std::to_string(options.ranks.size()) +
                     " ranks needs validation faces (more faces or a larger validation share)");
 
     SdmModel model;
-    model.num_landmarks = kNumIbugLandmarks;
+    model.num_landmarks = morph::kNumIbugLandmarks;
     model.hog_cells = options.hog_cells;
     model.training_faces = static_cast<std::uint32_t>(faces.size());
     model.augment = static_cast<std::uint32_t>(options.augment);
@@ -235,9 +235,9 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
         std::any_of(train_faces.begin(), train_faces.end(), [&](std::size_t f) { return faces[f].box_from_detector; });
     const auto shapes_the_mean = [&](std::size_t f) { return !have_detector_faces || faces[f].box_from_detector; };
     const auto view_index = [&](std::size_t f) { return static_cast<std::size_t>(faces[f].view); };
-    model.mean_shape = Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks);
+    model.mean_shape = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks);
     std::array<Eigen::Matrix2Xd, kFaceViews> view_sums;
-    view_sums.fill(Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks));
+    view_sums.fill(Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks));
     std::array<int, kFaceViews> view_used{};
     int used = 0;
     for (std::size_t f : train_faces) {
@@ -281,7 +281,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
         row_face[r] = r < train_rows ? train_faces[r / augment] : validation_faces[(r - train_rows) / augment];
     std::vector<Eigen::Matrix2Xd> shapes(rows);
     for (std::size_t r = 0; r < rows; ++r) {
-        Rng rng(options.seed, row_face[r], kInitStreamBase + r % augment);
+        core::Rng rng(options.seed, row_face[r], kInitStreamBase + r % augment);
         Similarity s;
         s.scale = 1 + boxes.init_scale_std * rng.normal();
         s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
@@ -295,7 +295,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
         return count ? sum / static_cast<double>(count) : 0.0;
     };
 
-    const int outputs = 2 * kNumIbugLandmarks;
+    const int outputs = 2 * morph::kNumIbugLandmarks;
     int dims = 0;  // of the current stage
     std::size_t total_feature_rows = 0;
     for (const auto& stage : settings)
@@ -314,7 +314,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
         Eigen::MatrixXd y(static_cast<Eigen::Index>(count), outputs);
         for (std::size_t i = 0; i < count; ++i) {
             const auto& shape = shapes[first + i];
-            const Eigen::Matrix2Xd delta = (face_of(first + i).truth - shape) / inter_eye_centre_distance(shape);
+            const Eigen::Matrix2Xd delta = (face_of(first + i).truth - shape) / morph::inter_eye_centre_distance(shape);
             y.row(static_cast<Eigen::Index>(i)) = Eigen::Map<const Eigen::RowVectorXd>(delta.data(), outputs);
         }
         return y;
@@ -465,7 +465,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
             }
         }
         if (candidates.empty())
-            throw Error("SDM training: stage " + std::to_string(k + 1) + " produced non-finite weights");
+            throw core::Error("SDM training: stage " + std::to_string(k + 1) + " produced non-finite weights");
         double best = std::numeric_limits<double>::infinity();
         for (const auto& c : candidates) best = std::min(best, c.nme);
         const Candidate* chosen = nullptr;

@@ -177,7 +177,7 @@ struct SdmTrainOptions {
 
 // Trains the cascade. `boxes` carries the detector statistics measured while preparing the faces;
 // the perturbation spreads are measured here from the faces whose box came from the detector.
-// Deterministic for a given seed whatever the thread count. Throws facesynth::Error for fewer than
+// Deterministic for a given seed whatever the thread count. Throws core::Error for fewer than
 // 2 training faces, landmark counts other than 68, or several λ or rank candidates without validation
 // faces.
 [[nodiscard]] SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes,

@@ -1,8 +1,8 @@
 #include "train/training_data.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "train/parallel.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -56,7 +56,7 @@ double mean_of(const std::vector<double>& v) {
 // (37, 46), in inter-ocular distances: about 0 for a frontal face, its sign says where the nose points.
 double yaw_proxy(const Eigen::Matrix2Xd& shape) {
     const double middle = 0.5 * (shape(0, 36) + shape(0, 45));
-    return (shape(0, 30) - middle) / std::max(1e-9, inter_ocular_distance(shape));
+    return (shape(0, 30) - middle) / std::max(1e-9, morph::inter_ocular_distance(shape));
 }
 
 double std_of(const std::vector<double>& v) {
@@ -79,20 +79,20 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
     parallel_for(0, images.size(), options.threads, [&](std::size_t i, std::size_t worker) {
         Loaded& item = loaded[i];
         try {
-            item.truth = read_pts(images[i].pts);
-            if (item.truth.cols() != kNumIbugLandmarks)
-                throw file_error(images[i].pts.string(), "has " + std::to_string(item.truth.cols()) + " points, expected 68");
+            item.truth = morph::read_pts(images[i].pts);
+            if (item.truth.cols() != morph::kNumIbugLandmarks)
+                throw core::file_error(images[i].pts.string(), "has " + std::to_string(item.truth.cols()) + " points, expected 68");
             const cv::Mat image = cv::imread(images[i].image.string(), cv::IMREAD_UNCHANGED);
-            if (image.empty()) throw file_error(images[i].image.string(), "cannot read image");
+            if (image.empty()) throw core::file_error(images[i].image.string(), "cannot read image");
             item.gray = to_gray8(image);
             item.detected = match_detection(detectors[worker].detect(item.gray), item.truth);
-            if (options.label_offsets.size() > 0) item.truth = apply_face_frame_offsets(item.truth, options.label_offsets);
+            if (options.label_offsets.size() > 0) item.truth = morph::apply_face_frame_offsets(item.truth, options.label_offsets);
             if (item.detected) {
                 item.crop = canonical_crop(item.gray, FaceFrame{*item.detected});
                 item.gray.release();
             }
             item.ok = true;
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             item.ok = false;
             item.gray.release();
             item.warning = std::string(e.what()) + " (skipped)";
@@ -163,7 +163,7 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
             ++stats.detector_matched;
             ++stats.view_matched[static_cast<std::size_t>(box.view)];
         } else {
-            Rng rng(options.seed, i, kFallbackBoxStream);
+            core::Rng rng(options.seed, i, kFallbackBoxStream);
             const LandmarkBounds b = bounds_of(item.truth);
             box.view = assign_view(item.truth);
             const BoxStatistics& placement = view_stats[static_cast<std::size_t>(box.view)];

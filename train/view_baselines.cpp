@@ -1,8 +1,8 @@
 #include "train/view_baselines.h"
 
-#include "morph/atomic_file.h"
-#include "morph/byte_io.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/byte_io.h"
+#include "core/error.h"
 #include "train/model_file.h"
 
 #include <opencv2/core.hpp>
@@ -33,21 +33,21 @@ struct RemoveOnExit {
 }  // namespace
 
 void write_view_baseline_bundle(const std::filesystem::path& path, const ViewBaselineBundle& bundle) {
-    ByteWriter body;
+    core::ByteWriter body;
     body.write_string(detector_name(bundle.detector));
     body.write(static_cast<std::uint64_t>(bundle.frontal_model.size()));
     body.write(static_cast<std::uint64_t>(bundle.profile_model.size()));
-    ByteWriter models;
+    core::ByteWriter models;
     models.write_bytes(bundle.frontal_model.data(), bundle.frontal_model.size());
     models.write_bytes(bundle.profile_model.data(), bundle.profile_model.size());
-    ByteWriter file;
+    core::ByteWriter file;
     file.write_bytes(kViewBaselinesMagic, sizeof kViewBaselinesMagic);
     file.write(kBundleVersion);
     file.write(static_cast<std::uint32_t>(bundle.method));
     const std::string checked = body.bytes() + models.bytes();
     file.write(fnv1a_64(checked));
     file.write_bytes(checked.data(), checked.size());
-    write_file_atomically(path, file.bytes());
+    core::write_file_atomically(path, file.bytes());
 }
 
 bool is_view_baseline_bundle(const std::filesystem::path& path) {
@@ -57,29 +57,29 @@ bool is_view_baseline_bundle(const std::filesystem::path& path) {
 }
 
 ViewBaselineBundle read_view_baseline_bundle(const std::filesystem::path& path, BaselineMethod expected) {
-    const std::string bytes = read_file(path);
-    ByteReader r(bytes, path.string());
+    const std::string bytes = core::read_file(path);
+    core::ByteReader r(bytes, path.string());
     char magic[sizeof kViewBaselinesMagic];
     r.read_bytes(magic, sizeof magic, "magic");
-    if (std::memcmp(magic, kViewBaselinesMagic, sizeof kViewBaselinesMagic) != 0) throw file_error(path.string(), "not a view-specific baseline bundle");
+    if (std::memcmp(magic, kViewBaselinesMagic, sizeof kViewBaselinesMagic) != 0) throw core::file_error(path.string(), "not a view-specific baseline bundle");
     const auto version = r.read<std::uint32_t>("format version");
     if (version != kBundleVersion)
-        throw file_error(path.string(), "view-specific baseline bundle version " + std::to_string(version) +
+        throw core::file_error(path.string(), "view-specific baseline bundle version " + std::to_string(version) +
                                             ", this build reads version " + std::to_string(kBundleVersion));
     const auto method = r.read<std::uint32_t>("method");
     if (method != static_cast<std::uint32_t>(expected))
-        throw file_error(path.string(), std::string("view-specific baseline bundle is not of method ") + method_name(expected) +
+        throw core::file_error(path.string(), std::string("view-specific baseline bundle is not of method ") + method_name(expected) +
                                             " (method code " + std::to_string(method) + ")");
     const auto checksum = r.read<std::uint64_t>("checksum");
     if (fnv1a_64(std::string_view(bytes).substr(r.offset())) != checksum)
-        throw file_error(path.string(), "checksum mismatch (truncated or corrupt file)");
+        throw core::file_error(path.string(), "checksum mismatch (truncated or corrupt file)");
     ViewBaselineBundle bundle;
     bundle.method = expected;
     const std::string detector = r.read_string("detector name");
     try {
         bundle.detector = parse_detector_kind(detector);
-    } catch (const Error& e) {
-        throw file_error(path.string(), e.what());
+    } catch (const core::Error& e) {
+        throw core::file_error(path.string(), e.what());
     }
     const auto frontal_size = r.read<std::uint64_t>("frontal model size");
     const auto profile_size = r.read<std::uint64_t>("profile model size");
@@ -101,16 +101,16 @@ ViewBaselineBundle train_view_baselines(BaselineMethod method, DetectorKind dete
                std::to_string(faces.size()) + " faces)";
     };
     // Both views are checked before the first (long) training starts.
-    if (sets.frontal.empty()) throw Error(where("frontal", sets.frontal) + ": no training faces");
-    if (sets.profile.empty()) throw Error(where("profile", sets.profile) + ": no training faces");
+    if (sets.frontal.empty()) throw core::Error(where("frontal", sets.frontal) + ": no training faces");
+    if (sets.profile.empty()) throw core::Error(where("profile", sets.profile) + ": no training faces");
     const auto train_view = [&](const char* view, const std::vector<TrainingFace>& faces) {
-        RemoveOnExit part{temporary_path_for(out).concat(std::string(".") + view)};
+        RemoveOnExit part{core::temporary_path_for(out).concat(std::string(".") + view)};
         try {
             train_one(faces, part.path);
-        } catch (const Error& e) {
-            throw Error(where(view, faces) + ": " + e.what());
+        } catch (const core::Error& e) {
+            throw core::Error(where(view, faces) + ": " + e.what());
         }
-        return read_file(part.path);
+        return core::read_file(part.path);
     };
     bundle.frontal_model = train_view("frontal", sets.frontal);
     bundle.profile_model = train_view("profile", sets.profile);
@@ -128,13 +128,13 @@ Eigen::Matrix2Xd predict_by_view(const cv::Mat& crop, FaceView view, const Canon
             return mirror_canonical_shape(profile(flipped));
         }
     }
-    throw Error("predict_by_view: unknown face view");
+    throw core::Error("predict_by_view: unknown face view");
 }
 
 ScopedTemporaryFile::ScopedTemporaryFile(const std::string& contents, const std::string& label) {
     std::string name = (std::filesystem::temp_directory_path() / "facesynth-model-XXXXXX").string();
     const int fd = ::mkstemp(name.data());
-    if (fd < 0) throw file_error(label, std::string("cannot create a temporary file: ") + std::strerror(errno));
+    if (fd < 0) throw core::file_error(label, std::string("cannot create a temporary file: ") + std::strerror(errno));
     path_ = name;
     std::size_t written = 0;
     while (written < contents.size()) {
@@ -144,7 +144,7 @@ ScopedTemporaryFile::ScopedTemporaryFile(const std::string& contents, const std:
             const int error = errno;
             ::close(fd);
             std::filesystem::remove(path_);
-            throw file_error(label, std::string("cannot write a temporary file: ") + std::strerror(error));
+            throw core::file_error(label, std::string("cannot write a temporary file: ") + std::strerror(error));
         }
         written += static_cast<std::size_t>(n);
     }

@@ -29,15 +29,15 @@ struct ViewBaselineBundle {
     std::string frontal_model, profile_model;          // the contents of each trained model file
 };
 
-// Atomic write; throws facesynth::Error naming the file.
+// Atomic write; throws core::Error naming the file.
 void write_view_baseline_bundle(const std::filesystem::path& path, const ViewBaselineBundle& bundle);
 // Whether the file starts with the bundle's magic (a plain dlib or LBF file does not).
 [[nodiscard]] bool is_view_baseline_bundle(const std::filesystem::path& path);
-// Throws facesynth::Error naming the file when it is missing, truncated, corrupt or of another method.
+// Throws core::Error naming the file when it is missing, truncated, corrupt or of another method.
 [[nodiscard]] ViewBaselineBundle read_view_baseline_bundle(const std::filesystem::path& path, BaselineMethod expected);
 
 // Trains one model per view set with `train_one(faces, file)` (which writes a model file) and returns
-// their contents. Throws facesynth::Error naming the view when either set is empty or training fails.
+// their contents. Throws core::Error naming the view when either set is empty or training fails.
 using TrainBaselineFile = std::function<void(std::span<const TrainingFace> faces, const std::filesystem::path& file)>;
 [[nodiscard]] ViewBaselineBundle train_view_baselines(BaselineMethod method, DetectorKind detector,
                                                       const ViewFaceSets& sets, const std::filesystem::path& out,

@@ -1,6 +1,6 @@
 #include "train/view_cascades.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <cmath>
 #include <string>
@@ -71,8 +71,8 @@ SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStati
         if (on_stage) o.on_stage = [&](const SdmStageReport& r) { on_stage(name, r); };
         try {
             return train_sdm(set, boxes, o);
-        } catch (const Error& e) {
-            throw Error(std::string("view-specific cascades: the ") + name + " cascade (" + std::to_string(set.size()) +
+        } catch (const core::Error& e) {
+            throw core::Error(std::string("view-specific cascades: the ") + name + " cascade (" + std::to_string(set.size()) +
                         " faces): " + e.what());
         }
     };

@@ -46,7 +46,7 @@ struct ViewFaceSets {
 // Trains both cascades with `options` (the same stages, λ and rank candidates, validation share) into
 // one model: `stages` is the frontal cascade, `profile` the profile one, and the view mean shapes are
 // the two cascades' starts (nose-right: the mirrored profile mean). `on_stage` (optional) gets every
-// stage report with the cascade's name ("frontal" or "profile"). Throws facesynth::Error when either
+// stage report with the cascade's name ("frontal" or "profile"). Throws core::Error when either
 // cascade gets too few faces to train, naming the view.
 [[nodiscard]] SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStatistics& boxes,
                                            const SdmTrainOptions& options, const ViewSplit& split,

@@ -1,6 +1,6 @@
 #include "common/model_files.h"
 
-#include "morph/byte_io.h"
+#include "core/byte_io.h"
 
 #include <fstream>
 
@@ -8,21 +8,21 @@ namespace facesynth::testkit {
 namespace {
 
 // cereal-style pieces (int32 rows, int32 cols, column-major float32).
-void put_matrix(ByteWriter& out, const Eigen::MatrixXf& m) {
+void put_matrix(core::ByteWriter& out, const Eigen::MatrixXf& m) {
     out.write(static_cast<std::int32_t>(m.rows()));
     out.write(static_cast<std::int32_t>(m.cols()));
     out.write_floats(m);
 }
 
-void put_pca(ByteWriter& out, const PcaModel& pca, const std::vector<Triangle>& triangles) {
+void put_pca(core::ByteWriter& out, const morph::PcaModel& pca, const std::vector<morph::Triangle>& triangles) {
     put_matrix(out, pca.mean);
     put_matrix(out, pca.basis);
     put_matrix(out, pca.eigenvalues);
     out.write(static_cast<std::uint64_t>(triangles.size()));
-    out.write_bytes(triangles.data(), triangles.size() * sizeof(Triangle));
+    out.write_bytes(triangles.data(), triangles.size() * sizeof(morph::Triangle));
 }
 
-void put_blendshapes(ByteWriter& out, const std::vector<Blendshape>& shapes) {
+void put_blendshapes(core::ByteWriter& out, const std::vector<morph::Blendshape>& shapes) {
     out.write(static_cast<std::uint64_t>(shapes.size()));
     for (const auto& b : shapes) {
         out.write_string(b.name);
@@ -58,7 +58,7 @@ public:
         H5Sclose(space);
     }
 
-    void cells(const std::string& name, const std::vector<Triangle>& triangles) {
+    void cells(const std::string& name, const std::vector<morph::Triangle>& triangles) {
         const hsize_t dims[2] = {3, triangles.size()};
         std::vector<std::uint32_t> values(3 * triangles.size());
         for (std::size_t t = 0; t < triangles.size(); ++t)
@@ -77,21 +77,21 @@ private:
 
 }  // namespace
 
-std::string eos_model_bytes(const MorphableModel& m, std::uint32_t version, bool with_landmarks) {
-    ByteWriter out;
+std::string eos_model_bytes(const morph::MorphableModel& m, std::uint32_t version, bool with_landmarks) {
+    core::ByteWriter out;
     out.write(version);
     put_pca(out, m.shape, m.triangles);
     if (m.albedo) put_pca(out, *m.albedo, {});
-    else put_pca(out, PcaModel{Eigen::VectorXf(0), Eigen::MatrixXf(0, 0), Eigen::VectorXf(0)}, {});
+    else put_pca(out, morph::PcaModel{Eigen::VectorXf(0), Eigen::MatrixXf(0, 0), Eigen::VectorXf(0)}, {});
     if (version >= 2) {
         out.write(static_cast<std::uint8_t>(m.expression ? 0 : 1));  // cereal's optional: 1 = empty
         if (m.expression) {
-            if (const auto* pca = std::get_if<PcaModel>(&*m.expression)) {
+            if (const auto* pca = std::get_if<morph::PcaModel>(&*m.expression)) {
                 out.write(std::int32_t{0});
                 put_pca(out, *pca, m.triangles);
             } else {
                 out.write(std::int32_t{1});
-                put_blendshapes(out, std::get<std::vector<Blendshape>>(*m.expression));
+                put_blendshapes(out, std::get<std::vector<morph::Blendshape>>(*m.expression));
             }
         }
     }
@@ -114,13 +114,13 @@ std::string eos_model_bytes(const MorphableModel& m, std::uint32_t version, bool
     }
     if (version >= 4) {
         out.write(static_cast<std::uint64_t>(m.triangles.size()));
-        out.write_bytes(m.triangles.data(), m.triangles.size() * sizeof(Triangle));
+        out.write_bytes(m.triangles.data(), m.triangles.size() * sizeof(morph::Triangle));
     }
     return out.bytes();
 }
 
-std::string eos_blendshape_bytes(const std::vector<Blendshape>& shapes) {
-    ByteWriter out;
+std::string eos_blendshape_bytes(const std::vector<morph::Blendshape>& shapes) {
+    core::ByteWriter out;
     put_blendshapes(out, shapes);
     return out.bytes();
 }
@@ -135,15 +135,15 @@ DatasetSpec matrix_spec(const Eigen::MatrixXf& m) {
             std::vector<float>(row_major.data(), row_major.data() + row_major.size())};
 }
 
-void write_statismo(const std::filesystem::path& path, const MorphableModel& m, const StatismoOverrides& o) {
+void write_statismo(const std::filesystem::path& path, const morph::MorphableModel& m, const StatismoOverrides& o) {
     H5Writer out(path);
     const auto put = [&](const std::string& name, const DatasetSpec& spec) {
         if (name == o.skip) return;
         const auto it = o.replace.find(name);
         out.floats(name, it != o.replace.end() ? it->second : spec);
     };
-    const Eigen::MatrixXf points = as_points(m.shape.mean);
-    const auto group = [&](const std::string& g, const PcaModel& pca) {
+    const Eigen::MatrixXf points = morph::as_points(m.shape.mean);
+    const auto group = [&](const std::string& g, const morph::PcaModel& pca) {
         put(g + "/model/mean", vector_spec(pca.mean));
         put(g + "/model/pcaBasis", matrix_spec(pca.basis));
         put(g + "/model/pcaVariance", vector_spec(pca.eigenvalues));
@@ -153,7 +153,7 @@ void write_statismo(const std::filesystem::path& path, const MorphableModel& m, 
     };
     group("/shape", m.shape);
     if (m.albedo) group("/color", *m.albedo);
-    if (m.expression) group("/expression", std::get<PcaModel>(*m.expression));
+    if (m.expression) group("/expression", std::get<morph::PcaModel>(*m.expression));
 }
 
 void write_bytes(const std::filesystem::path& path, const std::string& bytes) {

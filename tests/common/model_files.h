@@ -16,9 +16,9 @@ namespace facesynth::testkit {
 
 // An eos MorphableModel file of `version` (1-4) holding `model` (blendshapes or PCA expression,
 // colour model when present, uv); from version 3 on the landmarks as iBUG ids plus one non-iBUG name.
-[[nodiscard]] std::string eos_model_bytes(const MorphableModel& model, std::uint32_t version, bool with_landmarks = true);
+[[nodiscard]] std::string eos_model_bytes(const morph::MorphableModel& model, std::uint32_t version, bool with_landmarks = true);
 // eos's vector<Blendshape> file.
-[[nodiscard]] std::string eos_blendshape_bytes(const std::vector<Blendshape>& shapes);
+[[nodiscard]] std::string eos_blendshape_bytes(const std::vector<morph::Blendshape>& shapes);
 
 // One float dataset of a statismo file: dims and row-major values.
 struct DatasetSpec {
@@ -36,7 +36,7 @@ struct StatismoOverrides {
 
 // `model` in statismo layout: /shape, /color (albedo) and /expression (a PCA expression model)
 // with model/{mean,pcaBasis,pcaVariance,noiseVariance} and representer/{points,cells}.
-void write_statismo(const std::filesystem::path& path, const MorphableModel& model, const StatismoOverrides& overrides = {});
+void write_statismo(const std::filesystem::path& path, const morph::MorphableModel& model, const StatismoOverrides& overrides = {});
 
 // Writes bytes to a file as they are (no temporary name: tests write broken files on purpose).
 void write_bytes(const std::filesystem::path& path, const std::string& bytes);

@@ -1,6 +1,6 @@
 #include "common/test_data.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <array>
 #include <cstdio>
@@ -63,7 +63,7 @@ std::size_t count_occurrences(const std::string& text, const std::string& what) 
 std::string error_message_of(const std::function<void()>& call) {
     try {
         call();
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         return e.what();
     }
     return "";

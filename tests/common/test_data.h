@@ -29,7 +29,7 @@ std::filesystem::path fresh_temp_dir(const std::string& name);
 int run_command(const std::string& command, std::string* output = nullptr);
 // Parses a JSON file (throws nlohmann::json::parse_error when it is not JSON).
 nlohmann::json read_json(const std::filesystem::path& path);
-// The message of the facesynth::Error that `call` throws, or "" when it throws none.
+// The message of the core::Error that `call` throws, or "" when it throws none.
 std::string error_message_of(const std::function<void()>& call);
 // How often `what` occurs in `text` (overlapping matches counted).
 std::size_t count_occurrences(const std::string& text, const std::string& what);

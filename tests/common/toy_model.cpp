@@ -1,6 +1,6 @@
 #include "common/toy_model.h"
 
-#include "morph/random.h"
+#include "core/random.h"
 
 #include <Eigen/QR>
 
@@ -45,8 +45,8 @@ constexpr double kA = 75.0, kB = 100.0, kC = 90.0;  // semi-axes x, y, z (mm)
 
 }  // namespace
 
-MorphableModel make_toy_model(const ToyModelOptions& o) {
-    MorphableModel m;
+morph::MorphableModel make_toy_model(const ToyModelOptions& o) {
+    morph::MorphableModel m;
     m.name = "toy";
     const int lat = o.latitude_steps, lon = o.longitude_steps;
     // Vertices: two poles plus (lat - 1) rings of `lon` vertices; longitude 0 faces +z.
@@ -80,7 +80,7 @@ MorphableModel make_toy_model(const ToyModelOptions& o) {
     for (int i = 0; i < v; ++i) m.shape.mean.segment<3>(3 * i) = points[static_cast<std::size_t>(i)];
 
     // Smooth random components: low-order trigonometric fields along the outward direction.
-    Rng rng(o.seed, 0, 99);
+    core::Rng rng(o.seed, 0, 99);
     const int k = o.shape_components;
     Eigen::MatrixXf raw(3 * v, k);
     for (int c = 0; c < k; ++c) {
@@ -99,7 +99,7 @@ MorphableModel make_toy_model(const ToyModelOptions& o) {
     for (int c = 0; c < k; ++c) m.shape.eigenvalues[c] = static_cast<float>(100.0 / std::pow(c + 1.0, 1.5));
 
     // Blendshapes: jaw open (lower face moves down) and smile (mouth sides up and back).
-    std::vector<Blendshape> shapes(2);
+    std::vector<morph::Blendshape> shapes(2);
     shapes[0].name = "jaw_open";
     shapes[1].name = "smile";
     for (auto& s : shapes) s.offsets = Eigen::VectorXf::Zero(3 * v);
@@ -114,7 +114,7 @@ MorphableModel make_toy_model(const ToyModelOptions& o) {
     }
     m.expression = std::move(shapes);
 
-    PcaModel albedo;
+    morph::PcaModel albedo;
     albedo.mean.resize(3 * v);
     for (int i = 0; i < v; ++i) albedo.mean.segment<3>(3 * i) = Eigen::Vector3f(0.72f, 0.52f, 0.42f);
     Eigen::MatrixXf albedo_raw(3 * v, 3);
@@ -156,7 +156,7 @@ MorphableModel make_toy_model(const ToyModelOptions& o) {
         }
         return best;
     };
-    for (int l = 0; l < 68; ++l) m.landmarks.push_back(SurfacePoint::at_vertex(nearest_front(tmpl(0, l), tmpl(1, l))));
+    for (int l = 0; l < 68; ++l) m.landmarks.push_back(morph::SurfacePoint::at_vertex(nearest_front(tmpl(0, l), tmpl(1, l))));
 
     // Jaw contour chains: per height, the outermost front-half vertex on each side.
     for (int h = 0; h < 17; ++h) {
@@ -175,9 +175,9 @@ MorphableModel make_toy_model(const ToyModelOptions& o) {
     return m;
 }
 
-void set_uniform_colour_model(MorphableModel& model, const Eigen::Vector3f& mean, const Eigen::Vector3f& shift_per_sigma) {
+void set_uniform_colour_model(morph::MorphableModel& model, const Eigen::Vector3f& mean, const Eigen::Vector3f& shift_per_sigma) {
     const int v = model.num_vertices();
-    PcaModel albedo;
+    morph::PcaModel albedo;
     albedo.mean = mean.replicate(v, 1);
     albedo.basis = shift_per_sigma.replicate(v, 1);
     const float norm = albedo.basis.norm();

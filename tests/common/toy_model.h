@@ -16,12 +16,12 @@ struct ToyModelOptions {
     std::uint64_t seed = 1;
 };
 
-[[nodiscard]] MorphableModel make_toy_model(const ToyModelOptions& options = {});
+[[nodiscard]] morph::MorphableModel make_toy_model(const ToyModelOptions& options = {});
 
 // Replaces the model's colour model by a one-component one: `mean` on every vertex, and each σ of
 // the component adds `shift_per_sigma` to every vertex (a deliberately broken basis when the shift
 // drives the skin out of the range of real skin).
-void set_uniform_colour_model(MorphableModel& model, const Eigen::Vector3f& mean, const Eigen::Vector3f& shift_per_sigma);
+void set_uniform_colour_model(morph::MorphableModel& model, const Eigen::Vector3f& mean, const Eigen::Vector3f& shift_per_sigma);
 
 // A rough frontal iBUG-68 template in model space (x right, y up, mm; nose tip at y = 0).
 [[nodiscard]] Eigen::Matrix2Xd ibug68_frontal_template();

@@ -15,7 +15,7 @@ namespace facesynth::fit {
 namespace {
 
 TEST(Conventions, ModelsOwnLandmarksHaveNoOffsetAndAShiftedPointIsFound) {
-    const MorphableModel model = builtin_model();
+    const morph::MorphableModel model = morph::builtin_model();
     const Fitter fitter(model);
     SyntheticOptions cases;
     cases.max_yaw_deg = 20;
@@ -27,7 +27,7 @@ TEST(Conventions, ModelsOwnLandmarksHaveNoOffsetAndAShiftedPointIsFound) {
         own.push_back(c.landmarks);
         // The outer end of the right brow (iBUG 18) 0.1 inter-ocular distances lower, as if annotated so.
         Eigen::Matrix2Xd moved = c.landmarks;
-        moved(1, 17) += 0.1 * inter_ocular_distance(c.landmarks);
+        moved(1, 17) += 0.1 * morph::inter_ocular_distance(c.landmarks);
         shifted.push_back(moved);
     }
     FitOptions options;  // fixed jaw: the synthetic cases' jaw points are the model's fixed ones
@@ -57,13 +57,13 @@ TEST(Conventions, BuiltinPointsSitWhereHelenAnnotatorsPutThem) {
     std::sort(files.begin(), files.end());
     ASSERT_GT(files.size(), 800u);
     std::vector<Eigen::Matrix2Xd> annotations;
-    for (const auto& file : files) annotations.push_back(read_pts(file));
-    const MorphableModel model = builtin_model();
+    for (const auto& file : files) annotations.push_back(morph::read_pts(file));
+    const morph::MorphableModel model = morph::builtin_model();
     FitOptions options;
     options.jaw = JawMode::kContour;
     const ConventionStudy study = study_conventions(Fitter(model), annotations, options, 30);
     EXPECT_GT(study.faces, 800);
-    for (int i = 17; i < kNumIbugLandmarks; ++i)
+    for (int i = 17; i < morph::kNumIbugLandmarks; ++i)
         EXPECT_LT(study.mean.col(i).norm(), 0.06) << "iBUG point " << i + 1 << ": " << study.mean.col(i).transpose();
 }
 

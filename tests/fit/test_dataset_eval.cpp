@@ -3,7 +3,7 @@
 
 #include "common/test_data.h"
 #include "common/toy_model.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "morph/pose.h"
 
@@ -24,11 +24,11 @@ nlohmann::json points(const Eigen::Matrix2Xd& p) {
 }
 
 // A meta JSON in the synth layout (docs/synth.md) for a synthetic case of `model`.
-nlohmann::json meta_of(const MorphableModel& model, const SyntheticCase& c, int index) {
+nlohmann::json meta_of(const morph::MorphableModel& model, const SyntheticCase& c, int index) {
     nlohmann::json rotation = nlohmann::json::array();
     for (int r = 0; r < 3; ++r) rotation.push_back({c.truth.rotation(r, 0), c.truth.rotation(r, 1), c.truth.rotation(r, 2)});
     const auto& k = c.intrinsics;
-    const std::vector<int> visible(kNumIbugLandmarks, 1);
+    const std::vector<int> visible(morph::kNumIbugLandmarks, 1);
     return {{"key", "s" + std::to_string(index)}, {"index", index}, {"seed", 1}, {"model_name", model.name},
             {"model_checksum", model.checksum()}, {"alpha", c.truth.alpha}, {"psi", c.psi}, {"rotation", rotation},
             {"intrinsics", {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"width", k.width}, {"height", k.height}}},
@@ -42,7 +42,7 @@ fs::path write(const fs::path& path, const nlohmann::json& j) {
 }
 
 TEST(DatasetEval, ReadsAMetaFileAndFitsItLikeTheInMemoryCase) {
-    MorphableModel model = testkit::make_toy_model();
+    morph::MorphableModel model = testkit::make_toy_model();
     model.shape.eigenvalues *= 100.0f;
     const Fitter fitter(model);
     const auto dir = testkit::fresh_temp_dir("fit_dataset_eval");
@@ -59,14 +59,14 @@ TEST(DatasetEval, ReadsAMetaFileAndFitsItLikeTheInMemoryCase) {
     const FitMetrics direct = evaluate_fit(fitter, c.landmarks, c.truth, o.eval);
     EXPECT_NEAR(from_file.vertex_rmse_mm, direct.vertex_rmse_mm, 1e-9);
     EXPECT_NEAR(from_file.yaw_error_deg, direct.yaw_error_deg, 1e-9);
-    EXPECT_NEAR(from_file.truth.yaw, euler_from_rotation(c.truth.rotation).yaw, 1e-9);
+    EXPECT_NEAR(from_file.truth.yaw, morph::euler_from_rotation(c.truth.rotation).yaw, 1e-9);
     EXPECT_LT(from_file.vertex_rmse_mm, from_file.vertex_rmse_mm_meanshape);
 }
 
 TEST(DatasetEval, NoiseIsSeededPerSampleAndIndependentOfTheMode) {
     DatasetSample s;
     s.index = 7;
-    s.landmarks_fixed = Eigen::Matrix2Xd::Zero(2, kNumIbugLandmarks);
+    s.landmarks_fixed = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks);
     s.landmarks_contour = s.landmarks_fixed;
     DatasetEvalOptions o;
     o.noise_px = 2;
@@ -83,13 +83,13 @@ TEST(DatasetEval, NoiseIsSeededPerSampleAndIndependentOfTheMode) {
 }
 
 TEST(DatasetEval, BadMetaFilesNameTheFileAndTheKey) {
-    const MorphableModel model = testkit::make_toy_model();
+    const morph::MorphableModel model = testkit::make_toy_model();
     const auto dir = testkit::fresh_temp_dir("fit_dataset_eval_bad");
     const nlohmann::json good = meta_of(model, make_synthetic_case(model, 5, 0), 0);
     auto error_of = [&](const fs::path& path) {
         try {
             (void)read_sample_meta(path);
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             return std::string(e.what());
         }
         return std::string("no error");
@@ -110,12 +110,12 @@ TEST(DatasetEval, BadMetaFilesNameTheFileAndTheKey) {
     EXPECT_NE(e.find("truncated.json"), std::string::npos) << e;
     e = error_of(dir / "absent.json");
     EXPECT_NE(e.find("absent.json"), std::string::npos) << e;
-    EXPECT_THROW((void)read_dataset_manifest(dir), Error);  // no manifest.jsonl
+    EXPECT_THROW((void)read_dataset_manifest(dir), core::Error);  // no manifest.jsonl
     std::ofstream(dir / "manifest.jsonl") << R"({"index": 0, "key": "s0", "meta": "meta/s0.json"})" << "\nnot json\n";
     e = "no error";
     try {
         (void)read_dataset_manifest(dir);
-    } catch (const Error& x) {
+    } catch (const core::Error& x) {
         e = x.what();
     }
     EXPECT_NE(e.find("manifest.jsonl:2"), std::string::npos) << e;

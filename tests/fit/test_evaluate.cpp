@@ -11,14 +11,14 @@ namespace {
 
 // The toy model's components move a vertex by ~0.2 mm per σ; scale them to the size of a real face
 // model's (the Surrey model's first component: ~2-3 mm per σ) so identity is measurable.
-MorphableModel face_sized_toy(int components) {
-    MorphableModel m = testkit::make_toy_model({.shape_components = components});
+morph::MorphableModel face_sized_toy(int components) {
+    morph::MorphableModel m = testkit::make_toy_model({.shape_components = components});
     m.shape.eigenvalues *= 100.0f;
     return m;
 }
 
 TEST(Evaluate, RefinedFitOfExactPerspectiveLandmarksBeatsTheMeanShape) {
-    const MorphableModel m = face_sized_toy(10);
+    const morph::MorphableModel m = face_sized_toy(10);
     const Fitter fitter(m);
     double fitted = 0, mean = 0;
     for (int i = 0; i < 10; ++i) {
@@ -39,7 +39,7 @@ TEST(Evaluate, RefinedFitOfExactPerspectiveLandmarksBeatsTheMeanShape) {
 }
 
 TEST(Evaluate, MetricsOfThePerfectAnswerAreZero) {
-    const MorphableModel m = testkit::make_toy_model({.shape_components = 4});
+    const morph::MorphableModel m = testkit::make_toy_model({.shape_components = 4});
     const Fitter fitter(m);
     const SyntheticCase c = make_synthetic_case(m, 5, 0);
     FitTruth truth = c.truth;
@@ -53,7 +53,7 @@ TEST(Evaluate, MetricsOfThePerfectAnswerAreZero) {
 }
 
 TEST(Evaluate, LambdaScoresPunishOverRegularisation) {
-    const MorphableModel m = face_sized_toy(8);
+    const morph::MorphableModel m = face_sized_toy(8);
     const Fitter fitter(m);
     SyntheticOptions s;
     s.noise_px = 2.0;

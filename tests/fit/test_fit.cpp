@@ -1,9 +1,9 @@
 #include "fit/fit.h"
 
 #include "common/toy_model.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "morph/sampling.h"
 
 #include <gtest/gtest.h>
@@ -16,17 +16,17 @@ namespace {
 
 // The toy model with its 68 landmarks moved to well-spread front-facing vertices (every 7th one),
 // so that a linear identity fit is well determined by the landmarks alone.
-MorphableModel spread_landmark_model(int components) {
-    MorphableModel m = testkit::make_toy_model({.shape_components = components});
-    const auto mean = as_points(m.shape.mean);
+morph::MorphableModel spread_landmark_model(int components) {
+    morph::MorphableModel m = testkit::make_toy_model({.shape_components = components});
+    const auto mean = morph::as_points(m.shape.mean);
     std::vector<int> front;
     for (int v = 0; v < m.num_vertices(); ++v)
         if (mean(2, v) > 30) front.push_back(v);
-    for (int l = 0; l < 68; ++l) m.landmarks[static_cast<std::size_t>(l)] = SurfacePoint::at_vertex(front[static_cast<std::size_t>(l * 7 % front.size())]);
+    for (int l = 0; l < 68; ++l) m.landmarks[static_cast<std::size_t>(l)] = morph::SurfacePoint::at_vertex(front[static_cast<std::size_t>(l * 7 % front.size())]);
     return m;
 }
 
-Eigen::Matrix2Xd project_landmarks(const MorphableModel& m, const ScaledOrthographic& camera, std::span<const float> alpha,
+Eigen::Matrix2Xd project_landmarks(const morph::MorphableModel& m, const ScaledOrthographic& camera, std::span<const float> alpha,
                                    std::span<const float> psi = {}) {
     const Eigen::Matrix3Xf shape = m.shape_instance(alpha, psi);
     const AffineCamera a = camera.to_affine();
@@ -36,12 +36,12 @@ Eigen::Matrix2Xd project_landmarks(const MorphableModel& m, const ScaledOrthogra
 }
 
 TEST(LinearFit, RecoversIdentityForAKnownCameraWithVanishingRegularisation) {
-    const MorphableModel m = spread_landmark_model(10);
+    const morph::MorphableModel m = spread_landmark_model(10);
     for (int trial = 0; trial < 5; ++trial) {
-        Rng rng(20, static_cast<std::uint64_t>(trial));
-        const std::vector<float> alpha = sample_coefficients(rng, 10, 3.0);
-        const EulerAngles angles{rng.uniform(-50, 50), rng.uniform(-20, 20), rng.uniform(-20, 20)};
-        const ScaledOrthographic camera{rng.uniform(1, 4), rotation_from_euler(angles), {256, 240}, angles};
+        core::Rng rng(20, static_cast<std::uint64_t>(trial));
+        const std::vector<float> alpha = morph::sample_coefficients(rng, 10, 3.0);
+        const morph::EulerAngles angles{rng.uniform(-50, 50), rng.uniform(-20, 20), rng.uniform(-20, 20)};
+        const ScaledOrthographic camera{rng.uniform(1, 4), morph::rotation_from_euler(angles), {256, 240}, angles};
         FitOptions o;
         o.lambda = 1e-12;
         const std::vector<float> got = fit_identity_for_camera(m, camera.to_affine(), project_landmarks(m, camera, alpha), o);
@@ -50,12 +50,12 @@ TEST(LinearFit, RecoversIdentityForAKnownCameraWithVanishingRegularisation) {
 }
 
 TEST(LinearFit, AlternationFromScratchConvergesOnExactLandmarks) {
-    const MorphableModel m = spread_landmark_model(10);
+    const morph::MorphableModel m = spread_landmark_model(10);
     for (int trial = 0; trial < 3; ++trial) {
-        Rng rng(21, static_cast<std::uint64_t>(trial));
-        const std::vector<float> alpha = sample_coefficients(rng, 10, 3.0);
-        const EulerAngles angles{rng.uniform(-30, 30), rng.uniform(-15, 15), rng.uniform(-10, 10)};
-        const ScaledOrthographic camera{3.0, rotation_from_euler(angles), {256, 240}, angles};
+        core::Rng rng(21, static_cast<std::uint64_t>(trial));
+        const std::vector<float> alpha = morph::sample_coefficients(rng, 10, 3.0);
+        const morph::EulerAngles angles{rng.uniform(-30, 30), rng.uniform(-15, 15), rng.uniform(-10, 10)};
+        const ScaledOrthographic camera{3.0, morph::rotation_from_euler(angles), {256, 240}, angles};
         FitOptions o;
         o.lambda = 1e-10;
         o.fit_expression = false;
@@ -66,7 +66,7 @@ TEST(LinearFit, AlternationFromScratchConvergesOnExactLandmarks) {
         // linear shears an affine camera can partly absorb), so it gets close, not exact.
         const Eigen::Matrix3Xf truth = m.shape_instance(alpha);
         const double fitted_rmse = std::sqrt((fitted_shape(m, r) - truth).colwise().squaredNorm().mean());
-        const double mean_rmse = std::sqrt((as_points(m.shape.mean) - truth).colwise().squaredNorm().mean());
+        const double mean_rmse = std::sqrt((morph::as_points(m.shape.mean) - truth).colwise().squaredNorm().mean());
         EXPECT_LT(fitted_rmse, 0.5 * mean_rmse) << "trial " << trial;
         EXPECT_NEAR(r.pose.angles.yaw, angles.yaw, 0.5);
         EXPECT_NEAR(r.pose.angles.pitch, angles.pitch, 0.5);
@@ -76,10 +76,10 @@ TEST(LinearFit, AlternationFromScratchConvergesOnExactLandmarks) {
 }
 
 TEST(LinearFit, FirstKComponentsOnlyAndRegularisationShrinks) {
-    const MorphableModel m = spread_landmark_model(10);
-    Rng rng(2, 0);
-    const std::vector<float> alpha = sample_coefficients(rng, 10, 3.0);
-    const ScaledOrthographic camera{3.0, rotation_from_euler({10, 0, 0}), {256, 240}, {}};
+    const morph::MorphableModel m = spread_landmark_model(10);
+    core::Rng rng(2, 0);
+    const std::vector<float> alpha = morph::sample_coefficients(rng, 10, 3.0);
+    const ScaledOrthographic camera{3.0, morph::rotation_from_euler({10, 0, 0}), {256, 240}, {}};
     const Eigen::Matrix2Xd lm = project_landmarks(m, camera, alpha);
     FitOptions o;
     o.fit_expression = false;
@@ -96,11 +96,11 @@ TEST(LinearFit, FirstKComponentsOnlyAndRegularisationShrinks) {
 }
 
 TEST(ExpressionFit, RecoversNonNegativeBlendshapeWeightsAlternatingWithIdentity) {
-    const MorphableModel base = testkit::make_toy_model({.shape_components = 6});
-    Rng rng(4, 0);
-    const std::vector<float> alpha = sample_coefficients(rng, 6, 2.0);
+    const morph::MorphableModel base = testkit::make_toy_model({.shape_components = 6});
+    core::Rng rng(4, 0);
+    const std::vector<float> alpha = morph::sample_coefficients(rng, 6, 2.0);
     const std::vector<float> psi{0.6f, 0.8f};
-    const ScaledOrthographic camera{2.0, rotation_from_euler({15, 5, 0}), {200, 220}, {}};
+    const ScaledOrthographic camera{2.0, morph::rotation_from_euler({15, 5, 0}), {200, 220}, {}};
     FitOptions o;
     o.lambda = 1e-8;
     o.expression_lambda = 1e-8;
@@ -120,12 +120,12 @@ TEST(ExpressionFit, RecoversNonNegativeBlendshapeWeightsAlternatingWithIdentity)
 }
 
 TEST(Fit, SubsetsAndMaskedPointsUseOnlyWhatIsGiven) {
-    const MorphableModel m = testkit::make_toy_model({});
-    const ScaledOrthographic camera{2.0, rotation_from_euler({-20, 10, 5}), {200, 220}, {}};
+    const morph::MorphableModel m = testkit::make_toy_model({});
+    const ScaledOrthographic camera{2.0, morph::rotation_from_euler({-20, 10, 5}), {200, 220}, {}};
     Eigen::Matrix2Xd lm = project_landmarks(m, camera, {});
-    for (auto subset : {LandmarkSubset::k7, LandmarkSubset::k13, LandmarkSubset::k49, LandmarkSubset::k68}) {
+    for (auto subset : {morph::LandmarkSubset::k7, morph::LandmarkSubset::k13, morph::LandmarkSubset::k49, morph::LandmarkSubset::k68}) {
         FitOptions o;
-        const auto ids = landmark_subset(subset);
+        const auto ids = morph::landmark_subset(subset);
         o.subset.assign(ids.begin(), ids.end());
         Eigen::Matrix2Xd masked = Eigen::Matrix2Xd::Constant(2, 68, std::numeric_limits<double>::quiet_NaN());
         for (int i : o.subset) masked.col(i) = lm.col(i);
@@ -148,16 +148,16 @@ TEST(Fit, SubsetsAndMaskedPointsUseOnlyWhatIsGiven) {
 // change). Each of those paths must give the fit of a model in which the excluded points simply do
 // not exist.
 TEST(Fit, CachedNormalEquationsMatchAModelWithoutTheExcludedPoints) {
-    const MorphableModel m = spread_landmark_model(10);
-    Rng rng(7, 0);
-    const std::vector<float> alpha = sample_coefficients(rng, 10, 2.0);
-    const ScaledOrthographic camera{2.5, rotation_from_euler({25, -10, 5}), {250, 230}, {}};
+    const morph::MorphableModel m = spread_landmark_model(10);
+    core::Rng rng(7, 0);
+    const std::vector<float> alpha = morph::sample_coefficients(rng, 10, 2.0);
+    const ScaledOrthographic camera{2.5, morph::rotation_from_euler({25, -10, 5}), {250, 230}, {}};
     Eigen::Matrix2Xd lm = project_landmarks(m, camera, alpha);
     for (int i = 0; i < 68; ++i) lm.col(i) += Eigen::Vector2d(rng.normal(), rng.normal()) * 0.5;  // so weighting matters
     const auto compare = [&](const FitOptions& options, const std::vector<int>& kept, const char* what) {
-        MorphableModel reduced = m;
+        morph::MorphableModel reduced = m;
         for (int i = 0; i < 68; ++i)
-            if (std::find(kept.begin(), kept.end(), i) == kept.end()) reduced.landmarks[static_cast<std::size_t>(i)] = SurfacePoint{{}, {0.0f, 0.0f, 0.0f}};  // undefined
+            if (std::find(kept.begin(), kept.end(), i) == kept.end()) reduced.landmarks[static_cast<std::size_t>(i)] = morph::SurfacePoint{{}, {0.0f, 0.0f, 0.0f}};  // undefined
         FitOptions plain;
         plain.shape_components = options.shape_components;
         plain.lambda = options.lambda;
@@ -184,13 +184,13 @@ TEST(Fit, CachedNormalEquationsMatchAModelWithoutTheExcludedPoints) {
 }
 
 TEST(Fit, BadInputsThrowClearErrors) {
-    const MorphableModel m = testkit::make_toy_model({});
+    const morph::MorphableModel m = testkit::make_toy_model({});
     const ScaledOrthographic camera{2.0, Eigen::Matrix3d::Identity(), {200, 220}, {}};
     const Eigen::Matrix2Xd lm = project_landmarks(m, camera, {});
     auto message = [&](const Eigen::Matrix2Xd& points, const FitOptions& o) -> std::string {
         try {
             (void)fit_landmarks(m, points, o);
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             return e.what();
         }
         return "no error";

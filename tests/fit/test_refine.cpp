@@ -2,7 +2,7 @@
 
 #include "common/toy_model.h"
 #include "morph/camera.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "morph/sampling.h"
 
 #include <gtest/gtest.h>
@@ -10,21 +10,21 @@
 namespace facesynth::fit {
 namespace {
 
-Eigen::Matrix2Xd perspective_landmarks(const MorphableModel& m, const Intrinsics& k, const CameraPose& pose,
+Eigen::Matrix2Xd perspective_landmarks(const morph::MorphableModel& m, const morph::Intrinsics& k, const morph::CameraPose& pose,
                                        std::span<const float> alpha, std::span<const float> psi = {}) {
     const Eigen::Matrix3Xf shape = m.shape_instance(alpha, psi);
     return project(k, pose, m.landmark_positions(shape));
 }
 
 TEST(Refine, KnownFocalRecoversPoseUnderPerspective) {
-    const MorphableModel m = testkit::make_toy_model({.shape_components = 10});
+    const morph::MorphableModel m = testkit::make_toy_model({.shape_components = 10});
     const Fitter fitter(m);
-    const Intrinsics k = intrinsics_from_fov(30, 512, 512);
+    const morph::Intrinsics k = morph::intrinsics_from_fov(30, 512, 512);
     for (int trial = 0; trial < 5; ++trial) {
-        Rng rng(31, static_cast<std::uint64_t>(trial));
-        const std::vector<float> alpha = sample_coefficients(rng, 10, 2.0);
-        const EulerAngles angles{rng.uniform(-60, 60), rng.uniform(-20, 20), rng.uniform(-20, 20)};
-        const CameraPose pose{rotation_from_euler(angles), {rng.uniform(-20, 20), rng.uniform(-20, 20), 600}};
+        core::Rng rng(31, static_cast<std::uint64_t>(trial));
+        const std::vector<float> alpha = morph::sample_coefficients(rng, 10, 2.0);
+        const morph::EulerAngles angles{rng.uniform(-60, 60), rng.uniform(-20, 20), rng.uniform(-20, 20)};
+        const morph::CameraPose pose{morph::rotation_from_euler(angles), {rng.uniform(-20, 20), rng.uniform(-20, 20), 600}};
         const Eigen::Matrix2Xd lm = perspective_landmarks(m, k, pose, alpha);
         RefineOptions o;
         o.intrinsics = k;
@@ -43,12 +43,12 @@ TEST(Refine, KnownFocalRecoversPoseUnderPerspective) {
 }
 
 TEST(Refine, EstimatesFocalAndKeepsBlendshapesNonNegative) {
-    const MorphableModel m = testkit::make_toy_model({.shape_components = 6});
+    const morph::MorphableModel m = testkit::make_toy_model({.shape_components = 6});
     const Fitter fitter(m);
-    const Intrinsics k = intrinsics_from_fov(40, 640, 480);
+    const morph::Intrinsics k = morph::intrinsics_from_fov(40, 640, 480);
     const std::vector<float> psi{0.7f, 0.0f};
-    const EulerAngles angles{25, -10, 5};
-    const CameraPose pose{rotation_from_euler(angles), {5, 10, 500}};
+    const morph::EulerAngles angles{25, -10, 5};
+    const morph::CameraPose pose{morph::rotation_from_euler(angles), {5, 10, 500}};
     const Eigen::Matrix2Xd lm = perspective_landmarks(m, k, pose, {}, psi);
     RefineOptions o;
     o.intrinsics = k;

@@ -1,10 +1,10 @@
 // The frontalisation pipeline on synthetic renders of the built-in model, whose true texture is known.
-#include "fit/frontal/evaluate.h"
-#include "fit/frontal/frontalise.h"
-#include "fit/frontal/image_metrics.h"
+#include "frontal/evaluate.h"
+#include "frontal/frontalise.h"
+#include "frontal/image_metrics.h"
 #include "common/test_data.h"
 #include "morph/builtin.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/pose.h"
 #include "train/face_box.h"
 
@@ -27,9 +27,9 @@ namespace {
 class FrontaliseTest : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
-        model_ = std::make_unique<MorphableModel>(builtin_model());
+        model_ = std::make_unique<morph::MorphableModel>(morph::builtin_model());
         frontaliser_ = std::make_unique<Frontaliser>(*model_);
-        region_ = std::make_unique<JawContourRegion>(jaw_contour_region(*model_));
+        region_ = std::make_unique<morph::JawContourRegion>(morph::jaw_contour_region(*model_));
         face_ = std::make_unique<TexturedFace>(make_textured_face(*model_, *frontaliser_, 7, 3, kIsomapSize));
     }
     static void TearDownTestSuite() {
@@ -54,7 +54,7 @@ protected:
     static cv::Point far_cheek_texel() {
         Eigen::Vector2f uv = Eigen::Vector2f::Zero();
         for (int landmark : {45, 54}) {
-            const SurfacePoint& p = model_->landmarks[static_cast<std::size_t>(landmark)];
+            const morph::SurfacePoint& p = model_->landmarks[static_cast<std::size_t>(landmark)];
             for (std::size_t k = 0; k < 3; ++k) uv += 0.5f * p.weights[k] * model_->uv.col(p.vertices[k]);
         }
         return {static_cast<int>(uv.x() * kIsomapSize), static_cast<int>(uv.y() * kIsomapSize)};
@@ -67,14 +67,14 @@ protected:
     }
 
     static constexpr int kIsomapSize = 256;
-    static std::unique_ptr<MorphableModel> model_;
+    static std::unique_ptr<morph::MorphableModel> model_;
     static std::unique_ptr<Frontaliser> frontaliser_;
-    static std::unique_ptr<JawContourRegion> region_;
+    static std::unique_ptr<morph::JawContourRegion> region_;
     static std::unique_ptr<TexturedFace> face_;
 };
-std::unique_ptr<MorphableModel> FrontaliseTest::model_;
+std::unique_ptr<morph::MorphableModel> FrontaliseTest::model_;
 std::unique_ptr<Frontaliser> FrontaliseTest::frontaliser_;
-std::unique_ptr<JawContourRegion> FrontaliseTest::region_;
+std::unique_ptr<morph::JawContourRegion> FrontaliseTest::region_;
 std::unique_ptr<TexturedFace> FrontaliseTest::face_;
 
 TEST_F(FrontaliseTest, IsomapOfAFrontalRenderMatchesTheKnownTexture) {
@@ -137,11 +137,11 @@ TEST_F(FrontaliseTest, FarCheekIsOccludedAtYaw60AndMirrorFillRestoresIt) {
 // The isomap as first written (docs/frontalise.md, before the speed work): a full render (colour, ids,
 // normals, depth) as the z-buffer pass, and every texel interpolated straight from the vertices in
 // row-major order. extract_isomap must give the same texels.
-cv::Mat reference_isomap(const cv::Mat& bgr, const MorphableModel& model, const Eigen::Matrix3Xf& vertices, const ImageCamera& camera,
+cv::Mat reference_isomap(const cv::Mat& bgr, const morph::MorphableModel& model, const Eigen::Matrix3Xf& vertices, const ImageCamera& camera,
                          const UvRaster& raster, render::Renderer& renderer, const IsomapOptions& options) {
-    const Eigen::Matrix3Xf normals = vertex_normals(vertices, model.triangles);
+    const Eigen::Matrix3Xf normals = morph::vertex_normals(vertices, model.triangles);
     const Eigen::Matrix3f rotation = camera.pose.rotation.cast<float>();
-    const Eigen::Matrix3Xf camera_xyz = model_to_camera_flip().cast<float>() * rotation * vertices;
+    const Eigen::Matrix3Xf camera_xyz = morph::model_to_camera_flip().cast<float>() * rotation * vertices;
     const Eigen::Matrix2Xf image_xy = (camera.affine.matrix.topLeftCorner<2, 3>().cast<float>() * vertices).colwise() +
                                       camera.affine.matrix.block<2, 1>(0, 3).cast<float>();
     const Eigen::Matrix3Xf view_normals = rotation * normals;
@@ -162,7 +162,7 @@ cv::Mat reference_isomap(const cv::Mat& bgr, const MorphableModel& model, const 
     render::RenderSettings settings;
     settings.msaa_samples = 0;
     settings.geometry = true;
-    Mesh mesh;
+    morph::Mesh mesh;
     mesh.vertices = vertices;
     mesh.triangles = model.triangles;
     const cv::Mat depth = renderer.render(mesh, depth_camera, settings).depth.clone();
@@ -310,14 +310,14 @@ TEST_F(FrontaliseTest, FramingIsTheSameForEveryFace) {
 }
 
 TEST_F(FrontaliseTest, MirrorFillWithoutASymmetryMapSaysSo) {
-    MorphableModel asymmetric = *model_;
+    morph::MorphableModel asymmetric = *model_;
     asymmetric.symmetry.clear();
     Frontaliser frontaliser(asymmetric);
     cv::Mat isomap(64, 64, CV_8UC4, cv::Scalar::all(0));
     try {
         (void)frontaliser.mirror_fill(isomap);
         FAIL() << "expected an error";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find("symmetry"), std::string::npos) << e.what();
     }
 }
@@ -325,7 +325,7 @@ TEST_F(FrontaliseTest, MirrorFillWithoutASymmetryMapSaysSo) {
 TEST_F(FrontaliseTest, PartialSymmetryMapIsCompletedLikeSurreys) {
     // Keep each pair one way only, and drop both directions for every third pair: the involution and the
     // nearest mirrored vertex must give back the built-in model's exact map.
-    MorphableModel partial = *model_;
+    morph::MorphableModel partial = *model_;
     int dropped = 0;
     for (int v = 0; v < partial.num_vertices(); ++v) {
         const int m = model_->symmetry[static_cast<std::size_t>(v)];
@@ -357,23 +357,23 @@ TEST_F(FrontaliseTest, ViewWithContextHasTheStandardViewAsItsCentre) {
     cv::minMaxLoc(difference.reshape(1), nullptr, &largest);
     EXPECT_LE(largest, 2) << "the centre of the wide view is the standard view";
     EXPECT_LT((b.landmarks.array() - offset - a.landmarks.array()).abs().maxCoeff(), 1e-6);
-    EXPECT_THROW((void)with_context(standard, 1.2), Error);
+    EXPECT_THROW((void)with_context(standard, 1.2), core::Error);
 }
 
 // The isomap's visibility pass rasterises on the CPU; the renderer's depth-only pass is the reference.
 // Coverage may differ only at pixel centres within rounding of the outline, depth only by rounding.
 TEST_F(FrontaliseTest, CpuZBufferAgreesWithTheRenderersDepthPass) {
     for (double yaw : {0.0, -35.0, 60.0, 80.0}) {
-        const EulerAngles angles{yaw, 12, -7};
+        const morph::EulerAngles angles{yaw, 12, -7};
         render::Camera camera;
         camera.projection = render::Projection::kOrthographic;
-        camera.pose.rotation = rotation_from_euler(angles);
+        camera.pose.rotation = morph::rotation_from_euler(angles);
         camera.pose.translation = Eigen::Vector3d(0, 0, 1000);
         camera.intrinsics = {1.3, 1.3, 120.25, 131.5, 240, 260};
         render::RenderSettings settings;
         settings.depth_only = true;
         const cv::Mat want = frontaliser_->renderer().render(face_->mesh, camera, settings).depth.clone();
-        const Eigen::Matrix3Xf camera_xyz = (model_to_camera_flip() * camera.pose.rotation).cast<float>() * face_->mesh.vertices;
+        const Eigen::Matrix3Xf camera_xyz = (morph::model_to_camera_flip() * camera.pose.rotation).cast<float>() * face_->mesh.vertices;
         const Eigen::Matrix2Xf pixels = (1.3f * camera_xyz.topRows<2>()).colwise() + Eigen::Vector2f(120.25f, 131.5f);
         const Eigen::RowVectorXf z = camera_xyz.row(2).array() + 1000.0f;
         const cv::Mat got = orthographic_zbuffer(pixels, std::span(z.data(), static_cast<std::size_t>(z.size())), model_->triangles, 240, 260);
@@ -388,7 +388,7 @@ TEST_F(FrontaliseTest, CpuZBufferAgreesWithTheRenderersDepthPass) {
         EXPECT_LE(coverage_differs, covered / 1000) << "yaw " << yaw;
         EXPECT_LT(largest, 0.1) << "yaw " << yaw;
     }
-    EXPECT_THROW((void)orthographic_zbuffer(Eigen::Matrix2Xf::Zero(2, 3), std::vector<float>(2, 0.0f), model_->triangles, 8, 8), Error);
+    EXPECT_THROW((void)orthographic_zbuffer(Eigen::Matrix2Xf::Zero(2, 3), std::vector<float>(2, 0.0f), model_->triangles, 8, 8), core::Error);
 }
 
 TEST(ImageMetrics, IdenticalImagesAreAPerfectMatchAndNoiseLowersEveryScore) {
@@ -406,7 +406,7 @@ TEST(ImageMetrics, IdenticalImagesAreAPerfectMatchAndNoiseLowersEveryScore) {
     EXPECT_GT(noisy.l1, 1);
     EXPECT_LT(noisy.psnr_db, 40);
     EXPECT_LT(noisy.ssim, 0.99);
-    EXPECT_THROW((void)compare_images(a, b, cv::Mat(64, 64, CV_8UC1, cv::Scalar(0))), Error);
+    EXPECT_THROW((void)compare_images(a, b, cv::Mat(64, 64, CV_8UC1, cv::Scalar(0))), core::Error);
 }
 
 }  // namespace

@@ -1,8 +1,8 @@
 // Textures for synth's texture bank taken from renders of the built-in model, whose albedo is known.
-#include "fit/frontal/evaluate.h"
-#include "fit/frontal/photo_texture.h"
+#include "frontal/evaluate.h"
+#include "frontal/photo_texture.h"
 #include "morph/builtin.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/regions.h"
 
 #include <gtest/gtest.h>
@@ -22,7 +22,7 @@ constexpr int kTextureSize = 256;
 class PhotoTextureTest : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
-        model_ = std::make_unique<MorphableModel>(builtin_model());
+        model_ = std::make_unique<morph::MorphableModel>(morph::builtin_model());
         frontaliser_ = std::make_unique<Frontaliser>(*model_);
         face_ = std::make_unique<TexturedFace>(make_textured_face(*model_, *frontaliser_, 11, 2, kTextureSize));
     }
@@ -46,8 +46,8 @@ protected:
         const UvRaster& raster = frontaliser_->uv_raster(kTextureSize);
         cv::Mat mask(kTextureSize, kTextureSize, CV_8UC1, cv::Scalar(0));
         for (const UvRaster::TriangleTexels& tri : raster.triangles) {
-            const auto region = static_cast<Region>(model_->vertex_labels[static_cast<std::size_t>(tri.vertices[0])]);
-            if (region != Region::kSkin && region != Region::kNose && region != Region::kLips) continue;
+            const auto region = static_cast<morph::Region>(model_->vertex_labels[static_cast<std::size_t>(tri.vertices[0])]);
+            if (region != morph::Region::kSkin && region != morph::Region::kNose && region != morph::Region::kLips) continue;
             for (int k = tri.first; k < tri.first + tri.count; ++k) {
                 const int index = raster.texels[static_cast<std::size_t>(k)].index;
                 if (f.isomap.ptr<cv::Vec4b>()[index][3] >= 128) mask.ptr<uchar>()[index] = 255;
@@ -66,7 +66,7 @@ protected:
                 if (mask.at<uchar>(r, c) == 0) continue;
                 const cv::Vec3b t = texture_rgb.at<cv::Vec3b>(r, c);
                 const cv::Vec3b d = face_->true_isomap.at<cv::Vec3b>(r, c);  // B G R display values
-                texture.push_back({srgb_decode(t[0] / 255.0), srgb_decode(t[1] / 255.0), srgb_decode(t[2] / 255.0)});
+                texture.push_back({core::srgb_decode(t[0] / 255.0), core::srgb_decode(t[1] / 255.0), core::srgb_decode(t[2] / 255.0)});
                 truth.push_back({std::pow(d[2] / 255.0, 2.2), std::pow(d[1] / 255.0, 2.2), std::pow(d[0] / 255.0, 2.2)});
             }
         std::array<double, 3> gain{};
@@ -90,11 +90,11 @@ protected:
         return o;
     }
 
-    static std::unique_ptr<MorphableModel> model_;
+    static std::unique_ptr<morph::MorphableModel> model_;
     static std::unique_ptr<Frontaliser> frontaliser_;
     static std::unique_ptr<TexturedFace> face_;
 };
-std::unique_ptr<MorphableModel> PhotoTextureTest::model_;
+std::unique_ptr<morph::MorphableModel> PhotoTextureTest::model_;
 std::unique_ptr<Frontaliser> PhotoTextureTest::frontaliser_;
 std::unique_ptr<TexturedFace> PhotoTextureTest::face_;
 
@@ -162,7 +162,7 @@ TEST_F(PhotoTextureTest, UnusablePhotographsAreRejectedWithTheReason) {
     const Eigen::Matrix2Xd collapsed = Eigen::Matrix2Xd::Constant(2, 68, 100.0);
     const PhotoTexture degenerate = extract_photo_texture(*frontaliser_, v.image, collapsed, options(true));
     EXPECT_FALSE(degenerate.rejection.empty());
-    EXPECT_THROW((void)extract_photo_texture(*frontaliser_, v.image, Eigen::Matrix2Xd::Zero(2, 5), options(true)), Error);
+    EXPECT_THROW((void)extract_photo_texture(*frontaliser_, v.image, Eigen::Matrix2Xd::Zero(2, 5), options(true)), core::Error);
 }
 
 TEST(PushPullFill, HolesTakeTheirNeighboursColourAndKnownTexelsStay) {
@@ -176,7 +176,7 @@ TEST(PushPullFill, HolesTakeTheirNeighboursColourAndKnownTexelsStay) {
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(far[c], 0.2f * static_cast<float>(c + 1), 1e-4);
     cv::Mat empty_weight(8, 8, CV_32FC1, cv::Scalar(0));
     cv::Mat empty_colour(8, 8, CV_32FC3, cv::Scalar::all(0));
-    EXPECT_THROW(push_pull_fill(empty_colour, empty_weight), Error);
+    EXPECT_THROW(push_pull_fill(empty_colour, empty_weight), core::Error);
 }
 
 // 68 distinct points on a face-sized layout (eye corners 37 and 46 at 80 px).

@@ -1,7 +1,7 @@
 // Basel Face Model 2017 reader: no real file exists here, so each test writes a small model in the
 // statismo layout with the HDF5 library and reads it back.
 #include "morph/bfm_io.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/model_io.h"
 
 #include "common/model_files.h"
@@ -20,14 +20,14 @@ using namespace facesynth::testkit;
 
 namespace {
 
-MorphableModel toy_bfm() {
+morph::MorphableModel toy_bfm() {
     testkit::ToyModelOptions o;
     o.shape_components = 6;
     o.latitude_steps = 10;
     o.longitude_steps = 12;
-    MorphableModel m = testkit::make_toy_model(o);
+    morph::MorphableModel m = testkit::make_toy_model(o);
     // An expression PCA: orthonormal directions from a QR of smooth random offsets.
-    PcaModel expression;
+    morph::PcaModel expression;
     expression.mean = Eigen::VectorXf::Constant(m.shape.mean.size(), 0.5f);
     const Eigen::MatrixXf raw = Eigen::MatrixXf::Random(m.shape.mean.size(), 3);
     expression.basis = Eigen::HouseholderQR<Eigen::MatrixXf>(raw).householderQ() * Eigen::MatrixXf::Identity(raw.rows(), 3);
@@ -40,7 +40,7 @@ void expect_error_naming(const std::function<void()>& call, const std::filesyste
     try {
         call();
         ADD_FAILURE() << "no error: " << what;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find(path.filename().string()), std::string::npos) << what << ": " << e.what();
     }
 }
@@ -49,9 +49,9 @@ void expect_error_naming(const std::function<void()>& call, const std::filesyste
 
 TEST(BfmIo, ReadsTheStatismoLayoutBack) {
     const auto dir = testkit::fresh_temp_dir("bfm_round_trip");
-    const MorphableModel m = toy_bfm();
+    const morph::MorphableModel m = toy_bfm();
     write_statismo(dir / "model2017.h5", m);
-    const MorphableModel back = read_bfm2017(dir / "model2017.h5");
+    const morph::MorphableModel back = morph::read_bfm2017(dir / "model2017.h5");
     EXPECT_EQ(back.num_vertices(), m.num_vertices());
     EXPECT_EQ(back.shape.mean, m.shape.mean);
     EXPECT_EQ(back.shape.basis, m.shape.basis);
@@ -61,49 +61,49 @@ TEST(BfmIo, ReadsTheStatismoLayoutBack) {
     EXPECT_EQ(back.albedo->mean, m.albedo->mean);
     EXPECT_EQ(back.albedo->basis, m.albedo->basis);
     ASSERT_TRUE(back.expression.has_value());
-    const auto& expression = std::get<PcaModel>(*back.expression);
-    EXPECT_EQ(expression.basis, std::get<PcaModel>(*m.expression).basis);
-    EXPECT_EQ(expression.eigenvalues, std::get<PcaModel>(*m.expression).eigenvalues);
+    const auto& expression = std::get<morph::PcaModel>(*back.expression);
+    EXPECT_EQ(expression.basis, std::get<morph::PcaModel>(*m.expression).basis);
+    EXPECT_EQ(expression.eigenvalues, std::get<morph::PcaModel>(*m.expression).eigenvalues);
     // load_model picks the reader by extension, and by the HDF5 signature.
-    EXPECT_EQ(load_model((dir / "model2017.h5").string()).checksum(), back.checksum());
+    EXPECT_EQ(morph::load_model((dir / "model2017.h5").string()).checksum(), back.checksum());
     std::filesystem::copy_file(dir / "model2017.h5", dir / "renamed.data");
-    EXPECT_EQ(load_model((dir / "renamed.data").string()).num_vertices(), m.num_vertices());
+    EXPECT_EQ(morph::load_model((dir / "renamed.data").string()).num_vertices(), m.num_vertices());
 }
 
 TEST(BfmIo, ShapeOnlyModel) {
     const auto dir = testkit::fresh_temp_dir("bfm_shape_only");
-    MorphableModel m = toy_bfm();
+    morph::MorphableModel m = toy_bfm();
     m.albedo.reset();
     m.expression.reset();
     write_statismo(dir / "shape.h5", m);
-    const MorphableModel back = read_bfm2017(dir / "shape.h5");
+    const morph::MorphableModel back = morph::read_bfm2017(dir / "shape.h5");
     EXPECT_FALSE(back.albedo.has_value());
     EXPECT_FALSE(back.expression.has_value());
 }
 
 TEST(BfmIo, MicrometreModelIsConvertedToMillimetres) {
     const auto dir = testkit::fresh_temp_dir("bfm_units");
-    MorphableModel m = toy_bfm();
-    MorphableModel micrometres = m;
-    scale_model_lengths(micrometres, 1000.0);
+    morph::MorphableModel m = toy_bfm();
+    morph::MorphableModel micrometres = m;
+    morph::scale_model_lengths(micrometres, 1000.0);
     write_statismo(dir / "um.h5", micrometres);
-    const MorphableModel back = read_bfm2017(dir / "um.h5");
+    const morph::MorphableModel back = morph::read_bfm2017(dir / "um.h5");
     EXPECT_TRUE(back.shape.mean.isApprox(m.shape.mean, 1e-5f));
     EXPECT_TRUE(back.shape.eigenvalues.isApprox(m.shape.eigenvalues, 1e-4f));
-    EXPECT_TRUE(std::get<PcaModel>(*back.expression).mean.isApprox(std::get<PcaModel>(*m.expression).mean, 1e-5f));
+    EXPECT_TRUE(std::get<morph::PcaModel>(*back.expression).mean.isApprox(std::get<morph::PcaModel>(*m.expression).mean, 1e-5f));
     EXPECT_TRUE(back.albedo->mean.isApprox(m.albedo->mean));  // colours have no units
 
-    EXPECT_DOUBLE_EQ(unit_scale_to_mm(m.shape.mean, "x"), 1.0);
-    EXPECT_DOUBLE_EQ(unit_scale_to_mm(Eigen::VectorXf(m.shape.mean * 1e-3f), "x"), 1000.0);
-    EXPECT_THROW((void)unit_scale_to_mm(Eigen::VectorXf(m.shape.mean * 1e-6f), "x"), Error);
+    EXPECT_DOUBLE_EQ(morph::unit_scale_to_mm(m.shape.mean, "x"), 1.0);
+    EXPECT_DOUBLE_EQ(morph::unit_scale_to_mm(Eigen::VectorXf(m.shape.mean * 1e-3f), "x"), 1000.0);
+    EXPECT_THROW((void)morph::unit_scale_to_mm(Eigen::VectorXf(m.shape.mean * 1e-6f), "x"), core::Error);
 }
 
 TEST(BfmIo, BadFilesFailWithTheFileName) {
     const auto dir = testkit::fresh_temp_dir("bfm_bad");
-    const MorphableModel m = toy_bfm();
+    const morph::MorphableModel m = toy_bfm();
     const auto path = dir / "bad.h5";
     const auto expect_bad = [&](const std::string& what) {
-        expect_error_naming([&] { (void)read_bfm2017(path); }, path, what);
+        expect_error_naming([&] { (void)morph::read_bfm2017(path); }, path, what);
     };
     { std::ofstream(path, std::ios::trunc); }
     expect_bad("empty");
@@ -156,9 +156,9 @@ void expect_refused_without_open_handles(const std::filesystem::path& path) {
     ASSERT_TRUE(std::filesystem::exists(path)) << path;
     const ssize_t open_before = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL);
     try {
-        (void)read_bfm2017(path);
+        (void)morph::read_bfm2017(path);
         ADD_FAILURE() << "accepted " << path;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
     }
     EXPECT_EQ(H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL), open_before) << path;
@@ -170,8 +170,8 @@ TEST(BfmIo, FuzzFindingsAreRefusedWithoutOpenHdf5Handles) {
     const std::filesystem::path crashing = testkit::test_files_dir() / "fuzz_regressions/bfm-hdf5-segv-local-heap-14948c8b.h5";
     expect_refused_without_open_handles(crashing);
     try {
-        (void)read_bfm2017(crashing);
-    } catch (const Error& e) {
+        (void)morph::read_bfm2017(crashing);
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find("the HDF5 library crashed reading it"), std::string::npos) << e.what();
     }
 }

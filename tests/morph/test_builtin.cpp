@@ -16,18 +16,18 @@ namespace {
 // The model takes a moment to build; the suite builds it once.
 class BuiltinModel : public ::testing::Test {
 protected:
-    static void SetUpTestSuite() { model_ = new MorphableModel(builtin_model()); }
+    static void SetUpTestSuite() { model_ = new morph::MorphableModel(morph::builtin_model()); }
     static void TearDownTestSuite() {
         delete model_;
         model_ = nullptr;
     }
-    static const MorphableModel& model() { return *model_; }
+    static const morph::MorphableModel& model() { return *model_; }
     static Eigen::Matrix3Xf mean_landmarks() { return model().landmark_positions(model().shape_instance({})); }
     // 1-based iBUG ids, as a person reads them.
     static double distance(const Eigen::Matrix3Xf& l, int a, int b) { return (l.col(a - 1) - l.col(b - 1)).norm(); }
     static Eigen::Vector3f point(const Eigen::Matrix3Xf& l, int id) { return l.col(id - 1); }
     static int blendshape_index(const std::string& name) {
-        const auto& shapes = std::get<std::vector<Blendshape>>(*model().expression);
+        const auto& shapes = std::get<std::vector<morph::Blendshape>>(*model().expression);
         for (std::size_t i = 0; i < shapes.size(); ++i)
             if (shapes[i].name == name) return static_cast<int>(i);
         return -1;
@@ -39,7 +39,7 @@ protected:
     }
 
 private:
-    static inline MorphableModel* model_ = nullptr;
+    static inline morph::MorphableModel* model_ = nullptr;
 };
 
 TEST_F(BuiltinModel, SizesAndValidity) {
@@ -47,7 +47,7 @@ TEST_F(BuiltinModel, SizesAndValidity) {
     EXPECT_NO_THROW(m.validate("builtin"));
     EXPECT_GE(m.num_vertices(), 3000);
     EXPECT_LE(m.num_vertices(), 8000);
-    EXPECT_EQ(m.num_vertices(), kBuiltinColumns * kBuiltinRows);
+    EXPECT_EQ(m.num_vertices(), morph::kBuiltinColumns * morph::kBuiltinRows);
     EXPECT_GE(m.num_shape_components(), 30);
     EXPECT_GE(m.num_albedo_components(), 10);
     EXPECT_EQ(m.landmarks.size(), 68u);
@@ -62,7 +62,7 @@ TEST_F(BuiltinModel, SizesAndValidity) {
 }
 
 TEST_F(BuiltinModel, DeterministicAcrossCalls) {
-    EXPECT_EQ(builtin_model().checksum(), model().checksum());
+    EXPECT_EQ(morph::builtin_model().checksum(), model().checksum());
 }
 
 TEST_F(BuiltinModel, UvLayoutPutsTheMidlineAtHalfAndTheSubjectsRightBelow) {
@@ -83,7 +83,7 @@ TEST_F(BuiltinModel, UvLayoutPutsTheMidlineAtHalfAndTheSubjectsRightBelow) {
 TEST_F(BuiltinModel, NormalsPointOutward) {
     const auto& m = model();
     const Eigen::Matrix3Xf v = m.shape_instance({});
-    const Eigen::Matrix3Xf n = vertex_normals(v, m.triangles);
+    const Eigen::Matrix3Xf n = morph::vertex_normals(v, m.triangles);
     // Outward: away from the vertical axis through the head (the face is star-shaped around it).
     int outward = 0, counted = 0;
     for (int i = 0; i < m.num_vertices(); ++i) {
@@ -100,8 +100,8 @@ TEST_F(BuiltinModel, NormalsPointOutward) {
 }
 
 // Area (mm²) of triangles that face against their corners' normals: folds in the surface.
-double folded_area(const Eigen::Matrix3Xf& v, const std::vector<Triangle>& triangles) {
-    const Eigen::Matrix3Xf n = vertex_normals(v, triangles);
+double folded_area(const Eigen::Matrix3Xf& v, const std::vector<morph::Triangle>& triangles) {
+    const Eigen::Matrix3Xf n = morph::vertex_normals(v, triangles);
     double area = 0;
     for (const auto& t : triangles) {
         const Eigen::Vector3f face = (v.col(t[1]) - v.col(t[0])).cross(v.col(t[2]) - v.col(t[0]));
@@ -150,8 +150,8 @@ TEST_F(BuiltinModel, SymmetryMapIsAnInvolutionMirroringX) {
 
 TEST_F(BuiltinModel, MirrorLandmarkPairsMirrorAcrossTheMidline) {
     const Eigen::Matrix3Xf l = mean_landmarks();
-    const auto mirror = ibug_mirror_pairs();
-    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+    const auto mirror = morph::ibug_mirror_pairs();
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         const int j = mirror[static_cast<std::size_t>(i)];
         EXPECT_NEAR(l(0, i), -l(0, j), 0.05f) << "iBUG " << i + 1;
         EXPECT_NEAR(l(1, i), l(1, j), 0.05f) << "iBUG " << i + 1;
@@ -163,9 +163,9 @@ TEST_F(BuiltinModel, LandmarksSitOnTheFrontOfTheFaceInAnatomicalOrder) {
     const Eigen::Matrix3Xf l = mean_landmarks();
     const Eigen::Matrix3Xf v = model().shape_instance({});
     const float half_width = 0.5f * (v.row(0).maxCoeff() - v.row(0).minCoeff());
-    for (int i = 0; i < kNumIbugLandmarks; ++i) {
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         EXPECT_LT(std::abs(l(0, i)), half_width) << "iBUG " << i + 1;
-        EXPECT_GT(l(2, i), i < kNumJawLandmarks ? -10.0f : 40.0f) << "iBUG " << i + 1;  // interior points well in front
+        EXPECT_GT(l(2, i), i < morph::kNumJawLandmarks ? -10.0f : 40.0f) << "iBUG " << i + 1;  // interior points well in front
     }
     // Subject's right is the viewer's left (-x).
     for (int id : {1, 4, 8, 18, 22, 32, 37, 40, 49, 61}) EXPECT_LT(point(l, id).x(), -1.0f) << "iBUG " << id;
@@ -180,7 +180,7 @@ TEST_F(BuiltinModel, LandmarksSitOnTheFrontOfTheFaceInAnatomicalOrder) {
     EXPECT_GT(point(l, 67).y(), point(l, 58).y());
     EXPECT_GT(point(l, 58).y(), point(l, 9).y());
     // The nose tip is the most prominent landmark.
-    for (int i = 0; i < kNumIbugLandmarks; ++i) EXPECT_LE(l(2, i), point(l, 31).z() + 1e-3f) << "iBUG " << i + 1;
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) EXPECT_LE(l(2, i), point(l, 31).z() + 1e-3f) << "iBUG " << i + 1;
     // The jaw outline descends monotonically from point 1 to the chin.
     for (int id = 2; id <= 9; ++id) EXPECT_LT(point(l, id).y(), point(l, id - 1).y()) << "iBUG " << id;
 }
@@ -203,7 +203,7 @@ TEST_F(BuiltinModel, MeanFaceMatchesAnthropometricNorms) {
 }
 
 TEST_F(BuiltinModel, BasesAreOrthonormalWithDescendingVariances) {
-    for (const PcaModel* pca : {&model().shape, &*model().albedo}) {
+    for (const morph::PcaModel* pca : {&model().shape, &*model().albedo}) {
         const Eigen::MatrixXf gram = pca->basis.transpose() * pca->basis;
         EXPECT_LT((gram - Eigen::MatrixXf::Identity(gram.rows(), gram.cols())).cwiseAbs().maxCoeff(), 1e-3f);
         for (int i = 1; i < pca->num_components(); ++i) EXPECT_LE(pca->eigenvalues[i], pca->eigenvalues[i - 1]);
@@ -280,36 +280,36 @@ TEST_F(BuiltinModel, RegionLabelsFollowTheFeaturesAndMirror) {
     ASSERT_EQ(static_cast<int>(labels.size()), m.num_vertices());
     std::set<int> present(labels.begin(), labels.end());
     // Every face region; clothing is synth's head parts', never a model's.
-    for (int r = 1; r < kNumRegions; ++r)
-        if (static_cast<Region>(r) != Region::kClothing) EXPECT_TRUE(present.count(r)) << region_name(static_cast<Region>(r));
-    EXPECT_FALSE(present.count(static_cast<int>(Region::kClothing)));
+    for (int r = 1; r < morph::kNumRegions; ++r)
+        if (static_cast<morph::Region>(r) != morph::Region::kClothing) EXPECT_TRUE(present.count(r)) << morph::region_name(static_cast<morph::Region>(r));
+    EXPECT_FALSE(present.count(static_cast<int>(morph::Region::kClothing)));
     EXPECT_FALSE(present.count(0));  // no vertex is background
     for (int v = 0; v < m.num_vertices(); ++v)
         ASSERT_EQ(labels[static_cast<std::size_t>(v)], labels[static_cast<std::size_t>(m.symmetry[static_cast<std::size_t>(v)])]) << v;
     // The region under each landmark's dominant vertex (1-based iBUG ids).
     const auto label_at = [&](int id) {
-        const SurfacePoint& p = m.landmarks[static_cast<std::size_t>(id - 1)];
+        const morph::SurfacePoint& p = m.landmarks[static_cast<std::size_t>(id - 1)];
         int best = 0;
         for (int k = 1; k < 3; ++k)
             if (p.weights[static_cast<std::size_t>(k)] > p.weights[static_cast<std::size_t>(best)]) best = k;
-        return static_cast<Region>(labels[static_cast<std::size_t>(p.vertices[static_cast<std::size_t>(best)])]);
+        return static_cast<morph::Region>(labels[static_cast<std::size_t>(p.vertices[static_cast<std::size_t>(best)])]);
     };
-    for (int id : {20, 25}) EXPECT_EQ(label_at(id), Region::kBrows) << id;
-    for (int id : {30, 31}) EXPECT_EQ(label_at(id), Region::kNose) << id;
-    for (int id : {38, 39, 44, 45}) EXPECT_EQ(label_at(id), Region::kEyes) << id;
+    for (int id : {20, 25}) EXPECT_EQ(label_at(id), morph::Region::kBrows) << id;
+    for (int id : {30, 31}) EXPECT_EQ(label_at(id), morph::Region::kNose) << id;
+    for (int id : {38, 39, 44, 45}) EXPECT_EQ(label_at(id), morph::Region::kEyes) << id;
     // Lip landmarks lie on the vermilion border: one of their vertices is lips.
     for (int id = 49; id <= 60; ++id) {
-        const SurfacePoint& p = m.landmarks[static_cast<std::size_t>(id - 1)];
+        const morph::SurfacePoint& p = m.landmarks[static_cast<std::size_t>(id - 1)];
         bool lips = false;
         for (int k = 0; k < 3; ++k)
             lips = lips || (p.weights[static_cast<std::size_t>(k)] > 0 &&
-                            labels[static_cast<std::size_t>(p.vertices[static_cast<std::size_t>(k)])] == static_cast<std::uint8_t>(Region::kLips));
+                            labels[static_cast<std::size_t>(p.vertices[static_cast<std::size_t>(k)])] == static_cast<std::uint8_t>(morph::Region::kLips));
         EXPECT_TRUE(lips) << id;
     }
-    for (int id : {5, 9, 13}) EXPECT_EQ(label_at(id), Region::kSkin) << id;
+    for (int id : {5, 9, 13}) EXPECT_EQ(label_at(id), morph::Region::kSkin) << id;
     // Hair on the crown, ears at the sides behind the jaw, neck under the chin.
-    EXPECT_EQ(static_cast<Region>(labels[0]), Region::kHair);
-    EXPECT_EQ(static_cast<Region>(labels[static_cast<std::size_t>(m.num_vertices() - 1 - kBuiltinColumns / 2)]), Region::kNeck);
+    EXPECT_EQ(static_cast<morph::Region>(labels[0]), morph::Region::kHair);
+    EXPECT_EQ(static_cast<morph::Region>(labels[static_cast<std::size_t>(m.num_vertices() - 1 - morph::kBuiltinColumns / 2)]), morph::Region::kNeck);
 }
 
 TEST_F(BuiltinModel, ContourChainsRunDownTheOutlineAndMirror) {

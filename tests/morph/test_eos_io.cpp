@@ -1,8 +1,8 @@
 // eos file readers: the Surrey model as shipped, synthetic files of every model version, and the
-// bad-file matrix (each must throw facesynth::Error naming the file, never crash).
-#include "morph/byte_io.h"
+// bad-file matrix (each must throw core::Error naming the file, never crash).
+#include "core/byte_io.h"
 #include "morph/eos_io.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
 
@@ -19,12 +19,12 @@ using facesynth::testkit::write_bytes;
 
 namespace {
 
-// Expects facesynth::Error whose message names `path`.
+// Expects core::Error whose message names `path`.
 void expect_file_error(const std::function<void()>& call, const std::filesystem::path& path) {
     try {
         call();
         ADD_FAILURE() << "no error for " << path;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find(path.filename().string()), std::string::npos) << e.what();
     }
 }
@@ -43,8 +43,8 @@ testkit::ToyModelOptions small_toy() {
 
 TEST(EosIo, SurreyModelCountsAndKnownValues) {
     FACESYNTH_REQUIRE_SHARED_DATA(path, "sfm/sfm_shape_3448.bin");
-    const EosModelFile file = read_eos_model(path);
-    const MorphableModel& m = file.model;
+    const morph::EosModelFile file = morph::read_eos_model(path);
+    const morph::MorphableModel& m = file.model;
     EXPECT_EQ(file.version, 1);
     EXPECT_EQ(m.num_vertices(), 3448);
     EXPECT_EQ(m.num_shape_components(), 63);
@@ -69,30 +69,30 @@ TEST(EosIo, SurreyModelCountsAndKnownValues) {
 
 TEST(EosIo, SurreyBlendshapes) {
     FACESYNTH_REQUIRE_SHARED_DATA(path, "sfm/expression_blendshapes_3448.bin");
-    const auto shapes = read_eos_blendshapes(path, 3 * 3448);
+    const auto shapes = morph::read_eos_blendshapes(path, 3 * 3448);
     ASSERT_EQ(shapes.size(), 6u);
     const char* names[] = {"anger", "disgust", "fear", "happiness", "sadness", "surprise"};
     for (std::size_t i = 0; i < 6; ++i) {
         EXPECT_EQ(shapes[i].name, names[i]);
         EXPECT_GT(shapes[i].offsets.cwiseAbs().maxCoeff(), 1.0f) << names[i];  // mm-sized deformations
     }
-    EXPECT_THROW((void)read_eos_blendshapes(path, 3 * 100), Error);
+    EXPECT_THROW((void)morph::read_eos_blendshapes(path, 3 * 100), core::Error);
 }
 
 TEST(EosIo, SurreySideFiles) {
     FACESYNTH_REQUIRE_SHARED_DATA(dir, "sfm");
-    const LandmarkMapping mapping = read_landmark_mapping(dir / "ibug_to_sfm.txt");
+    const morph::LandmarkMapping mapping = morph::read_landmark_mapping(dir / "ibug_to_sfm.txt");
     EXPECT_EQ(mapping.size(), 50u);
     EXPECT_EQ(mapping.at(31), 114);
     EXPECT_EQ(mapping.at(9), 33);
     EXPECT_FALSE(mapping.contains(1));
     EXPECT_FALSE(mapping.contains(61));
-    const ContourChains chains = read_model_contours(dir / "sfm_model_contours.json");
+    const morph::ContourChains chains = morph::read_model_contours(dir / "sfm_model_contours.json");
     ASSERT_EQ(chains.right.size(), 17u);
     ASSERT_EQ(chains.left.size(), 17u);
     EXPECT_EQ(chains.right.front(), 380);
     EXPECT_EQ(chains.left.back(), 465);
-    const std::vector<int> symmetry = read_symmetry(dir / "sfm_reference_symmetry.txt", 3448);
+    const std::vector<int> symmetry = morph::read_symmetry(dir / "sfm_reference_symmetry.txt", 3448);
     ASSERT_EQ(symmetry.size(), 3448u);
     EXPECT_EQ(symmetry[0], 444);  // line 1 says 445, 1-based
     EXPECT_EQ(symmetry[844], 435);
@@ -101,7 +101,7 @@ TEST(EosIo, SurreySideFiles) {
 
 TEST(EosIo, SurreyFolderLoadsEverythingWith68Landmarks) {
     FACESYNTH_REQUIRE_SHARED_DATA(dir, "sfm");
-    const MorphableModel m = load_model(dir.string());
+    const morph::MorphableModel m = morph::load_model(dir.string());
     ASSERT_EQ(m.landmarks.size(), 68u);
     EXPECT_EQ(m.landmarks[30].vertices[0], 114);  // iBUG 31, nose tip
     EXPECT_EQ(m.num_expression_components(), 6);
@@ -109,7 +109,7 @@ TEST(EosIo, SurreyFolderLoadsEverythingWith68Landmarks) {
     EXPECT_EQ(m.symmetry.size(), 3448u);
     const Eigen::Matrix3Xf lm = m.landmark_positions(m.shape_instance({}));
     // Completed jaw points mirror each other and descend from eye level to the chin.
-    const auto mirror = ibug_mirror_pairs();
+    const auto mirror = morph::ibug_mirror_pairs();
     for (int i = 0; i < 17; ++i) {
         const int j = mirror[static_cast<std::size_t>(i)];
         EXPECT_NEAR(lm(0, i), -lm(0, j), 3.0f) << "jaw point " << i + 1;
@@ -117,7 +117,7 @@ TEST(EosIo, SurreyFolderLoadsEverythingWith68Landmarks) {
     }
     for (int i = 0; i < 8; ++i) EXPECT_GT(lm(1, i), lm(1, i + 1)) << "jaw point " << i + 1 << " not above the next";
     // Point 1 sits a little above the eye line (as on near-frontal 300-W faces), below the brow.
-    EXPECT_GT(lm(1, 0), lm(1, kRightEyeOuterCorner));
+    EXPECT_GT(lm(1, 0), lm(1, morph::kRightEyeOuterCorner));
     EXPECT_LT(lm(1, 0), lm(1, 17));
     // Inner mouth corners lie between the outer corners and the inner lip points, at lip height.
     EXPECT_GT(lm(0, 60), lm(0, 48));
@@ -128,7 +128,7 @@ TEST(EosIo, SurreyFolderLoadsEverythingWith68Landmarks) {
 }
 
 TEST(EosIo, CompletionDataMatchesTheSurreyMesh) {
-    const LandmarkCompletion& c = sfm_landmark_completion();
+    const morph::LandmarkCompletion& c = morph::sfm_landmark_completion();
     EXPECT_EQ(c.model_vertices, 3448);
     EXPECT_EQ(c.model_triangles, 6736);
     EXPECT_EQ(c.mapping.size(), 18u);
@@ -139,11 +139,11 @@ TEST(EosIo, CompletionDataMatchesTheSurreyMesh) {
 
 TEST(EosIo, ReadsVersionsOneToFour) {
     const auto dir = testkit::fresh_temp_dir("eos_versions");
-    MorphableModel toy = testkit::make_toy_model(small_toy());
+    morph::MorphableModel toy = testkit::make_toy_model(small_toy());
     for (std::uint32_t version = 1; version <= 4; ++version) {
         const auto path = dir / ("v" + std::to_string(version) + ".bin");
         write_bytes(path, testkit::eos_model_bytes(toy, version));
-        const EosModelFile file = read_eos_model(path);
+        const morph::EosModelFile file = morph::read_eos_model(path);
         EXPECT_EQ(file.version, static_cast<int>(version));
         EXPECT_EQ(file.model.shape.mean, toy.shape.mean);
         EXPECT_EQ(file.model.shape.basis, toy.shape.basis);
@@ -157,28 +157,28 @@ TEST(EosIo, ReadsVersionsOneToFour) {
         }
         EXPECT_EQ(file.landmarks.size(), version >= 3 ? 68u : 0u);
         // A lone model file with a complete iBUG map gets its 68 landmarks.
-        EXPECT_EQ(load_model(path.string()).landmarks.size(), version >= 3 ? 68u : 0u);
+        EXPECT_EQ(morph::load_model(path.string()).landmarks.size(), version >= 3 ? 68u : 0u);
     }
     // The PCA expression alternative of the variant.
     toy.expression = toy.shape;
     const auto path = dir / "pca_expression.bin";
     write_bytes(path, testkit::eos_model_bytes(toy, 2));
-    const EosModelFile file = read_eos_model(path);
-    ASSERT_TRUE(std::holds_alternative<PcaModel>(*file.model.expression));
-    EXPECT_EQ(std::get<PcaModel>(*file.model.expression).basis, toy.shape.basis);
+    const morph::EosModelFile file = morph::read_eos_model(path);
+    ASSERT_TRUE(std::holds_alternative<morph::PcaModel>(*file.model.expression));
+    EXPECT_EQ(std::get<morph::PcaModel>(*file.model.expression).basis, toy.shape.basis);
 }
 
 // --- Bad files -----------------------------------------------------------------------------------
 
 TEST(EosIo, BadModelFilesFailWithTheFileName) {
     const auto dir = testkit::fresh_temp_dir("eos_bad");
-    const MorphableModel toy = testkit::make_toy_model(small_toy());
+    const morph::MorphableModel toy = testkit::make_toy_model(small_toy());
     const std::string good = testkit::eos_model_bytes(toy, 3);
     const auto path = dir / "bad_model.bin";
     const auto expect_bad = [&](const std::string& bytes, const char* what) {
         SCOPED_TRACE(what);
         write_bytes(path, bytes);
-        expect_file_error([&] { (void)read_eos_model(path); }, path);
+        expect_file_error([&] { (void)morph::read_eos_model(path); }, path);
     };
     expect_bad("", "empty");
     for (std::size_t cut : {std::size_t{2}, std::size_t{6}, std::size_t{13}, good.size() / 3, good.size() / 2, good.size() - 1})
@@ -215,7 +215,7 @@ TEST(EosIo, BadModelFilesFailWithTheFileName) {
         std::memcpy(bytes.data() + triangle_count_offset, &huge_count, 8);
         expect_bad(bytes, "huge triangle count");
     }
-    expect_file_error([&] { (void)read_eos_model(dir / "missing.bin"); }, dir / "missing.bin");
+    expect_file_error([&] { (void)morph::read_eos_model(dir / "missing.bin"); }, dir / "missing.bin");
 }
 
 TEST(EosIo, BadBlendshapeFiles) {
@@ -224,22 +224,22 @@ TEST(EosIo, BadBlendshapeFiles) {
         testkit::eos_blendshape_bytes({{"smile", Eigen::VectorXf::Ones(30)}, {"frown", Eigen::VectorXf::Ones(30)}});
     const auto path = dir / "bad_blendshapes.bin";
     write_bytes(path, good);
-    EXPECT_EQ(read_eos_blendshapes(path, 30).size(), 2u);
+    EXPECT_EQ(morph::read_eos_blendshapes(path, 30).size(), 2u);
     for (const std::string& bytes : {std::string(), good.substr(0, 7), good.substr(0, 20),
                                      good.substr(0, good.size() - 4), good + "z"}) {
         write_bytes(path, bytes);
-        expect_file_error([&] { (void)read_eos_blendshapes(path); }, path);
+        expect_file_error([&] { (void)morph::read_eos_blendshapes(path); }, path);
     }
     std::string huge = good;
     const std::uint64_t count = std::uint64_t{1} << 62;
     std::memcpy(huge.data(), &count, 8);
     write_bytes(path, huge);
-    expect_file_error([&] { (void)read_eos_blendshapes(path); }, path);
+    expect_file_error([&] { (void)morph::read_eos_blendshapes(path); }, path);
     std::string nan = good;
     const float value = std::numeric_limits<float>::quiet_NaN();
     std::memcpy(nan.data() + 8 + 8 + 5 + 8 + 4, &value, 4);
     write_bytes(path, nan);
-    expect_file_error([&] { (void)read_eos_blendshapes(path); }, path);
+    expect_file_error([&] { (void)morph::read_eos_blendshapes(path); }, path);
 }
 
 TEST(EosIo, BadSideFiles) {
@@ -249,27 +249,27 @@ TEST(EosIo, BadSideFiles) {
                                     std::string("[other]\n1 = 2\n"), std::string("[landmark_mappings]\nnose = 3\n"),
                                     std::string("[landmark_mappings]\n99 = 3\n"), std::string("[landmark_mappings]\n9 = \"x\"\n")}) {
         write_bytes(mapping, text);
-        expect_file_error([&] { (void)read_landmark_mapping(mapping); }, mapping);
+        expect_file_error([&] { (void)morph::read_landmark_mapping(mapping); }, mapping);
     }
     const auto contours = dir / "bad_contours.json";
     for (const std::string& text : {std::string(), std::string("{"), std::string("{\"model_contour\": {}}"),
                                     std::string("{\"model_contour\": {\"right_contour\": [1, -2], \"left_contour\": []}}")}) {
         write_bytes(contours, text);
-        expect_file_error([&] { (void)read_model_contours(contours); }, contours);
+        expect_file_error([&] { (void)morph::read_model_contours(contours); }, contours);
     }
     const auto symmetry = dir / "bad_symmetry.txt";
     for (const std::string& text : {std::string(), std::string("2\nx\n"), std::string("0\n"), std::string("1\n2\n3\n4\n")}) {
         write_bytes(symmetry, text);
-        expect_file_error([&] { (void)read_symmetry(symmetry, 3); }, symmetry);
+        expect_file_error([&] { (void)morph::read_symmetry(symmetry, 3); }, symmetry);
     }
-    EXPECT_THROW((void)parse_landmark_completion("model_vertices = 10\nmodel_triangles = 1\n[landmark_mappings]\n1 = 10\n", "c.toml"), Error);
+    EXPECT_THROW((void)morph::parse_landmark_completion("model_vertices = 10\nmodel_triangles = 1\n[landmark_mappings]\n1 = 10\n", "c.toml"), core::Error);
     // Fuzzer finding (fuzz_landmark_mapping): an empty completion table, or one without a model
     // size, escaped as toml11's std::out_of_range instead of an error naming the file.
     for (const std::string text : {"", "model_vertices = 10\n[landmark_mappings]\n1 = 3\n"}) {
         try {
-            (void)parse_landmark_completion(text, "c.toml");
+            (void)morph::parse_landmark_completion(text, "c.toml");
             ADD_FAILURE() << "accepted '" << text << "'";
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             EXPECT_NE(std::string(e.what()).find("c.toml: missing key"), std::string::npos) << e.what();
         }
     }

@@ -1,6 +1,6 @@
 // Mesh export (OBJ, glTF binary) and import, with the .glb structure checked by loading it back
 // with tinygltf.
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/mesh_io.h"
 
 #include "common/test_data.h"
@@ -22,12 +22,12 @@ constexpr std::uint8_t kTinyPng[] = {
     0x44, 0x41, 0x54, 0x78, 0x9c, 0x63, 0x38, 0x31, 0xad, 0x02, 0x88, 0x18, 0x20, 0x14, 0x00, 0x34, 0xb6, 0x07, 0x59,
     0x33, 0x47, 0x6a, 0x96, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
 
-Mesh toy_mesh() {
+morph::Mesh toy_mesh() {
     testkit::ToyModelOptions o;
     o.shape_components = 3;
     o.latitude_steps = 10;
     o.longitude_steps = 14;
-    const MorphableModel m = testkit::make_toy_model(o);
+    const morph::MorphableModel m = testkit::make_toy_model(o);
     const std::vector<float> alpha = {1.0f, -0.5f, 0.25f};
     return m.instance(alpha);
 }
@@ -36,7 +36,7 @@ void expect_mesh_error_naming(const std::function<void()>& call, const std::file
     try {
         call();
         ADD_FAILURE() << "no error: " << what;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find(path.filename().string()), std::string::npos) << what << ": " << e.what();
     }
 }
@@ -45,8 +45,8 @@ void expect_mesh_error_naming(const std::function<void()>& call, const std::file
 
 TEST(MeshIo, GlbStructureIsValid) {
     const auto dir = testkit::fresh_temp_dir("mesh_glb");
-    const Mesh mesh = toy_mesh();
-    write_glb(mesh, dir / "face.glb", kTinyPng);
+    const morph::Mesh mesh = toy_mesh();
+    morph::write_glb(mesh, dir / "face.glb", kTinyPng);
 
     tinygltf::TinyGLTF loader;
     tinygltf::Model model;
@@ -96,11 +96,11 @@ TEST(MeshIo, GlbStructureIsValid) {
 
 TEST(MeshIo, GlbAndObjRoundTrip) {
     const auto dir = testkit::fresh_temp_dir("mesh_round_trip");
-    const Mesh mesh = toy_mesh();
+    const morph::Mesh mesh = toy_mesh();
     for (const char* name : {"face.glb", "face.obj"}) {
         SCOPED_TRACE(name);
-        std::string_view(name).ends_with(".glb") ? write_glb(mesh, dir / name) : write_obj(mesh, dir / name);
-        const Mesh back = read_mesh(dir / name);
+        std::string_view(name).ends_with(".glb") ? morph::write_glb(mesh, dir / name) : morph::write_obj(mesh, dir / name);
+        const morph::Mesh back = morph::read_mesh(dir / name);
         EXPECT_EQ(back.triangles, mesh.triangles);
         ASSERT_EQ(back.vertices.cols(), mesh.vertices.cols());
         EXPECT_LT((back.vertices - mesh.vertices).cwiseAbs().maxCoeff(), 1e-3f);
@@ -114,9 +114,9 @@ TEST(MeshIo, GlbAndObjRoundTrip) {
 TEST(MeshIo, ObjWithPolygonsAndNegativeIndices) {
     const auto dir = testkit::fresh_temp_dir("mesh_obj_polygons");
     std::ofstream(dir / "quad.obj") << "# a quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf -4 -3 -2 -1\n";
-    const Mesh quad = read_mesh(dir / "quad.obj");
+    const morph::Mesh quad = morph::read_mesh(dir / "quad.obj");
     ASSERT_EQ(quad.triangles.size(), 2u);
-    EXPECT_EQ(quad.triangles[1], (Triangle{0, 2, 3}));
+    EXPECT_EQ(quad.triangles[1], (morph::Triangle{0, 2, 3}));
     EXPECT_EQ(quad.colours.cols(), 0);
     EXPECT_EQ(quad.uv.cols(), 0);
 }
@@ -125,7 +125,7 @@ TEST(MeshIo, BadMeshFiles) {
     const auto dir = testkit::fresh_temp_dir("mesh_bad");
     const auto check = [&](const char* name, const std::string& text, const char* what) {
         std::ofstream(dir / name, std::ios::binary) << text;
-        expect_mesh_error_naming([&] { (void)read_mesh(dir / name); }, dir / name, what);
+        expect_mesh_error_naming([&] { (void)morph::read_mesh(dir / name); }, dir / name, what);
     };
     check("empty.obj", "", "empty obj");
     check("range.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n", "index out of range");
@@ -136,7 +136,7 @@ TEST(MeshIo, BadMeshFiles) {
     check("junk.gltf", "{\"asset\": {\"version\": \"2.0\"}}", "gltf without meshes");
     check("mesh.ply", "ply\n", "unknown extension");
     // A truncated .glb.
-    write_glb(toy_mesh(), dir / "whole.glb");
+    morph::write_glb(toy_mesh(), dir / "whole.glb");
     std::string bytes;
     {
         std::ifstream in(dir / "whole.glb", std::ios::binary);
@@ -144,9 +144,9 @@ TEST(MeshIo, BadMeshFiles) {
     }
     check("cut.glb", bytes.substr(0, bytes.size() / 2), "truncated glb");
     // Writing: a texture without uv, and an unwritable folder.
-    Mesh no_uv = toy_mesh();
+    morph::Mesh no_uv = toy_mesh();
     no_uv.uv.resize(2, 0);
-    expect_mesh_error_naming([&] { write_glb(no_uv, dir / "tex.glb", kTinyPng); }, dir / "tex.glb", "texture without uv");
-    EXPECT_THROW(write_obj(toy_mesh(), dir / "missing" / "x.obj"), Error);
+    expect_mesh_error_naming([&] { morph::write_glb(no_uv, dir / "tex.glb", kTinyPng); }, dir / "tex.glb", "texture without uv");
+    EXPECT_THROW(morph::write_obj(toy_mesh(), dir / "missing" / "x.obj"), core::Error);
     EXPECT_FALSE(std::filesystem::exists(dir / "tex.glb"));
 }

@@ -1,5 +1,5 @@
 // The project's .fsm model format and load_model's dispatch.
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/model_io.h"
 #include "morph/regions.h"
 
@@ -35,7 +35,7 @@ void expect_model_error_naming(const std::function<void()>& call, const std::fil
     try {
         call();
         ADD_FAILURE() << "no error: " << what;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find(path.filename().string()), std::string::npos) << what << ": " << e.what();
     }
 }
@@ -48,7 +48,7 @@ testkit::ToyModelOptions small_io_toy() {
     return o;
 }
 
-void expect_same_model(const MorphableModel& a, const MorphableModel& b) {
+void expect_same_model(const morph::MorphableModel& a, const morph::MorphableModel& b) {
     EXPECT_EQ(a.name, b.name);
     EXPECT_EQ(a.shape.mean, b.shape.mean);
     EXPECT_EQ(a.shape.basis, b.shape.basis);
@@ -76,27 +76,27 @@ void expect_same_model(const MorphableModel& a, const MorphableModel& b) {
 
 TEST(ModelIo, FsmRoundTripsEveryField) {
     const auto dir = testkit::fresh_temp_dir("fsm_round_trip");
-    MorphableModel toy = testkit::make_toy_model(small_io_toy());
+    morph::MorphableModel toy = testkit::make_toy_model(small_io_toy());
     toy.name = "toy with blendshapes";
-    toy.landmarks[5] = SurfacePoint{{1, 2, 3}, {0.2f, 0.3f, 0.5f}};  // a barycentric landmark
+    toy.landmarks[5] = morph::SurfacePoint{{1, 2, 3}, {0.2f, 0.3f, 0.5f}};  // a barycentric landmark
     toy.vertex_labels.resize(static_cast<std::size_t>(toy.num_vertices()));
-    for (std::size_t i = 0; i < toy.vertex_labels.size(); ++i) toy.vertex_labels[i] = static_cast<std::uint8_t>(i % kNumRegions);
-    write_model(toy, dir / "toy.fsm");
-    expect_same_model(read_model(dir / "toy.fsm"), toy);
+    for (std::size_t i = 0; i < toy.vertex_labels.size(); ++i) toy.vertex_labels[i] = static_cast<std::uint8_t>(i % morph::kNumRegions);
+    morph::write_model(toy, dir / "toy.fsm");
+    expect_same_model(morph::read_model(dir / "toy.fsm"), toy);
 
     // The PCA expression alternative, and a model without any optional part.
     toy.expression = toy.shape;
-    write_model(toy, dir / "pca.fsm");
-    const MorphableModel pca = read_model(dir / "pca.fsm");
-    ASSERT_TRUE(std::holds_alternative<PcaModel>(*pca.expression));
+    morph::write_model(toy, dir / "pca.fsm");
+    const morph::MorphableModel pca = morph::read_model(dir / "pca.fsm");
+    ASSERT_TRUE(std::holds_alternative<morph::PcaModel>(*pca.expression));
     expect_same_model(pca, toy);
 
-    MorphableModel bare;
+    morph::MorphableModel bare;
     bare.name = "bare";
     bare.shape = toy.shape;
     bare.triangles = toy.triangles;
-    write_model(bare, dir / "bare.fsm");
-    const MorphableModel back = read_model(dir / "bare.fsm");
+    morph::write_model(bare, dir / "bare.fsm");
+    const morph::MorphableModel back = morph::read_model(dir / "bare.fsm");
     expect_same_model(back, bare);
     EXPECT_FALSE(back.expression.has_value());
     EXPECT_FALSE(back.albedo.has_value());
@@ -105,42 +105,42 @@ TEST(ModelIo, FsmRoundTripsEveryField) {
 
 TEST(ModelIo, LoadModelDispatchesByExtensionAndContent) {
     const auto dir = testkit::fresh_temp_dir("fsm_dispatch");
-    const MorphableModel toy = testkit::make_toy_model(small_io_toy());
-    write_model(toy, dir / "toy.fsm");
-    EXPECT_EQ(load_model((dir / "toy.fsm").string()).checksum(), toy.checksum());
+    const morph::MorphableModel toy = testkit::make_toy_model(small_io_toy());
+    morph::write_model(toy, dir / "toy.fsm");
+    EXPECT_EQ(morph::load_model((dir / "toy.fsm").string()).checksum(), toy.checksum());
     std::filesystem::copy_file(dir / "toy.fsm", dir / "toy.model");  // sniffed by its magic bytes
-    EXPECT_EQ(load_model((dir / "toy.model").string()).checksum(), toy.checksum());
+    EXPECT_EQ(morph::load_model((dir / "toy.model").string()).checksum(), toy.checksum());
     // A folder holding one .fsm loads it.
     const auto folder = dir / "folder";
     std::filesystem::create_directories(folder);
     std::filesystem::copy_file(dir / "toy.fsm", folder / "toy.fsm");
-    EXPECT_EQ(load_model(folder.string()).checksum(), toy.checksum());
+    EXPECT_EQ(morph::load_model(folder.string()).checksum(), toy.checksum());
     std::filesystem::copy_file(dir / "toy.fsm", folder / "second.fsm");
-    expect_model_error_naming([&] { (void)load_model(folder.string()); }, folder, "two models in a folder");
+    expect_model_error_naming([&] { (void)morph::load_model(folder.string()); }, folder, "two models in a folder");
 
-    expect_model_error_naming([&] { (void)load_model((dir / "nothing.fsm").string()); }, dir / "nothing.fsm", "missing");
+    expect_model_error_naming([&] { (void)morph::load_model((dir / "nothing.fsm").string()); }, dir / "nothing.fsm", "missing");
     write_bytes(dir / "notes.txt", "hello");
-    expect_model_error_naming([&] { (void)load_model((dir / "notes.txt").string()); }, dir / "notes.txt", "unknown format");
+    expect_model_error_naming([&] { (void)morph::load_model((dir / "notes.txt").string()); }, dir / "notes.txt", "unknown format");
     const auto empty = dir / "empty_folder";
     std::filesystem::create_directories(empty);
-    expect_model_error_naming([&] { (void)load_model(empty.string()); }, empty, "folder without a model");
+    expect_model_error_naming([&] { (void)morph::load_model(empty.string()); }, empty, "folder without a model");
 }
 
 TEST(ModelIo, BuiltinLoadsThroughTheSameEntryPoint) {
-    const MorphableModel builtin = load_model("builtin");
+    const morph::MorphableModel builtin = morph::load_model("builtin");
     EXPECT_GT(builtin.num_vertices(), 0);
     EXPECT_NO_THROW(builtin.validate("builtin"));
 }
 
 TEST(ModelIo, BadFsmFilesFailWithTheFileName) {
     const auto dir = testkit::fresh_temp_dir("fsm_bad");
-    const MorphableModel toy = testkit::make_toy_model(small_io_toy());
-    write_model(toy, dir / "good.fsm");
+    const morph::MorphableModel toy = testkit::make_toy_model(small_io_toy());
+    morph::write_model(toy, dir / "good.fsm");
     const std::string good = read_bytes(dir / "good.fsm");
     const auto path = dir / "bad.fsm";
     const auto expect_bad = [&](const std::string& bytes, const char* what) {
         write_bytes(path, bytes);
-        expect_model_error_naming([&] { (void)read_model(path); }, path, what);
+        expect_model_error_naming([&] { (void)morph::read_model(path); }, path, what);
     };
     expect_bad("", "empty");
     expect_bad("FSMODEL", "short");
@@ -206,9 +206,9 @@ TEST(ModelIo, BadFsmFilesFailWithTheFileName) {
 
 TEST(ModelIo, WriteRefusesAnInvalidModelAndLeavesNoFile) {
     const auto dir = testkit::fresh_temp_dir("fsm_invalid");
-    MorphableModel toy = testkit::make_toy_model(small_io_toy());
+    morph::MorphableModel toy = testkit::make_toy_model(small_io_toy());
     toy.triangles[0][0] = -4;
-    EXPECT_THROW(write_model(toy, dir / "broken.fsm"), Error);
+    EXPECT_THROW(morph::write_model(toy, dir / "broken.fsm"), core::Error);
     EXPECT_FALSE(std::filesystem::exists(dir / "broken.fsm"));
-    EXPECT_THROW(write_model(testkit::make_toy_model(small_io_toy()), dir / "no" / "such" / "dir.fsm"), Error);
+    EXPECT_THROW(morph::write_model(testkit::make_toy_model(small_io_toy()), dir / "no" / "such" / "dir.fsm"), core::Error);
 }

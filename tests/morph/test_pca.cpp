@@ -1,6 +1,6 @@
 #include "morph/pca.h"
-#include "morph/error.h"
-#include "morph/random.h"
+#include "core/error.h"
+#include "core/random.h"
 
 #include <gtest/gtest.h>
 
@@ -14,14 +14,14 @@ TEST(Pca, RecoversKnownSubspaceAndVariances) {
     directions(7, 1) = 1;
     directions(20, 2) = 1;
     const Eigen::Vector3f sigma(5, 2, 1);
-    Rng rng(3, 0);
+    core::Rng rng(3, 0);
     std::vector<Eigen::VectorXf> samples;
     for (int i = 0; i < n; ++i) {
         Eigen::VectorXf x = Eigen::VectorXf::Constant(d, 10.0f);
         for (int c = 0; c < 3; ++c) x += directions.col(c) * sigma[c] * static_cast<float>(rng.normal());
         samples.push_back(x);
     }
-    const PcaModel pca = build_pca(samples);
+    const morph::PcaModel pca = morph::build_pca(samples);
     ASSERT_EQ(pca.num_components(), 3);
     for (int c = 0; c < 3; ++c) {
         EXPECT_NEAR(pca.eigenvalues[c], sigma[c] * sigma[c], 0.2f * sigma[c] * sigma[c]);
@@ -31,23 +31,23 @@ TEST(Pca, RecoversKnownSubspaceAndVariances) {
 }
 
 TEST(Pca, RespectsComponentLimitAndVarianceShare) {
-    Rng rng(4, 0);
+    core::Rng rng(4, 0);
     std::vector<Eigen::VectorXf> samples;
     for (int i = 0; i < 30; ++i) {
         Eigen::VectorXf x(12);
         for (int k = 0; k < 12; ++k) x[k] = static_cast<float>(rng.normal() * (12 - k));
         samples.push_back(x);
     }
-    EXPECT_EQ(build_pca(samples, {.max_components = 4}).num_components(), 4);
-    EXPECT_LT(build_pca(samples, {.variance_fraction = 0.5}).num_components(), 12);
+    EXPECT_EQ(morph::build_pca(samples, {.max_components = 4}).num_components(), 4);
+    EXPECT_LT(morph::build_pca(samples, {.variance_fraction = 0.5}).num_components(), 12);
 }
 
 TEST(Pca, RejectsBadInput) {
-    EXPECT_THROW((void)build_pca({}), Error);
-    EXPECT_THROW((void)build_pca({Eigen::VectorXf::Zero(3)}), Error);
-    EXPECT_THROW((void)build_pca({Eigen::VectorXf::Zero(3), Eigen::VectorXf::Zero(4)}), Error);
-    EXPECT_THROW((void)build_pca({Eigen::VectorXf::Zero(3), Eigen::VectorXf::Zero(3)}), Error);
+    EXPECT_THROW((void)morph::build_pca({}), core::Error);
+    EXPECT_THROW((void)morph::build_pca({Eigen::VectorXf::Zero(3)}), core::Error);
+    EXPECT_THROW((void)morph::build_pca({Eigen::VectorXf::Zero(3), Eigen::VectorXf::Zero(4)}), core::Error);
+    EXPECT_THROW((void)morph::build_pca({Eigen::VectorXf::Zero(3), Eigen::VectorXf::Zero(3)}), core::Error);
     Eigen::VectorXf nan = Eigen::VectorXf::Zero(3);
     nan[1] = std::numeric_limits<float>::quiet_NaN();
-    EXPECT_THROW((void)build_pca({Eigen::VectorXf::Ones(3), nan}), Error);
+    EXPECT_THROW((void)morph::build_pca({Eigen::VectorXf::Ones(3), nan}), core::Error);
 }

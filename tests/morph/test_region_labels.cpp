@@ -16,31 +16,31 @@
 namespace facesynth {
 namespace {
 
-using Confusion = std::array<std::array<int, kNumRegions>, kNumRegions>;  // [own label][derived label]
+using Confusion = std::array<std::array<int, morph::kNumRegions>, morph::kNumRegions>;  // [own label][derived label]
 
-int row_sum(const Confusion& c, Region r) {
+int row_sum(const Confusion& c, morph::Region r) {
     int n = 0;
-    for (int b = 0; b < kNumRegions; ++b) n += c[static_cast<std::size_t>(r)][static_cast<std::size_t>(b)];
+    for (int b = 0; b < morph::kNumRegions; ++b) n += c[static_cast<std::size_t>(r)][static_cast<std::size_t>(b)];
     return n;
 }
-int column_sum(const Confusion& c, Region r) {
+int column_sum(const Confusion& c, morph::Region r) {
     int n = 0;
-    for (int a = 0; a < kNumRegions; ++a) n += c[static_cast<std::size_t>(a)][static_cast<std::size_t>(r)];
+    for (int a = 0; a < morph::kNumRegions; ++a) n += c[static_cast<std::size_t>(a)][static_cast<std::size_t>(r)];
     return n;
 }
 
 TEST(RegionLabels, DerivedLabelsAgreeWithTheBuiltinModelsOwn) {
-    const MorphableModel& model = builtin_model();
-    const std::vector<std::uint8_t> derived = derive_region_labels(model);
+    const morph::MorphableModel& model = morph::builtin_model();
+    const std::vector<std::uint8_t> derived = morph::derive_region_labels(model);
     ASSERT_EQ(derived.size(), model.vertex_labels.size());
     Confusion confusion{};
     for (std::size_t i = 0; i < derived.size(); ++i) ++confusion[model.vertex_labels[i]][derived[i]];
 
     // Hair and ears are not derived (they stay skin); on every other vertex the two mostly agree.
     int agree = 0, comparable = 0;
-    for (int a = 0; a < kNumRegions; ++a) {
-        const auto region = static_cast<Region>(a);
-        if (region == Region::kHair || region == Region::kEars) continue;
+    for (int a = 0; a < morph::kNumRegions; ++a) {
+        const auto region = static_cast<morph::Region>(a);
+        if (region == morph::Region::kHair || region == morph::Region::kEars) continue;
         comparable += row_sum(confusion, region);
         agree += confusion[static_cast<std::size_t>(a)][static_cast<std::size_t>(a)];
     }
@@ -52,57 +52,57 @@ TEST(RegionLabels, DerivedLabelsAgreeWithTheBuiltinModelsOwn) {
 
     // Each feature the built-in model paints is found (recall) without swallowing much else (IoU);
     // the built-in brows are thinner than the derived band, so only their recall is bounded.
-    for (const Region region : {Region::kBrows, Region::kEyes, Region::kLips, Region::kNose}) {
+    for (const morph::Region region : {morph::Region::kBrows, morph::Region::kEyes, morph::Region::kLips, morph::Region::kNose}) {
         const auto r = static_cast<std::size_t>(region);
         const int both = confusion[r][r];
         const double recall = static_cast<double>(both) / row_sum(confusion, region);
         const double iou = static_cast<double>(both) / (row_sum(confusion, region) + column_sum(confusion, region) - both);
-        const std::string name(region_name(region));
+        const std::string name(morph::region_name(region));
         ::testing::Test::RecordProperty(name + "_recall", std::to_string(recall));
         ::testing::Test::RecordProperty(name + "_iou", std::to_string(iou));
         EXPECT_GT(recall, 0.8) << name;
-        if (region != Region::kBrows) {
+        if (region != morph::Region::kBrows) {
             EXPECT_GT(iou, 0.6) << name;
         }
     }
 }
 
 TEST(RegionLabels, NeedTheSixtyEightLandmarks) {
-    MorphableModel toy = testkit::make_toy_model();
-    const auto labels = derive_region_labels(toy);
+    morph::MorphableModel toy = testkit::make_toy_model();
+    const auto labels = morph::derive_region_labels(toy);
     ASSERT_EQ(static_cast<int>(labels.size()), toy.num_vertices());
-    for (const std::uint8_t label : labels) EXPECT_LT(label, kNumRegions);
+    for (const std::uint8_t label : labels) EXPECT_LT(label, morph::kNumRegions);
     toy.landmarks.resize(49);
-    EXPECT_TRUE(derive_region_labels(toy).empty());
+    EXPECT_TRUE(morph::derive_region_labels(toy).empty());
     toy.landmarks.clear();
-    EXPECT_TRUE(derive_region_labels(toy).empty());
+    EXPECT_TRUE(morph::derive_region_labels(toy).empty());
 }
 
 TEST(RegionLabels, LoadModelDerivesThemForAModelWithout) {
     const auto dir = testkit::fresh_temp_dir("region_labels_load");
-    const MorphableModel toy = testkit::make_toy_model();
+    const morph::MorphableModel toy = testkit::make_toy_model();
     ASSERT_TRUE(toy.vertex_labels.empty());
-    write_model(toy, dir / "toy.fsm");
-    EXPECT_EQ(load_model((dir / "toy.fsm").string()).vertex_labels, derive_region_labels(toy));
+    morph::write_model(toy, dir / "toy.fsm");
+    EXPECT_EQ(morph::load_model((dir / "toy.fsm").string()).vertex_labels, morph::derive_region_labels(toy));
     // Labels a model carries are kept.
-    MorphableModel labelled = toy;
-    labelled.vertex_labels.assign(static_cast<std::size_t>(toy.num_vertices()), static_cast<std::uint8_t>(Region::kHair));
-    write_model(labelled, dir / "labelled.fsm");
-    EXPECT_EQ(load_model((dir / "labelled.fsm").string()).vertex_labels, labelled.vertex_labels);
+    morph::MorphableModel labelled = toy;
+    labelled.vertex_labels.assign(static_cast<std::size_t>(toy.num_vertices()), static_cast<std::uint8_t>(morph::Region::kHair));
+    morph::write_model(labelled, dir / "labelled.fsm");
+    EXPECT_EQ(morph::load_model((dir / "labelled.fsm").string()).vertex_labels, labelled.vertex_labels);
 }
 
 TEST(RegionLabels, SurreyFolderGetsEveryFaceRegion) {
     FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
-    const MorphableModel model = load_model(sfm.string());
+    const morph::MorphableModel model = morph::load_model(sfm.string());
     ASSERT_EQ(static_cast<int>(model.vertex_labels.size()), model.num_vertices());
-    std::array<int, kNumRegions> count{};
+    std::array<int, morph::kNumRegions> count{};
     for (const std::uint8_t label : model.vertex_labels) ++count[label];
-    for (const Region region : {Region::kSkin, Region::kBrows, Region::kEyes, Region::kLips, Region::kNose, Region::kMouthInterior})
-        EXPECT_GT(count[static_cast<std::size_t>(region)], 0) << region_name(region);
-    EXPECT_EQ(count[static_cast<std::size_t>(Region::kBackground)], 0);
-    EXPECT_GT(count[static_cast<std::size_t>(Region::kSkin)], model.num_vertices() / 2);
+    for (const morph::Region region : {morph::Region::kSkin, morph::Region::kBrows, morph::Region::kEyes, morph::Region::kLips, morph::Region::kNose, morph::Region::kMouthInterior})
+        EXPECT_GT(count[static_cast<std::size_t>(region)], 0) << morph::region_name(region);
+    EXPECT_EQ(count[static_cast<std::size_t>(morph::Region::kBackground)], 0);
+    EXPECT_GT(count[static_cast<std::size_t>(morph::Region::kSkin)], model.num_vertices() / 2);
     // The same labels from the model file alone once it has the landmarks: one function for every path.
-    EXPECT_EQ(model.vertex_labels, derive_region_labels(model));
+    EXPECT_EQ(model.vertex_labels, morph::derive_region_labels(model));
 }
 
 }  // namespace

@@ -1,10 +1,10 @@
-// The checked TOML reader every TOML file goes through (morph/toml_file.h): the UTF-8 validator,
+// The checked TOML reader every TOML file goes through (core/toml_file.h): the UTF-8 validator,
 // the text checks that keep toml11 from reading past its buffer or exhausting the stack, and the
 // fuzzer finding that made them necessary.
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 #include "morph/eos_io.h"
-#include "morph/error.h"
-#include "morph/toml_file.h"
+#include "core/error.h"
+#include "core/toml_file.h"
 
 #include "common/model_files.h"
 #include "common/test_data.h"
@@ -31,16 +31,16 @@ const std::filesystem::path kKeptFuzzInput =
 }  // namespace
 
 TEST(Utf8, WellFormedTextIsAccepted) {
-    EXPECT_EQ(first_invalid_utf8(""), std::nullopt);
-    EXPECT_EQ(first_invalid_utf8("plain ascii = 1\n"), std::nullopt);
-    EXPECT_EQ(first_invalid_utf8(std::string_view("nul \0 is a code point", 21)), std::nullopt);
+    EXPECT_EQ(core::first_invalid_utf8(""), std::nullopt);
+    EXPECT_EQ(core::first_invalid_utf8("plain ascii = 1\n"), std::nullopt);
+    EXPECT_EQ(core::first_invalid_utf8(std::string_view("nul \0 is a code point", 21)), std::nullopt);
     // 2, 3 and 4-byte forms, the edges of each range: U+0080, U+07FF, U+0800, U+D7FF, U+E000,
     // U+FFFF, U+10000, U+10FFFF.
-    EXPECT_EQ(first_invalid_utf8("caf\xC3\xA9 \xE2\x82\xAC \xF0\x9D\x84\x9E"), std::nullopt);
-    EXPECT_EQ(first_invalid_utf8("\xC2\x80\xDF\xBF\xE0\xA0\x80\xED\x9F\xBF\xEE\x80\x80\xEF\xBF\xBF"
+    EXPECT_EQ(core::first_invalid_utf8("caf\xC3\xA9 \xE2\x82\xAC \xF0\x9D\x84\x9E"), std::nullopt);
+    EXPECT_EQ(core::first_invalid_utf8("\xC2\x80\xDF\xBF\xE0\xA0\x80\xED\x9F\xBF\xEE\x80\x80\xEF\xBF\xBF"
                                  "\xF0\x90\x80\x80\xF4\x8F\xBF\xBF"),
               std::nullopt);
-    EXPECT_EQ(first_invalid_utf8("\xEF\xBB\xBF" "a = 1"), std::nullopt);  // byte-order mark
+    EXPECT_EQ(core::first_invalid_utf8("\xEF\xBB\xBF" "a = 1"), std::nullopt);  // byte-order mark
 }
 
 TEST(Utf8, MalformedSequencesAreFoundAtTheirFirstByte) {
@@ -68,18 +68,18 @@ TEST(Utf8, MalformedSequencesAreFoundAtTheirFirstByte) {
         {"\xE2\x82" "a", 0, "3-byte sequence cut by ASCII"},
         {"\xC3\xA9\xE2\x82\xAC\xE2\x28\xA1", 5, "bad second byte after valid characters"},
     };
-    for (const auto& c : cases) EXPECT_EQ(first_invalid_utf8(c.text), c.offset) << c.what;
+    for (const auto& c : cases) EXPECT_EQ(core::first_invalid_utf8(c.text), c.offset) << c.what;
 }
 
 TEST(TomlFile, KeptFuzzFindingIsRefusedByTheMappingReaderNamingTheFileAndLine) {
     // fuzz_synth_config: toml11 3.7 read past its buffer (heap-buffer-overflow in
     // location::reset) on a literal string holding invalid UTF-8. The bytes are refused first.
     ASSERT_TRUE(std::filesystem::exists(kKeptFuzzInput)) << kKeptFuzzInput;
-    const std::string message = testkit::error_message_of([] { (void)read_landmark_mapping(kKeptFuzzInput); });
+    const std::string message = testkit::error_message_of([] { (void)morph::read_landmark_mapping(kKeptFuzzInput); });
     EXPECT_TRUE(contains(message, kKeptFuzzInput.filename().string())) << message;
     EXPECT_TRUE(contains(message, "line 2, byte 9: not valid UTF-8")) << message;
-    const std::string text = read_file(kKeptFuzzInput);
-    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)parse_landmark_completion(text, "kept.toml"); }), "kept.toml: line 2"));
+    const std::string text = core::read_file(kKeptFuzzInput);
+    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)morph::parse_landmark_completion(text, "kept.toml"); }), "kept.toml: line 2"));
 }
 
 TEST(TomlFile, InvalidUtf8IsRefusedWhereverItStands) {
@@ -87,27 +87,27 @@ TEST(TomlFile, InvalidUtf8IsRefusedWhereverItStands) {
     // the others it reports itself, but the message is ours everywhere.
     for (const std::string text : {"a = '7\xFF'\n", "'k\xFF' = 1\n", "a = '''x\n\xC0\xAF'''\n", "a = \"x\xFF\"\n",
                                    "a = \"\"\"\xED\xA0\x80\"\"\"\n", "a = 1 # \xFF\n", "\"k\xFF\" = 1\n", "[t\xFF]\n"}) {
-        const std::string message = testkit::error_message_of([&] { (void)parse_toml(text, "s.toml"); });
+        const std::string message = testkit::error_message_of([&] { (void)core::parse_toml(text, "s.toml"); });
         EXPECT_TRUE(contains(message, "s.toml: line ")) << message;
         EXPECT_TRUE(contains(message, "not valid UTF-8")) << message;
     }
-    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = 1\nb = 'x\xFF'\n", "s.toml"); }), "line 2, byte 7:"));
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)core::parse_toml("a = 1\nb = 'x\xFF'\n", "s.toml"); }), "line 2, byte 7:"));
 }
 
 TEST(TomlFile, ControlCharactersAreRefusedByCode) {
     const std::string with_nul("a = \"x\0y\"\n", 10);
-    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)parse_toml(with_nul, "n.toml"); }),
+    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)core::parse_toml(with_nul, "n.toml"); }),
                          "n.toml: line 1, byte 7: control character 0x00"));
-    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = 1\n\x7F", "n.toml"); }), "line 2, byte 1: control character 0x7F"));
-    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = 1 # \x1B[31m\n", "n.toml"); }), "control character 0x1B"));
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)core::parse_toml("a = 1\n\x7F", "n.toml"); }), "line 2, byte 1: control character 0x7F"));
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)core::parse_toml("a = 1 # \x1B[31m\n", "n.toml"); }), "control character 0x1B"));
     // Tab, LF and CRLF are TOML's own.
-    EXPECT_EQ(toml::find<int>(parse_toml("a\t=\t1\r\nb = 2\n", "ok.toml"), "b"), 2);
+    EXPECT_EQ(toml::find<int>(core::parse_toml("a\t=\t1\r\nb = 2\n", "ok.toml"), "b"), 2);
 }
 
 TEST(TomlFile, NestingIsBoundedBeforeToml11RecursesIntoIt) {
     // toml11 recurses once per level and exhausts the stack at about 1,000 levels under ASan.
     const auto too_deep = [](const std::string& text) {
-        return contains(testkit::error_message_of([&] { (void)parse_toml(text, "deep.toml"); }),
+        return contains(testkit::error_message_of([&] { (void)core::parse_toml(text, "deep.toml"); }),
                         "deep.toml: line 1, byte ");
     };
     EXPECT_TRUE(too_deep("a = " + repeated("[", 100000) + repeated("]", 100000) + "\n"));
@@ -116,16 +116,16 @@ TEST(TomlFile, NestingIsBoundedBeforeToml11RecursesIntoIt) {
     EXPECT_TRUE(too_deep("[" + repeated("a.", 50000) + "a]\n"));
     EXPECT_TRUE(too_deep("[[" + repeated("a.", 200) + "a]]\n"));
     EXPECT_TRUE(too_deep("a = [{" + repeated("b.", 150) + "c = 1}]\n"));
-    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = " + repeated("[", 101) + repeated("]", 101), "d.toml"); }),
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)core::parse_toml("a = " + repeated("[", 101) + repeated("]", 101), "d.toml"); }),
                          "byte 105: tables and arrays nested more than 100 deep"));
     // A closing ''' may carry two more quotes: what follows is structure, not a new string.
     EXPECT_TRUE(too_deep("a = ['''x'''', " + repeated("[", 150) + repeated("]", 150) + "]\n"));
 
     // The limit itself, and brackets and dots that are text, not structure.
-    const toml::value deepest = parse_toml("a = " + repeated("[", 100) + "1" + repeated("]", 100) + "\n", "ok.toml");
+    const toml::value deepest = core::parse_toml("a = " + repeated("[", 100) + "1" + repeated("]", 100) + "\n", "ok.toml");
     EXPECT_TRUE(toml::find(deepest, "a").is_array());
     const std::string brackets = repeated("[{.", 300);
-    const toml::value text = parse_toml("a = \"" + brackets + "\"\nb = '" + brackets + "'\nc = \"\"\"\n" + brackets +
+    const toml::value text = core::parse_toml("a = \"" + brackets + "\"\nb = '" + brackets + "'\nc = \"\"\"\n" + brackets +
                                             "\"\"\"\nd = '''" + brackets + "'''\n# " + brackets + "\n\"" + brackets +
                                             "\" = 1\ne = \"\\\"" + brackets + "\"\n",
                                         "ok.toml");
@@ -136,13 +136,13 @@ TEST(TomlFile, NestingIsBoundedBeforeToml11RecursesIntoIt) {
     for (int i = 0; i < 500; ++i) wide += "[1.5, {x.y = 2}], ";
     wide += "]\n";
     for (int i = 0; i < 200; ++i) wide += "[t" + std::to_string(i) + ".u.v]\nw = [[1], [2]]\n";
-    EXPECT_EQ(toml::find(parse_toml(wide, "wide.toml"), "a").as_array().size(), 500U);
+    EXPECT_EQ(toml::find(core::parse_toml(wide, "wide.toml"), "a").as_array().size(), 500U);
 }
 
 TEST(TomlFile, SyntaxErrorsAndMissingFilesNameTheFile) {
-    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)parse_toml("a = = 1\n", "syntax.toml"); }), "syntax.toml: TOML error:"));
+    EXPECT_TRUE(contains(testkit::error_message_of([] { (void)core::parse_toml("a = = 1\n", "syntax.toml"); }), "syntax.toml: TOML error:"));
     const auto dir = testkit::fresh_temp_dir("toml_file");
-    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)read_toml_file(dir / "missing.toml"); }), "missing.toml: cannot open"));
+    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)core::read_toml_file(dir / "missing.toml"); }), "missing.toml: cannot open"));
     testkit::write_bytes(dir / "good.toml", "[pose]\nyaw = -30.5\n");
-    EXPECT_DOUBLE_EQ(toml::find<double>(read_toml_file(dir / "good.toml"), "pose", "yaw"), -30.5);
+    EXPECT_DOUBLE_EQ(toml::find<double>(core::read_toml_file(dir / "good.toml"), "pose", "yaw"), -30.5);
 }

@@ -1,8 +1,8 @@
 // The recognition experiment on a tiny set: it runs, its numbers are rates, it is deterministic,
 // and near-frontal probes are told apart better than chance by both representations.
-#include "fit/recognition/experiment.h"
+#include "recognition/experiment.h"
 #include "morph/builtin.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "train/face_box.h"
 
 #include <gtest/gtest.h>
@@ -27,7 +27,7 @@ ExperimentOptions tiny() {
 }
 
 TEST(RecognitionExperiment, TinySetGivesRatesBetterThanChanceAndIsDeterministic) {
-    const facesynth::MorphableModel model = facesynth::builtin_model();
+    const facesynth::morph::MorphableModel model = facesynth::morph::builtin_model();
     const ExperimentResult a = run_experiment(model, tiny());
     ASSERT_EQ(a.bins.size(), 2u);  // gallery 0 x probe bins [0,10), [10,20)
     EXPECT_EQ(a.images, 6 * 3);
@@ -56,7 +56,7 @@ TEST(RecognitionExperiment, TinySetGivesRatesBetterThanChanceAndIsDeterministic)
 TEST(RecognitionExperiment, RefusesSetsWithoutImpostors) {
     ExperimentOptions o = tiny();
     o.identities = 1;
-    EXPECT_THROW((void)run_experiment(facesynth::builtin_model(), o), facesynth::Error);
+    EXPECT_THROW((void)run_experiment(facesynth::morph::builtin_model(), o), facesynth::core::Error);
 }
 
 
@@ -65,7 +65,7 @@ TEST(RecognitionExperiment, RefusesSetsWithoutImpostors) {
 // regressor is not part of the test data). Probes at 60-70° that the detector misses must count as
 // rejected genuine pairs, with the pair counts of the other columns.
 TEST(RecognitionExperiment, DetectedLandmarkProbesCountDetectorMissesAsRejected) {
-    const facesynth::MorphableModel model = facesynth::builtin_model();
+    const facesynth::morph::MorphableModel model = facesynth::morph::builtin_model();
     ExperimentOptions o = tiny();
     o.identities = 4;
     o.probe_bin_width = 30;

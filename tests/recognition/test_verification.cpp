@@ -1,7 +1,7 @@
 // Verification metrics on hand-made distances, where the answers can be counted by hand.
-#include "fit/recognition/face_crop.h"
-#include "fit/recognition/verification.h"
-#include "morph/error.h"
+#include "recognition/face_crop.h"
+#include "recognition/verification.h"
+#include "core/error.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -44,7 +44,7 @@ TEST(Verification, DetCurveIsMonotoneAndSeparationAucCountsPairs) {
     EXPECT_DOUBLE_EQ(det.back().frr, 0.0);
     // Genuine 0.1 beats 4 impostors, 0.3 beats 3, 0.6 beats 1: 8 of 12 pairs.
     EXPECT_DOUBLE_EQ(separation_auc(s), 8.0 / 12.0);
-    EXPECT_THROW((void)frr_at_far(MatchScores{{0.1}, {}}, 0.01), facesynth::Error);
+    EXPECT_THROW((void)frr_at_far(MatchScores{{0.1}, {}}, 0.01), facesynth::core::Error);
 }
 
 TEST(FaceCrop, PutsTheEyeCentresWhereAsked) {
@@ -66,7 +66,7 @@ TEST(FaceCrop, PutsTheEyeCentresWhereAsked) {
     EXPECT_LT(crop.at<std::uint8_t>(cvRound(row), cvRound(right_x)), 60);
     EXPECT_GT(crop.at<std::uint8_t>(cvRound(row), options.size / 2), 200);
     landmarks.middleCols(42, 6) = landmarks.middleCols(36, 6);
-    EXPECT_THROW((void)eye_aligned_crop(image, landmarks, options), facesynth::Error);
+    EXPECT_THROW((void)eye_aligned_crop(image, landmarks, options), facesynth::core::Error);
 }
 
 }  // namespace

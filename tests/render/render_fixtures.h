@@ -23,16 +23,16 @@ inline render::Renderer& shared_renderer(render::Backend backend = render::Backe
     return *r;
 }
 
-inline const MorphableModel& toy() {
-    static const MorphableModel model = make_toy_model();
+inline const morph::MorphableModel& toy() {
+    static const morph::MorphableModel model = make_toy_model();
     return model;
 }
 
 inline render::Camera make_camera(double yaw, double pitch, double roll, int width, int height,
                                   double fov = 30.0, double distance = 600.0) {
     render::Camera camera;
-    camera.intrinsics = intrinsics_from_fov(fov, width, height);
-    camera.pose.rotation = rotation_from_euler({yaw, pitch, roll});
+    camera.intrinsics = morph::intrinsics_from_fov(fov, width, height);
+    camera.pose.rotation = morph::rotation_from_euler({yaw, pitch, roll});
     camera.pose.translation = Eigen::Vector3d(0, 0, distance);
     return camera;
 }

@@ -2,7 +2,7 @@
 // (RenderSettings::edge_antialiasing): the geometry maps are those of a plain render, and the
 // silhouette over a background approaches a 16-sample reference as MSAA 4 does.
 #include "common/test_data.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/model_io.h"
 #include "render/edge_antialiasing.h"
 #include "render_fixtures.h"
@@ -17,13 +17,13 @@ namespace {
 
 using testkit::make_camera;
 
-const Mesh& builtin_mean() {
-    static const Mesh mesh = load_model("builtin").instance({});
+const morph::Mesh& builtin_mean() {
+    static const morph::Mesh mesh = morph::load_model("builtin").instance({});
     return mesh;
 }
 
 render::Frame render_with(const render::Camera& camera, int msaa, int supersampling, bool edge_antialiasing = false,
-                          const Mesh& mesh = builtin_mean()) {
+                          const morph::Mesh& mesh = builtin_mean()) {
     render::RenderSettings settings;
     settings.msaa_samples = msaa;
     settings.supersampling = supersampling;
@@ -116,7 +116,7 @@ struct Comparison {
     }
 };
 
-Comparison compare_antialiasing(const Mesh& mesh, const std::string& inspection_name) {
+Comparison compare_antialiasing(const morph::Mesh& mesh, const std::string& inspection_name) {
     Comparison result;
     for (const double yaw : {-50.0, 0.0, 40.0}) {
         const render::Camera camera = make_camera(yaw, -10, 8, 256, 256);
@@ -158,7 +158,7 @@ TEST(AntiAliasing, SupersampledAndEdgeAntialiasedOutlinesApproachASixteenSampleR
 // pixels changed by anti-aliasing 25.5 / 36.9 / 34.6 / 37.9.
 TEST(AntiAliasing, EdgeAntialiasedSurreyOutlinesApproachASixteenSampleReference) {
     FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
-    const Mesh mesh = load_model(sfm.string()).instance({});
+    const morph::Mesh mesh = morph::load_model(sfm.string()).instance({});
     const Comparison c = compare_antialiasing(mesh, "surrey");
     c.print("Surrey");
     EXPECT_GT(c.outline.edge.psnr(), 38.5);
@@ -199,7 +199,7 @@ TEST(AntiAliasing, EdgeAntialiasingKeepsTheGeometryMapsOfAPlainRender) {
 }
 
 // A quad in the plane z = `z` (model space, facing the viewer), centred on (cx, cy), half-size `half`.
-void add_quad(Mesh& mesh, float cx, float cy, float z, float half, const Eigen::Vector3f& colour) {
+void add_quad(morph::Mesh& mesh, float cx, float cy, float z, float half, const Eigen::Vector3f& colour) {
     const int first = mesh.num_vertices();
     mesh.vertices.conservativeResize(3, first + 4);
     mesh.colours.conservativeResize(3, first + 4);
@@ -243,7 +243,7 @@ double polygon_coverage(const Eigen::Matrix2Xd& corners, int x, int y) {
 // while a straight edge crosses the pixel from one side to the opposite one; where it leaves
 // through the top or bottom it misses a small triangle (at most 1/8 of a pixel at 45 degrees).
 TEST(EdgeAntialiasing, StraightOutlineGetsTheShareOfEachPixelItCovers) {
-    Mesh quad;
+    morph::Mesh quad;
     add_quad(quad, 0, 0, 0, 40, Eigen::Vector3f(0.5f, 0.5f, 0.5f));
     for (const double roll : {7.0, 31.0, 58.0, 80.0}) {
         render::Camera camera = make_camera(0, 0, roll, 96, 80);
@@ -277,7 +277,7 @@ TEST(EdgeAntialiasing, StraightOutlineGetsTheShareOfEachPixelItCovers) {
 
 TEST(EdgeAntialiasing, HiddenSilhouetteEdgesBlendNothing) {
     // A small far quad entirely behind a large near one: its border edges are silhouettes, but hidden.
-    Mesh mesh;
+    morph::Mesh mesh;
     add_quad(mesh, 0, 0, 0, 60, Eigen::Vector3f(0.8f, 0.2f, 0.1f));
     add_quad(mesh, 5, -3, -40, 30, Eigen::Vector3f(0.1f, 0.2f, 0.8f));
     const render::Camera camera = make_camera(10, -5, 3, 128, 128);
@@ -302,7 +302,7 @@ TEST(EdgeAntialiasing, HiddenSilhouetteEdgesBlendNothing) {
 TEST(EdgeAntialiasing, SurfaceOverSurfaceBlendsColoursAndKeepsFullCoverage) {
     // A small red quad in front of a large blue one: along the red outline both colours mix, and
     // the coverage stays full; the blue quad's own outline over the background gets partial coverage.
-    Mesh mesh;
+    morph::Mesh mesh;
     add_quad(mesh, 0, 0, 0, 20, Eigen::Vector3f(0.9f, 0.05f, 0.05f));
     add_quad(mesh, 0, 0, -30, 60, Eigen::Vector3f(0.05f, 0.05f, 0.9f));
     const render::Camera camera = make_camera(0, 0, 17, 128, 128);
@@ -323,7 +323,7 @@ TEST(EdgeAntialiasing, SurfaceOverSurfaceBlendsColoursAndKeepsFullCoverage) {
 }
 
 TEST(EdgeAntialiasing, WithBackFacesDrawnTheOutlineOfABackFacingSurfaceIsAntialiased) {
-    Mesh quad;
+    morph::Mesh quad;
     add_quad(quad, 0, 0, 0, 40, Eigen::Vector3f(0.5f, 0.5f, 0.5f));
     const render::Camera camera = make_camera(180, 0, 23, 96, 96);  // seen from behind
     render::RenderSettings settings = edge_settings(true);
@@ -339,7 +339,7 @@ TEST(EdgeAntialiasing, WithBackFacesDrawnTheOutlineOfABackFacingSurfaceIsAntiali
 }
 
 TEST(EdgeAntialiasing, TopologyPairsEdgesWithTheirTriangles) {
-    Mesh quad;
+    morph::Mesh quad;
     add_quad(quad, 0, 0, 0, 1, Eigen::Vector3f::Zero());
     render::EdgeTopology topology;
     topology.build(quad);
@@ -360,7 +360,7 @@ TEST(EdgeAntialiasing, TopologyPairsEdgesWithTheirTriangles) {
     topology.build(quad);
     EXPECT_EQ(topology.edges.size(), 6u);
     quad.triangles.push_back({0, 2, 9});
-    EXPECT_THROW(topology.build(quad), Error);
+    EXPECT_THROW(topology.build(quad), core::Error);
 }
 
 TEST(AntiAliasing, EdgeAntialiasingWithMsaaOrSupersamplingIsAnError) {
@@ -373,7 +373,7 @@ TEST(AntiAliasing, EdgeAntialiasingWithMsaaOrSupersamplingIsAnError) {
         try {
             (void)testkit::shared_renderer().render(builtin_mean(), camera, settings);
             FAIL() << "edge anti-aliasing with msaa " << msaa << ", supersampling " << supersampling << " must be refused";
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             EXPECT_NE(std::string(e.what()).find("edge_antialiasing"), std::string::npos) << e.what();
         }
     }
@@ -384,15 +384,15 @@ TEST(AntiAliasing, BadSupersamplingSettingsAreErrors) {
     render::RenderSettings settings;
     settings.msaa_samples = 0;
     settings.supersampling = 5;
-    EXPECT_THROW((void)testkit::shared_renderer().render(builtin_mean(), camera, settings), Error);
+    EXPECT_THROW((void)testkit::shared_renderer().render(builtin_mean(), camera, settings), core::Error);
     settings.supersampling = 0;
-    EXPECT_THROW((void)testkit::shared_renderer().render(builtin_mean(), camera, settings), Error);
+    EXPECT_THROW((void)testkit::shared_renderer().render(builtin_mean(), camera, settings), core::Error);
     settings.supersampling = 2;
     settings.msaa_samples = 4;
     try {
         (void)testkit::shared_renderer().render(builtin_mean(), camera, settings);
         FAIL() << "supersampling with MSAA must be refused";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find("supersampling"), std::string::npos) << e.what();
     }
 }

@@ -45,14 +45,14 @@ render::Lighting random_lighting(std::mt19937& rng) {
 // other output must be identical.
 enum class Albedo { kUniform, kModel };
 
-testkit::ColourDifference compare_encodings(const MorphableModel& model, int count, int size, unsigned seed, Albedo albedo) {
+testkit::ColourDifference compare_encodings(const morph::MorphableModel& model, int count, int size, unsigned seed, Albedo albedo) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> yaw(-70, 70), pitch(-25, 25), roll(-15, 15);
     std::uniform_real_distribution<float> red(0.45f, 0.95f), share(0.55f, 0.85f);
     testkit::ColourDifference result;
     render::Frame per_vertex, per_pixel;
     for (int i = 0; i < count; ++i) {
-        Mesh mesh = model.instance({});
+        morph::Mesh mesh = model.instance({});
         if (albedo == Albedo::kModel) {
             // the model's own per-vertex colours
         } else if (i % 2 == 0) {
@@ -70,7 +70,7 @@ testkit::ColourDifference compare_encodings(const MorphableModel& model, int cou
         const Eigen::Vector3f low = mesh.vertices.rowwise().minCoeff(), high = mesh.vertices.rowwise().maxCoeff();
         const double distance = (high - low).cast<double>().norm() / (2.0 * std::tan(15.0 * std::numbers::pi / 180.0) * 0.8);
         const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
-        framed.pose.translation = Eigen::Vector3d(0, 0, distance) - model_to_camera_flip() * framed.pose.rotation * centre;
+        framed.pose.translation = Eigen::Vector3d(0, 0, distance) - morph::model_to_camera_flip() * framed.pose.rotation * centre;
         shared_renderer().render(mesh, framed, settings, per_vertex);
         settings.per_pixel_colour = true;
         shared_renderer().render(mesh, framed, settings, per_pixel);
@@ -102,12 +102,12 @@ void expect_within_tolerance(const testkit::ColourDifference& d, int views) {
 }  // namespace
 
 TEST(ColourPerVertex, BuiltinWithinAFewLevelsOfPerPixelEncoding) {
-    expect_within_tolerance(compare_encodings(load_model("builtin"), 24, 256, 7, Albedo::kUniform), 24);
+    expect_within_tolerance(compare_encodings(morph::load_model("builtin"), 24, 256, 7, Albedo::kUniform), 24);
 }
 
 TEST(ColourPerVertex, SurreyWithinAFewLevelsOfPerPixelEncoding) {
     FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
-    const MorphableModel model = load_model(sfm.string());
+    const morph::MorphableModel model = morph::load_model(sfm.string());
     expect_within_tolerance(compare_encodings(model, 24, 256, 11, Albedo::kUniform), 24);
     expect_within_tolerance(compare_encodings(model, 12, 512, 11, Albedo::kUniform), 12);
 }
@@ -116,8 +116,8 @@ TEST(ColourPerVertex, SurreyWithinAFewLevelsOfPerPixelEncoding) {
 // lips) encoding before interpolating would blend features in gamma space, so the renderer keeps the
 // per-pixel encoding: byte-identical to asking for it.
 TEST(ColourPerVertex, VaryingAlbedoKeepsThePerPixelEncoding) {
-    const MorphableModel model = load_model("builtin");
-    const Mesh mesh = model.instance({});
+    const morph::MorphableModel model = morph::load_model("builtin");
+    const morph::Mesh mesh = model.instance({});
     ASSERT_GT((mesh.colours.rowwise().maxCoeff() - mesh.colours.rowwise().minCoeff()).maxCoeff(), 0.2f);
     render::RenderSettings settings;
     settings.msaa_samples = 0;
@@ -132,8 +132,8 @@ TEST(ColourPerVertex, VaryingAlbedoKeepsThePerPixelEncoding) {
 // The bare benchmark renderer draws the same mesh from the same camera: its coverage is the full
 // render's mask without anti-aliasing, pixel for pixel.
 TEST(BareRenderer, CoversExactlyTheFullRendersMask) {
-    const MorphableModel model = load_model("builtin");
-    const Mesh mesh = model.instance({});
+    const morph::MorphableModel model = morph::load_model("builtin");
+    const morph::Mesh mesh = model.instance({});
     render::BareRenderer bare(mesh, {render::Backend::kEgl, false});
     render::RenderSettings settings;
     settings.msaa_samples = 0;

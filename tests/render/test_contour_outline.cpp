@@ -8,7 +8,7 @@
 #include "morph/jaw_contour.h"
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "render/landmarks.h"
 
 #include <gtest/gtest.h>
@@ -25,7 +25,7 @@ using testkit::make_camera;
 using testkit::shared_renderer;
 
 // Rendered pixels whose visible triangle lies wholly in the face region: the region as the image shows it.
-cv::Mat face_region_mask(const MorphableModel& model, const JawContourRegion& region, const render::Frame& frame) {
+cv::Mat face_region_mask(const morph::MorphableModel& model, const morph::JawContourRegion& region, const render::Frame& frame) {
     std::vector<char> in_region(static_cast<std::size_t>(model.num_vertices()), 0);
     for (int v : region.vertices) in_region[static_cast<std::size_t>(v)] = 1;
     std::vector<char> triangle_in(model.triangles.size(), 0);
@@ -70,8 +70,8 @@ double distance_to_border(const cv::Mat& mask, const Eigen::Vector2d& p) {
     return best;
 }
 
-void check_model(const MorphableModel& model, const std::string& name) {
-    const JawContourRegion region = jaw_contour_region(model);
+void check_model(const morph::MorphableModel& model, const std::string& name) {
+    const morph::JawContourRegion region = morph::jaw_contour_region(model);
     ASSERT_FALSE(region.vertices.empty()) << name;
     render::RenderSettings settings;
     settings.msaa_samples = 0;
@@ -79,28 +79,28 @@ void check_model(const MorphableModel& model, const std::string& name) {
     for (int identity = 0; identity < 3; ++identity) {
         std::vector<float> alpha(static_cast<std::size_t>(model.num_shape_components()), 0.0f);
         if (identity > 0) {
-            Rng rng = make_rng(2026, static_cast<std::uint64_t>(identity), RandomStream::kIdentity);
+            core::Rng rng = core::make_rng(2026, static_cast<std::uint64_t>(identity), core::RandomStream::kIdentity);
             for (auto& a : alpha) a = static_cast<float>(std::clamp(rng.normal(), -2.0, 2.0));
         }
-        const Mesh mesh = model.instance(alpha);
+        const morph::Mesh mesh = model.instance(alpha);
         for (const double yaw : {0.0, 30.0, -30.0, 45.0, -45.0, 60.0, -60.0, 75.0, -75.0}) {
             const render::Camera camera = make_camera(yaw, 0, 0, 256, 256, 30.0, 600.0);
             const render::Frame frame = shared_renderer().render(mesh, camera, settings);
             const auto lm = render::project_landmarks(model.landmarks, mesh, camera, frame, {}, &region);
             const cv::Mat mask = face_region_mask(model, region, frame);
             const cv::Mat head = frame.triangle_ids >= 0;
-            const int far = far_side(camera.pose.rotation);
-            for (int j = 0; j < kNumJawLandmarks; ++j) {
-                if (j == kChinLandmark) continue;
+            const int far = morph::far_side(camera.pose.rotation);
+            for (int j = 0; j < morph::kNumJawLandmarks; ++j) {
+                if (j == morph::kChinLandmark) continue;
                 const Eigen::Vector3d x = lm.model_points.col(j);
                 const Eigen::Vector2d toward_left =
                     (render::project_point(camera, x + Eigen::Vector3d::UnitX()) - lm.pixels.col(j)).normalized();
-                const Eigen::Vector2d outward = j < kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
+                const Eigen::Vector2d outward = j < morph::kChinLandmark ? Eigen::Vector2d(-toward_left) : toward_left;
                 const Eigen::Vector2d p = lm.contour_pixels.col(j);
                 const auto edge = outermost_along(mask, lm.pixels.col(j), outward);
                 const std::string where = name + " identity " + std::to_string(identity) + " yaw " + std::to_string(yaw) +
                                           " jaw point " + std::to_string(j + 1);
-                if (jaw_on_side(j, far)) {
+                if (morph::jaw_on_side(j, far)) {
                     ASSERT_TRUE(edge.has_value()) << where;
                     EXPECT_NEAR((p - lm.pixels.col(j)).dot(Eigen::Vector2d(-outward.y(), outward.x())), 0.0, 0.01) << where;
                     // On the outer edge of the rendered face region along its line, at its fixed
@@ -134,7 +134,7 @@ void check_model(const MorphableModel& model, const std::string& name) {
                 ++checked;
             }
             if (yaw == 0.0) {  // frontal: contour = fixed
-                for (int j = 0; j < kNumJawLandmarks; ++j) EXPECT_EQ(lm.contour_pixels.col(j), lm.pixels.col(j)) << name;
+                for (int j = 0; j < morph::kNumJawLandmarks; ++j) EXPECT_EQ(lm.contour_pixels.col(j), lm.pixels.col(j)) << name;
             }
             if ((identity == 0 && std::abs(yaw) == 60.0) || (identity == 2 && yaw == 75.0) || (identity == 1 && yaw == 45.0)) {
                 // 3x enlarged: the region's edge in orange, fixed jaw points cyan, contour points green.
@@ -146,7 +146,7 @@ void check_model(const MorphableModel& model, const std::string& name) {
                 const auto at = [](const Eigen::Vector2d& q) {
                     return cv::Point(static_cast<int>(std::lround(3 * q.x() + 1)), static_cast<int>(std::lround(3 * q.y() + 1)));
                 };
-                for (int j = 0; j < kNumJawLandmarks; ++j) {
+                for (int j = 0; j < morph::kNumJawLandmarks; ++j) {
                     cv::circle(overlay, at(lm.pixels.col(j)), 3, cv::Scalar(0, 255, 255), -1);
                     cv::circle(overlay, at(lm.contour_pixels.col(j)), 3, cv::Scalar(0, 255, 0), -1);
                 }
@@ -162,11 +162,11 @@ void check_model(const MorphableModel& model, const std::string& name) {
     ::testing::Test::RecordProperty(name + "_far_hidden_or_on_head_outline", hidden);
 }
 
-TEST(ContourOutline, BuiltinJawPointsLieOnTheRenderedFaceOutline) { check_model(builtin_model(), "builtin"); }
+TEST(ContourOutline, BuiltinJawPointsLieOnTheRenderedFaceOutline) { check_model(morph::builtin_model(), "builtin"); }
 
 TEST(ContourOutline, SurreyJawPointsLieOnTheRenderedFaceOutline) {
     FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
-    check_model(load_model(sfm.string()), "surrey");
+    check_model(morph::load_model(sfm.string()), "surrey");
 }
 
 }  // namespace

@@ -6,7 +6,7 @@
 #include "render_fixtures.h"
 
 #include "morph/builtin.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/jaw_contour.h"
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
@@ -65,10 +65,10 @@ struct Flags {
 };
 
 // Jaw visibility in contour mode for the mean face at `yaw`, 1-based ids mirrored for yaw < 0.
-void expect_flags(const MorphableModel& model, const std::string& name, double yaw, const Flags& flags) {
-    static_assert(kNumJawLandmarks == 17);
-    const JawContourRegion region = jaw_contour_region(model);
-    const Mesh mesh = model.instance({});
+void expect_flags(const morph::MorphableModel& model, const std::string& name, double yaw, const Flags& flags) {
+    static_assert(morph::kNumJawLandmarks == 17);
+    const morph::JawContourRegion region = morph::jaw_contour_region(model);
+    const morph::Mesh mesh = model.instance({});
     render::RenderSettings settings;
     settings.msaa_samples = 0;
     for (const int size : {256, 512}) {
@@ -76,14 +76,14 @@ void expect_flags(const MorphableModel& model, const std::string& name, double y
         const render::Frame frame = shared_renderer().render(mesh, camera, settings);
         const auto lm = render::project_landmarks(model.landmarks, mesh, camera, frame, {}, &region);
         const auto flag = [&](int id) {
-            const int j = yaw < 0 ? kNumJawLandmarks - id : id - 1;  // mirror: iBUG k <-> 18 - k
+            const int j = yaw < 0 ? morph::kNumJawLandmarks - id : id - 1;  // mirror: iBUG k <-> 18 - k
             return lm.contour_visible[static_cast<std::size_t>(j)] != 0;
         };
         const std::string where = name + " yaw " + std::to_string(static_cast<int>(yaw)) + " size " + std::to_string(size) + " iBUG ";
         for (int id : flags.hidden) EXPECT_FALSE(flag(id)) << where << (yaw < 0 ? 18 - id : id);
         for (int id : flags.visible) EXPECT_TRUE(flag(id)) << where << (yaw < 0 ? 18 - id : id);
         if (yaw == 0.0) {
-            for (int i = 0; i < kNumIbugLandmarks; ++i) EXPECT_TRUE(lm.visible[static_cast<std::size_t>(i)]) << where << i + 1;
+            for (int i = 0; i < morph::kNumIbugLandmarks; ++i) EXPECT_TRUE(lm.visible[static_cast<std::size_t>(i)]) << where << i + 1;
         }
     }
 }
@@ -91,7 +91,7 @@ void expect_flags(const MorphableModel& model, const std::string& name, double y
 const Flags kFrontal{{}, {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17}};
 
 TEST(JawVisibility, BuiltinFrontalNearSideAndBehindTheNoseAndLips) {
-    const MorphableModel& model = builtin_model();
+    const morph::MorphableModel& model = morph::builtin_model();
     expect_flags(model, "builtin", 0, kFrontal);
     // Near side 1-7 visible (iBUG 8 is a vertex under the jaw, hidden from the side: a ray cast agrees),
     // the chin and the chin's outline (10, 11) visible; far-side outline behind the lower lip (12),
@@ -105,7 +105,7 @@ TEST(JawVisibility, BuiltinFrontalNearSideAndBehindTheNoseAndLips) {
 
 TEST(JawVisibility, SurreyFrontalNearSideAndBehindTheNoseAndLips) {
     FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
-    const MorphableModel model = load_model(sfm.string());
+    const morph::MorphableModel model = morph::load_model(sfm.string());
     expect_flags(model, "surrey", 0, kFrontal);
     // The near side and the chin's outline visible, the far side behind the lips (12) and the nose
     // (15, 16) hidden at 60°; at 75° everything from the nostrils up is behind the nose.
@@ -116,13 +116,13 @@ TEST(JawVisibility, SurreyFrontalNearSideAndBehindTheNoseAndLips) {
 // A topology built once per model (as synth keeps per worker) gives exactly what project_landmarks
 // computes from the mesh itself; one of another mesh is refused.
 TEST(LandmarkTopology, SameResultAsPerCallAndRefusesAnotherMesh) {
-    const MorphableModel& model = builtin_model();
-    const JawContourRegion region = jaw_contour_region(model);
+    const morph::MorphableModel& model = morph::builtin_model();
+    const morph::JawContourRegion region = morph::jaw_contour_region(model);
     const render::LandmarkTopology topology = render::landmark_topology(model.triangles, model.num_vertices(), &region);
     std::vector<float> alpha(static_cast<std::size_t>(model.num_shape_components()), 0.0f);
     alpha[0] = 1.5f;
     alpha[2] = -1.0f;
-    const Mesh mesh = model.instance(alpha);
+    const morph::Mesh mesh = model.instance(alpha);
     render::RenderSettings settings;
     settings.msaa_samples = 0;
     for (const double yaw : {-70.0, -20.0, 0.0, 45.0}) {
@@ -139,12 +139,12 @@ TEST(LandmarkTopology, SameResultAsPerCallAndRefusesAnotherMesh) {
             EXPECT_GT(std::count(plain.visible.begin(), plain.visible.end(), 0), 0) << "nothing hidden: a weak test";
         }
     }
-    Mesh smaller = mesh;
+    morph::Mesh smaller = mesh;
     smaller.vertices.conservativeResize(3, mesh.num_vertices() - 1);
     smaller.triangles.clear();
     const render::Camera camera = make_camera(0, 0, 0, 64, 64, 30.0, 600.0);
     const render::Frame frame = shared_renderer().render(mesh, camera, settings);
-    EXPECT_THROW((void)render::project_landmarks(model.landmarks, smaller, camera, frame, {}, &region, &topology), Error);
+    EXPECT_THROW((void)render::project_landmarks(model.landmarks, smaller, camera, frame, {}, &region, &topology), core::Error);
 }
 
 }  // namespace

@@ -20,8 +20,8 @@ using testkit::make_camera;
 using testkit::shared_renderer;
 
 TEST(FastGamma, WithinOneLevelOfPowOnTheBuiltinModelsOwnColours) {
-    const MorphableModel model = load_model("builtin");
-    const Mesh mesh = model.instance({});
+    const morph::MorphableModel model = morph::load_model("builtin");
+    const morph::Mesh mesh = model.instance({});
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> yaw(-60, 60), pitch(-20, 20);
     std::uniform_real_distribution<float> strength(0.2f, 0.6f), ambient(0.0f, 0.1f);

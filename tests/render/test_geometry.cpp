@@ -2,7 +2,7 @@
 // symmetric model is mirror-symmetric, and the two backends agree.
 #include "render_fixtures.h"
 
-#include "morph/random.h"
+#include "core/random.h"
 #include "render/landmarks.h"
 
 #include <Eigen/Dense>
@@ -21,9 +21,9 @@ using testkit::toy;
 // buffer: the screen-space barycentrics (surface weights times the corners' depths, normalised)
 // are affine in the pixel position, so a least-squares affine fit over the triangle's pixels
 // extrapolates exactly to the corner. nullopt when too few pixels cover the triangle.
-std::optional<Eigen::Vector2d> corner_from_buffers(const render::Frame& frame, const Mesh& mesh, const render::Camera& camera,
+std::optional<Eigen::Vector2d> corner_from_buffers(const render::Frame& frame, const morph::Mesh& mesh, const render::Camera& camera,
                                                    int triangle, int corner) {
-    const Triangle& t = mesh.triangles[static_cast<std::size_t>(triangle)];
+    const morph::Triangle& t = mesh.triangles[static_cast<std::size_t>(triangle)];
     Eigen::Vector3d depth;
     for (int i = 0; i < 3; ++i) {
         const double z = to_camera(camera.pose, Eigen::Vector3d(mesh.vertices.col(t[static_cast<std::size_t>(i)]).cast<double>())).z();
@@ -59,7 +59,7 @@ struct Agreement {
     int checked = 0;
 };
 
-Agreement check_vertex_projection(render::Renderer& renderer, const Mesh& mesh, const render::Camera& camera) {
+Agreement check_vertex_projection(render::Renderer& renderer, const morph::Mesh& mesh, const render::Camera& camera) {
     render::RenderSettings settings;
     settings.barycentrics = true;
     settings.msaa_samples = 0;
@@ -70,7 +70,7 @@ Agreement check_vertex_projection(render::Renderer& renderer, const Mesh& mesh, 
         for (int x = 0; x < frame.triangle_ids.cols; ++x)
             if (const int id = frame.triangle_ids.at<int>(y, x); id >= 0) ++pixels_per_triangle[id];
     Agreement agreement;
-    for (const SurfacePoint& landmark : toy().landmarks) {
+    for (const morph::SurfacePoint& landmark : toy().landmarks) {
         const int vertex = landmark.vertices[0];
         int best = -1, best_pixels = 0, best_corner = 0;
         for (int tri = 0; tri < mesh.num_triangles(); ++tri)
@@ -100,11 +100,11 @@ TEST_P(ProjectionAgreement, LandmarksMatchTheBarycentricBufferWithinFiveHundredt
     const std::vector<std::pair<int, int>> sizes{{256, 256}, {317, 241}, {200, 333}, {511, 383}};
     int total_checked = 0;
     for (int i = 0; i < 12; ++i) {
-        Rng rng(7, static_cast<std::uint64_t>(i), 0);
+        core::Rng rng(7, static_cast<std::uint64_t>(i), 0);
         const auto [w, h] = sizes[static_cast<std::size_t>(i) % sizes.size()];
         std::vector<float> alpha(static_cast<std::size_t>(toy().num_shape_components()));
         for (float& a : alpha) a = static_cast<float>(rng.normal());
-        const Mesh mesh = toy().instance(alpha);
+        const morph::Mesh mesh = toy().instance(alpha);
         render::Camera camera = make_camera(rng.uniform(-60, 60), rng.uniform(-30, 30), rng.uniform(-30, 30), w, h,
                                             rng.uniform(15, 50), rng.uniform(450, 900));
         camera.intrinsics.cx += rng.uniform(-20, 20);
@@ -128,7 +128,7 @@ INSTANTIATE_TEST_SUITE_P(Backends, ProjectionAgreement,
                          [](const auto& info) { return render::to_string(info.param); });
 
 TEST(Symmetry, FrontalRenderOfASymmetricModelIsMirrorSymmetric) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     for (const int width : {256, 255}) {
         const render::Camera camera = make_camera(0, 0, 0, width, 240);
         const render::Frame frame = shared_renderer().render(mesh, camera);
@@ -152,7 +152,7 @@ TEST(Symmetry, FrontalRenderOfASymmetricModelIsMirrorSymmetric) {
 }
 
 TEST(Backends, EglAndOsmesaAgree) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     render::RenderSettings settings;
     settings.lighting.lights.push_back({{0.3f, 0.6f, 1.0f}, {0.5f, 0.5f, 0.5f}});
     settings.lighting.specular = 0.2f;

@@ -34,14 +34,14 @@ constexpr double kMarginMm = 0.1;
 // (x/z, y/z), so that a ray cast skips the triangles whose box misses the ray.
 struct CameraMesh {
     Eigen::Matrix3Xd vertices;
-    const std::vector<Triangle>* triangles;
+    const std::vector<morph::Triangle>* triangles;
     std::vector<Eigen::Vector4d> boxes;  // min x, min y, max x, max y
 };
 
-CameraMesh camera_mesh(const Mesh& mesh, const render::Camera& camera) {
+CameraMesh camera_mesh(const morph::Mesh& mesh, const render::Camera& camera) {
     CameraMesh out{to_camera(camera.pose, mesh.vertices), &mesh.triangles, {}};
     out.boxes.reserve(mesh.triangles.size());
-    for (const Triangle& t : mesh.triangles) {
+    for (const morph::Triangle& t : mesh.triangles) {
         Eigen::Vector4d box(1e9, 1e9, -1e9, -1e9);
         for (const int v : t) {
             const Eigen::Vector3d c = out.vertices.col(v);
@@ -62,7 +62,7 @@ bool ray_hidden(const CameraMesh& mesh, const Eigen::Vector3d& point) {
     for (std::size_t i = 0; i < mesh.triangles->size(); ++i) {
         const Eigen::Vector4d& box = mesh.boxes[i];
         if (on_plane.x() < box[0] || on_plane.y() < box[1] || on_plane.x() > box[2] || on_plane.y() > box[3]) continue;
-        const Triangle& t = (*mesh.triangles)[i];
+        const morph::Triangle& t = (*mesh.triangles)[i];
         const Eigen::Vector3d a = mesh.vertices.col(t[0]);
         const Eigen::Vector3d e1 = mesh.vertices.col(t[1]) - a, e2 = mesh.vertices.col(t[2]) - a;
         const Eigen::Vector3d p = direction.cross(e2);
@@ -123,8 +123,8 @@ struct VisibilityComparison {
     Disagreements depth_test;  // the former rule: is_visible, 2 mm in a 3x3 window
 };
 
-VisibilityComparison compare_with_ray_cast(const MorphableModel& model, const std::string& name, int size) {
-    const Mesh mesh = model.instance({});
+VisibilityComparison compare_with_ray_cast(const morph::MorphableModel& model, const std::string& name, int size) {
+    const morph::Mesh mesh = model.instance({});
     render::RenderSettings settings;
     settings.msaa_samples = 0;
     settings.normals = false;
@@ -135,7 +135,7 @@ VisibilityComparison compare_with_ray_cast(const MorphableModel& model, const st
             const render::Frame frame = shared_renderer().render(mesh, camera, settings);
             const auto lm = render::project_landmarks(model.landmarks, mesh, camera, frame);
             const CameraMesh cmesh = camera_mesh(mesh, camera);
-            for (int i = kNumJawLandmarks; i < kNumIbugLandmarks; ++i) {
+            for (int i = morph::kNumJawLandmarks; i < morph::kNumIbugLandmarks; ++i) {
                 const Eigen::Vector3d point = lm.camera_points.col(i);
                 const bool hidden = ray_hidden(cmesh, point);
                 const bool flagged = lm.visible[static_cast<std::size_t>(i)] != 0;
@@ -160,12 +160,12 @@ void expect_agreement(const VisibilityComparison& c) {
 }
 
 TEST(LandmarkVisibility, BuiltinAgreesWithARayCastExceptWithinAPixelOfAnOutline) {
-    expect_agreement(compare_with_ray_cast(builtin_model(), "builtin", 256));
+    expect_agreement(compare_with_ray_cast(morph::builtin_model(), "builtin", 256));
 }
 
 TEST(LandmarkVisibility, SurreyAgreesWithARayCastExceptWithinAPixelOfAnOutline) {
     FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
-    expect_agreement(compare_with_ray_cast(load_model(sfm.string()), "surrey", 256));
+    expect_agreement(compare_with_ray_cast(morph::load_model(sfm.string()), "surrey", 256));
 }
 
 }  // namespace

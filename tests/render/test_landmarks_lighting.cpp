@@ -1,7 +1,7 @@
 // Landmark visibility and contour points, lighting sanity, and resource steadiness.
 #include "render_fixtures.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "render/landmarks.h"
 
@@ -18,29 +18,29 @@ using testkit::shared_renderer;
 using testkit::toy;
 
 render::ProjectedLandmarks landmarks_at(double yaw, render::Frame* frame_out = nullptr) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     const render::Camera camera = make_camera(yaw, 0, 0, 256, 256);
     const render::Frame frame = shared_renderer().render(mesh, camera);
     if (frame_out) *frame_out = frame;
-    static const JawContourRegion region = jaw_contour_region(toy());
+    static const morph::JawContourRegion region = morph::jaw_contour_region(toy());
     return render::project_landmarks(toy().landmarks, mesh, camera, frame, {}, &region);
 }
 
 TEST(Visibility, AllVisibleAtFrontalPose) {
     const auto lm = landmarks_at(0);
-    for (int i = 0; i < kNumIbugLandmarks; ++i) EXPECT_TRUE(lm.visible[static_cast<std::size_t>(i)]) << i;
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) EXPECT_TRUE(lm.visible[static_cast<std::size_t>(i)]) << i;
 }
 
 TEST(Visibility, FarEyeCornerHiddenAtYaw80) {
     // yaw > 0 turns the face toward the image right: the subject's left side goes away.
     const auto lm = landmarks_at(80);
-    EXPECT_FALSE(lm.visible[kLeftEyeOuterCorner]);
-    EXPECT_TRUE(lm.visible[kRightEyeOuterCorner]);
+    EXPECT_FALSE(lm.visible[morph::kLeftEyeOuterCorner]);
+    EXPECT_TRUE(lm.visible[morph::kRightEyeOuterCorner]);
     EXPECT_FALSE(lm.visible[16]);  // far jaw end
     EXPECT_TRUE(lm.visible[0]);
     const auto mirrored = landmarks_at(-80);
-    EXPECT_FALSE(mirrored.visible[kRightEyeOuterCorner]);
-    EXPECT_TRUE(mirrored.visible[kLeftEyeOuterCorner]);
+    EXPECT_FALSE(mirrored.visible[morph::kRightEyeOuterCorner]);
+    EXPECT_TRUE(mirrored.visible[morph::kLeftEyeOuterCorner]);
 }
 
 TEST(Contour, FrontalContourPointsAreOnTheOutlineAndSymmetric) {
@@ -55,7 +55,7 @@ TEST(Contour, FrontalContourPointsAreOnTheOutlineAndSymmetric) {
         EXPECT_LE(right.x(), lm.pixels(0, i) + 1e-6) << i;
         EXPECT_NEAR(right.y(), lm.pixels(1, i), 1e-6) << i;
     }
-    EXPECT_EQ(lm.contour_pixels.col(kChinLandmark), lm.pixels.col(kChinLandmark));
+    EXPECT_EQ(lm.contour_pixels.col(morph::kChinLandmark), lm.pixels.col(morph::kChinLandmark));
 }
 
 TEST(Contour, FarSideJawPointsMoveToTheFaceOutlineAtYaw60NearSideStays) {
@@ -77,14 +77,14 @@ TEST(Contour, FarSideJawPointsMoveToTheFaceOutlineAtYaw60NearSideStays) {
         EXPECT_LT((render::project_point(make_camera(60, 0, 0, 256, 256), lm.contour_model_points.col(i)) - p).norm(), 1e-6) << i;
     }
     EXPECT_GE(hidden_fixed, 4);
-    for (int i = 0; i <= kChinLandmark; ++i) {
+    for (int i = 0; i <= morph::kChinLandmark; ++i) {
         EXPECT_EQ(lm.contour_pixels.col(i), lm.pixels.col(i)) << i;
         EXPECT_EQ(lm.contour_visible[static_cast<std::size_t>(i)], lm.visible[static_cast<std::size_t>(i)]) << i;
     }
     // Mirrored pose: the other side moves.
     const auto mirrored = landmarks_at(-60);
-    for (int i = 0; i < kChinLandmark; ++i) EXPECT_NEAR(mirrored.contour_pixels(0, i) + lm.contour_pixels(0, 16 - i), 255.0, 0.75) << i;
-    for (int i = kChinLandmark; i < 17; ++i) EXPECT_EQ(mirrored.contour_pixels.col(i), mirrored.pixels.col(i)) << i;
+    for (int i = 0; i < morph::kChinLandmark; ++i) EXPECT_NEAR(mirrored.contour_pixels(0, i) + lm.contour_pixels(0, 16 - i), 255.0, 0.75) << i;
+    for (int i = morph::kChinLandmark; i < 17; ++i) EXPECT_EQ(mirrored.contour_pixels.col(i), mirrored.pixels.col(i)) << i;
 }
 
 TEST(Contour, SmallYawMovesTheFarSideOutwardSymmetrically) {
@@ -100,7 +100,7 @@ TEST(Contour, SmallYawMovesTheFarSideOutwardSymmetrically) {
 }
 
 TEST(Lighting, DcOnlyShIsFlatAlbedoTimesConstant) {
-    Mesh mesh = toy().instance({});
+    morph::Mesh mesh = toy().instance({});
     render::RenderSettings settings;
     settings.lighting = render::uniform_lighting(0.9f);
     settings.lighting.gamma = 1.0f;
@@ -119,7 +119,7 @@ TEST(Lighting, DcOnlyShIsFlatAlbedoTimesConstant) {
 }
 
 TEST(Lighting, WhiteFurnaceConservesEnergyAndBandOneFollowsTheNormal) {
-    Mesh mesh = toy().instance({});
+    morph::Mesh mesh = toy().instance({});
     mesh.colours.setOnes();
     render::RenderSettings settings;
     settings.lighting = render::uniform_lighting(1.0f);
@@ -144,7 +144,7 @@ TEST(Lighting, JsonRoundTrip) {
     const nlohmann::json j = lighting;
     const render::Lighting back = j.get<render::Lighting>();
     EXPECT_EQ(nlohmann::json(back), j);
-    EXPECT_THROW((void)nlohmann::json::parse(R"({"gamma": "x"})").get<render::Lighting>(), Error);
+    EXPECT_THROW((void)nlohmann::json::parse(R"({"gamma": "x"})").get<render::Lighting>(), core::Error);
 }
 
 TEST(Resources, ThousandsOfRendersKeepMemorySteady) {
@@ -153,7 +153,7 @@ TEST(Resources, ThousandsOfRendersKeepMemorySteady) {
     // whatever the renderer does; in that build LeakSanitizer checks for leaks at exit instead.
     GTEST_SKIP() << "RSS is not a leak measure under AddressSanitizer";
 #endif
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     render::Renderer& renderer = shared_renderer();
     render::Frame frame;
     render::RenderSettings settings;
@@ -173,7 +173,7 @@ TEST(Resources, ThousandsOfRendersKeepMemorySteady) {
 }
 
 TEST(Resources, RenderersAreMovableAndReleaseTheirContext) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     render::Renderer a(render::RendererOptions{render::Backend::kEgl, false});
     render::Renderer b = std::move(a);
     EXPECT_GT(cv::countNonZero(b.render(mesh, make_camera(0, 0, 0, 32, 32)).mask), 100);
@@ -184,7 +184,7 @@ TEST(Resources, RenderersAreMovableAndReleaseTheirContext) {
 }
 
 TEST(Resources, RenderersMoveBetweenThreads) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     std::vector<render::Renderer> pool;
     for (int i = 0; i < 2; ++i) pool.emplace_back(render::RendererOptions{render::Backend::kEgl, false});
     std::vector<int> covered(2, 0);
@@ -206,7 +206,7 @@ TEST(Resources, RenderersMoveBetweenThreads) {
 // two displays, each with its own llvmpipe screen, so renderers on threads do not queue behind one
 // rasteriser. Both must give the same bytes: synth's workers alternate between them.
 TEST(Resources, TheSecondSoftwareDisplayRendersTheSameBytesInParallel) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     render::RenderSettings lit;
     lit.lighting.lights.push_back({{0.5f, 0.5f, 1.0f}, {0.6f, 0.6f, 0.6f}});
     lit.lighting.specular = 0.3f;

@@ -27,7 +27,7 @@ struct Pair {
     render::Frame per_pixel, per_vertex;
 };
 
-Pair render_both(const Mesh& mesh, const render::Camera& camera, render::RenderSettings settings,
+Pair render_both(const morph::Mesh& mesh, const render::Camera& camera, render::RenderSettings settings,
                  const render::MeshExtras& extras = {}) {
     Pair pair;
     settings.lights_per_vertex = false;
@@ -40,8 +40,8 @@ Pair render_both(const Mesh& mesh, const render::Camera& camera, render::RenderS
 }  // namespace
 
 TEST(LightsPerVertex, ChangesNothingWithoutLightsWithShadowsOrTwoSided) {
-    const MorphableModel model = load_model("builtin");
-    const Mesh mesh = model.instance({});
+    const morph::MorphableModel model = morph::load_model("builtin");
+    const morph::Mesh mesh = model.instance({});
     const render::Camera camera = make_camera(25, -5, 0, 160, 160, 30.0, 700.0);
     render::RenderSettings settings;
     settings.msaa_samples = 0;
@@ -64,8 +64,8 @@ TEST(LightsPerVertex, ChangesNothingWithoutLightsWithShadowsOrTwoSided) {
 // views every vertex along the same ray. Both stay as close to the per-pixel lights as perspective
 // renders with per-vertex colours do (tests/synth: max 35 levels, mean 0.13 on synth's lightings).
 TEST(LightsPerVertex, TexturedAndOrthographicRendersStayCloseToPerPixelLights) {
-    const MorphableModel model = load_model("builtin");
-    const Mesh mesh = model.instance({});
+    const morph::MorphableModel model = morph::load_model("builtin");
+    const morph::Mesh mesh = model.instance({});
     ASSERT_EQ(mesh.uv.cols(), mesh.num_vertices());
     cv::Mat texture(64, 64, CV_8UC3);
     cv::randu(texture, cv::Scalar(150, 100, 80), cv::Scalar(230, 170, 140));

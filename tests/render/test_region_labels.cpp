@@ -19,12 +19,12 @@ namespace {
 using testkit::make_camera;
 using testkit::shared_renderer;
 
-Region label_at(const cv::Mat& labels, const Eigen::Vector2d& p) {
-    return static_cast<Region>(labels.at<std::uint8_t>(static_cast<int>(std::lround(p.y())), static_cast<int>(std::lround(p.x()))));
+morph::Region label_at(const cv::Mat& labels, const Eigen::Vector2d& p) {
+    return static_cast<morph::Region>(labels.at<std::uint8_t>(static_cast<int>(std::lround(p.y())), static_cast<int>(std::lround(p.x()))));
 }
 
 // Whether `region` occurs in the 3x3 pixels around p (landmarks lie on region borders).
-bool near_region(const cv::Mat& labels, const Eigen::Vector2d& p, Region region) {
+bool near_region(const cv::Mat& labels, const Eigen::Vector2d& p, morph::Region region) {
     const int cx = static_cast<int>(std::lround(p.x())), cy = static_cast<int>(std::lround(p.y()));
     for (int y = cy - 1; y <= cy + 1; ++y)
         for (int x = cx - 1; x <= cx + 1; ++x)
@@ -33,7 +33,7 @@ bool near_region(const cv::Mat& labels, const Eigen::Vector2d& p, Region region)
 }
 
 // Connected blobs (8-connected) of a region, largest first, as pixel counts.
-std::vector<int> blob_sizes(const cv::Mat& labels, Region region) {
+std::vector<int> blob_sizes(const cv::Mat& labels, morph::Region region) {
     cv::Mat stats, centroids, ids;
     const int n = cv::connectedComponentsWithStats(labels == static_cast<int>(region), ids, stats, centroids, 8);
     std::vector<int> sizes;
@@ -44,9 +44,9 @@ std::vector<int> blob_sizes(const cv::Mat& labels, Region region) {
 
 TEST(RegionLabelImage, SurreyFrontalRegionsSitAtTheirLandmarks) {
     FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
-    const MorphableModel model = load_model(sfm.string());
+    const morph::MorphableModel model = morph::load_model(sfm.string());
     ASSERT_EQ(static_cast<int>(model.vertex_labels.size()), model.num_vertices());
-    const Mesh mesh = model.instance({});
+    const morph::Mesh mesh = model.instance({});
     const render::Camera camera = make_camera(0, 0, 0, 256, 256, 30.0, 600.0);
     render::RenderSettings settings;
     settings.msaa_samples = 0;
@@ -60,33 +60,33 @@ TEST(RegionLabelImage, SurreyFrontalRegionsSitAtTheirLandmarks) {
         return Eigen::Vector2d(c / (last - first + 1));
     };
 
-    EXPECT_EQ(label_at(labels, centre(36, 41)), Region::kEyes);
-    EXPECT_EQ(label_at(labels, centre(42, 47)), Region::kEyes);
-    for (int id = 36; id <= 47; ++id) EXPECT_TRUE(near_region(labels, point(id), Region::kEyes)) << "iBUG " << id + 1;
-    for (int id = 48; id <= 59; ++id) EXPECT_TRUE(near_region(labels, point(id), Region::kLips)) << "iBUG " << id + 1;
+    EXPECT_EQ(label_at(labels, centre(36, 41)), morph::Region::kEyes);
+    EXPECT_EQ(label_at(labels, centre(42, 47)), morph::Region::kEyes);
+    for (int id = 36; id <= 47; ++id) EXPECT_TRUE(near_region(labels, point(id), morph::Region::kEyes)) << "iBUG " << id + 1;
+    for (int id = 48; id <= 59; ++id) EXPECT_TRUE(near_region(labels, point(id), morph::Region::kLips)) << "iBUG " << id + 1;
     // The middle of each lip, between its outer and inner landmarks.
-    EXPECT_EQ(label_at(labels, (point(51) + point(62)) / 2), Region::kLips);
-    EXPECT_EQ(label_at(labels, (point(57) + point(66)) / 2), Region::kLips);
-    EXPECT_EQ(label_at(labels, point(30)), Region::kNose);  // the nose tip
-    EXPECT_EQ(label_at(labels, (point(27) + point(30)) / 2), Region::kNose);
-    for (int id : {19, 24}) EXPECT_EQ(label_at(labels, point(id)), Region::kBrows) << "iBUG " << id + 1;
+    EXPECT_EQ(label_at(labels, (point(51) + point(62)) / 2), morph::Region::kLips);
+    EXPECT_EQ(label_at(labels, (point(57) + point(66)) / 2), morph::Region::kLips);
+    EXPECT_EQ(label_at(labels, point(30)), morph::Region::kNose);  // the nose tip
+    EXPECT_EQ(label_at(labels, (point(27) + point(30)) / 2), morph::Region::kNose);
+    for (int id : {19, 24}) EXPECT_EQ(label_at(labels, point(id)), morph::Region::kBrows) << "iBUG " << id + 1;
     // The cheeks: halfway between the jaw and the nostrils; the forehead above the brows' middle.
-    EXPECT_EQ(label_at(labels, (point(3) + point(31)) / 2), Region::kSkin);
-    EXPECT_EQ(label_at(labels, (point(13) + point(35)) / 2), Region::kSkin);
-    EXPECT_EQ(label_at(labels, point(27) + 0.6 * (point(27) - point(30))), Region::kSkin);
+    EXPECT_EQ(label_at(labels, (point(3) + point(31)) / 2), morph::Region::kSkin);
+    EXPECT_EQ(label_at(labels, (point(13) + point(35)) / 2), morph::Region::kSkin);
+    EXPECT_EQ(label_at(labels, point(27) + 0.6 * (point(27) - point(30))), morph::Region::kSkin);
 
     // One blob per region (eyes and brows: one per side) of a plausible share of the face's pixels;
     // specks of a few pixels along ragged borders are ignored.
     const double face = cv::countNonZero(labels);
     struct Expect {
-        Region region;
+        morph::Region region;
         int blobs;
         double min_share, max_share;  // of the face's pixels, per blob
     };
-    for (const Expect& e : {Expect{Region::kSkin, 1, 0.5, 0.9}, Expect{Region::kNose, 1, 0.04, 0.15},
-                            Expect{Region::kLips, 1, 0.015, 0.08}, Expect{Region::kEyes, 2, 0.004, 0.03},
-                            Expect{Region::kBrows, 2, 0.01, 0.06}}) {
-        const std::string name(region_name(e.region));
+    for (const Expect& e : {Expect{morph::Region::kSkin, 1, 0.5, 0.9}, Expect{morph::Region::kNose, 1, 0.04, 0.15},
+                            Expect{morph::Region::kLips, 1, 0.015, 0.08}, Expect{morph::Region::kEyes, 2, 0.004, 0.03},
+                            Expect{morph::Region::kBrows, 2, 0.01, 0.06}}) {
+        const std::string name(morph::region_name(e.region));
         const std::vector<int> sizes = blob_sizes(labels, e.region);
         int large = 0, specks = 0;
         for (int s : sizes) {

@@ -16,7 +16,7 @@ double max_difference(const cv::Mat& a, const cv::Mat& b) {
 }
 
 TEST(RenderSizes, DepthOnlyPassHasTheDepthOfAFullRender) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     const render::Camera camera = make_camera(35, -10, 5, 200, 150);
     render::RenderSettings full;
     full.msaa_samples = 0;
@@ -36,7 +36,7 @@ TEST(RenderSizes, DepthOnlyPassHasTheDepthOfAFullRender) {
 }
 
 TEST(RenderSizes, SmallImageAfterALargeOneMatchesAFreshRenderer) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     render::RenderSettings plain;
     plain.msaa_samples = 0;
     render::RenderSettings depth_only;
@@ -64,7 +64,7 @@ TEST(RenderSizes, SmallImageAfterALargeOneMatchesAFreshRenderer) {
 }
 
 TEST(RenderSizes, ASecondTextureOfTheSameSizeReplacesTheFirst) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     render::RenderSettings settings;
     settings.msaa_samples = 0;
     const render::Camera camera = make_camera(0, 0, 0, 64, 64);

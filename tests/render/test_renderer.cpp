@@ -1,6 +1,6 @@
 #include "render_fixtures.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "render/landmarks.h"
 
 #include <gtest/gtest.h>
@@ -19,7 +19,7 @@ TEST(Renderer, ReportsBackendAndRenderer) {
 }
 
 TEST(Renderer, FrontalToyFaceIsCentredAndLit) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     const render::Camera camera = make_camera(0, 0, 0, 256, 256);
     const render::Frame frame = shared_renderer().render(mesh, camera);
     testkit::save_for_inspection(frame.rgb, "toy_frontal.png");
@@ -48,16 +48,16 @@ TEST(Renderer, FrontalToyFaceIsCentredAndLit) {
 }
 
 TEST(Renderer, RejectsInvalidInput) {
-    Mesh mesh = toy().instance({});
+    morph::Mesh mesh = toy().instance({});
     render::Camera camera = make_camera(0, 0, 0, 0, 64);
-    EXPECT_THROW((void)shared_renderer().render(mesh, camera), Error);
+    EXPECT_THROW((void)shared_renderer().render(mesh, camera), core::Error);
     camera = make_camera(0, 0, 0, 64, 64);
     mesh.triangles[0][1] = mesh.num_vertices();
-    EXPECT_THROW((void)shared_renderer().render(mesh, camera), Error);
+    EXPECT_THROW((void)shared_renderer().render(mesh, camera), core::Error);
 }
 
 TEST(Renderer, TextureAndVertexLabelsReachTheOutputs) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     const cv::Mat texture(8, 8, CV_8UC3, cv::Scalar(200, 100, 50));  // R G B, sRGB-encoded
     const std::vector<std::uint8_t> labels(static_cast<std::size_t>(mesh.num_vertices()),
                                            static_cast<std::uint8_t>(render::Region::kLips));
@@ -81,7 +81,7 @@ TEST(Renderer, TextureAndVertexLabelsReachTheOutputs) {
 // must name the same triangles as the geometry-shader pass, and each pixel's depth must be the
 // camera z of that triangle's surface at the pixel centre.
 TEST(Renderer, IdsLabelsMaskAndDepthMatchTheReferencePassAndTheSurface) {
-    const Mesh mesh = toy().instance({});
+    const morph::Mesh mesh = toy().instance({});
     std::vector<std::uint8_t> vertex_labels(static_cast<std::size_t>(mesh.num_vertices()));
     for (std::size_t i = 0; i < vertex_labels.size(); ++i) vertex_labels[i] = static_cast<std::uint8_t>(1 + i % 9);
     for (const render::Projection projection : {render::Projection::kPerspective, render::Projection::kOrthographic}) {
@@ -115,7 +115,7 @@ TEST(Renderer, IdsLabelsMaskAndDepthMatchTheReferencePassAndTheSurface) {
                 ASSERT_EQ(a.mask.at<std::uint8_t>(y, x), 255);
                 ASSERT_GT(a.depth.at<float>(y, x), 0.0f);
                 ++face_pixels;
-                const Triangle& t = mesh.triangles[static_cast<std::size_t>(id)];
+                const morph::Triangle& t = mesh.triangles[static_cast<std::size_t>(id)];
                 ASSERT_EQ(label, vertex_labels[static_cast<std::size_t>(t[2])]) << "labels follow the provoking (last) vertex";
                 const auto point = render::surface_point_at(mesh, camera, a, x, y);
                 ASSERT_TRUE(point.has_value());

@@ -5,7 +5,7 @@
 #include "render_fixtures.h"
 
 #include "morph/builtin.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "render/landmarks.h"
 
 #include <gtest/gtest.h>
@@ -20,8 +20,8 @@ namespace {
 using testkit::make_camera;
 using testkit::shared_renderer;
 
-const MorphableModel& builtin() {
-    static const MorphableModel model = builtin_model();
+const morph::MorphableModel& builtin() {
+    static const morph::MorphableModel model = morph::builtin_model();
     return model;
 }
 
@@ -36,7 +36,7 @@ render::RenderSettings side_light(bool shadows) {
 }
 
 struct FrontalFace {
-    Mesh mesh;
+    morph::Mesh mesh;
     render::Camera camera = make_camera(0, 0, 0, 256, 256, 30.0, 650.0);
     render::MeshExtras extras;
 };
@@ -97,7 +97,7 @@ TEST(Shadows, NoseShadowsTheCheekOnItsFarSideAndLitSkinKeepsItsShade) {
 
     // The cheek on the light's side, where the surface faces the light: nothing stands between it and
     // the light, so shadows must not change it (acne would darken speckles of it).
-    const Eigen::Vector3d toward_light = model_to_camera_flip() * Eigen::Vector3d(1.0, 0.0, 0.3).normalized();
+    const Eigen::Vector3d toward_light = morph::model_to_camera_flip() * Eigen::Vector3d(1.0, 0.0, 0.3).normalized();
     int lit_pixels = 0, worst = 0;
     for (int y = static_cast<int>(top); y <= static_cast<int>(bottom); ++y)
         for (int x = static_cast<int>(right_nostril.x()) + 3; x < static_cast<int>(lm.pixels(0, 14)) - 3; ++x) {
@@ -203,7 +203,7 @@ TEST(Shadows, LightingJsonCarriesTheFlag) {
     EXPECT_TRUE(back.shadows);
     EXPECT_EQ(nlohmann::json(back), j);
     EXPECT_FALSE(nlohmann::json::parse(R"({"gamma": 2.0})").get<render::Lighting>().shadows);  // missing: off
-    EXPECT_THROW((void)nlohmann::json::parse(R"({"shadows": "yes"})").get<render::Lighting>(), Error);
+    EXPECT_THROW((void)nlohmann::json::parse(R"({"shadows": "yes"})").get<render::Lighting>(), core::Error);
 }
 
 TEST(Shadows, MapSizeOutOfRangeIsAnError) {
@@ -212,7 +212,7 @@ TEST(Shadows, MapSizeOutOfRangeIsAnError) {
     try {
         (void)render_face(settings);
         FAIL() << "no error for shadow_map_size 8";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find("shadow_map_size"), std::string::npos) << e.what();
     }
 }
@@ -221,7 +221,7 @@ TEST(Shadows, ManyRendersWithShadowsKeepMemorySteady) {
 #if defined(__SANITIZE_ADDRESS__)
     GTEST_SKIP() << "RSS is not a leak measure under AddressSanitizer (LeakSanitizer checks leaks in that build)";
 #endif
-    const Mesh mesh = testkit::toy().instance({});
+    const morph::Mesh mesh = testkit::toy().instance({});
     render::Renderer& renderer = shared_renderer();
     render::Frame frame;
     render::RenderSettings settings = side_light(true);

@@ -1,7 +1,7 @@
 // The report's building blocks: base64, escaping, and the SVG plots' structure (one polyline per
 // series, log axes skipping non-positive values, one rect per bar).
 #include "common/test_data.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "report/html.h"
 #include "report/svg_plot.h"
 
@@ -104,7 +104,7 @@ TEST(Report, ImagesAreEmbeddedAsDataUris) {
     EXPECT_EQ(png.rfind("<img alt=\"a &quot;tile&quot;\" src=\"data:image/png;base64,iVBORw0KGgo", 0), 0u) << png.substr(0, 80);
     const cv::Mat rgba(8, 8, CV_8UC4, cv::Scalar(10, 20, 30, 128));
     EXPECT_NE(img_tag(rgba, ImageCoding::kJpeg, "x").find("data:image/jpeg;base64,/9j/"), std::string::npos);
-    EXPECT_THROW((void)img_tag(cv::Mat(), ImageCoding::kPng, "empty"), facesynth::Error);
+    EXPECT_THROW((void)img_tag(cv::Mat(), ImageCoding::kPng, "empty"), facesynth::core::Error);
 }
 
 TEST(Report, PageListsSectionsAndEscapesText) {

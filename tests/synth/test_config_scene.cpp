@@ -1,8 +1,8 @@
 // Configuration parsing and the per-sample scene sampler (library level, no rendering).
 #include "common/test_data.h"
 #include "common/toy_model.h"
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "synth/config.h"
 #include "synth/dataset.h"
 #include "synth/scene.h"
@@ -16,7 +16,7 @@ namespace {
 
 TEST(SynthConfig, TomlFileSetsKeysAndRejectsUnknownKeyNamingIt) {
     const auto dir = testkit::fresh_temp_dir("synth_config_toml");
-    write_file_atomically(dir / "good.toml", "seed = 7\ncount = 5\n[pose.yaw]\ndistribution = \"normal\"\nstddev = 20\n[camera]\nwidth = 128\nfov_min = 12\n");
+    core::write_file_atomically(dir / "good.toml", "seed = 7\ncount = 5\n[pose.yaw]\ndistribution = \"normal\"\nstddev = 20\n[camera]\nwidth = 128\nfov_min = 12\n");
     SynthConfig config;
     apply_toml_file(config, dir / "good.toml");
     EXPECT_EQ(config.seed, 7u);
@@ -27,13 +27,13 @@ TEST(SynthConfig, TomlFileSetsKeysAndRejectsUnknownKeyNamingIt) {
     EXPECT_EQ(config.camera.fov_min, 12.0);  // an integer is accepted for a number
     EXPECT_NO_THROW(validate(config));
 
-    write_file_atomically(dir / "bad.toml", "[pose.yaw]\nmax = 40\nmaxx = 50\n");
+    core::write_file_atomically(dir / "bad.toml", "[pose.yaw]\nmax = 40\nmaxx = 50\n");
     SynthConfig other;
     const std::string message = testkit::error_message_of([&] { apply_toml_file(other, dir / "bad.toml"); });
     EXPECT_NE(message.find("pose.yaw.maxx"), std::string::npos) << message;
     EXPECT_NE(message.find("bad.toml"), std::string::npos) << message;
 
-    write_file_atomically(dir / "type.toml", "[camera]\nwidth = \"wide\"\n");
+    core::write_file_atomically(dir / "type.toml", "[camera]\nwidth = \"wide\"\n");
     const std::string type_message = testkit::error_message_of([&] { apply_toml_file(other, dir / "type.toml"); });
     EXPECT_NE(type_message.find("camera.width"), std::string::npos) << type_message;
 }
@@ -91,13 +91,13 @@ TEST(SynthShard, ParsesExplicitAndEnvironmentShards) {
     const auto s = parse_shard("2/5");
     EXPECT_EQ(s.index, 2);
     EXPECT_EQ(s.count, 5);
-    EXPECT_THROW((void)parse_shard("5/5"), Error);
-    EXPECT_THROW((void)parse_shard("1-2"), Error);
+    EXPECT_THROW((void)parse_shard("5/5"), core::Error);
+    EXPECT_THROW((void)parse_shard("1-2"), core::Error);
     ::setenv("JOB_COMPLETION_INDEX", "3", 1);
     const auto k8s = parse_shard("auto", 4);
     EXPECT_EQ(k8s.index, 3);
     EXPECT_EQ(k8s.count, 4);
-    EXPECT_THROW((void)parse_shard("auto"), Error);  // no total known
+    EXPECT_THROW((void)parse_shard("auto"), core::Error);  // no total known
     ::unsetenv("JOB_COMPLETION_INDEX");
     ::setenv("SLURM_ARRAY_TASK_ID", "1", 1);
     ::setenv("SLURM_ARRAY_TASK_COUNT", "3", 1);
@@ -166,13 +166,13 @@ TEST(SynthScene, NeutralShareGivesEmptyExpressions) {
 // albedo.reject_implausible changes only the colour coefficients of the samples whose first draw
 // the skin colour check rejects; every other sample, and every other draw, stays as it was.
 TEST(SynthScene, RejectImplausibleRedrawsOnlyTheRejectedColourDraws) {
-    MorphableModel model = testkit::make_toy_model();
+    morph::MorphableModel model = testkit::make_toy_model();
     testkit::set_uniform_colour_model(model, {0.5f, 0.3f, 0.2f}, {0.0f, -0.2f, 0.0f});  // 40 % rejected
-    const SkinColourCheck check(model);
+    const morph::SkinColourCheck check(model);
     SynthConfig on, off;
     off.albedo.reject_implausible = false;
     EXPECT_TRUE(on.albedo.reject_implausible);  // the default
-    const std::optional<SkinColourCheck> made = make_albedo_check(on, model);
+    const std::optional<morph::SkinColourCheck> made = make_albedo_check(on, model);
     ASSERT_TRUE(made.has_value());
     EXPECT_FALSE(make_albedo_check(off, model).has_value());
     int redrawn = 0;
@@ -203,7 +203,7 @@ TEST(SynthScene, RejectImplausibleRedrawsOnlyTheRejectedColourDraws) {
 }
 
 TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
-    const MorphableModel model = testkit::make_toy_model();
+    const morph::MorphableModel model = testkit::make_toy_model();
     SynthConfig off, on, half;
     on.lighting.shadow_probability = 1.0;
     half.lighting.shadow_probability = 0.5;

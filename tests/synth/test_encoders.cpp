@@ -1,6 +1,6 @@
 // The dataset's file encoders: PNG (synth/png.h), which any reader must decode to exactly the pixels
 // given, and depth EXR (synth/exr.h), whose bytes must depend on the pixels only.
-#include "morph/error.h"
+#include "core/error.h"
 #include "synth/exr.h"
 #include "synth/png.h"
 
@@ -68,13 +68,13 @@ TEST(PngEncoder, RefusesOtherImageTypesAndLevelsNamingThem) {
     try {
         (void)encoder.encode(cv::Mat(4, 4, CV_32FC1, cv::Scalar(0)), "s00000007");
         FAIL() << "float image accepted";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find("s00000007"), std::string::npos) << e.what();
     }
-    EXPECT_THROW((void)encoder.encode(cv::Mat(), "empty"), Error);
-    EXPECT_THROW((void)encoder.encode(cv::Mat(4, 4, CV_8UC4, cv::Scalar::all(0)), "rgba"), Error);
-    EXPECT_THROW(PngEncoder(10), Error);
-    EXPECT_THROW(PngEncoder(-1), Error);
+    EXPECT_THROW((void)encoder.encode(cv::Mat(), "empty"), core::Error);
+    EXPECT_THROW((void)encoder.encode(cv::Mat(4, 4, CV_8UC4, cv::Scalar::all(0)), "rgba"), core::Error);
+    EXPECT_THROW(PngEncoder(10), core::Error);
+    EXPECT_THROW(PngEncoder(-1), core::Error);
 }
 
 TEST(DepthExr, RoundTripsAndCarriesNoTimeStamp) {

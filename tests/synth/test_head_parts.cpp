@@ -2,9 +2,9 @@
 // face's landmarks and labels as they are.
 #include "common/test_data.h"
 #include "common/toy_model.h"
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 #include "morph/model_io.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "morph/regions.h"
 #include "render/renderer.h"
 #include "synth/config.h"
@@ -20,13 +20,13 @@
 namespace facesynth::synth {
 namespace {
 
-int pixels_labelled(const cv::Mat& labels, Region region) {
+int pixels_labelled(const cv::Mat& labels, morph::Region region) {
     return cv::countNonZero(labels == static_cast<std::uint8_t>(region));
 }
 
-bool is_face_region(Region r) {
-    return r == Region::kSkin || r == Region::kBrows || r == Region::kEyes || r == Region::kLips || r == Region::kNose ||
-           r == Region::kMouthInterior;
+bool is_face_region(morph::Region r) {
+    return r == morph::Region::kSkin || r == morph::Region::kBrows || r == morph::Region::kEyes || r == morph::Region::kLips || r == morph::Region::kNose ||
+           r == morph::Region::kMouthInterior;
 }
 
 TEST(HeadParts, AssetHoldsTheBodyOutfitsAndHairStylesWithAnchors) {
@@ -53,7 +53,7 @@ TEST(HeadParts, AssetHoldsTheBodyOutfitsAndHairStylesWithAnchors) {
 
 TEST(HeadParts, DamagedOrMissingFilesAreErrorsNamingThem) {
     const auto dir = testkit::fresh_temp_dir("head_parts_damaged");
-    const std::string good = read_file(default_head_parts_file());
+    const std::string good = core::read_file(default_head_parts_file());
     const auto write = [&](const std::string& name, const std::string& bytes) {
         std::ofstream(dir / name, std::ios::binary) << bytes;
         return dir / name;
@@ -71,10 +71,10 @@ TEST(HeadParts, DamagedOrMissingFilesAreErrorsNamingThem) {
 // The anchors of the parts land on the face's own (eyes, nose, nasion within a few mm; the model's
 // ears are flaps of another shape, so within a centimetre), for random faces of the built-in model.
 TEST(HeadParts, PlacementPutsTheAnchorsOnTheFacesOwn) {
-    const MorphableModel model = load_model("builtin");
+    const morph::MorphableModel model = morph::load_model("builtin");
     const HeadParts parts = read_head_parts(default_head_parts_file());
     const HeadPlacement placement(model, parts);
-    Rng rng(3, 0, 0);
+    core::Rng rng(3, 0, 0);
     for (int face = 0; face < 5; ++face) {
         std::vector<float> alpha(static_cast<std::size_t>(model.num_shape_components()));
         for (float& a : alpha) a = static_cast<float>(rng.normal(0, 1));
@@ -91,7 +91,7 @@ TEST(HeadParts, PlacementPutsTheAnchorsOnTheFacesOwn) {
 }
 
 TEST(HeadParts, LeaveTheFacesLandmarksAndLabelsAndAddNeckClothingAndHair) {
-    const MorphableModel model = load_model("builtin");
+    const morph::MorphableModel model = morph::load_model("builtin");
     SynthConfig plain;
     plain.camera.width = plain.camera.height = 128;
     plain.output.labels = true;
@@ -114,16 +114,16 @@ TEST(HeadParts, LeaveTheFacesLandmarksAndLabelsAndAddNeckClothingAndHair) {
             else EXPECT_FALSE(revealed) << "sample " << index << " point " << i;
             hidden_by_parts += without.labels.visible_fixed[i] && !with.labels.visible_fixed[i];
         }
-        EXPECT_GT(pixels_labelled(with.regions, Region::kNeck) + pixels_labelled(with.regions, Region::kClothing), 200) << "sample " << index;
-        clothing += pixels_labelled(with.regions, Region::kClothing) > 100;
-        hair += pixels_labelled(with.regions, Region::kHair) > pixels_labelled(without.regions, Region::kHair);
+        EXPECT_GT(pixels_labelled(with.regions, morph::Region::kNeck) + pixels_labelled(with.regions, morph::Region::kClothing), 200) << "sample " << index;
+        clothing += pixels_labelled(with.regions, morph::Region::kClothing) > 100;
+        hair += pixels_labelled(with.regions, morph::Region::kHair) > pixels_labelled(without.regions, morph::Region::kHair);
         // A face pixel keeps its label or is covered by hair or clothing; the body's skin stays behind it.
         for (int y = 0; y < 128; ++y)
             for (int x = 0; x < 128; ++x) {
-                const auto before = static_cast<Region>(without.regions.at<std::uint8_t>(y, x));
+                const auto before = static_cast<morph::Region>(without.regions.at<std::uint8_t>(y, x));
                 if (!is_face_region(before)) continue;
                 ++face_pixels;
-                face_pixels_relabelled_skin += with.regions.at<std::uint8_t>(y, x) == static_cast<std::uint8_t>(Region::kNeck);
+                face_pixels_relabelled_skin += with.regions.at<std::uint8_t>(y, x) == static_cast<std::uint8_t>(morph::Region::kNeck);
             }
         const Sample again = b.generate(index);
         EXPECT_EQ(cv::norm(again.image, with.image, cv::NORM_INF), 0) << "sample " << index << " is not reproducible";
@@ -140,7 +140,7 @@ TEST(HeadParts, LeaveTheFacesLandmarksAndLabelsAndAddNeckClothingAndHair) {
 // A face-only model without labels or ears (the toy model) wears MakeHuman's head and ears too, and
 // its own face stays skin.
 TEST(HeadParts, FaceOnlyModelsWearTheHeadAndEars) {
-    const MorphableModel model = testkit::make_toy_model();
+    const morph::MorphableModel model = testkit::make_toy_model();
     ASSERT_TRUE(model.vertex_labels.empty());
     SynthConfig config;
     config.camera.width = config.camera.height = 128;
@@ -153,9 +153,9 @@ TEST(HeadParts, FaceOnlyModelsWearTheHeadAndEars) {
     int ears = 0, skin = 0;
     for (std::int64_t index = 0; index < 3; ++index) {
         const Sample s = generator.generate(index);
-        ears += pixels_labelled(s.regions, Region::kEars);
-        skin += pixels_labelled(s.regions, Region::kSkin);
-        EXPECT_GT(pixels_labelled(s.regions, Region::kNeck) + pixels_labelled(s.regions, Region::kClothing), 100) << index;
+        ears += pixels_labelled(s.regions, morph::Region::kEars);
+        skin += pixels_labelled(s.regions, morph::Region::kSkin);
+        EXPECT_GT(pixels_labelled(s.regions, morph::Region::kNeck) + pixels_labelled(s.regions, morph::Region::kClothing), 100) << index;
     }
     EXPECT_GT(ears, 30);
     EXPECT_GT(skin, 1000);
@@ -168,7 +168,7 @@ TEST(HeadParts, ConfigErrorsNameTheKeyOrFile) {
     const std::string message = testkit::error_message_of([&] { validate(both); });
     EXPECT_NE(message.find("head.body"), std::string::npos) << message;
 
-    const MorphableModel model = load_model("builtin");
+    const morph::MorphableModel model = morph::load_model("builtin");
     SynthConfig missing;
     apply_override(missing, "head.body=true");
     apply_override(missing, "head.parts_file=/nonexistent/parts.bin");

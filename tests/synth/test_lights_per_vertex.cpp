@@ -23,7 +23,7 @@ struct LitComparison {
 };
 
 // Mean length in pixels of the projected edges of the triangles drawn in `frame` (ids present).
-double mean_drawn_edge(const Mesh& mesh, const render::Camera& camera, const render::Frame& frame) {
+double mean_drawn_edge(const morph::Mesh& mesh, const render::Camera& camera, const render::Frame& frame) {
     std::vector<char> drawn(mesh.triangles.size(), 0);
     for (int y = 0; y < frame.triangle_ids.rows; ++y)
         for (int x = 0; x < frame.triangle_ids.cols; ++x)
@@ -33,7 +33,7 @@ double mean_drawn_edge(const Mesh& mesh, const render::Camera& camera, const ren
     long edges = 0;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         if (!drawn[t]) continue;
-        const Triangle& corners = mesh.triangles[t];
+        const morph::Triangle& corners = mesh.triangles[t];
         for (std::size_t k = 0; k < 3; ++k, ++edges)
             sum += (pixels.col(corners[k]) - pixels.col(corners[(k + 1) % 3])).norm();
     }
@@ -43,12 +43,12 @@ double mean_drawn_edge(const Mesh& mesh, const render::Camera& camera, const ren
 // Renders the first `views` samples with at least one directional light of synth's scene sampler at
 // `size`² with the lights per pixel and per vertex, MSAA off, and compares the colours. Mask, ids and
 // depth must be identical.
-LitComparison compare_lights(const MorphableModel& model, SynthConfig config, int size, int views) {
+LitComparison compare_lights(const morph::MorphableModel& model, SynthConfig config, int size, int views) {
     config.camera.width = config.camera.height = size;
-    const std::optional<SkinColourCheck> check = make_albedo_check(config, model);
+    const std::optional<morph::SkinColourCheck> check = make_albedo_check(config, model);
     static render::Renderer renderer({render::Backend::kEgl, false});
     LitComparison result;
-    Mesh mesh = model.instance({});
+    morph::Mesh mesh = model.instance({});
     double edge_sum = 0;
     render::Frame per_pixel, per_vertex;
     int compared = 0;
@@ -99,7 +99,7 @@ void expect_within_tolerance(const LitComparison& c) {
 }  // namespace
 
 TEST(LightsPerVertex, BuiltinWithinTolerancesOfPerPixelLightsAtEverySize) {
-    const MorphableModel model = load_model("builtin");
+    const morph::MorphableModel model = morph::load_model("builtin");
     const LitComparison small = compare_lights(model, SynthConfig{}, 256, 8);
     expect_within_tolerance(small);
     expect_within_tolerance(compare_lights(model, SynthConfig{}, 512, 4));
@@ -111,7 +111,7 @@ TEST(LightsPerVertex, BuiltinWithinTolerancesOfPerPixelLightsAtEverySize) {
 
 TEST(LightsPerVertex, SurreyWithinTolerancesOfPerPixelLightsAtEverySize) {
     FACESYNTH_REQUIRE_SHARED_DATA(sfm, "sfm");
-    const MorphableModel model = load_model(sfm.string());
+    const morph::MorphableModel model = morph::load_model(sfm.string());
     SynthConfig config;
     config.model = sfm.string();
     expect_within_tolerance(compare_lights(model, config, 256, 8));
@@ -122,7 +122,7 @@ TEST(LightsPerVertex, SurreyWithinTolerancesOfPerPixelLightsAtEverySize) {
 // render.lights_per_vertex reaches the renderer: a sample with directional lights changes a little, one
 // without is byte-identical, and the landmarks (geometry) are the same.
 TEST(LightsPerVertex, SynthKeyShadesLitSamplesPerVertexOnly) {
-    const MorphableModel model = load_model("builtin");
+    const morph::MorphableModel model = morph::load_model("builtin");
     SynthConfig per_pixel;
     per_pixel.camera.width = per_pixel.camera.height = 128;
     per_pixel.render.lights_per_vertex = false;

@@ -20,7 +20,7 @@ int partly_covered(const cv::Mat& mask) {
 }
 
 TEST(SampleRenderSettings, EdgeAntialiasingKeyBlendsTheOutlineOnly) {
-    const MorphableModel model = load_model("builtin");
+    const morph::MorphableModel model = morph::load_model("builtin");
     SynthConfig antialiased;
     antialiased.camera.width = antialiased.camera.height = 128;
     ASSERT_TRUE(antialiased.render.edge_antialiasing);  // the default

@@ -4,11 +4,11 @@
 // They run the real CLI on the toy model (written to a .fsm file) at 64x64.
 #include "common/test_data.h"
 #include "common/toy_model.h"
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
-#include "morph/random.h"
+#include "core/random.h"
 #include "morph/regions.h"
 #include "synth/dataset.h"
 #include "synth/scene.h"
@@ -38,7 +38,7 @@ const fs::path& toy_model_file() {
         // One folder per test process: ctest runs the cases of this file in parallel processes,
         // and a shared folder would be wiped by one while another reads its model.
         const auto dir = testkit::fresh_temp_dir("synth_toy_model_" + std::to_string(::getpid()));
-        write_model(testkit::make_toy_model(), dir / "toy.fsm");
+        morph::write_model(testkit::make_toy_model(), dir / "toy.fsm");
         return dir / "toy.fsm";
     }();
     return path;
@@ -48,11 +48,11 @@ const fs::path& toy_model_file() {
 const fs::path& labelled_toy_model_file() {
     static const fs::path path = [] {
         const auto dir = testkit::fresh_temp_dir("synth_labelled_toy_model");
-        MorphableModel toy = testkit::make_toy_model();
-        const auto mean = as_points(toy.shape.mean);
+        morph::MorphableModel toy = testkit::make_toy_model();
+        const auto mean = morph::as_points(toy.shape.mean);
         for (int v = 0; v < toy.num_vertices(); ++v)
-            toy.vertex_labels.push_back(static_cast<std::uint8_t>(mean(1, v) > 60.0f ? Region::kHair : Region::kSkin));
-        write_model(toy, dir / "toy.fsm");
+            toy.vertex_labels.push_back(static_cast<std::uint8_t>(mean(1, v) > 60.0f ? morph::Region::kHair : morph::Region::kSkin));
+        morph::write_model(toy, dir / "toy.fsm");
         return dir / "toy.fsm";
     }();
     return path;
@@ -74,7 +74,7 @@ std::map<std::string, std::string> snapshot(const fs::path& dir) {
         if (!entry.is_regular_file()) continue;
         const std::string name = entry.path().filename().string();
         if (name.find("-of-") != std::string::npos) continue;
-        files[fs::relative(entry.path(), dir).string()] = read_file(entry.path());
+        files[fs::relative(entry.path(), dir).string()] = core::read_file(entry.path());
     }
     return files;
 }
@@ -159,7 +159,7 @@ TEST(SynthCli, HeadPartsAreDeterministicAndRecorded) {
         EXPECT_EQ(meta["head_parts"]["torso"].size(), 3u) << key;
         const cv::Mat labels = cv::imread((dir / "a" / "labels" / (key + ".png")).string(), cv::IMREAD_UNCHANGED);
         ASSERT_FALSE(labels.empty()) << key;
-        clothing_pixels += cv::countNonZero(labels == static_cast<std::uint8_t>(Region::kClothing));
+        clothing_pixels += cv::countNonZero(labels == static_cast<std::uint8_t>(morph::Region::kClothing));
     }
     EXPECT_GT(clothing_pixels, 600);
 }
@@ -168,20 +168,20 @@ TEST(SynthCli, MetaCarriesGroundTruthConsistentWithPts) {
     const auto dir = testkit::fresh_temp_dir("synth_meta");
     std::string log;
     ASSERT_EQ(synth(" -o " + dir.string() + base_args(3) + " --threads 1", &log), 0) << log;
-    const auto meta = nlohmann::json::parse(read_file(dir / "meta" / "s00000001.json"));
+    const auto meta = nlohmann::json::parse(core::read_file(dir / "meta" / "s00000001.json"));
     for (const char* key : {"key", "index", "seed", "model_name", "model_checksum", "alpha", "psi", "beta", "albedo_redraws", "albedo_shrink", "rotation", "yaw", "pitch", "roll",
                             "translation", "intrinsics", "image_width", "image_height", "lighting", "background", "landmark_mode",
                             "landmarks", "visibility", "landmarks_fixed", "landmarks_contour", "landmarks_3d_fixed", "bbox"})
         EXPECT_TRUE(meta.contains(key)) << key;
     EXPECT_EQ(meta["index"], 1);
     EXPECT_EQ(meta["landmarks"].size(), 68u);
-    const auto pts = read_pts(dir / "landmarks" / "s00000001.pts");
+    const auto pts = morph::read_pts(dir / "landmarks" / "s00000001.pts");
     ASSERT_EQ(pts.cols(), 68);
     for (int i = 0; i < 68; ++i) {
         EXPECT_NEAR(pts(0, i), meta["landmarks"][static_cast<std::size_t>(i)][0].get<double>(), 1e-3);
         EXPECT_NEAR(pts(1, i), meta["landmarks"][static_cast<std::size_t>(i)][1].get<double>(), 1e-3);
     }
-    const auto manifest = read_file(dir / "manifest.jsonl");
+    const auto manifest = core::read_file(dir / "manifest.jsonl");
     EXPECT_EQ(std::count(manifest.begin(), manifest.end(), '\n'), 3);
 }
 
@@ -193,7 +193,7 @@ TEST(SynthCli, MetaFilesAreNlohmannsCompactDumpOfTheirContent) {
     std::string log;
     ASSERT_EQ(synth(" -o " + dir.string() + base_args(4) + " --threads 1 --set occluders.probability=1", &log), 0) << log;
     for (int i = 0; i < 4; ++i) {
-        const std::string text = read_file(dir / "meta" / (sample_key(i) + ".json"));
+        const std::string text = core::read_file(dir / "meta" / (sample_key(i) + ".json"));
         const auto meta = nlohmann::json::parse(text);
         EXPECT_EQ(meta.dump() + "\n", text) << sample_key(i);
         EXPECT_FALSE(meta["occluders"].empty()) << sample_key(i);
@@ -209,17 +209,17 @@ TEST(SynthCli, ShadowProbabilityShadowsTheSamplesWithLightsAndRecordsIt) {
     std::string log;
     ASSERT_EQ(synth(" -o " + plain.string() + args, &log), 0) << log;
     ASSERT_EQ(synth(" -o " + shadowed.string() + args + " --set lighting.shadow_probability=1", &log), 0) << log;
-    const auto config = nlohmann::json::parse(read_file(shadowed / "dataset.json"));
+    const auto config = nlohmann::json::parse(core::read_file(shadowed / "dataset.json"));
     EXPECT_EQ(config["config"]["lighting"]["shadow_probability"], 1.0) << config.dump();
     int with_lights = 0, changed = 0;
     for (int i = 0; i < 8; ++i) {
         const std::string key = sample_key(i);
-        const auto meta = nlohmann::json::parse(read_file(shadowed / "meta" / (key + ".json")));
-        const auto plain_meta = nlohmann::json::parse(read_file(plain / "meta" / (key + ".json")));
+        const auto meta = nlohmann::json::parse(core::read_file(shadowed / "meta" / (key + ".json")));
+        const auto plain_meta = nlohmann::json::parse(core::read_file(plain / "meta" / (key + ".json")));
         const bool lights = !meta["lighting"]["lights"].empty();
         EXPECT_EQ(meta["lighting"]["shadows"], lights) << key;
         EXPECT_EQ(plain_meta["lighting"]["shadows"], false) << key;
-        const bool same_image = read_file(shadowed / "images" / (key + ".png")) == read_file(plain / "images" / (key + ".png"));
+        const bool same_image = core::read_file(shadowed / "images" / (key + ".png")) == core::read_file(plain / "images" / (key + ".png"));
         if (!lights) {
             EXPECT_TRUE(same_image) << key << ": no directional light, nothing to shadow";
         }
@@ -253,7 +253,7 @@ TEST(SynthCli, ResumesAfterTwentySigkillsWithoutPartialOrDuplicateFiles) {
     ASSERT_EQ(synth(" -o " + (dir / "clean").string() + common, &log), 0) << log;
     const fs::path out = dir / "killed";
     const std::string args = " synth -o " + out.string() + common;
-    Rng rng(2024, 0, 0);
+    core::Rng rng(2024, 0, 0);
     int kills = 0, killed_mid_run = 0;
     for (int attempt = 0; attempt < 60 && kills < 20; ++attempt) {
         const pid_t pid = spawn_cli(args);
@@ -297,7 +297,7 @@ int synth_with_file_size_limit(const std::string& args, rlim_t limit, std::strin
     }
     int status = 0;
     ::waitpid(pid, &status, 0);
-    *output = read_file(log);
+    *output = core::read_file(log);
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
@@ -324,7 +324,7 @@ TEST(SynthCli, DiskFullStopsWithAClearErrorKeepsFinishedSamplesAndResumes) {
     EXPECT_NE(log.find("shard-000000.tar"), std::string::npos) << log;
     EXPECT_EQ(log.find("internal error"), std::string::npos) << log;
     // Every sample the manifest lists is complete and identical to the clean run's.
-    const auto manifest = read_file(out / "manifest.jsonl");
+    const auto manifest = core::read_file(out / "manifest.jsonl");
     const auto finished = std::count(manifest.begin(), manifest.end(), '\n');
     EXPECT_GT(finished, 0);
     EXPECT_LT(finished, count);
@@ -357,7 +357,7 @@ TEST(SynthCli, UnknownConfigKeyIsAnErrorNamingIt) {
     std::string log;
     EXPECT_EQ(synth(" -o " + dir.string() + base_args(1) + " --set pose.yaww.max=3", &log), 1);
     EXPECT_NE(log.find("unknown config key 'pose.yaww.max'"), std::string::npos) << log;
-    write_file_atomically(dir / "c.toml", "[lighting]\nshadowz = true\n");
+    core::write_file_atomically(dir / "c.toml", "[lighting]\nshadowz = true\n");
     EXPECT_EQ(synth(" -o " + (dir / "out").string() + base_args(1) + " -c " + (dir / "c.toml").string(), &log), 1);
     EXPECT_NE(log.find("lighting.shadowz"), std::string::npos) << log;
     EXPECT_NE(log.find("c.toml"), std::string::npos) << log;
@@ -396,10 +396,10 @@ TEST(SynthCli, LabelMapsHoldTheModelsRegionIds) {
         for (int y = 0; y < labels.rows; ++y)
             for (int x = 0; x < labels.cols; ++x) {
                 const int id = labels.at<std::uint8_t>(y, x);
-                ASSERT_TRUE(id == 0 || id == static_cast<int>(Region::kSkin) || id == static_cast<int>(Region::kHair)) << key << " id " << id;
+                ASSERT_TRUE(id == 0 || id == static_cast<int>(morph::Region::kSkin) || id == static_cast<int>(morph::Region::kHair)) << key << " id " << id;
                 EXPECT_EQ(id != 0, mask.at<std::uint8_t>(y, x) != 0) << key << " at " << x << "," << y;  // no MSAA: same coverage
-                skin += id == static_cast<int>(Region::kSkin);
-                hair += id == static_cast<int>(Region::kHair);
+                skin += id == static_cast<int>(morph::Region::kSkin);
+                hair += id == static_cast<int>(morph::Region::kHair);
             }
         EXPECT_GT(skin, 100) << key;
         EXPECT_GT(hair, 0) << key;  // the top of the toy head shows at every pose
@@ -415,7 +415,7 @@ TEST(SynthCli, UvTexturesComeFromTheFolderSkippingUnreadableOnes) {
     // Pure red, green and blue maps (BGR on disk), and a file that is no image.
     const std::map<std::string, cv::Scalar> maps = {{"red.png", {0, 0, 255}}, {"green.png", {0, 255, 0}}, {"blue.png", {255, 0, 0}}};
     for (const auto& [name, bgr] : maps) ASSERT_TRUE(cv::imwrite((textures / name).string(), cv::Mat(32, 32, CV_8UC3, bgr)));
-    write_file_atomically(textures / "broken.png", "not a png");
+    core::write_file_atomically(textures / "broken.png", "not a png");
     std::string log;
     const std::string args = base_args(6) + " --format folder --set output.mask=true --set albedo.texture_folder=" + textures.string();
     ASSERT_EQ(synth(" -o " + (dir / "out").string() + args, &log), 0) << log;
@@ -448,7 +448,7 @@ TEST(SynthCli, UvTexturesComeFromTheFolderSkippingUnreadableOnes) {
     }
     // A folder with no readable image is an error naming it.
     fs::create_directories(dir / "empty");
-    write_file_atomically(dir / "empty" / "broken.png", "not a png");
+    core::write_file_atomically(dir / "empty" / "broken.png", "not a png");
     EXPECT_EQ(synth(" -o " + (dir / "none").string() + base_args(1) + " --set albedo.texture_folder=" + (dir / "empty").string(), &log), 1);
     EXPECT_NE(log.find((dir / "empty").string()), std::string::npos) << log;
     EXPECT_NE(log.find("no readable texture images"), std::string::npos) << log;
@@ -458,7 +458,7 @@ TEST(SynthCli, CocoKeypointsHaveTheExpectedStructure) {
     const auto dir = testkit::fresh_temp_dir("synth_coco");
     std::string log;
     ASSERT_EQ(synth(" -o " + dir.string() + base_args(4) + " --format coco --set pose.yaw.min=60 --set pose.yaw.max=80", &log), 0) << log;
-    const auto coco = nlohmann::json::parse(read_file(dir / "coco.json"));
+    const auto coco = nlohmann::json::parse(core::read_file(dir / "coco.json"));
     ASSERT_EQ(coco["images"].size(), 4u);
     ASSERT_EQ(coco["annotations"].size(), 4u);
     ASSERT_EQ(coco["categories"].size(), 1u);
@@ -487,11 +487,11 @@ TEST(SynthCli, CocoExportNamesADamagedMetaFile) {
                                    R"({"image_width": 64, "image_height": 64, "landmarks": [[1, 2]], "visibility": [],
                                        "occluded": [], "bbox": [0, 0, 1, 1]})",
                                    R"({"image_width": 64, "image_height": 64, "landmarks": "x", "visibility": [], "occluded": [], "bbox": []})"}) {
-        write_file_atomically(dir / "meta" / "s00000000.json", text);
+        core::write_file_atomically(dir / "meta" / "s00000000.json", text);
         try {
             (void)coco_from_meta(dir, {0}, SynthConfig{});
             ADD_FAILURE() << "accepted " << text;
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             EXPECT_NE(std::string(e.what()).find("s00000000.json"), std::string::npos) << e.what();
         }
     }
@@ -528,7 +528,7 @@ void expect_error_naming(const std::string& args, const fs::path& file, const st
 }
 
 TEST(SynthDatasetFiles, SheetNamesADamagedMetaFileOrMissingImageAndWritesNothing) {
-    const std::string valid = read_file(damaged_copy("synth_sheet_valid") / "meta" / "s00000001.json");
+    const std::string valid = core::read_file(damaged_copy("synth_sheet_valid") / "meta" / "s00000001.json");
     auto with = [&](std::string text, const std::string& from, const std::string& to) {
         text.replace(text.find(from), from.size(), to);
         return text;
@@ -546,7 +546,7 @@ TEST(SynthDatasetFiles, SheetNamesADamagedMetaFileOrMissingImageAndWritesNothing
     for (std::size_t c = 0; c < cases.size(); ++c) {
         const auto dir = damaged_copy("synth_sheet_bad_meta");
         const auto meta = dir / "meta" / "s00000001.json";
-        write_file_atomically(meta, cases[c].first);
+        core::write_file_atomically(meta, cases[c].first);
         SCOPED_TRACE("case " + std::to_string(c));
         expect_error_naming(" sheet " + dir.string() + " -o " + (dir / "sheet.png").string(), meta, cases[c].second);
         EXPECT_FALSE(fs::exists(dir / "sheet.png"));
@@ -556,7 +556,7 @@ TEST(SynthDatasetFiles, SheetNamesADamagedMetaFileOrMissingImageAndWritesNothing
         const auto dir = damaged_copy("synth_sheet_short_visibility");
         auto meta = nlohmann::json::parse(valid);
         meta["visibility"] = nlohmann::json::array({1});
-        write_file_atomically(dir / "meta" / "s00000001.json", meta.dump());
+        core::write_file_atomically(dir / "meta" / "s00000001.json", meta.dump());
         expect_error_naming(" sheet " + dir.string() + " -o " + (dir / "sheet.png").string(), dir / "meta" / "s00000001.json",
                             "must be arrays of one length");
     }
@@ -565,7 +565,7 @@ TEST(SynthDatasetFiles, SheetNamesADamagedMetaFileOrMissingImageAndWritesNothing
         const auto dir = damaged_copy("synth_sheet_missing_image");
         fs::remove(dir / "images" / "s00000002.png");
         expect_error_naming(" sheet " + dir.string() + " -o " + (dir / "sheet.png").string(), dir / "images" / "s00000002.png", "missing");
-        write_file_atomically(dir / "images" / "s00000002.png", "not a PNG");
+        core::write_file_atomically(dir / "images" / "s00000002.png", "not a PNG");
         expect_error_naming(" sheet " + dir.string() + " -o " + (dir / "sheet.png").string(), dir / "images" / "s00000002.png",
                             "cannot read image");
         EXPECT_FALSE(fs::exists(dir / "sheet.png"));
@@ -575,7 +575,7 @@ TEST(SynthDatasetFiles, SheetNamesADamagedMetaFileOrMissingImageAndWritesNothing
         const auto dir = damaged_copy("synth_sheet_far_landmark");
         auto meta = nlohmann::json::parse(valid);
         meta["landmarks"][0] = {1e300, -1e300};
-        write_file_atomically(dir / "meta" / "s00000001.json", meta.dump());
+        core::write_file_atomically(dir / "meta" / "s00000001.json", meta.dump());
         std::string log;
         EXPECT_EQ(synth(" sheet " + dir.string() + " --columns 3 -o " + (dir / "sheet.png").string(), &log), 0) << log;
         EXPECT_EQ(cv::imread((dir / "sheet.png").string()).cols, 3 * 160);
@@ -596,7 +596,7 @@ TEST(SynthDatasetFiles, MergeNamesABadManifestLineAndLeavesTheTargetUntouched) {
     for (std::size_t c = 0; c < lines.size(); ++c) {
         const auto dir = damaged_copy("synth_merge_bad_line");
         const auto manifest = dir / "manifest.jsonl";
-        write_file_atomically(manifest, "{\"index\":0,\"key\":\"s00000000\"}\n" + lines[c].first + "\n");
+        core::write_file_atomically(manifest, "{\"index\":0,\"key\":\"s00000000\"}\n" + lines[c].first + "\n");
         SCOPED_TRACE("case " + std::to_string(c));
         expect_error_naming(" merge " + dir.string() + " --into " + (dir / "merged").string() + " --quiet", manifest, lines[c].second);
         EXPECT_FALSE(fs::exists(dir / "merged"));
@@ -614,7 +614,7 @@ TEST(SynthDatasetFiles, MergeNamesAMissingSampleFileBeforeLinkingAny) {
 TEST(SynthDatasetFiles, MergeNamesADamagedDatasetJsonOrMetaFile) {
     const auto dir = damaged_copy("synth_merge_bad_info");
     const auto info_path = dir / "dataset.json";
-    const std::string valid = read_file(info_path);
+    const std::string valid = core::read_file(info_path);
     auto info = nlohmann::json::parse(valid);
     const std::vector<std::pair<std::string, std::string>> cases = {
         {valid.substr(0, valid.size() / 3), "not a facesynth dataset.json"},  // truncated
@@ -625,14 +625,14 @@ TEST(SynthDatasetFiles, MergeNamesADamagedDatasetJsonOrMetaFile) {
         {[&] { auto j = info; j["model_checksum"] = 12; return j.dump(); }(), "model_checksum must be a string"},
     };
     for (std::size_t c = 0; c < cases.size(); ++c) {
-        write_file_atomically(info_path, cases[c].first);
+        core::write_file_atomically(info_path, cases[c].first);
         SCOPED_TRACE("case " + std::to_string(c));
         expect_error_naming(" merge " + dir.string() + " --into " + (dir / "merged").string() + " --quiet", info_path, cases[c].second);
         EXPECT_FALSE(fs::exists(dir / "merged" / "manifest.jsonl"));
     }
     // A damaged meta file stops the COCO export before the merged manifest is written.
-    write_file_atomically(info_path, valid);
-    write_file_atomically(dir / "meta" / "s00000001.json", "{\"image_width\": 48");
+    core::write_file_atomically(info_path, valid);
+    core::write_file_atomically(dir / "meta" / "s00000001.json", "{\"image_width\": 48");
     expect_error_naming(" merge " + dir.string() + " --into " + (dir / "merged").string() + " --quiet", dir / "merged" / "meta" / "s00000001.json",
                         "invalid JSON");
     EXPECT_FALSE(fs::exists(dir / "merged" / "manifest.jsonl"));

@@ -2,8 +2,8 @@
 // (synth/photo_backgrounds.h).
 #include "common/test_data.h"
 #include "morph/builtin.h"
-#include "morph/error.h"
-#include "morph/random.h"
+#include "core/error.h"
+#include "core/random.h"
 #include "synth/config.h"
 #include "synth/photo_backgrounds.h"
 #include "synth/scene.h"
@@ -22,7 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-TextureBankManifest bank_header_for(const MorphableModel& model, int size) {
+TextureBankManifest bank_header_for(const morph::MorphableModel& model, int size) {
     TextureBankManifest h;
     h.model = model.name;
     h.model_checksum = model.checksum();
@@ -35,11 +35,11 @@ cv::Mat solid_texture(int size, uchar r, uchar g, uchar b) { return {size, size,
 
 class TextureBankTest : public ::testing::Test {
 protected:
-    static void SetUpTestSuite() { model_ = std::make_unique<MorphableModel>(builtin_model()); }
+    static void SetUpTestSuite() { model_ = std::make_unique<morph::MorphableModel>(morph::builtin_model()); }
     static void TearDownTestSuite() { model_.reset(); }
-    static std::unique_ptr<MorphableModel> model_;
+    static std::unique_ptr<morph::MorphableModel> model_;
 };
-std::unique_ptr<MorphableModel> TextureBankTest::model_;
+std::unique_ptr<morph::MorphableModel> TextureBankTest::model_;
 
 TEST_F(TextureBankTest, WrittenBankLoadsForItsModelInManifestOrder) {
     const fs::path dir = testkit::fresh_temp_dir("texture_bank_roundtrip");
@@ -83,7 +83,7 @@ TEST_F(TextureBankTest, UncommittedWriterLeavesNothingAndANonBankFolderIsNeverRe
     const std::string message = testkit::error_message_of([&] { TextureBankWriter writer(dir / "photos", bank_header_for(*model_, 16)); });
     EXPECT_NE(message.find("is not a texture bank"), std::string::npos) << message;
     TextureBankWriter writer(dir / "bank", bank_header_for(*model_, 16));
-    EXPECT_THROW(writer.add(solid_texture(8, 1, 2, 3), {}), Error);  // wrong size
+    EXPECT_THROW(writer.add(solid_texture(8, 1, 2, 3), {}), core::Error);  // wrong size
 }
 
 TEST_F(TextureBankTest, BadBanksAreRefusedNamingTheFileAndTheProblem) {
@@ -128,7 +128,7 @@ TEST_F(TextureBankTest, BadBanksAreRefusedNamingTheFileAndTheProblem) {
         "model_checksum": "x", "vertices": 1, "size": 16, "textures": [{"file": "../../etc/passwd"}]})";
     message = testkit::error_message_of([&] { (void)load_texture_bank(dir / "empty", *model_); });
     EXPECT_NE(message.find("relative path inside the bank"), std::string::npos) << message;
-    EXPECT_THROW((void)load_texture_bank(dir / "missing", *model_), Error);
+    EXPECT_THROW((void)load_texture_bank(dir / "missing", *model_), core::Error);
 }
 
 // identity.source = "texture": each sample's shape is the one fitted to its texture's photograph,
@@ -184,7 +184,7 @@ TEST_F(TextureBankTest, TextureIdentityIsTheShapeStoredWithTheDrawnTexture) {
 }
 
 TEST(PhotoBackgrounds, RegionsNeverMeetTheAnnotatedFace) {
-    Rng rng(5, 0, 0);
+    core::Rng rng(5, 0, 0);
     for (int trial = 0; trial < 200; ++trial) {
         const cv::Size image(rng.uniform_int(100, 900), rng.uniform_int(100, 900));
         const double w = rng.uniform(20, 300), h = rng.uniform(20, 300);
@@ -203,10 +203,10 @@ TEST(PhotoBackgrounds, RegionsNeverMeetTheAnnotatedFace) {
                 << trial;
         }
     }
-    EXPECT_THROW((void)background_regions({100, 100}, Eigen::Matrix2Xd(2, 0), 16), Error);
+    EXPECT_THROW((void)background_regions({100, 100}, Eigen::Matrix2Xd(2, 0), 16), core::Error);
     Eigen::Matrix2Xd nan_landmarks = Eigen::Matrix2Xd::Zero(2, 68);
     nan_landmarks(0, 3) = std::nan("");
-    EXPECT_THROW((void)background_regions({100, 100}, nan_landmarks, 16), Error);
+    EXPECT_THROW((void)background_regions({100, 100}, nan_landmarks, 16), core::Error);
 }
 
 }  // namespace

@@ -2,7 +2,7 @@
 // tools/install-deps.sh installs: every listed photograph loads, reduced, and synth draws from them;
 // a missing one is an error naming the file and its package.
 #include "common/test_data.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "synth/config.h"
 #include "synth/wallpapers.h"
 

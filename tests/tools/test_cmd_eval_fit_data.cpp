@@ -98,7 +98,7 @@ TEST(CmdEvalFitData, RefinedFitOfARenderedDatasetBeatsTheMeanShapeAndRecoversThe
 
 TEST(CmdEvalFitData, RefusesADatasetMadeWithAnotherModel) {
     const auto dir = fresh_temp_dir("cmd_eval_fit_data_model");
-    facesynth::write_model(facesynth::testkit::make_toy_model(), dir / "toy.fsm");
+    facesynth::morph::write_model(facesynth::testkit::make_toy_model(), dir / "toy.fsm");
     const auto data = make_dataset(dir, (dir / "toy.fsm").string(), 3);
     const std::string toy_checksum = read_json(data / "dataset.json")["model_checksum"].get<std::string>();
     std::string out;

@@ -34,7 +34,7 @@ TEST(CmdFit, FitsAPhotoAndWritesEveryOutput) {
 
 TEST(CmdFit, WrongLandmarkCountIsAOneLineErrorNamingTheFile) {
     const auto dir = fresh_temp_dir("cmd_fit_bad");
-    facesynth::write_pts(dir / "five.pts", Eigen::Matrix2Xd::Random(2, 5) * 100);
+    facesynth::morph::write_pts(dir / "five.pts", Eigen::Matrix2Xd::Random(2, 5) * 100);
     std::string out;
     const int status = run_command(cli_path().string() + " fit --model builtin --landmarks " + (dir / "five.pts").string() +
                                        " --out " + (dir / "o").string(),

@@ -32,7 +32,7 @@ std::filesystem::path toy_model_file(const std::filesystem::path& dir) {
     o.latitude_steps = 12;
     o.longitude_steps = 16;
     const auto path = dir / "toy.fsm";
-    write_model(testkit::make_toy_model(o), path);
+    morph::write_model(testkit::make_toy_model(o), path);
     return path;
 }
 
@@ -72,7 +72,7 @@ TEST(CmdModel, ConvertExportAndBuild) {
     const auto model = toy_model_file(dir);
     std::string output;
     ASSERT_EQ(run("model convert --model " + model.string() + " --out " + (dir / "copy.fsm").string(), &output), 0) << output;
-    EXPECT_EQ(read_model(dir / "copy.fsm").checksum(), read_model(model).checksum());
+    EXPECT_EQ(morph::read_model(dir / "copy.fsm").checksum(), morph::read_model(model).checksum());
 
     // Export a few instances, read them back, and build a model from them.
     const auto meshes = dir / "meshes";
@@ -80,17 +80,17 @@ TEST(CmdModel, ConvertExportAndBuild) {
     ASSERT_EQ(run("model export --model " + model.string() + " --alpha 1,-0.5 --out " + (meshes / "a.obj").string(), &output), 0) << output;
     ASSERT_EQ(run("model export --model " + model.string() + " --random --seed 3 --out " + (meshes / "b.glb").string(), &output), 0) << output;
     ASSERT_EQ(run("model export --model " + model.string() + " --random --seed 4 --out " + (meshes / "c.glb").string(), &output), 0) << output;
-    const Mesh a = read_mesh(meshes / "a.obj");
-    const Mesh b = read_mesh(meshes / "b.glb");
+    const morph::Mesh a = morph::read_mesh(meshes / "a.obj");
+    const morph::Mesh b = morph::read_mesh(meshes / "b.glb");
     EXPECT_EQ(a.triangles, b.triangles);
     EXPECT_GT((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.1f);
     // --random is reproducible from the seed.
     ASSERT_EQ(run("model export --model " + model.string() + " --random --seed 3 --out " + (dir / "b_again.glb").string(), &output), 0);
-    EXPECT_EQ(read_mesh(dir / "b_again.glb").vertices, b.vertices);
+    EXPECT_EQ(morph::read_mesh(dir / "b_again.glb").vertices, b.vertices);
 
     ASSERT_EQ(run("model build --quiet --meshes " + meshes.string() + " --like " + model.string() + " --out " + (dir / "built.fsm").string(), &output), 0)
         << output;
-    const MorphableModel built = read_model(dir / "built.fsm");
+    const morph::MorphableModel built = morph::read_model(dir / "built.fsm");
     EXPECT_EQ(built.num_vertices(), a.num_vertices());
     EXPECT_EQ(built.num_shape_components(), 2);  // 3 meshes -> at most 2 components
     EXPECT_EQ(built.landmarks.size(), 68u);
@@ -152,10 +152,10 @@ TEST(CmdModel, AlbedoCheckFindsABrokenColourBasisAndNeedsAColourModel) {
     const auto dir = testkit::fresh_temp_dir("cmd_model_albedo_check_broken");
     testkit::ToyModelOptions o;
     o.shape_components = 4;
-    MorphableModel broken = testkit::make_toy_model(o);
+    morph::MorphableModel broken = testkit::make_toy_model(o);
     // Each σ moves green by 0.5: above +0.44σ the skin is too red, below -0.4σ greener than red.
     testkit::set_uniform_colour_model(broken, {0.6f, 0.4f, 0.3f}, {0.0f, -0.5f, 0.0f});
-    write_model(broken, dir / "broken.fsm");
+    morph::write_model(broken, dir / "broken.fsm");
     std::string output;
     ASSERT_EQ(run("model albedo-check --model " + (dir / "broken.fsm").string() + " --count 300 -q --json " + (dir / "broken.json").string(), &output), 0)
         << output;
@@ -165,9 +165,9 @@ TEST(CmdModel, AlbedoCheckFindsABrokenColourBasisAndNeedsAColourModel) {
     EXPECT_GT(j["wrong_hue"].get<int>(), 60);
     EXPECT_EQ(j["implausible_after"], 0);
 
-    MorphableModel colourless = testkit::make_toy_model(o);
+    morph::MorphableModel colourless = testkit::make_toy_model(o);
     colourless.albedo.reset();
-    write_model(colourless, dir / "colourless.fsm");
+    morph::write_model(colourless, dir / "colourless.fsm");
     EXPECT_EQ(run("model albedo-check --model " + (dir / "colourless.fsm").string() + " -q", &output), 1) << output;
     EXPECT_NE(output.find("no colour model"), std::string::npos) << output;
 }

@@ -1,7 +1,7 @@
 // `facesynth eval recognition` end to end on a tiny synthetic set: the documented keys, rates in
 // [0, 1], a DET file the report draws; and clear errors for unusable inputs.
 #include "common/test_data.h"
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 
 #include <gtest/gtest.h>
 
@@ -41,13 +41,13 @@ TEST(CmdRecognition, TinySetWritesRatesDetCurvesAndFeedsTheReport) {
         EXPECT_EQ(j.at(std::string(bin) + "genuine").get<int>(), 4);
         EXPECT_EQ(j.at(std::string(bin) + "impostor").get<int>(), 12);
     }
-    const std::string det = facesynth::read_file(evals / "eval_recognition.det.csv");
+    const std::string det = facesynth::core::read_file(evals / "eval_recognition.det.csv");
     EXPECT_EQ(det.rfind("gallery_deg,probe_yaw_low,probe_yaw_high,method,far,frr\n", 0), 0u);
     EXPECT_NE(det.find("\n0,10,20,lm,"), std::string::npos);
     EXPECT_TRUE(fs::exists(dir / "examples.png"));
 
     ASSERT_EQ(run_command(cli_path().string() + " report --quiet --out " + (dir / "r.html").string() + " --evals " + evals.string(), &out), 0) << out;
-    const std::string html = facesynth::read_file(dir / "r.html");
+    const std::string html = facesynth::core::read_file(dir / "r.html");
     EXPECT_NE(html.find("DET, gallery at 0"), std::string::npos);
     EXPECT_NE(html.find("FRR at FAR = 0.01, gallery at 0"), std::string::npos);
 }
@@ -73,7 +73,7 @@ TEST(CmdRecognition, RegressorAddsADetectedLandmarkColumnWithItsMisses) {
         misses += j.at(std::string(bin) + "detector_misses").get<int>();
     }
     EXPECT_EQ(j.at("detector_misses").get<int>(), misses);
-    EXPECT_NE(facesynth::read_file(dir / "det.csv").find(",lm_detected,"), std::string::npos);
+    EXPECT_NE(facesynth::core::read_file(dir / "det.csv").find(",lm_detected,"), std::string::npos);
 }
 
 TEST(CmdRecognition, UnusableInputsAreClearErrors) {

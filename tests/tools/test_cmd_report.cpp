@@ -3,7 +3,7 @@
 // absent inputs give "missing" notes, corrupt ones a warning naming the file, a bad --dataset exit 1
 // with no output file.
 #include "common/test_data.h"
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 
 #include <gtest/gtest.h>
 
@@ -92,7 +92,7 @@ TEST(CmdReport, SelfContainedPageFromDatasetAndResults) {
     ASSERT_EQ(run_command(fs_cli + " report --out " + html_path.string() + " --dataset " + data.string() + " --evals " + evals.string(), &out), 0)
         << out;
     EXPECT_NE(out.find("eval_fit_broken.json"), std::string::npos) << out;  // a warning naming the corrupt file
-    const std::string html = facesynth::read_file(html_path);
+    const std::string html = facesynth::core::read_file(html_path);
     expect_self_contained(html);
     for (const char* id : {"id=\"samples\"", "id=\"fit\"", "id=\"landmarks\"", "id=\"frontalise\"", "id=\"recognition\""})
         EXPECT_NE(html.find(id), std::string::npos) << id;
@@ -114,7 +114,7 @@ TEST(CmdReport, WithoutInputsEverySectionSaysWhatIsMissing) {
     std::string out;
     ASSERT_EQ(run_command(cli_path().string() + " report --quiet --out " + (dir / "r.html").string() + " --evals " + (dir / "empty").string(), &out), 0)
         << out;
-    const std::string html = facesynth::read_file(dir / "r.html");
+    const std::string html = facesynth::core::read_file(dir / "r.html");
     expect_self_contained(html);
     EXPECT_GE(count_occurrences(html, "class=\"missing\""), 5u);
     EXPECT_NE(html.find("facesynth eval fit"), std::string::npos);

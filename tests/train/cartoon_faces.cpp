@@ -1,6 +1,6 @@
 #include "cartoon_faces.h"
 
-#include "morph/random.h"
+#include "core/random.h"
 #include "train/face_box.h"
 
 #include <opencv2/imgproc.hpp>
@@ -13,7 +13,7 @@ namespace facesynth::testkit {
 namespace {
 
 // The 68 template points in a face frame: x right, y down, face about 1 unit wide, centre at 0.
-Eigen::Matrix2Xd template_shape(Rng& rng) {
+Eigen::Matrix2Xd template_shape(core::Rng& rng) {
     Eigen::Matrix2Xd p(2, 68);
     const double eye_spacing = 0.21 + 0.02 * rng.normal();
     const double eye_height = -0.12 + 0.02 * rng.normal();
@@ -77,7 +77,7 @@ std::vector<cv::Point> polyline(const Eigen::Matrix2Xd& p, int first, int count)
 }  // namespace
 
 CartoonFace make_cartoon_face(std::uint64_t seed, std::uint64_t index, int image_size, double yaw_deg) {
-    Rng rng(seed, index, 77);
+    core::Rng rng(seed, index, 77);
     Eigen::Matrix2Xd shape = template_shape(rng);
     if (yaw_deg != 0) turn(shape, yaw_deg * std::numbers::pi / 180.0);
     const double scale = image_size * (0.42 + 0.04 * rng.normal());
@@ -128,8 +128,8 @@ std::vector<train::TrainingFace> cartoon_training_faces(std::uint64_t seed, int 
     using namespace train;
     std::vector<TrainingFace> faces;
     for (int i = 0; i < count; ++i) {
-        Rng rng(seed, static_cast<std::uint64_t>(i), 5);
-        const double yaw = yaw_deg == 0 ? 0.0 : yaw_deg + 5 * (2 * Rng(seed, static_cast<std::uint64_t>(i), 6).uniform() - 1);
+        core::Rng rng(seed, static_cast<std::uint64_t>(i), 5);
+        const double yaw = yaw_deg == 0 ? 0.0 : yaw_deg + 5 * (2 * core::Rng(seed, static_cast<std::uint64_t>(i), 6).uniform() - 1);
         const auto cartoon = testkit::make_cartoon_face(seed, static_cast<std::uint64_t>(i), 200, yaw);
         const Eigen::Vector2d low = cartoon.landmarks.rowwise().minCoeff(), high = cartoon.landmarks.rowwise().maxCoeff();
         FaceBox box;

@@ -6,7 +6,7 @@
 
 #include "cartoon_faces.h"
 #include "common/test_data.h"
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <gtest/gtest.h>
 
@@ -78,16 +78,16 @@ TEST(Ert, TheSameSeedAndThreadCountGiveTheSameModel) {
 
 TEST(Ert, NoFacesAndBadModelFilesGiveErrors) {
     const auto dir = testkit::fresh_temp_dir("ert_errors");
-    EXPECT_THROW(train_dlib_ert({}, small_ert(1), dir / "none.dat"), Error);
+    EXPECT_THROW(train_dlib_ert({}, small_ert(1), dir / "none.dat"), core::Error);
     EXPECT_FALSE(std::filesystem::exists(dir / "none.dat"));
     std::ofstream(dir / "garbage.dat") << "not a dlib shape predictor";
     try {
         (void)open_regressor("ert:" + (dir / "garbage.dat").string());
         FAIL() << "garbage accepted";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find("garbage.dat"), std::string::npos) << e.what();
     }
-    EXPECT_THROW((void)open_regressor("ert:" + (dir / "missing.dat").string()), Error);
+    EXPECT_THROW((void)open_regressor("ert:" + (dir / "missing.dat").string()), core::Error);
 }
 
 }  // namespace

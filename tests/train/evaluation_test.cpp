@@ -7,7 +7,7 @@
 
 #include "cartoon_faces.h"
 #include "common/test_data.h"
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 
 #include <gtest/gtest.h>
@@ -44,12 +44,12 @@ TEST(Dataset, FindsSideBySideAndSynthLayouts) {
     std::filesystem::create_directories(dir / "synth" / "landmarks");
     std::filesystem::create_directories(dir / "flat");
     cv::imwrite((dir / "synth" / "images" / "000001.png").string(), face.gray);
-    write_pts(dir / "synth" / "landmarks" / "000001.pts", face.landmarks);
+    morph::write_pts(dir / "synth" / "landmarks" / "000001.pts", face.landmarks);
     cv::imwrite((dir / "synth" / "images" / "000002.png").string(), face.gray);  // no .pts: ignored
     cv::imwrite((dir / "flat" / "a.jpg").string(), face.gray);
-    write_pts(dir / "flat" / "a.pts", face.landmarks);
+    morph::write_pts(dir / "flat" / "a.pts", face.landmarks);
     std::ofstream(dir / "flat" / "b.png") << "not an image";
-    write_pts(dir / "flat" / "b.pts", face.landmarks);
+    morph::write_pts(dir / "flat" / "b.pts", face.landmarks);
 
     const auto found = list_labelled_images(split_folder_list((dir / "synth").string() + "," + (dir / "flat").string()));
     ASSERT_EQ(found.size(), 3u);
@@ -64,9 +64,9 @@ TEST(Dataset, FindsSideBySideAndSynthLayouts) {
     EXPECT_NE(prepared.warnings[0].find("b.png"), std::string::npos) << prepared.warnings[0];
     EXPECT_EQ(prepared.boxes.detector_matched + prepared.boxes.detector_missed, 2);
 
-    EXPECT_THROW((void)list_labelled_images({dir / "does_not_exist"}), Error);
+    EXPECT_THROW((void)list_labelled_images({dir / "does_not_exist"}), core::Error);
     std::filesystem::create_directories(dir / "empty");
-    EXPECT_THROW((void)list_labelled_images({dir / "empty"}), Error);
+    EXPECT_THROW((void)list_labelled_images({dir / "empty"}), core::Error);
 }
 
 TEST(FaceBox, CanonicalFrameRoundTripsAndCropsAtTheRightPlace) {
@@ -128,7 +128,7 @@ TEST(FaceBox, DetectorNamesRoundTripAndUnknownOnesAreRefused) {
         EXPECT_EQ(detector_has_views(kind), kind != DetectorKind::kFrontal);
     }
     EXPECT_EQ(std::string(detector_name(DetectorKind::kDlibProfile)), "dlib+profile");
-    EXPECT_THROW((void)parse_detector_kind("profile"), Error);
+    EXPECT_THROW((void)parse_detector_kind("profile"), core::Error);
     EXPECT_EQ(FaceDetector().kind(), DetectorKind::kFrontal);
 }
 
@@ -147,8 +147,8 @@ TEST(FaceBox, EveryDetectorRefusesAnEmptyOrNonGreyImageWithAnError) {
     const cv::Mat colour(64, 64, CV_8UC3, cv::Scalar(10, 20, 30));
     for (const auto kind : {DetectorKind::kFrontal, DetectorKind::kMultiView, DetectorKind::kDlib, DetectorKind::kDlibProfile}) {
         const FaceDetector detector(kind);
-        EXPECT_THROW((void)detector.detect(cv::Mat()), Error) << detector_name(kind);
-        EXPECT_THROW((void)detector.detect(colour), Error) << detector_name(kind);
+        EXPECT_THROW((void)detector.detect(cv::Mat()), core::Error) << detector_name(kind);
+        EXPECT_THROW((void)detector.detect(colour), core::Error) << detector_name(kind);
     }
 }
 
@@ -165,7 +165,7 @@ TEST(DlibFaceDetector, FiltersMapToViews) {
 TEST(DlibFaceDetector, FindsTheAnnotatedFaceOnARealPhotoWithAFilterAndScore) {
     FACESYNTH_REQUIRE_SHARED_DATA(dir, "real/lfpw_superviseddescent");
     const cv::Mat gray = to_gray8(cv::imread((dir / "image_0001.png").string(), cv::IMREAD_UNCHANGED));
-    const Eigen::Matrix2Xd truth = read_pts(dir / "image_0001.pts");
+    const Eigen::Matrix2Xd truth = morph::read_pts(dir / "image_0001.pts");
     const DlibHogDetector dlib_detector;
     const auto detections = dlib_detector.detect(gray);
     ASSERT_FALSE(detections.empty());
@@ -184,7 +184,7 @@ TEST(FaceBox, DetectsTheAnnotatedFaceOnARealPhoto) {
     FACESYNTH_REQUIRE_SHARED_DATA(dir, "real/lfpw_superviseddescent");
     const FaceDetector detector;
     const cv::Mat gray = to_gray8(cv::imread((dir / "image_0001.png").string(), cv::IMREAD_UNCHANGED));
-    const Eigen::Matrix2Xd truth = read_pts(dir / "image_0001.pts");
+    const Eigen::Matrix2Xd truth = morph::read_pts(dir / "image_0001.pts");
     const auto match = match_detection(detector.detect(gray), truth);
     ASSERT_TRUE(match.has_value());
     EXPECT_LT((match->centre - truth.rowwise().mean()).norm(), 0.3 * match->width);
@@ -197,11 +197,11 @@ TEST(DlibBaseline, PretrainedPredictorOnARealPhoto) {
     EXPECT_EQ(predictor.num_parts(), 68);
     const FaceDetector detector;
     const cv::Mat gray = to_gray8(cv::imread((dir / "image_0001.png").string(), cv::IMREAD_UNCHANGED));
-    const Eigen::Matrix2Xd truth = read_pts(dir / "image_0001.pts");
+    const Eigen::Matrix2Xd truth = morph::read_pts(dir / "image_0001.pts");
     const auto box = match_detection(detector.detect(gray), truth);
     ASSERT_TRUE(box.has_value());
     const Eigen::Matrix2Xd predicted = predictor.predict(gray, *box);
-    const double nme = (predicted - truth).colwise().norm().mean() / inter_ocular_distance(truth);
+    const double nme = (predicted - truth).colwise().norm().mean() / morph::inter_ocular_distance(truth);
     EXPECT_LT(nme, 0.1);
 }
 
@@ -211,10 +211,10 @@ TEST(DlibBaseline, MissingOrForeignFileNamesIt) {
     try {
         DlibShapePredictor p(dir / "junk.dat");
         FAIL();
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find("junk.dat"), std::string::npos);
     }
-    EXPECT_THROW(DlibShapePredictor(dir / "none.dat"), Error);
+    EXPECT_THROW(DlibShapePredictor(dir / "none.dat"), core::Error);
 }
 
 }  // namespace

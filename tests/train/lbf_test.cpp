@@ -2,7 +2,7 @@
 
 #include "cartoon_faces.h"
 #include "common/test_data.h"
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <gtest/gtest.h>
 
@@ -81,11 +81,11 @@ TEST(Lbf, BadOptionsAreRefusedBeforeTraining) {
     const auto out = testkit::fresh_temp_dir("lbf_options") / "model.yaml";
     LbfTrainOptions options = small_forest();
     options.stages = 3;  // two features and radii for three stages
-    EXPECT_THROW(train_lbf(train, options, out), Error);
+    EXPECT_THROW(train_lbf(train, options, out), core::Error);
     options = small_forest();
     options.depth = 1;
-    EXPECT_THROW(train_lbf(train, options, out), Error);
-    EXPECT_THROW(train_lbf(std::span<const TrainingFace>(train.data(), 1), small_forest(), out), Error);
+    EXPECT_THROW(train_lbf(train, options, out), core::Error);
+    EXPECT_THROW(train_lbf(std::span<const TrainingFace>(train.data(), 1), small_forest(), out), core::Error);
     EXPECT_FALSE(std::filesystem::exists(out));
 }
 
@@ -93,7 +93,7 @@ void expect_error_naming(const std::filesystem::path& path, const std::string& p
     try {
         const LbfPredictor predictor(path);
         ADD_FAILURE() << "no error for " << path << " (" << problem << ")";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find(problem), std::string::npos) << e.what();
     }

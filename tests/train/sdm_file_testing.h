@@ -3,7 +3,7 @@
 // that reading a file fails with an error naming it.
 #include "train/model_file.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <gtest/gtest.h>
 
@@ -30,7 +30,7 @@ inline void expect_sdm_error_naming(const std::filesystem::path& path, const std
     try {
         (void)train::read_sdm_model(path);
         FAIL() << "no error for " << path;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         const std::string message = e.what();
         EXPECT_NE(message.find(path.string()), std::string::npos) << message;
         EXPECT_NE(message.find(fragment), std::string::npos) << message;

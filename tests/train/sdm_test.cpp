@@ -7,10 +7,10 @@
 #include "cartoon_faces.h"
 #include "common/model_files.h"
 #include "common/test_data.h"
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 #include "sdm_file_testing.h"
-#include "morph/error.h"
-#include "morph/random.h"
+#include "core/error.h"
+#include "core/random.h"
 
 #include <gtest/gtest.h>
 
@@ -89,7 +89,7 @@ TEST(Sdm, PrimalFormReducesErrorAndIsThreadIndependent) {
 
 // Features with decaying spread per dimension, so that the leading principal components are well separated.
 Eigen::MatrixXd decaying_features(int rows, int dims, std::uint64_t seed) {
-    Rng rng(seed, 0);
+    core::Rng rng(seed, 0);
     Eigen::MatrixXd a(rows, dims);
     for (int j = 0; j < dims; ++j)
         for (int i = 0; i < rows; ++i) a(i, j) = rng.normal() * std::pow(0.9, j) + 0.5;
@@ -98,7 +98,7 @@ Eigen::MatrixXd decaying_features(int rows, int dims, std::uint64_t seed) {
 
 TEST(FeaturePca, FoldedWeightsReproduceTheProjectedRegressionInPrimalAndDualForm) {
     const Eigen::MatrixXd a = decaying_features(300, 120, 5);  // centred
-    Rng rng(6, 0);
+    core::Rng rng(6, 0);
     Eigen::MatrixXd y(300, 3);
     for (Eigen::Index i = 0; i < y.size(); ++i) y(i) = rng.normal();
     y = (y.rowwise() - y.colwise().mean()).eval();
@@ -134,8 +134,8 @@ TEST(FeaturePca, AllComponentsGiveThePlainRidgeSolution) {
     const Eigen::MatrixXd plain = regularised.llt().solve(a.transpose() * y);
     const Eigen::MatrixXd pca = projected_ridge(leading_eigenpairs(a.transpose() * a, 30, 1), a.transpose() * y, lambda);
     EXPECT_LT((pca - plain).norm(), 1e-9 * plain.norm());
-    EXPECT_THROW((void)leading_eigenpairs(a.transpose() * a, 31, 1), Error);
-    EXPECT_THROW((void)leading_eigenpairs(a.transpose() * a, 0, 1), Error);
+    EXPECT_THROW((void)leading_eigenpairs(a.transpose() * a, 31, 1), core::Error);
+    EXPECT_THROW((void)leading_eigenpairs(a.transpose() * a, 0, 1), core::Error);
 }
 
 // The largest difference between two models' landmarks on `faces`, in crop pixels.
@@ -219,7 +219,7 @@ TEST(Sdm, RejectsFeatureComponentsOutsideTheFeatureDimension) {
         try {
             (void)train_sdm(train, BoxStatistics{}, options);
             ADD_FAILURE() << bad << " accepted";
-        } catch (const Error& e) {
+        } catch (const core::Error& e) {
             EXPECT_NE(std::string(e.what()).find("--feature-pca"), std::string::npos) << e.what();
         }
     }
@@ -227,17 +227,17 @@ TEST(Sdm, RejectsFeatureComponentsOutsideTheFeatureDimension) {
 
 TEST(Sdm, RejectsTooFewFaces) {
     const auto train = cartoon_training_faces(1, 1);
-    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, SdmTrainOptions{}), Error);
+    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, SdmTrainOptions{}), core::Error);
 }
 
 TEST(Sdm, SeveralLambdaCandidatesNeedValidationFaces) {
     const auto train = cartoon_training_faces(1, 8);
     SdmTrainOptions options;
     options.validation_share = 0;
-    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, options), Error);
+    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, options), core::Error);
     options.lambda_factors = {1.0};
     options.stages = 1;
-    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, options), Error);  // still several ranks
+    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, options), core::Error);  // still several ranks
     options.ranks = {136};
     EXPECT_NO_THROW((void)train_sdm(train, BoxStatistics{}, options));
 }
@@ -392,7 +392,7 @@ TEST(SdmModelFile, DlibDetectorKindRoundTripsAndIsChosenAtDetection) {
 using testkit::expect_sdm_error_naming;
 using testkit::rewrite_sdm_header;
 
-std::string read_all(const std::filesystem::path& path) { return read_file(path); }
+std::string read_all(const std::filesystem::path& path) { return core::read_file(path); }
 void write_all(const std::filesystem::path& path, const std::string& bytes) { testkit::write_bytes(path, bytes); }
 
 TEST(SdmModelFile, WrongTruncatedAndCorruptFilesGiveErrorsNamingTheFile) {

@@ -4,8 +4,8 @@
 
 #include "cartoon_faces.h"
 #include "common/test_data.h"
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "train/dlib_baseline.h"
 #include "train/lbf_baseline.h"
 #include "train/regressor.h"
@@ -42,7 +42,7 @@ void expect_view_error_naming(const std::string& spec, const std::string& name) 
     try {
         (void)open_regressor(spec);
         ADD_FAILURE() << spec << " accepted";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
     }
 }
@@ -146,22 +146,22 @@ TEST(ViewBaselines, CorruptBundlesGiveErrorsNamingTheFile) {
     EXPECT_EQ(read.frontal_model, bundle.frontal_model);
     EXPECT_EQ(read.profile_model, bundle.profile_model);
     EXPECT_EQ(read.detector, DetectorKind::kMultiView);
-    const std::string bytes = read_file(dir / "good.ert");
+    const std::string bytes = core::read_file(dir / "good.ert");
 
-    write_file_atomically(dir / "truncated.ert", bytes.substr(0, bytes.size() - 5));
+    core::write_file_atomically(dir / "truncated.ert", bytes.substr(0, bytes.size() - 5));
     std::string flipped = bytes;
     flipped[flipped.size() - 3] ^= 0x20;
-    write_file_atomically(dir / "flipped.ert", flipped);
+    core::write_file_atomically(dir / "flipped.ert", flipped);
     std::string version = bytes;
     version[8] = 9;
-    write_file_atomically(dir / "version.ert", version);
-    write_file_atomically(dir / "header.ert", bytes.substr(0, 12));
+    core::write_file_atomically(dir / "version.ert", version);
+    core::write_file_atomically(dir / "header.ert", bytes.substr(0, 12));
     for (const char* name : {"truncated.ert", "flipped.ert", "version.ert", "header.ert"}) {
         EXPECT_TRUE(is_view_baseline_bundle(dir / name));
-        EXPECT_THROW((void)read_view_baseline_bundle(dir / name, BaselineMethod::kErt), Error) << name;
+        EXPECT_THROW((void)read_view_baseline_bundle(dir / name, BaselineMethod::kErt), core::Error) << name;
         expect_view_error_naming("ert:" + (dir / name).string(), name);
     }
-    EXPECT_THROW((void)read_view_baseline_bundle(dir / "good.ert", BaselineMethod::kLbf), Error);
+    EXPECT_THROW((void)read_view_baseline_bundle(dir / "good.ert", BaselineMethod::kLbf), core::Error);
     // Valid bundle, but its parts are not dlib models: the error names the bundle and the part.
     expect_view_error_naming("ert:" + (dir / "good.ert").string(), "good.ert (frontal model)");
     // A view set without faces is refused before any training, naming the view.
@@ -171,7 +171,7 @@ TEST(ViewBaselines, CorruptBundlesGiveErrorsNamingTheFile) {
         (void)train_view_baselines(BaselineMethod::kErt, DetectorKind::kMultiView, empty, dir / "x.ert",
                                    [](std::span<const TrainingFace>, const std::filesystem::path&) {});
         ADD_FAILURE() << "empty profile set accepted";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find("profile"), std::string::npos) << e.what();
     }
 }

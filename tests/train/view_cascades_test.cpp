@@ -5,9 +5,9 @@
 #include "cartoon_faces.h"
 #include "common/model_files.h"
 #include "common/test_data.h"
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 #include "sdm_file_testing.h"
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <gtest/gtest.h>
 
@@ -42,7 +42,7 @@ TEST(ViewCascades, MirroringTwiceGivesTheShapeBack) {
         EXPECT_EQ(twice.view, face.view);
         EXPECT_EQ(*twice.yaw_deg, *face.yaw_deg);
     }
-    EXPECT_THROW((void)mirror_canonical_shape(Eigen::Matrix2Xd::Zero(2, 5)), Error);
+    EXPECT_THROW((void)mirror_canonical_shape(Eigen::Matrix2Xd::Zero(2, 5)), core::Error);
 }
 
 // `shape` moved onto `target` by the least-squares similarity (position, rotation and size removed).
@@ -153,7 +153,7 @@ TEST(ViewCascades, TooFewFacesOfOneViewNameTheCascade) {
     try {
         (void)train_view_cascades(frontal_only, BoxStatistics{}, small_options(), ViewSplit{});
         FAIL() << "no error";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         EXPECT_NE(std::string(e.what()).find("profile cascade (0 faces)"), std::string::npos) << e.what();
     }
 }
@@ -174,7 +174,7 @@ TEST(ViewCascades, Version4FilesRoundTripBothCascades) {
     const SdmModel model = small_view_model();
     const auto dir = testkit::fresh_temp_dir("sdm_view_cascades");
     write_sdm_model(dir / "views.sdm", model);
-    EXPECT_EQ(read_file(dir / "views.sdm")[8], 4);
+    EXPECT_EQ(core::read_file(dir / "views.sdm")[8], 4);
     const SdmModel back = read_sdm_model(dir / "views.sdm");
     ASSERT_TRUE(back.profile.has_value());
     EXPECT_EQ(back.profile->faces, model.profile->faces);
@@ -204,7 +204,7 @@ TEST(ViewCascades, Version3FilesAreReadAsSingleCascadeModels) {
     const SdmModel model = train_sdm(faces, BoxStatistics{}, options);
     const auto dir = testkit::fresh_temp_dir("sdm_view_cascades_v3");
     write_sdm_model(dir / "v4.sdm", model);
-    std::string v3 = read_file(dir / "v4.sdm");
+    std::string v3 = core::read_file(dir / "v4.sdm");
     ASSERT_EQ(v3.substr(v3.size() - 4), std::string(4, '\0'));
     v3.resize(v3.size() - 4);
     rewrite_sdm_header(v3, 3);
@@ -219,7 +219,7 @@ TEST(ViewCascades, CorruptProfileBlocksGiveErrorsNamingTheFile) {
     const SdmModel model = small_view_model();
     const auto dir = testkit::fresh_temp_dir("sdm_view_cascades_corrupt");
     write_sdm_model(dir / "good.sdm", model);
-    const std::string good = read_file(dir / "good.sdm");
+    const std::string good = core::read_file(dir / "good.sdm");
     // The profile block starts after the frontal stages: find it from the end (faces, 3 spreads, mean
     // shape, stages) by its size.
     std::size_t profile_stages = 0;

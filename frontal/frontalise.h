@@ -1,14 +1,14 @@
 #pragma once
 // Frontalisation of a face photographed at any pose (docs/frontalise.md): fit the model to 68 landmarks
-// (fit/fit.h, contour-aware), extract the texture into uv space (isomap, fit/frontal/isomap.h), optionally
+// (fit/fit.h, contour-aware), extract the texture into uv space (isomap, frontal/isomap.h), optionally
 // fill occluded texels from the mirror side, and render the fitted face frontally with that texture.
 //
 // Face detection and landmarking stay with the caller (the CLI): this library takes an image and its
 // 68 iBUG landmarks (0-based pixels). Images are OpenCV's 8-bit BGR (grey and BGRA are accepted).
 #include "fit/fit.h"
-#include "fit/frontal/isomap.h"
+#include "frontal/isomap.h"
 #include "morph/model.h"
-#include "morph/srgb.h"  // srgb_encode: how the renderer's textures store albedo
+#include "core/srgb.h"  // srgb_encode: how the renderer's textures store albedo
 #include "render/renderer.h"
 
 #include <Eigen/Core>
@@ -62,16 +62,16 @@ struct Frontalisation {
 // the model must outlive it.
 class Frontaliser {
 public:
-    explicit Frontaliser(const MorphableModel& model, const render::RendererOptions& renderer_options = {});
+    explicit Frontaliser(const morph::MorphableModel& model, const render::RendererOptions& renderer_options = {});
 
-    // The whole pipeline for one face; throws facesynth::Error when the fit fails (bad landmarks).
+    // The whole pipeline for one face; throws core::Error when the fit fails (bad landmarks).
     [[nodiscard]] Frontalisation frontalise(const cv::Mat& image, const Eigen::Matrix2Xd& landmarks,
                                             const FrontaliseOptions& options = {});
 
     // The stages, for callers that have their own fit or texture.
     [[nodiscard]] cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, const ImageCamera& camera,
                                          const IsomapOptions& options = {}, IsomapStats* stats = nullptr);
-    // Throws facesynth::Error when the model has no symmetry map.
+    // Throws core::Error when the model has no symmetry map.
     int mirror_fill(cv::Mat& isomap);
     // `vertices` with the isomap as texture, yaw = pitch = roll = 0, framed by frontal_camera.
     [[nodiscard]] FrontalImage render_frontal(const Eigen::Matrix3Xf& vertices, const cv::Mat& isomap,
@@ -84,11 +84,11 @@ public:
 
     [[nodiscard]] const UvRaster& uv_raster(int size);
     [[nodiscard]] const fit::Fitter& fitter() const { return fitter_; }
-    [[nodiscard]] const MorphableModel& model() const { return model_; }
+    [[nodiscard]] const morph::MorphableModel& model() const { return model_; }
     [[nodiscard]] render::Renderer& renderer() { return renderer_; }
 
 private:
-    const MorphableModel& model_;
+    const morph::MorphableModel& model_;
     fit::Fitter fitter_;
     render::Renderer renderer_;
     std::map<int, UvRaster> rasters_;

@@ -52,8 +52,8 @@ struct UvRaster {
 
 // Rasterises `model`'s uv triangles at size x size texels with `renderer` (triangle ids and
 // barycentrics at texel centres). Triangles spanning more than half the map (seams that wrap round)
-// are left out. Throws facesynth::Error when the model has no uv or the size is out of range.
-[[nodiscard]] UvRaster rasterise_uv(const MorphableModel& model, int size, render::Renderer& renderer);
+// are left out. Throws core::Error when the model has no uv or the size is out of range.
+[[nodiscard]] UvRaster rasterise_uv(const morph::MorphableModel& model, int size, render::Renderer& renderer);
 
 // Where the fitted mesh lies in the photograph: the fit's affine camera (which places the colour
 // samples, exactly as it projects the landmarks) and its nearest scaled orthographic camera (which
@@ -88,7 +88,7 @@ struct IsomapStats {
 // Extracts the isomap of a photograph (8-bit BGR or grey) given the fitted mesh `vertices` (3 x V, model
 // space) and where it lies in the image. `raster` must come from the same model at options.size.
 [[nodiscard]] cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices,
-                                     const std::vector<Triangle>& triangles, const ImageCamera& camera,
+                                     const std::vector<morph::Triangle>& triangles, const ImageCamera& camera,
                                      const UvRaster& raster, const IsomapOptions& options = {}, IsomapStats* stats = nullptr);
 
 // The visibility pass: the nearest surface of a mesh seen orthographically, rasterised on the CPU.
@@ -101,18 +101,18 @@ struct IsomapStats {
 // but for pixel centres within rounding of the outline (test): llvmpipe spends most of that pass on
 // per-triangle setup, about 2.5 ms for a 7,480-vertex head at 256², this loop about 1 ms.
 [[nodiscard]] cv::Mat orthographic_zbuffer(const Eigen::Matrix2Xf& pixels, std::span<const float> depth,
-                                           const std::vector<Triangle>& triangles, int width, int height);
+                                           const std::vector<morph::Triangle>& triangles, int width, int height);
 
 // The model's symmetry map completed: made an involution (a pair listed one way holds the other way),
 // and vertices still without a mirror get the mean-shape vertex nearest to their reflection in the
 // plane of the known pairs (when vertices without a mirror x all vertices <= 1e8). Throws
-// facesynth::Error when the model has no symmetry map at all.
-[[nodiscard]] std::vector<int> completed_symmetry(const MorphableModel& model);
+// core::Error when the model has no symmetry map at all.
+[[nodiscard]] std::vector<int> completed_symmetry(const morph::MorphableModel& model);
 
 // For each covered texel, the isomap position (in texels, continuous) of its mirror surface point:
 // the same barycentric weights on the mirror vertices of its triangle's corners (completed_symmetry),
 // so it works for any model with a symmetry map, whatever its uv layout. NaN where a corner has none.
-[[nodiscard]] Eigen::Matrix2Xf mirror_positions(const MorphableModel& model, const UvRaster& raster);
+[[nodiscard]] Eigen::Matrix2Xf mirror_positions(const morph::MorphableModel& model, const UvRaster& raster);
 
 // Fills texels with alpha 0 inside the uv layout from their mirror position when that is visible
 // (bilinear over the visible neighbours); a filled texel takes the mirror side's colour and alpha.

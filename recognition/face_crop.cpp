@@ -1,6 +1,6 @@
-#include "fit/recognition/face_crop.h"
+#include "recognition/face_crop.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -19,12 +19,12 @@ cv::Mat to_grey(const cv::Mat& image) {
 }  // namespace
 
 cv::Mat eye_aligned_crop(const cv::Mat& image, const Eigen::Matrix2Xd& landmarks, const CropOptions& options) {
-    if (landmarks.cols() != 68) throw Error("eye-aligned crop: needs 68 landmarks, got " + std::to_string(landmarks.cols()));
+    if (landmarks.cols() != 68) throw core::Error("eye-aligned crop: needs 68 landmarks, got " + std::to_string(landmarks.cols()));
     // iBUG 37-42: the eye on the image's left, 43-48: on its right (0-based 36-41 and 42-47).
     const Eigen::Vector2d left = landmarks.middleCols(36, 6).rowwise().mean();
     const Eigen::Vector2d right = landmarks.middleCols(42, 6).rowwise().mean();
     const Eigen::Vector2d span = right - left;
-    if (!left.allFinite() || !right.allFinite() || span.norm() < 1e-6) throw Error("eye-aligned crop: the eye centres coincide or are not finite");
+    if (!left.allFinite() || !right.allFinite() || span.norm() < 1e-6) throw core::Error("eye-aligned crop: the eye centres coincide or are not finite");
     const double s = options.size;
     const Eigen::Vector2d target_left(0.5 * s * (1 - options.eye_span), options.eye_height * s);
     const double scale = options.eye_span * s / span.norm();
@@ -40,7 +40,7 @@ cv::Mat eye_aligned_crop(const cv::Mat& image, const Eigen::Matrix2Xd& landmarks
 }
 
 cv::Mat frontal_crop(const cv::Mat& frontal, const CropOptions& options) {
-    if (frontal.empty()) throw Error("frontal crop: empty image");
+    if (frontal.empty()) throw core::Error("frontal crop: empty image");
     cv::Mat crop;
     cv::resize(to_grey(frontal), crop, cv::Size(options.size, options.size), 0, 0, cv::INTER_AREA);
     return crop;

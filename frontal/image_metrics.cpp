@@ -1,6 +1,6 @@
-#include "fit/frontal/image_metrics.h"
+#include "frontal/image_metrics.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -13,11 +13,11 @@ namespace facesynth::frontal {
 
 ImageComparison compare_images(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
     if (a.size() != b.size() || a.type() != b.type() || a.depth() != CV_8U)
-        throw Error("image comparison: the images differ in size or type, or are not 8-bit");
-    if (mask.size() != a.size() || mask.type() != CV_8UC1) throw Error("image comparison: the mask must be 8-bit, one channel, same size");
+        throw core::Error("image comparison: the images differ in size or type, or are not 8-bit");
+    if (mask.size() != a.size() || mask.type() != CV_8UC1) throw core::Error("image comparison: the mask must be 8-bit, one channel, same size");
     ImageComparison out;
     out.pixels = cv::countNonZero(mask);
-    if (out.pixels == 0) throw Error("image comparison: the mask is empty");
+    if (out.pixels == 0) throw core::Error("image comparison: the mask is empty");
     const int channels = a.channels();
 
     cv::Mat fa, fb;

@@ -1,7 +1,7 @@
-#include "morph/toml_file.h"
+#include "core/toml_file.h"
 
-#include "morph/atomic_file.h"
-#include "morph/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 
 #include <algorithm>
 #include <cstdint>
@@ -9,7 +9,7 @@
 #include <sstream>
 #include <vector>
 
-namespace facesynth {
+namespace facesynth::core {
 namespace {
 
 bool is_continuation(unsigned char byte) { return (byte & 0xC0U) == 0x80U; }
@@ -211,4 +211,4 @@ toml::value read_toml_file(const std::filesystem::path& path) {
     return parse_toml(read_file(path), path.string());
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::core

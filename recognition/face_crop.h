@@ -13,11 +13,11 @@ struct CropOptions {
     double eye_span = 0.40;    // distance between the eye centres, as a share of the size
 };
 
-// 8-bit grey crop; `landmarks` are 68 iBUG points in 0-based pixels. Throws facesynth::Error when the
+// 8-bit grey crop; `landmarks` are 68 iBUG points in 0-based pixels. Throws core::Error when the
 // eye centres coincide or are not finite.
 [[nodiscard]] cv::Mat eye_aligned_crop(const cv::Mat& image, const Eigen::Matrix2Xd& landmarks, const CropOptions& options = {});
 
-// The `LM` representation: a frontal rendering (fixed framing, fit/frontal/frontalise.h) in the same
+// The `LM` representation: a frontal rendering (fixed framing, frontal/frontalise.h) in the same
 // form as the crops: 8-bit grey, options.size square.
 [[nodiscard]] cv::Mat frontal_crop(const cv::Mat& frontal, const CropOptions& options = {});
 

@@ -1,6 +1,6 @@
-#include "fit/frontal/isomap.h"
+#include "frontal/isomap.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/pose.h"
 
 #include <opencv2/imgproc.hpp>
@@ -13,19 +13,19 @@
 
 namespace facesynth::frontal {
 
-UvRaster rasterise_uv(const MorphableModel& model, int size, render::Renderer& renderer) {
+UvRaster rasterise_uv(const morph::MorphableModel& model, int size, render::Renderer& renderer) {
     if (model.uv.cols() != model.num_vertices() || model.num_vertices() == 0)
-        throw Error("isomap: model '" + model.name + "' has no per-vertex uv coordinates");
-    if (size < 8 || size > 8192) throw Error("isomap: size " + std::to_string(size) + " is out of range (8..8192)");
+        throw core::Error("isomap: model '" + model.name + "' has no per-vertex uv coordinates");
+    if (size < 8 || size > 8192) throw core::Error("isomap: size " + std::to_string(size) + " is out of range (8..8192)");
     // The uv layout as a flat mesh: vertex (u, -v, 0) lands on pixel (u·S - 0.5, v·S - 0.5) under an
     // orthographic camera with focal S and principal point -0.5, so pixel centres are texel centres.
-    Mesh flat;
+    morph::Mesh flat;
     flat.vertices.resize(3, model.num_vertices());
     flat.vertices.row(0) = model.uv.row(0);
     flat.vertices.row(1) = -model.uv.row(1);
     flat.vertices.row(2).setZero();
     for (std::size_t t = 0; t < model.triangles.size(); ++t) {
-        const Triangle& tri = model.triangles[t];
+        const morph::Triangle& tri = model.triangles[t];
         Eigen::Vector2f low = model.uv.col(tri[0]), high = low;
         for (int corner : tri) {
             low = low.cwiseMin(model.uv.col(corner));
@@ -34,7 +34,7 @@ UvRaster rasterise_uv(const MorphableModel& model, int size, render::Renderer& r
         if ((high - low).maxCoeff() > 0.5f) continue;
         flat.triangles.push_back(tri);
     }
-    if (flat.triangles.empty()) throw Error("isomap: model '" + model.name + "' has no usable uv triangles");
+    if (flat.triangles.empty()) throw core::Error("isomap: model '" + model.name + "' has no usable uv triangles");
     render::Camera camera;
     camera.projection = render::Projection::kOrthographic;
     camera.intrinsics = {static_cast<double>(size), static_cast<double>(size), -0.5, -0.5, size, size};
@@ -100,13 +100,13 @@ void for_each_texel(const UvRaster& raster, Visit&& visit) {
 }
 
 cv::Mat as_bgr8(const cv::Mat& image) {
-    if (image.empty()) throw Error("isomap: the image is empty");
-    if (image.depth() != CV_8U) throw Error("isomap: expected an 8-bit image");
+    if (image.empty()) throw core::Error("isomap: the image is empty");
+    if (image.depth() != CV_8U) throw core::Error("isomap: expected an 8-bit image");
     if (image.channels() == 3) return image;
     cv::Mat bgr;
     if (image.channels() == 1) cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
     else if (image.channels() == 4) cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
-    else throw Error("isomap: expected 1, 3 or 4 channels, the image has " + std::to_string(image.channels()));
+    else throw core::Error("isomap: expected 1, 3 or 4 channels, the image has " + std::to_string(image.channels()));
     return bgr;
 }
 
@@ -132,19 +132,19 @@ std::uint8_t to_byte(float value) { return static_cast<std::uint8_t>(std::min(25
 
 }  // namespace
 
-cv::Mat orthographic_zbuffer(const Eigen::Matrix2Xf& pixels, std::span<const float> depth, const std::vector<Triangle>& triangles,
+cv::Mat orthographic_zbuffer(const Eigen::Matrix2Xf& pixels, std::span<const float> depth, const std::vector<morph::Triangle>& triangles,
                              int width, int height) {
     if (width <= 0 || height <= 0 || static_cast<std::size_t>(pixels.cols()) != depth.size())
-        throw Error("z-buffer: " + std::to_string(pixels.cols()) + " vertex positions, " + std::to_string(depth.size()) + " depths, image " +
+        throw core::Error("z-buffer: " + std::to_string(pixels.cols()) + " vertex positions, " + std::to_string(depth.size()) + " depths, image " +
                     std::to_string(width) + "x" + std::to_string(height));
     constexpr float kEmpty = std::numeric_limits<float>::infinity();
     cv::Mat nearest(height, width, CV_32FC1, cv::Scalar(kEmpty));
     float* buffer = nearest.ptr<float>();
     const auto n = static_cast<int>(depth.size());
     const float max_x = static_cast<float>(width - 1), max_y = static_cast<float>(height - 1);
-    for (const Triangle& t : triangles) {
+    for (const morph::Triangle& t : triangles) {
         if (t[0] < 0 || t[1] < 0 || t[2] < 0 || t[0] >= n || t[1] >= n || t[2] >= n)
-            throw Error("z-buffer: triangle vertex index out of range (" + std::to_string(n) + " vertices)");
+            throw core::Error("z-buffer: triangle vertex index out of range (" + std::to_string(n) + " vertices)");
         const float x0 = pixels(0, t[0]), y0 = pixels(1, t[0]), x1 = pixels(0, t[1]), y1 = pixels(1, t[1]);
         const float x2 = pixels(0, t[2]), y2 = pixels(1, t[2]);
         // Twice the signed area; image y points down, so front faces (counter-clockwise seen from the
@@ -181,19 +181,19 @@ cv::Mat orthographic_zbuffer(const Eigen::Matrix2Xf& pixels, std::span<const flo
     return nearest;
 }
 
-cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, const std::vector<Triangle>& triangles,
+cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, const std::vector<morph::Triangle>& triangles,
                        const ImageCamera& camera, const UvRaster& raster, const IsomapOptions& options, IsomapStats* stats) {
     if (raster.size != options.size)
-        throw Error("isomap: the uv raster is " + std::to_string(raster.size) + " texels, the options ask for " + std::to_string(options.size));
-    if (!(camera.pose.scale > 0) || !std::isfinite(camera.pose.scale)) throw Error("isomap: the fitted camera has no valid scale");
+        throw core::Error("isomap: the uv raster is " + std::to_string(raster.size) + " texels, the options ask for " + std::to_string(options.size));
+    if (!(camera.pose.scale > 0) || !std::isfinite(camera.pose.scale)) throw core::Error("isomap: the fitted camera has no valid scale");
     const cv::Mat bgr = as_bgr8(image);
     const int n = static_cast<int>(vertices.cols());
-    const Eigen::Matrix3Xf normals = vertex_normals(vertices, triangles);
+    const Eigen::Matrix3Xf normals = morph::vertex_normals(vertices, triangles);
 
     // Per vertex: image position (affine camera), position and depth in the z-buffer pass (scaled
     // orthographic camera, OpenCV camera z grows away from the viewer) and the normal in view space.
     const Eigen::Matrix3f rotation = camera.pose.rotation.cast<float>();
-    const Eigen::Matrix3f to_camera = model_to_camera_flip().cast<float>() * rotation;
+    const Eigen::Matrix3f to_camera = morph::model_to_camera_flip().cast<float>() * rotation;
     const Eigen::Matrix<float, 2, 3> affine = camera.affine.matrix.topLeftCorner<2, 3>().cast<float>();
     const Eigen::Vector2f affine_offset = camera.affine.matrix.block<2, 1>(0, 3).cast<float>();
     const Eigen::Matrix3Xf camera_xyz = to_camera * vertices;
@@ -206,7 +206,7 @@ cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, c
     const Eigen::Vector2f low = (scale * camera_xyz.topRows<2>()).rowwise().minCoeff() + t;
     const Eigen::Vector2f high = (scale * camera_xyz.topRows<2>()).rowwise().maxCoeff() + t;
     const float extent = std::max(high.x() - low.x(), high.y() - low.y());
-    if (!std::isfinite(extent) || extent <= 0) throw Error("isomap: the fitted mesh projects to nothing");
+    if (!std::isfinite(extent) || extent <= 0) throw core::Error("isomap: the fitted mesh projects to nothing");
     const float shrink = std::min(1.0f, static_cast<float>(options.max_depth_side) / extent);
     const Eigen::Vector2f origin = low.array() - 1.0f;
     constexpr float kDistanceMm = 1000;  // any positive distance: the projection is orthographic
@@ -295,10 +295,10 @@ cv::Mat extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf& vertices, c
     return isomap;
 }
 
-std::vector<int> completed_symmetry(const MorphableModel& model) {
+std::vector<int> completed_symmetry(const morph::MorphableModel& model) {
     const int n = model.num_vertices();
     if (model.symmetry.size() != static_cast<std::size_t>(n))
-        throw Error("mirror fill: model '" + model.name + "' has no symmetry map (a mirror vertex per vertex)");
+        throw core::Error("mirror fill: model '" + model.name + "' has no symmetry map (a mirror vertex per vertex)");
     std::vector<int> mirror = model.symmetry;
     // A symmetry map is an involution: a pair listed one way holds the other way too.
     for (int v = 0; v < n; ++v) {
@@ -334,7 +334,7 @@ std::vector<int> completed_symmetry(const MorphableModel& model) {
     return mirror;
 }
 
-Eigen::Matrix2Xf mirror_positions(const MorphableModel& model, const UvRaster& raster) {
+Eigen::Matrix2Xf mirror_positions(const morph::MorphableModel& model, const UvRaster& raster) {
     const std::vector<int> symmetry = completed_symmetry(model);
     const float nan = std::numeric_limits<float>::quiet_NaN();
     Eigen::Matrix2Xf positions(2, static_cast<Eigen::Index>(raster.texels.size()));
@@ -361,9 +361,9 @@ int mirror_fill(cv::Mat& isomap, const UvRaster& raster, const Eigen::Matrix2Xf&
     // fitted outline is a pixel off: a mirror point seen at least twice as squarely replaces them.
     constexpr int kMirrorReplacesBelowAlpha = 64;
     if (isomap.type() != CV_8UC4 || isomap.rows != raster.size || isomap.cols != raster.size)
-        throw Error("mirror fill: the isomap is not a " + std::to_string(raster.size) + "² BGRA image");
+        throw core::Error("mirror fill: the isomap is not a " + std::to_string(raster.size) + "² BGRA image");
     if (mirror.cols() != static_cast<Eigen::Index>(raster.texels.size()))
-        throw Error("mirror fill: the mirror positions belong to another uv raster");
+        throw core::Error("mirror fill: the mirror positions belong to another uv raster");
     const cv::Mat source = isomap.clone();
     auto* out = isomap.ptr<cv::Vec4b>();
     const int size = raster.size;

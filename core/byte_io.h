@@ -2,7 +2,7 @@
 // Little-endian binary reading and writing shared by the model file formats. The reader checks
 // every size against the bytes that remain before anything is allocated, and every failure names
 // the file, the field and the byte offset.
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <Eigen/Core>
 
@@ -14,7 +14,7 @@
 #include <string_view>
 #include <type_traits>
 
-namespace facesynth {
+namespace facesynth::core {
 
 static_assert(std::endian::native == std::endian::little, "model files are little-endian; add byte swapping");
 
@@ -122,4 +122,4 @@ private:
     std::string bytes_;
 };
 
-}  // namespace facesynth
+}  // namespace facesynth::core

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace facesynth {
+namespace facesynth::core {
 
 // Linear value in [0, 1] (clamped) to its sRGB encoding in [0, 1].
 [[nodiscard]] inline double srgb_encode(double linear) {
@@ -16,4 +16,4 @@ namespace facesynth {
     return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4);
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::core

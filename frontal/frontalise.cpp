@@ -1,6 +1,6 @@
-#include "fit/frontal/frontalise.h"
+#include "frontal/frontalise.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -33,7 +33,7 @@ const std::array<std::uint8_t, 256>& unlit_texture_table() {
     static const std::array<std::uint8_t, 256> table = [] {
         std::array<std::uint8_t, 256> t{};
         for (int i = 0; i < 256; ++i)
-            t[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(std::lround(255 * srgb_encode(std::pow(i / 255.0, 2.2))));
+            t[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(std::lround(255 * core::srgb_encode(std::pow(i / 255.0, 2.2))));
         return t;
     }();
     return table;
@@ -57,7 +57,7 @@ render::Lighting unlit() {
 
 cv::Mat texture_for_unlit_render(const cv::Mat& isomap, const UvRaster& raster) {
     if (isomap.type() != CV_8UC4 || isomap.rows != raster.size || isomap.cols != raster.size)
-        throw Error("frontal render: the isomap must be a " + std::to_string(raster.size) + "² BGRA image");
+        throw core::Error("frontal render: the isomap must be a " + std::to_string(raster.size) + "² BGRA image");
     const auto& table = unlit_texture_table();
     cv::Mat texture(isomap.size(), CV_8UC3);
     const auto* in = isomap.ptr<cv::Vec4b>();
@@ -81,7 +81,7 @@ cv::Mat texture_for_unlit_render(const cv::Mat& isomap, const UvRaster& raster) 
 }
 
 cv::Mat render_texture_from_display(const cv::Mat& bgr) {
-    if (bgr.type() != CV_8UC3 || bgr.empty()) throw Error("texture: expected a non-empty 8-bit BGR image");
+    if (bgr.type() != CV_8UC3 || bgr.empty()) throw core::Error("texture: expected a non-empty 8-bit BGR image");
     const auto& table = unlit_texture_table();
     cv::Mat texture(bgr.size(), CV_8UC3);
     for (int r = 0; r < bgr.rows; ++r) {
@@ -93,9 +93,9 @@ cv::Mat render_texture_from_display(const cv::Mat& bgr) {
     return texture;
 }
 
-Frontaliser::Frontaliser(const MorphableModel& model, const render::RendererOptions& renderer_options)
+Frontaliser::Frontaliser(const morph::MorphableModel& model, const render::RendererOptions& renderer_options)
     : model_(model), fitter_(model), renderer_(renderer_options) {
-    const Eigen::Matrix3Xf mean = as_points(model.shape.mean);
+    const Eigen::Matrix3Xf mean = morph::as_points(model.shape.mean);
     const Eigen::Matrix3Xf landmarks = model.landmark_positions(mean);
     Eigen::Vector3d low = Eigen::Vector3d::Constant(1e30), high = -low;
     for (Eigen::Index i = 0; i < landmarks.cols(); ++i) {
@@ -105,7 +105,7 @@ Frontaliser::Frontaliser(const MorphableModel& model, const render::RendererOpti
         high = high.cwiseMax(p);
     }
     if (!(high.x() > low.x()) || !(high.y() > low.y()))
-        throw Error("frontalise: model '" + model.name + "' has no landmarks to frame the frontal view with");
+        throw core::Error("frontalise: model '" + model.name + "' has no landmarks to frame the frontal view with");
     frame_centre_mm_ = 0.5 * (low + high);
     frame_side_mm_ = kFrontalMargin * std::max(high.x() - low.x(), high.y() - low.y());
 }
@@ -117,7 +117,7 @@ const UvRaster& Frontaliser::uv_raster(int size) {
 }
 
 render::Camera Frontaliser::frontal_camera(int size) const {
-    if (size < 8 || size > 8192) throw Error("frontal render: size " + std::to_string(size) + " is out of range (8..8192)");
+    if (size < 8 || size > 8192) throw core::Error("frontal render: size " + std::to_string(size) + " is out of range (8..8192)");
     render::Camera camera;
     camera.projection = render::Projection::kOrthographic;
     const double focal = size / frame_side_mm_;
@@ -133,7 +133,7 @@ cv::Mat Frontaliser::extract_isomap(const cv::Mat& image, const Eigen::Matrix3Xf
 }
 
 int Frontaliser::mirror_fill(cv::Mat& isomap) {
-    if (isomap.rows != isomap.cols) throw Error("mirror fill: the isomap is not square");
+    if (isomap.rows != isomap.cols) throw core::Error("mirror fill: the isomap is not square");
     const int size = isomap.rows;
     const UvRaster& raster = uv_raster(size);
     auto it = mirrors_.find(size);
@@ -144,11 +144,11 @@ int Frontaliser::mirror_fill(cv::Mat& isomap) {
 FrontalImage Frontaliser::render_frontal(const Eigen::Matrix3Xf& vertices, const cv::Mat& isomap,
                                          const FrontalRenderOptions& options) {
     if (vertices.cols() != model_.num_vertices())
-        throw Error("frontal render: " + std::to_string(vertices.cols()) + " vertices for a model with " +
+        throw core::Error("frontal render: " + std::to_string(vertices.cols()) + " vertices for a model with " +
                     std::to_string(model_.num_vertices()));
-    if (isomap.rows != isomap.cols) throw Error("frontal render: the isomap is not square");
+    if (isomap.rows != isomap.cols) throw core::Error("frontal render: the isomap is not square");
     const cv::Mat texture = texture_for_unlit_render(isomap, uv_raster(isomap.rows));
-    Mesh mesh;
+    morph::Mesh mesh;
     mesh.vertices = vertices;
     mesh.triangles = model_.triangles;
     mesh.uv = model_.uv;

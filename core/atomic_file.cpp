@@ -1,6 +1,6 @@
-#include "morph/atomic_file.h"
+#include "core/atomic_file.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <atomic>
 #include <cerrno>
@@ -10,7 +10,7 @@
 #include <sstream>
 #include <unistd.h>
 
-namespace facesynth {
+namespace facesynth::core {
 namespace {
 
 std::string errno_text(int err) { return std::strerror(err); }
@@ -68,4 +68,4 @@ std::string read_file(const std::filesystem::path& path) {
     return buffer.str();
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::core

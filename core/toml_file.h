@@ -12,7 +12,7 @@
 #include <string>
 #include <string_view>
 
-namespace facesynth {
+namespace facesynth::core {
 
 // Deepest nesting of tables and arrays accepted. Our files need 3; toml11 exhausts an 8 MB stack
 // at about 1,000 levels under ASan and 5,000 in a release build.
@@ -22,13 +22,13 @@ inline constexpr int kMaxTomlNesting = 100;
 // overlong forms, no surrogates, nothing above U+10FFFF, no truncated sequence), or nullopt.
 [[nodiscard]] std::optional<std::size_t> first_invalid_utf8(std::string_view text);
 
-// Throws facesynth::Error ("<source>: line L, byte B: …") when toml11 must not see `text`.
+// Throws core::Error ("<source>: line L, byte B: …") when toml11 must not see `text`.
 void check_toml_text(std::string_view text, const std::string& source);
 
-// Checks `text`, then parses it; toml11's syntax errors become facesynth::Error naming `source`.
+// Checks `text`, then parses it; toml11's syntax errors become core::Error naming `source`.
 [[nodiscard]] toml::value parse_toml(const std::string& text, const std::string& source);
 
 // Reads `path` whole and parses it as above; errors name the file.
 [[nodiscard]] toml::value read_toml_file(const std::filesystem::path& path);
 
-}  // namespace facesynth
+}  // namespace facesynth::core

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <optional>
 
-namespace facesynth {
+namespace facesynth::core {
 
 struct ImageDimensions {
     std::int64_t width = 0;
@@ -23,7 +23,7 @@ struct ImageDimensions {
 // Largest photograph `detect`, `eval landmarks` and `fit --image` accept (100 megapixels).
 inline constexpr std::int64_t kMaxImagePixels = 100'000'000;
 
-// Throws facesynth::Error naming the file when its header declares more than `max_pixels` pixels.
+// Throws core::Error naming the file when its header declares more than `max_pixels` pixels.
 void check_image_not_too_large(const std::filesystem::path& path, std::int64_t max_pixels = kMaxImagePixels);
 
-}  // namespace facesynth
+}  // namespace facesynth::core

@@ -3,8 +3,8 @@
 // rendered at yaw 0 and at other yaws under the same lighting, the posed renders are frontalised from
 // their landmarks, and the output is compared with the true frontal render inside the face mask; the
 // isomap is compared with the true texture in uv space. `facesynth eval frontalise` loops over this.
-#include "fit/frontal/frontalise.h"
-#include "fit/frontal/image_metrics.h"
+#include "frontal/frontalise.h"
+#include "frontal/image_metrics.h"
 #include "morph/jaw_contour.h"
 #include "render/lighting.h"
 
@@ -19,7 +19,7 @@ namespace facesynth::frontal {
 
 // A face with a known appearance: shape and either per-vertex colours (mesh.colours) or a uv texture.
 struct TexturedFace {
-    Mesh mesh;                 // model instance; colours used when texture is empty
+    morph::Mesh mesh;                 // model instance; colours used when texture is empty
     cv::Mat texture;           // optional 8-bit BGR uv texture (display values), size = the isomap size
     cv::Mat true_isomap;       // 8-bit BGR: the appearance in uv space as the renderer shows it unlit
 };
@@ -27,7 +27,7 @@ struct TexturedFace {
 // Identity `index` of the set `seed`: random identity (σ-unit normal), neutral expression, and the
 // model's random albedo; a model without an albedo model gets a procedural texture instead (smooth
 // colour noise plus a fine grid of dots, mirror-symmetric in u), drawn per identity.
-[[nodiscard]] TexturedFace make_textured_face(const MorphableModel& model, Frontaliser& frontaliser, std::uint64_t seed,
+[[nodiscard]] TexturedFace make_textured_face(const morph::MorphableModel& model, Frontaliser& frontaliser, std::uint64_t seed,
                                               std::uint64_t index, int isomap_size);
 
 struct SyntheticView {
@@ -59,9 +59,9 @@ struct ViewOptions {
 
 // `face` rendered with a perspective camera at yaw `yaw_deg` (pitch = roll = 0), the mean face's
 // landmark box filling 1 / options.framing of the image.
-[[nodiscard]] SyntheticView render_view(render::Renderer& renderer, const MorphableModel& model, const TexturedFace& face,
+[[nodiscard]] SyntheticView render_view(render::Renderer& renderer, const morph::MorphableModel& model, const TexturedFace& face,
                                         double yaw_deg, const ViewOptions& options = {},
-                                        const JawContourRegion* contour_region = nullptr);
+                                        const morph::JawContourRegion* contour_region = nullptr);
 
 // The true frontal render: `face` with the frontaliser's frontal camera under `lighting`, and the face
 // mask (render coverage inside the convex hull of the projected 68 landmarks).

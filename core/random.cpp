@@ -1,9 +1,9 @@
-#include "morph/random.h"
+#include "core/random.h"
 
 #include <cmath>
 #include <numbers>
 
-namespace facesynth {
+namespace facesynth::core {
 namespace {
 
 std::uint64_t splitmix64(std::uint64_t& x) {
@@ -69,4 +69,4 @@ int Rng::uniform_int(int low, int high) {
     return low + static_cast<int>(next_u64() % span);
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::core

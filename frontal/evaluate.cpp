@@ -1,7 +1,7 @@
-#include "fit/frontal/evaluate.h"
+#include "frontal/evaluate.h"
 
-#include "morph/error.h"
-#include "morph/random.h"
+#include "core/error.h"
+#include "core/random.h"
 #include "morph/sampling.h"
 #include "render/landmarks.h"
 
@@ -17,7 +17,7 @@ namespace {
 constexpr double kCoefficientTruncation = 3.0;
 
 // Smooth colour variation plus a fine dot grid, mirror-symmetric in u, in display values (B G R).
-cv::Mat procedural_texture(Rng& rng, int size) {
+cv::Mat procedural_texture(core::Rng& rng, int size) {
     const double base_r = rng.uniform(0.55, 0.85), base_g = base_r * rng.uniform(0.70, 0.80), base_b = base_g * rng.uniform(0.80, 0.95);
     struct Wave {
         double fu, fv, phase, amplitude;
@@ -59,21 +59,21 @@ render::MeshExtras extras_for(const TexturedFace& face, cv::Mat& storage) {
 
 ViewOptions::ViewOptions() : lighting(unlit()) {}
 
-TexturedFace make_textured_face(const MorphableModel& model, Frontaliser& frontaliser, std::uint64_t seed, std::uint64_t index,
+TexturedFace make_textured_face(const morph::MorphableModel& model, Frontaliser& frontaliser, std::uint64_t seed, std::uint64_t index,
                                 int isomap_size) {
-    Rng identity_rng = make_rng(seed, index, RandomStream::kIdentity);
-    const std::vector<float> alpha = sample_coefficients(identity_rng, model.num_shape_components(), kCoefficientTruncation);
+    core::Rng identity_rng = core::make_rng(seed, index, core::RandomStream::kIdentity);
+    const std::vector<float> alpha = morph::sample_coefficients(identity_rng, model.num_shape_components(), kCoefficientTruncation);
     TexturedFace face;
     const UvRaster& raster = frontaliser.uv_raster(isomap_size);
     if (model.albedo && !model.albedo->empty()) {
-        Rng albedo_rng = make_rng(seed, index, RandomStream::kAlbedo);
-        const std::vector<float> beta = sample_coefficients(albedo_rng, model.num_albedo_components(), kCoefficientTruncation);
+        core::Rng albedo_rng = core::make_rng(seed, index, core::RandomStream::kAlbedo);
+        const std::vector<float> beta = morph::sample_coefficients(albedo_rng, model.num_albedo_components(), kCoefficientTruncation);
         face.mesh = model.instance(alpha, {}, beta);
         face.true_isomap = vertex_colour_isomap(face.mesh.colours, raster);
     } else {
         face.mesh = model.instance(alpha);
         face.mesh.colours.resize(3, 0);
-        Rng texture_rng = make_rng(seed, index, RandomStream::kTexture);
+        core::Rng texture_rng = core::make_rng(seed, index, core::RandomStream::kTexture);
         face.texture = procedural_texture(texture_rng, isomap_size);
         face.true_isomap = cv::Mat(isomap_size, isomap_size, CV_8UC3, cv::Scalar::all(0));
         face.texture.copyTo(face.true_isomap, layout_mask(raster));
@@ -83,7 +83,7 @@ TexturedFace make_textured_face(const MorphableModel& model, Frontaliser& fronta
 
 ViewOptions with_context(const ViewOptions& options, double framing) {
     if (!(framing >= options.framing) || !std::isfinite(framing))
-        throw Error("frontal benchmark: a view with context needs a framing of at least " + std::to_string(options.framing));
+        throw core::Error("frontal benchmark: a view with context needs a framing of at least " + std::to_string(options.framing));
     ViewOptions wide = options;
     const double grow = options.size * (framing / options.framing - 1);
     wide.size = options.size + 2 * static_cast<int>(std::lround(0.5 * grow));
@@ -93,10 +93,10 @@ ViewOptions with_context(const ViewOptions& options, double framing) {
     return wide;
 }
 
-SyntheticView render_view(render::Renderer& renderer, const MorphableModel& model, const TexturedFace& face, double yaw_deg,
-                          const ViewOptions& options, const JawContourRegion* contour_region) {
+SyntheticView render_view(render::Renderer& renderer, const morph::MorphableModel& model, const TexturedFace& face, double yaw_deg,
+                          const ViewOptions& options, const morph::JawContourRegion* contour_region) {
     // Frame the mean face's landmarks (the same box as the frontal framing) at 1 / framing of the image.
-    const Eigen::Matrix3Xf mean_landmarks = model.landmark_positions(as_points(model.shape.mean));
+    const Eigen::Matrix3Xf mean_landmarks = model.landmark_positions(morph::as_points(model.shape.mean));
     Eigen::Vector3d low = Eigen::Vector3d::Constant(1e30), high = -low;
     for (Eigen::Index i = 0; i < mean_landmarks.cols(); ++i)
         if (mean_landmarks.col(i).allFinite()) {
@@ -106,10 +106,10 @@ SyntheticView render_view(render::Renderer& renderer, const MorphableModel& mode
     const Eigen::Vector3d centre = 0.5 * (low + high);
     const double extent = options.framing * std::max(high.x() - low.x(), high.y() - low.y());
     render::Camera camera;
-    camera.intrinsics = intrinsics_from_fov(options.fov_deg, options.size, options.size);
+    camera.intrinsics = morph::intrinsics_from_fov(options.fov_deg, options.size, options.size);
     const double distance = extent / (2 * std::tan(0.5 * options.fov_deg * std::numbers::pi / 180));
-    camera.pose.rotation = rotation_from_euler({yaw_deg, 0, 0});
-    const Eigen::Vector3d rotated_centre = model_to_camera_flip() * camera.pose.rotation * centre;
+    camera.pose.rotation = morph::rotation_from_euler({yaw_deg, 0, 0});
+    const Eigen::Vector3d rotated_centre = morph::model_to_camera_flip() * camera.pose.rotation * centre;
     camera.pose.translation = Eigen::Vector3d(-rotated_centre.x(), -rotated_centre.y(), distance);
 
     render::RenderSettings settings;
@@ -150,7 +150,7 @@ TrueFrontal render_true_frontal(Frontaliser& frontaliser, const TexturedFace& fa
     std::vector<cv::Point> hull_input, hull;
     for (Eigen::Index i = 0; i < points.cols(); ++i)
         if (points.col(i).allFinite()) hull_input.emplace_back(static_cast<int>(std::lround(points(0, i))), static_cast<int>(std::lround(points(1, i))));
-    if (hull_input.size() < 3) throw Error("frontal benchmark: the model has too few landmarks for a face mask");
+    if (hull_input.size() < 3) throw core::Error("frontal benchmark: the model has too few landmarks for a face mask");
     cv::convexHull(hull_input, hull);
     truth.face_mask = cv::Mat(size, size, CV_8UC1, cv::Scalar::all(0));
     cv::fillConvexPoly(truth.face_mask, hull, cv::Scalar(255));
@@ -160,7 +160,7 @@ TrueFrontal render_true_frontal(Frontaliser& frontaliser, const TexturedFace& fa
 
 IsomapComparison compare_isomap(const cv::Mat& isomap, const cv::Mat& true_isomap, const cv::Mat& layout, int min_alpha) {
     if (isomap.type() != CV_8UC4 || true_isomap.type() != CV_8UC3 || isomap.size() != true_isomap.size() || layout.size() != isomap.size())
-        throw Error("isomap comparison: expected a BGRA isomap, a BGR truth and a mask of one size");
+        throw core::Error("isomap comparison: expected a BGRA isomap, a BGR truth and a mask of one size");
     IsomapComparison out;
     double abs_sum = 0, sq_sum = 0;
     long visible = 0, compared = 0;

@@ -4,19 +4,19 @@
 #include <filesystem>
 #include <string_view>
 
-namespace facesynth {
+namespace facesynth::core {
 
-// Writes `contents` to `path` atomically; throws facesynth::Error naming the file on any failure
+// Writes `contents` to `path` atomically; throws core::Error naming the file on any failure
 // (including a full disk), leaving no temporary file behind.
 void write_file_atomically(const std::filesystem::path& path, std::string_view contents);
 
 // Temporary sibling name used for `path` ("<name>.tmp.<pid>.<n>"), for writers that must produce
 // the file themselves (image encoders) and then call commit_temporary_file.
 [[nodiscard]] std::filesystem::path temporary_path_for(const std::filesystem::path& path);
-// fsync + rename temp -> path; removes temp and throws facesynth::Error on failure.
+// fsync + rename temp -> path; removes temp and throws core::Error on failure.
 void commit_temporary_file(const std::filesystem::path& temp, const std::filesystem::path& path);
 
-// Reads a whole file; throws facesynth::Error naming it when it cannot be read.
+// Reads a whole file; throws core::Error naming it when it cannot be read.
 [[nodiscard]] std::string read_file(const std::filesystem::path& path);
 
-}  // namespace facesynth
+}  // namespace facesynth::core

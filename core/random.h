@@ -6,7 +6,7 @@
 #include <array>
 #include <cstdint>
 
-namespace facesynth {
+namespace facesynth::core {
 
 class Rng {
 public:
@@ -50,4 +50,4 @@ enum class RandomStream : std::uint64_t {
     return Rng(seed, index, static_cast<std::uint64_t>(stream));
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::core

@@ -1,10 +1,10 @@
-#include "fit/recognition/experiment.h"
+#include "recognition/experiment.h"
 
-#include "fit/frontal/evaluate.h"
-#include "fit/frontal/frontalise.h"
-#include "morph/error.h"
+#include "frontal/evaluate.h"
+#include "frontal/frontalise.h"
+#include "core/error.h"
 #include "morph/jaw_contour.h"
-#include "morph/random.h"
+#include "core/random.h"
 
 #include <opencv2/face.hpp>
 
@@ -17,7 +17,7 @@ namespace {
 
 // A soft sky of random brightness and one directional light from a random direction in front of the
 // face: lighting changes from image to image, the face's texture does not.
-render::Lighting random_lighting(Rng& rng) {
+render::Lighting random_lighting(core::Rng& rng) {
     render::Lighting lighting;
     const auto brightness = static_cast<float>(rng.uniform(0.7, 1.1));
     for (auto& coefficient : lighting.sh)
@@ -46,12 +46,12 @@ struct IdentityImages {
 };
 
 void check(const ExperimentOptions& o) {
-    if (o.identities < 2) throw Error("recognition: needs at least 2 identities (impostor pairs), got " + std::to_string(o.identities));
-    if (o.gallery_yaws.empty()) throw Error("recognition: no gallery yaw");
+    if (o.identities < 2) throw core::Error("recognition: needs at least 2 identities (impostor pairs), got " + std::to_string(o.identities));
+    if (o.gallery_yaws.empty()) throw core::Error("recognition: no gallery yaw");
     if (o.probe_bin_width <= 0 || o.probe_max_yaw < o.probe_bin_width || o.probe_max_yaw > 90)
-        throw Error("recognition: probe bins need 0 < width <= max yaw <= 90");
-    if (o.crop.size < 16 || o.image_size < 64 || o.frontal_size < 32) throw Error("recognition: image sizes too small");
-    if (!(o.detection_framing >= 1.5 && o.detection_framing <= 4)) throw Error("recognition: detection framing must lie in [1.5, 4]");
+        throw core::Error("recognition: probe bins need 0 < width <= max yaw <= 90");
+    if (o.crop.size < 16 || o.image_size < 64 || o.frontal_size < 32) throw core::Error("recognition: image sizes too small");
+    if (!(o.detection_framing >= 1.5 && o.detection_framing <= 4)) throw core::Error("recognition: detection framing must lie in [1.5, 4]");
 }
 
 cv::Ptr<cv::face::LBPHFaceRecognizer> lbph(const ExperimentOptions& o) {
@@ -98,7 +98,7 @@ cv::Mat example_sheet(const std::vector<IdentityImages>& images, const Experimen
 }  // namespace
 
 MatchScores match_all_pairs(const std::vector<cv::Mat>& images, const std::vector<int>& identity, const ExperimentOptions& o) {
-    if (images.size() != identity.size() || images.size() < 2) throw Error("recognition: need at least 2 images, each with an identity");
+    if (images.size() != identity.size() || images.size() < 2) throw core::Error("recognition: need at least 2 images, each with an identity");
     // Labels are image positions, so the collector's results name the other image of each pair.
     std::vector<int> positions(images.size());
     for (std::size_t i = 0; i < images.size(); ++i) positions[i] = static_cast<int>(i);
@@ -115,12 +115,12 @@ MatchScores match_all_pairs(const std::vector<cv::Mat>& images, const std::vecto
     return scores;
 }
 
-ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOptions& o, const std::function<void()>& on_identity,
+ExperimentResult run_experiment(const morph::MorphableModel& model, const ExperimentOptions& o, const std::function<void()>& on_identity,
                                 const LandmarkFinder& find_landmarks) {
     check(o);
     const int bins = o.probe_max_yaw / o.probe_bin_width;
     frontal::Frontaliser frontaliser(model);
-    const JawContourRegion contour_region = jaw_contour_region(model);  // jaw landmarks on the silhouette, as on photographs
+    const morph::JawContourRegion contour_region = morph::jaw_contour_region(model);  // jaw landmarks on the silhouette, as on photographs
     frontal::FrontaliseOptions frontalise_options;
     frontalise_options.frontal.size = o.frontal_size;
     frontalise_options.mirror_fill = o.mirror_fill;
@@ -132,8 +132,8 @@ ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOpt
     for (int i = 0; i < o.identities; ++i) {
         const auto index = static_cast<std::uint64_t>(i);
         const frontal::TexturedFace face = frontal::make_textured_face(model, frontaliser, o.seed, index, o.isomap_size);
-        Rng pose_rng = make_rng(o.seed, index, RandomStream::kPose);
-        Rng light_rng = make_rng(o.seed, index, RandomStream::kLighting);
+        core::Rng pose_rng = core::make_rng(o.seed, index, core::RandomStream::kPose);
+        core::Rng light_rng = core::make_rng(o.seed, index, core::RandomStream::kLighting);
         std::vector<double> yaws(o.gallery_yaws.begin(), o.gallery_yaws.end());
         for (int b = 0; b < bins; ++b) {
             const double magnitude = pose_rng.uniform(b * o.probe_bin_width, (b + 1) * o.probe_bin_width);
@@ -150,7 +150,7 @@ ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOpt
             try {
                 r.org = eye_aligned_crop(view.image, view.landmarks, o.crop);
                 r.lm = frontal_crop(frontaliser.frontalise(view.image, view.landmarks, frontalise_options).frontal.image, o.crop);
-            } catch (const Error&) {
+            } catch (const core::Error&) {
                 ok = false;
                 ++result.failed_frontalisations;
             }
@@ -162,7 +162,7 @@ ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOpt
                 try {
                     if (const std::optional<Eigen::Matrix2Xd> found = find_landmarks(wide.image, wide.landmarks))
                         r.lm_detected = frontal_crop(frontaliser.frontalise(wide.image, *found, frontalise_options).frontal.image, o.crop);
-                } catch (const Error&) {
+                } catch (const core::Error&) {
                     r.lm_detected.release();  // a failed fit on found landmarks is a failure to acquire too
                 }
                 if (r.lm_detected.empty()) {
@@ -188,7 +188,7 @@ ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOpt
             lm_gallery.push_back(mine.gallery[g].lm);
             labels.push_back(i);
         }
-        if (labels.size() < 2) throw Error("recognition: fewer than 2 gallery images at yaw " + std::to_string(o.gallery_yaws[g]) + " could be made");
+        if (labels.size() < 2) throw core::Error("recognition: fewer than 2 gallery images at yaw " + std::to_string(o.gallery_yaws[g]) + " could be made");
         const auto org = lbph(o), lm = lbph(o);
         org->train(org_gallery, labels);
         lm->train(lm_gallery, labels);

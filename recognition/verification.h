@@ -14,7 +14,7 @@ struct MatchScores {
 
 // FRR at the strictest threshold whose FAR does not exceed `far` (ties never push FAR above it):
 // accept d < t with t = the (floor(far · impostors) + 1)-th smallest impostor distance.
-// Throws facesynth::Error when either list is empty.
+// Throws core::Error when either list is empty.
 [[nodiscard]] double frr_at_far(const MatchScores& scores, double far);
 
 struct DetPoint {

@@ -1,6 +1,6 @@
-#include "fit/recognition/verification.h"
+#include "recognition/verification.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@ namespace {
 
 void require_scores(const MatchScores& scores) {
     if (scores.genuine.empty() || scores.impostor.empty())
-        throw Error("verification needs genuine and impostor pairs (" + std::to_string(scores.genuine.size()) + " genuine, " +
+        throw core::Error("verification needs genuine and impostor pairs (" + std::to_string(scores.genuine.size()) + " genuine, " +
                     std::to_string(scores.impostor.size()) + " impostor)");
 }
 

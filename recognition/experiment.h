@@ -1,13 +1,13 @@
 #pragma once
 // The pose-invariant verification experiment of issue 7 (docs/recognition.md), on synthetic
-// identities: every identity has one shape and one texture (fit/frontal/evaluate.h,
+// identities: every identity has one shape and one texture (frontal/evaluate.h,
 // make_textured_face); its images differ in yaw and lighting only. Each image is represented twice:
 // `org`, the eye-aligned crop of the rendered image, and `LM`, the frontal rendering made by
 // frontalising the image from its ground-truth landmarks (contour jaw). Both are matched with
 // OpenCV's LBPH (local binary pattern histograms, chi-square distance) against a gallery of one
 // image per identity at a fixed yaw; probes fall in yaw bins.
-#include "fit/recognition/face_crop.h"
-#include "fit/recognition/verification.h"
+#include "recognition/face_crop.h"
+#include "recognition/verification.h"
 #include "morph/model.h"
 
 #include <Eigen/Core>
@@ -77,9 +77,9 @@ struct ExperimentResult {
 
 // Deterministic: identity i's face, yaws and lightings depend only on (seed, i) (and on the finder,
 // which should be deterministic too). `on_identity` is called after each identity's images are made.
-// `find_landmarks`, when given, adds the lm_detected scores. Throws facesynth::Error when options are
+// `find_landmarks`, when given, adds the lm_detected scores. Throws core::Error when options are
 // invalid.
-[[nodiscard]] ExperimentResult run_experiment(const MorphableModel& model, const ExperimentOptions& options,
+[[nodiscard]] ExperimentResult run_experiment(const morph::MorphableModel& model, const ExperimentOptions& options,
                                               const std::function<void()>& on_identity = {},
                                               const LandmarkFinder& find_landmarks = {});
 

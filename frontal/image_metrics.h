@@ -14,7 +14,7 @@ struct ImageComparison {
     int pixels = 0;      // masked pixel count
 };
 
-// Throws facesynth::Error on mismatched sizes or types, or an empty mask.
+// Throws core::Error on mismatched sizes or types, or an empty mask.
 [[nodiscard]] ImageComparison compare_images(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask);
 
 }  // namespace facesynth::frontal

@@ -1,6 +1,6 @@
-#include "fit/frontal/photo_texture.h"
+#include "frontal/photo_texture.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 #include "morph/landmarks.h"
 #include "morph/mesh.h"
 #include "morph/regions.h"
@@ -28,14 +28,14 @@ Eigen::Matrix<double, 9, 1> sh_basis(const Eigen::Vector3d& n) {
 }
 
 bool is_face_region(std::uint8_t label) {
-    const auto r = static_cast<Region>(label);
-    return r == Region::kSkin || r == Region::kBrows || r == Region::kEyes || r == Region::kLips || r == Region::kNose;
+    const auto r = static_cast<morph::Region>(label);
+    return r == morph::Region::kSkin || r == morph::Region::kBrows || r == morph::Region::kEyes || r == morph::Region::kLips || r == morph::Region::kNose;
 }
 
 // Skin in the sense of shading estimation: albedo close to uniform (no brows, eyes, lips or hair).
 bool is_plain_skin(std::uint8_t label) {
-    const auto r = static_cast<Region>(label);
-    return r == Region::kSkin || r == Region::kNose;
+    const auto r = static_cast<morph::Region>(label);
+    return r == morph::Region::kSkin || r == morph::Region::kNose;
 }
 
 // CIELAB of linear RGB colours (one row of CV_32FC3 in, one out).
@@ -43,7 +43,7 @@ cv::Mat lab_of_linear(const std::vector<cv::Vec3f>& rgb_linear) {
     cv::Mat row(1, static_cast<int>(rgb_linear.size()), CV_32FC3);
     auto* p = row.ptr<cv::Vec3f>();
     for (std::size_t i = 0; i < rgb_linear.size(); ++i)
-        for (int c = 0; c < 3; ++c) p[i][c] = static_cast<float>(srgb_encode(rgb_linear[i][c]));
+        for (int c = 0; c < 3; ++c) p[i][c] = static_cast<float>(core::srgb_encode(rgb_linear[i][c]));
     cv::cvtColor(row, row, cv::COLOR_RGB2Lab);
     return row;
 }
@@ -79,12 +79,12 @@ PhotoTexture rejected(PhotoTexture t, std::string why) {
 }  // namespace
 
 cv::Mat align_photo_to_fit(const cv::Mat& image, const Eigen::Matrix2Xd& annotated, const Eigen::Matrix2Xd& projected) {
-    if (annotated.cols() != kNumIbugLandmarks || projected.cols() != kNumIbugLandmarks)
-        throw Error("texture: feature alignment needs 68 annotated and 68 projected points");
+    if (annotated.cols() != morph::kNumIbugLandmarks || projected.cols() != morph::kNumIbugLandmarks)
+        throw core::Error("texture: feature alignment needs 68 annotated and 68 projected points");
     std::vector<int> used;
-    for (int k = 17; k < kNumIbugLandmarks; ++k)
+    for (int k = 17; k < morph::kNumIbugLandmarks; ++k)
         if (annotated.col(k).allFinite() && projected.col(k).allFinite()) used.push_back(k);
-    const double eye_distance = (annotated.col(kLeftEyeOuterCorner) - annotated.col(kRightEyeOuterCorner)).norm();
+    const double eye_distance = (annotated.col(morph::kLeftEyeOuterCorner) - annotated.col(morph::kRightEyeOuterCorner)).norm();
     if (used.size() < 3 || !(eye_distance > 0)) return image;
     const int n = static_cast<int>(used.size());
     const double sigma = 0.25 * eye_distance;
@@ -132,8 +132,8 @@ cv::Mat align_photo_to_fit(const cv::Mat& image, const Eigen::Matrix2Xd& annotat
 
 void push_pull_fill(cv::Mat& colour, const cv::Mat& weight) {
     if (colour.type() != CV_32FC3 || weight.type() != CV_32FC1 || colour.size() != weight.size())
-        throw Error("push-pull fill: expects a CV_32FC3 colour and a CV_32FC1 weight of the same size");
-    if (cv::countNonZero(weight > 0) == 0) throw Error("push-pull fill: no texel has a colour to fill from");
+        throw core::Error("push-pull fill: expects a CV_32FC3 colour and a CV_32FC1 weight of the same size");
+    if (cv::countNonZero(weight > 0) == 0) throw core::Error("push-pull fill: no texel has a colour to fill from");
     if (colour.rows <= 1 && colour.cols <= 1) return;
     // Pull: the weighted mean of each 2x2 block; a block with any colour counts as known (weight 1) one
     // level down when its weights add up to one texel's worth.
@@ -170,10 +170,10 @@ void push_pull_fill(cv::Mat& colour, const cv::Mat& weight) {
 
 PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& image, const Eigen::Matrix2Xd& landmarks,
                                    const PhotoTextureOptions& options) {
-    const MorphableModel& model = frontaliser.model();
+    const morph::MorphableModel& model = frontaliser.model();
     if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
-        throw Error("texture: model '" + model.name + "' has no symmetry map to fill the hidden side with");
-    if (landmarks.cols() != kNumIbugLandmarks) throw Error("texture: expected 68 landmarks, got " + std::to_string(landmarks.cols()));
+        throw core::Error("texture: model '" + model.name + "' has no symmetry map to fill the hidden side with");
+    if (landmarks.cols() != morph::kNumIbugLandmarks) throw core::Error("texture: expected 68 landmarks, got " + std::to_string(landmarks.cols()));
     PhotoTexture out;
 
     fit::FitOptions fit_options;
@@ -181,14 +181,14 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     fit::FitResult fit;
     try {
         fit = frontaliser.fitter().fit(landmarks, fit_options);
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
         return rejected(out, std::string("fit: ") + e.what());
     }
     out.shape = fit.alpha;
     out.yaw_deg = fit.pose.angles.yaw;
     out.pitch_deg = fit.pose.angles.pitch;
     out.roll_deg = fit.pose.angles.roll;
-    const double iod = inter_ocular_distance(landmarks);
+    const double iod = morph::inter_ocular_distance(landmarks);
     out.fit_error = iod > 0 ? fit.reprojection_rms_px / iod : 1e9;
     char text[160];
     if (std::abs(out.yaw_deg) > options.max_abs_yaw_deg) {
@@ -206,13 +206,13 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     const cv::Mat photo = options.align_features ? align_photo_to_fit(image, landmarks, fit.projected) : image;
     cv::Mat isomap = frontaliser.extract_isomap(photo, vertices, {fit.camera, fit.pose}, isomap_options);
     const UvRaster& raster = frontaliser.uv_raster(options.size);
-    const Eigen::Matrix3Xf normals = vertex_normals(vertices, model.triangles);
+    const Eigen::Matrix3Xf normals = morph::vertex_normals(vertices, model.triangles);
     const bool labelled = model.vertex_labels.size() == static_cast<std::size_t>(model.num_vertices());
 
     // Per covered texel: its region (the label of its heaviest corner) and its normal (model space: the
     // shading fit below is free in all nine coefficients, so its frame does not matter).
     const std::size_t texel_count = raster.texels.size();
-    std::vector<std::uint8_t> region(texel_count, static_cast<std::uint8_t>(Region::kSkin));
+    std::vector<std::uint8_t> region(texel_count, static_cast<std::uint8_t>(morph::Region::kSkin));
     std::vector<Eigen::Vector3d> texel_normal(texel_count);
     for (const UvRaster::TriangleTexels& tri : raster.triangles) {
         for (int k = tri.first; k < tri.first + tri.count; ++k) {
@@ -319,7 +319,7 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     cv::Vec3f median_linear;
     for (std::size_t c = 0; c < 3; ++c) {
         median_linear[static_cast<int>(c)] = static_cast<float>(percentile(channels[c], 0.5));
-        out.skin_srgb[c] = 255.0 * srgb_encode(median_linear[static_cast<int>(c)]);
+        out.skin_srgb[c] = 255.0 * core::srgb_encode(median_linear[static_cast<int>(c)]);
     }
     const cv::Vec3f median_lab = lab_of_linear({median_linear}).at<cv::Vec3f>(0);
     const cv::Mat skin_lab = lab_of_linear(skin_linear);
@@ -361,7 +361,7 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
         const auto* a = albedo.ptr<cv::Vec3f>(r);
         auto* t = out.texture.ptr<cv::Vec3b>(r);
         for (int c = 0; c < options.size; ++c)
-            for (int ch = 0; ch < 3; ++ch) t[c][ch] = cv::saturate_cast<uchar>(255.0 * srgb_encode(a[c][ch]));
+            for (int ch = 0; ch < 3; ++ch) t[c][ch] = cv::saturate_cast<uchar>(255.0 * core::srgb_encode(a[c][ch]));
     }
     return out;
 }

@@ -4,7 +4,7 @@
 // shading, mirror fill of the hidden side, then every remaining texel (holes, hidden scalp, borders)
 // filled smoothly from its neighbours. Photographs that give no usable texture are rejected with a
 // reason (pose, coverage, occlusion, fit).
-#include "fit/frontal/frontalise.h"
+#include "frontal/frontalise.h"
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -60,14 +60,14 @@ struct PhotoTexture {
 };
 
 // Builds the texture of the face with `landmarks` (68 iBUG points, 0-based pixels) in `image` (8-bit BGR
-// or grey). Throws facesynth::Error when the model has no uv or no symmetry map; a fit that fails
+// or grey). Throws core::Error when the model has no uv or no symmetry map; a fit that fails
 // (degenerate landmarks) gives a rejection, not an exception.
 [[nodiscard]] PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& image, const Eigen::Matrix2Xd& landmarks,
                                                  const PhotoTextureOptions& options = {});
 
 // Fills every texel of `colour` (CV_32FC3) whose `weight` (CV_32FC1, in [0, 1]) is below 1 from the
 // weighted colours around it (push-pull over an image pyramid): weight 0 texels take the pyramid's
-// colour, partial weights blend with it, weight 1 texels stay. Throws facesynth::Error when no texel
+// colour, partial weights blend with it, weight 1 texels stay. Throws core::Error when no texel
 // has weight.
 void push_pull_fill(cv::Mat& colour, const cv::Mat& weight);
 

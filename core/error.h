@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace facesynth {
+namespace facesynth::core {
 
 class Error : public std::runtime_error {
 public:
@@ -16,4 +16,4 @@ public:
     return Error(path + ": " + problem);
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::core

@@ -1,6 +1,6 @@
-#include "morph/image_header.h"
+#include "core/image_header.h"
 
-#include "morph/error.h"
+#include "core/error.h"
 
 #include <algorithm>
 #include <array>
@@ -9,7 +9,7 @@
 #include <string>
 #include <string_view>
 
-namespace facesynth {
+namespace facesynth::core {
 namespace {
 
 std::int64_t big_endian(const unsigned char* p, int bytes) {
@@ -78,4 +78,4 @@ bool is_image_file(const std::filesystem::path& path) {
     return std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end();
 }
 
-}  // namespace facesynth
+}  // namespace facesynth::core
