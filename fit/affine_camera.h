@@ -1,6 +1,6 @@
 #pragma once
 // Affine camera estimation by the Gold Standard Algorithm (Hartley & Zisserman, 2nd ed., Alg. 7.2)
-// and its decomposition into the project's pose convention (morph/pose.h, DESIGN.md §2).
+// and its decomposition into the project's pose convention (morph/pose.h, docs/conventions.md).
 #include "morph/pose.h"
 
 #include <Eigen/Core>

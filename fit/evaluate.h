@@ -1,5 +1,5 @@
 #pragma once
-// Accuracy of one fit against known ground truth (DESIGN.md §5), and synthetic validation cases for
+// Accuracy of one fit against known ground truth (docs/conventions.md, Metrics), and synthetic validation cases for
 // choosing the regularisation (docs/fit.md, "Choosing λ"). `facesynth eval fit` is a loop over these.
 #include "fit/fit.h"
 #include "fit/refine.h"

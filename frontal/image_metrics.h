@@ -1,6 +1,6 @@
 #pragma once
 // Image similarity inside a mask, for comparing a frontalised face with the true frontal render
-// (DESIGN.md §5). Images are 8-bit with the same size and channel count; the mask is 8-bit, non-zero
+// (docs/conventions.md, Metrics). Images are 8-bit with the same size and channel count; the mask is 8-bit, non-zero
 // where pixels count.
 #include <opencv2/core.hpp>
 

@@ -616,7 +616,7 @@ private:
     Profile nose_half_width_{{{0.0, 0.0}, {1.0, 0.0}}};
 };
 
-// Farkas norms (DESIGN.md §7) for one sex, with a shared size factor and individual spreads.
+// Farkas norms (docs/builtin-model.md) for one sex, with a shared size factor and individual spreads.
 Anatomy random_anatomy(core::Rng& rng) {
     const bool male = rng.uniform() < 0.5;
     const double size = 1.0 + 0.035 * rng.truncated_normal(2.5);

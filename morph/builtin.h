@@ -2,7 +2,7 @@
 // The built-in default model: a procedural human face built from anatomy, with no external data.
 //
 // A head-and-face surface on a regular (column, row) grid, shaped by smooth anthropometric
-// profiles (Farkas 1994 norms, DESIGN.md §7) and local displacement fields anchored at anatomical
+// profiles (Farkas 1994 norms, docs/builtin-model.md) and local displacement fields anchored at anatomical
 // points (brow ridge, eye sockets with eyeballs and lids, nose, lips, chin, cheeks, jaw). A
 // population of varied individuals in dense correspondence goes through build_pca (the code behind
 // `facesynth model build`) for the shape and the colour model; expressions are named blendshapes.

@@ -1,5 +1,5 @@
 #pragma once
-// Pinhole camera in the OpenCV convention (DESIGN.md §2): camera looks along +z, image x right,
+// Pinhole camera in the OpenCV convention (docs/conventions.md): camera looks along +z, image x right,
 // y down, the centre of the top-left pixel is (0, 0). A model point X maps to camera space as
 // x_cam = model_to_camera_flip() · R · X + t, then to pixels with K.
 #include "morph/pose.h"

@@ -1,5 +1,5 @@
 #pragma once
-// Pose and camera conventions (docs/conventions.md, DESIGN.md §2), written down once.
+// Pose and camera conventions (docs/conventions.md), written down once.
 //
 // Model space: mm, right-handed, +x toward the viewer's right, +y up, +z out of the face.
 // R = Rz(roll) · Rx(pitch) · Ry(yaw), angles in degrees, applied to model points, where

@@ -1,7 +1,7 @@
 #pragma once
 // Landmarks of a rendered image: exact 2D positions with the render's camera, 3D positions, and
 // visibility from the rendered depth buffer; the 17 jaw points also in `contour` mode (moved to the
-// visible face outline, as 300-W annotators click them). DESIGN.md §3.
+// visible face outline, as 300-W annotators click them). docs/conventions.md, Landmarks.
 #include "morph/jaw_contour.h"
 #include "morph/mesh.h"
 #include "morph/model.h"

@@ -2,7 +2,7 @@
 // Offscreen OpenGL renderer (Mesa EGL surfaceless / EGL device / OSMesa; no display, no GPU needed).
 //
 // One Renderer owns one OpenGL 3.3 core context, created once and reused for every image; use it
-// from one thread at a time (one Renderer per worker thread; detach() before handing it over). Geometry follows DESIGN.md §2 exactly:
+// from one thread at a time (one Renderer per worker thread; detach() before handing it over). Geometry follows docs/conventions.md exactly:
 // x_cam = flip · R · X + t, OpenCV pixels, the centre of the top-left pixel is (0, 0), so
 // project_points(camera, X) lands on the rendered surface point X to a small fraction of a pixel.
 #include "morph/camera.h"

@@ -30,7 +30,7 @@ std::string type_name(const ConfigField& field) {
     return std::visit(
         [](auto* p) -> std::string {
             using T = std::remove_pointer_t<decltype(p)>;
-            if constexpr (std::is_same_v<T, double>) return "a number";
+            if constexpr (std::is_same_v<T, double>) return "a finite number";
             else if constexpr (std::is_same_v<T, bool>) return "true or false";
             else if constexpr (std::is_same_v<T, std::string>) return "a string";
             else return "an integer";
@@ -78,7 +78,7 @@ bool set_from_toml(const ConfigField& field, const toml::value& value) {
         [&](auto* p) -> bool {
             using T = std::remove_pointer_t<decltype(p)>;
             if constexpr (std::is_same_v<T, double>) {
-                if (value.is_floating()) *p = value.as_floating();
+                if (value.is_floating() && std::isfinite(value.as_floating())) *p = value.as_floating();
                 else if (value.is_integer()) *p = static_cast<double>(value.as_integer());
                 else return false;
             } else if constexpr (std::is_same_v<T, bool>) {

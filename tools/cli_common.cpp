@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -99,6 +100,20 @@ CLI::Validator finite_range(double min, double max) {
             return {};
         },
         "FLOAT in [" + CLI::detail::to_string(min) + " - " + CLI::detail::to_string(max) + "]");
+}
+
+void refuse_non_finite_numbers(CLI::App& app) {
+    const CLI::Validator finite(
+        [](const std::string& text) -> std::string {
+            char* end = nullptr;
+            const double value = std::strtod(text.c_str(), &end);
+            if (end != text.c_str() && *end == '\0' && !std::isfinite(value)) return "'" + text + "' is not a finite number";
+            return {};
+        },
+        "", "finite");
+    for (CLI::Option* option : app.get_options())
+        if (option->get_type_name().starts_with("FLOAT")) option->check(finite);
+    for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) refuse_non_finite_numbers(*sub);
 }
 
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value) {

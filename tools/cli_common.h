@@ -50,6 +50,10 @@ CLI::Option* add_detector_option(CLI::App& command, std::string& value);
 // A number in [min, max]; NaN and infinities are refused (CLI::Range lets NaN through).
 [[nodiscard]] CLI::Validator finite_range(double min, double max);
 
+// Adds a finiteness check to every floating-point option of `app` and its subcommands, so that NaN
+// and infinities are usage errors naming the option (CLI11 parses "nan" and "inf" as doubles).
+void refuse_non_finite_numbers(CLI::App& app);
+
 // Creates an output folder (and its parents); throws core::Error naming it when it cannot.
 void create_output_folder(const std::filesystem::path& dir);
 

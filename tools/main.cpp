@@ -1,5 +1,6 @@
 // The facesynth command line: parses arguments, dispatches to the command groups, and turns every
 // failure into one line on stderr and an exit code (2: usage error, 1: failure).
+#include "cli_common.h"
 #include "commands.h"
 
 #include "core/error.h"
@@ -21,6 +22,7 @@ int main(int argc, char** argv) {
     facesynth::cli::register_frontal_commands(app);
     facesynth::cli::register_recognition_commands(app);
     facesynth::cli::register_appearance_commands(app);
+    facesynth::cli::refuse_non_finite_numbers(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

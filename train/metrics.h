@@ -1,5 +1,5 @@
 #pragma once
-// Landmark accuracy summaries (DESIGN.md §5): NME = mean point-to-point error / inter-ocular distance
+// Landmark accuracy summaries (docs/conventions.md, Metrics): NME = mean point-to-point error / inter-ocular distance
 // (outer eye corners), with detector misses counted as NME = +inf.
 #include <filesystem>
 #include <span>

@@ -1,6 +1,6 @@
 #pragma once
 // Supervised Descent Method (Xiong & De la Torre 2013) as a cascade of linear regressors on HOG
-// features, following the superviseddescent recipe (REFERENCE.md §3): at stage k, features φ_k(x) are
+// features, following the superviseddescent recipe (Xiong & De la Torre, CVPR 2013; docs/train.md): at stage k, features φ_k(x) are
 // HOG descriptors of square patches around the current landmarks x (patch side = a fixed fraction
 // of the current inter-eye-centre distance d(x)), and the update is
 //     x ← x + d(x) · (W_k φ_k(x) + b_k),

@@ -1,6 +1,6 @@
 #pragma once
 // A small, fully specified morphable model for tests: an ellipsoidal head (mm, model-space axes as
-// in DESIGN.md) with smooth random shape components, two blendshapes, a colour model, uv,
+// in docs/conventions.md) with smooth random shape components, two blendshapes, a colour model, uv,
 // symmetric mirror map, 68 landmarks at vertices and jaw contour chains. Independent of the
 // built-in model so tests of algorithms do not move when the built-in model is improved.
 #include "morph/model.h"

@@ -185,7 +185,7 @@ TEST_F(BuiltinModel, LandmarksSitOnTheFrontOfTheFaceInAnatomicalOrder) {
     for (int id = 2; id <= 9; ++id) EXPECT_LT(point(l, id).y(), point(l, id - 1).y()) << "iBUG " << id;
 }
 
-// Mean anthropometry against Farkas' adult norms (male / female means, DESIGN.md §7), with room for
+// Mean anthropometry against Farkas' adult norms (male / female means, docs/builtin-model.md), with room for
 // the landmark definitions (300-W points are not exactly the anthropometric points).
 TEST_F(BuiltinModel, MeanFaceMatchesAnthropometricNorms) {
     const Eigen::Matrix3Xf l = mean_landmarks();

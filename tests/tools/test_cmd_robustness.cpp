@@ -187,6 +187,29 @@ TEST(Robustness, OutOfRangeParametersAreRefusedNamingThem) {
     EXPECT_FALSE(fs::exists(dir / "r"));
 }
 
+// CLI11 reads "nan" and "inf" as doubles, and a NaN passes every range check; the render used to
+// exit 0 with a render.json full of nulls.
+TEST(Robustness, NonFiniteNumbersAreRefusedNamingTheOptionOrKey) {
+    const auto dir = fresh_temp_dir("robust_nonfinite");
+    std::string log;
+    for (const std::string arguments : {"render --yaw nan", "render --pitch inf", "render --roll -inf", "render --fov NaN",
+                                        "render --yaw 1e999"}) {
+        EXPECT_EQ(run_cli(arguments + " -o " + (dir / "r").string(), &log), 2) << arguments << ": " << log;
+        const std::string option = arguments.substr(7, arguments.find(' ', 7) - 7);
+        EXPECT_TRUE(contains(log, option)) << arguments << ": " << log;
+    }
+    EXPECT_EQ(run_cli("train --data " + dir.string() + " --out " + (dir / "m.sdm").string() + " --lambda-factors 3,nan", &log), 2) << log;
+    EXPECT_TRUE(contains(log, "--lambda-factors")) << log;
+    EXPECT_EQ(run_cli("fit --help", &log), 0);  // the check adds nothing to valid use
+    EXPECT_EQ(run_cli("synth -o " + (dir / "s").string() + " -n 1 --set pose.yaw.max=inf", &log), 1) << log;
+    EXPECT_TRUE(contains(log, "config key 'pose.yaw.max' must be a finite number")) << log;
+    write_bytes(dir / "nan.toml", "[pose.yaw]\nmin = nan\n");
+    EXPECT_EQ(run_cli("synth -o " + (dir / "s").string() + " -n 1 --config " + (dir / "nan.toml").string(), &log), 1) << log;
+    EXPECT_TRUE(contains(log, "nan.toml: config key 'pose.yaw.min' must be a finite number")) << log;
+    EXPECT_FALSE(fs::exists(dir / "r"));
+    EXPECT_FALSE(fs::exists(dir / "s"));
+}
+
 TEST(Robustness, EdgeAntialiasingNeedsASingleSampleRenderAndIsRecorded) {
     const auto dir = fresh_temp_dir("robust_edge_aa");
     std::string log;
