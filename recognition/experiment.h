@@ -6,6 +6,7 @@
 // frontalising the image from its ground-truth landmarks (contour jaw). Both are matched with
 // OpenCV's LBPH (local binary pattern histograms, chi-square distance) against a gallery of one
 // image per identity at a fixed yaw; probes fall in yaw bins.
+#include "frontal/benchmark.h"
 #include "recognition/face_crop.h"
 #include "recognition/verification.h"
 #include "morph/model.h"
@@ -40,9 +41,9 @@ struct ExperimentOptions {
     double detection_framing = 2.5;
 };
 
-// Landmarks that a face detector and a landmark regressor find on `image` (the CLI brings them from
-// train/), or nullopt when no face is found. `true_landmarks` lets it pick the detection of this face.
-using LandmarkFinder = std::function<std::optional<Eigen::Matrix2Xd>(const cv::Mat& image, const Eigen::Matrix2Xd& true_landmarks)>;
+// The same hook as the frontalisation benchmark's: landmarks found on an image (the CLI brings the
+// detector and regressor from train/), or nullopt when no face is found.
+using frontal::LandmarkFinder;
 
 struct BinScores {
     int gallery_yaw = 0;

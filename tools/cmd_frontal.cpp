@@ -4,6 +4,7 @@
 #include "cli_common.h"
 #include "commands.h"
 
+#include "frontal/benchmark.h"
 #include "frontal/evaluate.h"
 #include "frontal/image_metrics.h"
 #include "frontal/frontalise.h"
@@ -282,91 +283,19 @@ struct FrontaliseEvalArgs {
     bool quiet = false;
 };
 
-constexpr int kYawBins = 7;  // 10° bins of |yaw| from 0 to 70
-
-struct EvalSums {
-    int count = 0;
-    double psnr = 0, ssim = 0, l1 = 0, psnr_mirror = 0, ssim_mirror = 0, l1_mirror = 0;
-    double isomap_l1 = 0, isomap_psnr = 0, isomap_coverage = 0, isomap_l1_mirror = 0, isomap_coverage_mirror = 0;
-    double cpu_ms = 0;
-
-    void add(const EvalSums& s) {
-        count += s.count;
-        psnr += s.psnr, ssim += s.ssim, l1 += s.l1, psnr_mirror += s.psnr_mirror, ssim_mirror += s.ssim_mirror, l1_mirror += s.l1_mirror;
-        isomap_l1 += s.isomap_l1, isomap_psnr += s.isomap_psnr, isomap_coverage += s.isomap_coverage;
-        isomap_l1_mirror += s.isomap_l1_mirror, isomap_coverage_mirror += s.isomap_coverage_mirror;
-        cpu_ms += s.cpu_ms;
-    }
-    // Empty bins (every detection missed) have only their count.
-    void write(nlohmann::json& j, const std::string& prefix) const {
-        j[prefix + "count"] = count;
-        if (count == 0) return;
-        const double n = count;
-        j[prefix + "psnr"] = psnr / n;
-        j[prefix + "ssim"] = ssim / n;
-        j[prefix + "l1"] = l1 / n;
-        j[prefix + "psnr_mirror"] = psnr_mirror / n;
-        j[prefix + "ssim_mirror"] = ssim_mirror / n;
-        j[prefix + "l1_mirror"] = l1_mirror / n;
-        j[prefix + "isomap_l1"] = isomap_l1 / n;
-        j[prefix + "isomap_psnr"] = isomap_psnr / n;
-        j[prefix + "isomap_coverage"] = isomap_coverage / n;
-        j[prefix + "isomap_l1_mirror"] = isomap_l1_mirror / n;
-        j[prefix + "isomap_coverage_mirror"] = isomap_coverage_mirror / n;
-        j[prefix + "cpu_ms_per_face"] = cpu_ms / n;
-    }
-};
-
-std::string bin_label(int b) { return std::to_string(10 * b) + "_" + std::to_string(10 * b + 10); }
-
-// Frontalises one posed view from `landmarks` with and without mirror filling and scores both.
-EvalSums score_view(frontal::Frontaliser& frontaliser, const frontal::TexturedFace& face, const frontal::SyntheticView& view,
-                    const Eigen::Matrix2Xd& landmarks, const frontal::TrueFrontal& truth, const cv::Mat& layout, const FrontaliseEvalArgs& a,
-                    const fs::path* examples_stem) {
-    frontal::FrontaliseOptions options;
-    options.isomap.size = a.isomap_size;
-    options.frontal.size = a.size;
-    const std::clock_t cpu_start = std::clock();
-    frontal::Frontalisation plain = frontaliser.frontalise(view.image, landmarks, options);
-    const double cpu_ms = 1000.0 * static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
-    cv::Mat filled = plain.isomap.clone();
-    (void)frontaliser.mirror_fill(filled);
-    const frontal::FrontalImage mirrored = frontaliser.render_frontal(plain.vertices, filled, options.frontal);
-
-    const frontal::ImageComparison c = frontal::compare_images(plain.frontal.image, truth.render.image, truth.face_mask);
-    const frontal::ImageComparison m = frontal::compare_images(mirrored.image, truth.render.image, truth.face_mask);
-    const frontal::IsomapComparison ic = frontal::compare_isomap(plain.isomap, face.true_isomap, layout);
-    const frontal::IsomapComparison im = frontal::compare_isomap(filled, face.true_isomap, layout);
-    if (examples_stem) {
-        write_png_file(examples_stem->string() + "_input.png", view.image);
-        write_png_file(examples_stem->string() + "_isomap.png", plain.isomap);
-        write_png_file(examples_stem->string() + "_frontal.png", plain.frontal.image);
-        write_png_file(examples_stem->string() + "_frontal_mirror.png", mirrored.image);
-        write_png_file(examples_stem->string() + "_truth.png", truth.render.image);
-    }
-    EvalSums s;
-    s.count = 1;
-    s.psnr = c.psnr_db, s.ssim = c.ssim, s.l1 = c.l1;
-    s.psnr_mirror = m.psnr_db, s.ssim_mirror = m.ssim, s.l1_mirror = m.l1;
-    s.isomap_l1 = ic.l1, s.isomap_psnr = ic.psnr_db, s.isomap_coverage = ic.coverage;
-    s.isomap_l1_mirror = im.l1, s.isomap_coverage_mirror = im.coverage;
-    s.cpu_ms = cpu_ms;
-    return s;
-}
-
 // PSNR per yaw bin as an SVG line plot (one line per series; NaN = empty bin, left out).
-std::string psnr_plot_svg(const std::vector<std::pair<std::string, std::array<double, kYawBins>>>& series) {
+std::string psnr_plot_svg(const std::vector<std::pair<std::string, std::array<double, frontal::kYawBins>>>& series) {
     std::vector<double> ticks;
-    for (int b = 0; b <= kYawBins; ++b) ticks.push_back(10.0 * b);
+    for (int b = 0; b <= frontal::kYawBins; ++b) ticks.push_back(10.0 * b);
     double low = 1e9, high = -1e9;
     report::LinePlot plot;
     plot.title = "frontal render PSNR by yaw";
-    plot.x = report::linear_axis("|yaw| (°), points at the 10° bin centres", 0, 10.0 * kYawBins, ticks);
+    plot.x = report::linear_axis("|yaw| (°), points at the 10° bin centres", 0, 10.0 * frontal::kYawBins, ticks);
     for (const auto& [name, values] : series) {
         report::Series s;
         s.label = name;
         s.markers = true;
-        for (int b = 0; b < kYawBins; ++b) {
+        for (int b = 0; b < frontal::kYawBins; ++b) {
             const double v = values[static_cast<std::size_t>(b)];
             if (!std::isfinite(v)) continue;
             s.x.push_back(10.0 * b + 5);
@@ -380,152 +309,90 @@ std::string psnr_plot_svg(const std::vector<std::pair<std::string, std::array<do
     return report::line_plot_svg(plot);
 }
 
+using YawBins = std::array<frontal::ViewScores, frontal::kYawBins>;
+
+void print_table(const char* title, const YawBins& bins, const frontal::ViewScores& total) {
+    std::printf("%s\n%-8s %4s %7s %6s %6s %7s %6s %6s %8s %8s %8s %8s\n", title, "|yaw|", "n", "psnr", "ssim", "l1", "psnr_m", "ssim_m", "l1_m",
+                "iso_l1", "iso_cov", "iso_l1_m", "iso_cov_m");
+    auto row = [](const std::string& label, const frontal::ViewScores& sums) {
+        if (sums.count == 0) {
+            std::printf("%-8s %4d %7s\n", label.c_str(), 0, "-");
+            return;
+        }
+        const frontal::ViewScores s = sums.mean();
+        std::printf("%-8s %4d %7.2f %6.3f %6.2f %7.2f %6.3f %6.2f %8.2f %8.3f %8.2f %8.3f\n", label.c_str(), s.count, s.psnr, s.ssim, s.l1,
+                    s.psnr_mirror, s.ssim_mirror, s.l1_mirror, s.isomap_l1, s.isomap_coverage, s.isomap_l1_mirror, s.isomap_coverage_mirror);
+    };
+    for (int b = 0; b < frontal::kYawBins; ++b) row(frontal::yaw_bin_label(b), bins[static_cast<std::size_t>(b)]);
+    row("all", total);
+}
+
+std::array<double, frontal::kYawBins> psnr_by_bin(const YawBins& bins, bool mirror) {
+    std::array<double, frontal::kYawBins> v{};
+    for (int b = 0; b < frontal::kYawBins; ++b) {
+        const frontal::ViewScores s = bins[static_cast<std::size_t>(b)].mean();
+        v[static_cast<std::size_t>(b)] = s.count > 0 ? (mirror ? s.psnr_mirror : s.psnr) : std::nan("");
+    }
+    return v;
+}
+
 void run_eval_frontalise(const FrontaliseEvalArgs& a) {
     const morph::MorphableModel model = morph::load_model(a.model);
-    if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
-        throw core::Error("eval frontalise: model '" + model.name + "' has no symmetry map, so the mirror-fill half cannot be measured");
-    frontal::Frontaliser frontaliser(model);
-    const morph::JawContourRegion region = morph::jaw_contour_region(model);
-    const cv::Mat layout = frontal::layout_mask(frontaliser.uv_raster(a.isomap_size));
-    frontal::ViewOptions view_options;
-    view_options.size = a.image_size;
-    view_options.fov_deg = a.fov;
-    view_options.framing = a.framing;
-    if (a.lighting == "sky") view_options.lighting = render::Lighting{};
-    if (!a.regressor.empty() && a.detection_framing < a.framing)
-        throw core::Error("eval frontalise: --detection-framing " + std::to_string(a.detection_framing) + " is below --framing " + std::to_string(a.framing) +
-                    " (the detector's view shows the standard view and more)");
-    // The detected-landmark run sees the same camera with more around the face (the detectors need
-    // the head's outline), and is scored against the same truth at the standard framing.
-    const frontal::ViewOptions detection_view_options =
-        a.regressor.empty() ? view_options : frontal::with_context(view_options, a.detection_framing);
+    frontal::BenchmarkOptions options;
+    options.count = a.count;
+    options.seed = static_cast<std::uint64_t>(a.seed);
+    options.isomap_size = a.isomap_size;
+    options.size = a.size;
+    options.view.size = a.image_size;
+    options.view.fov_deg = a.fov;
+    options.view.framing = a.framing;
+    if (a.lighting == "sky") options.view.lighting = render::Lighting{};
+    options.detection_framing = a.detection_framing;
+    options.examples = a.examples;
+
     std::unique_ptr<train::LandmarkRegressor> regressor;
     std::unique_ptr<train::FaceDetector> detector;
+    frontal::LandmarkFinder find_landmarks;
     if (!a.regressor.empty()) {
         regressor = train::open_regressor(a.regressor);
         const train::LandmarkRegressor* const regressors[] = {regressor.get()};
         detector = std::make_unique<train::FaceDetector>(train::choose_detector(a.detector, regressors));
+        find_landmarks = [&](const cv::Mat& image, const Eigen::Matrix2Xd& truth) -> std::optional<Eigen::Matrix2Xd> {
+            const cv::Mat gray = train::to_gray8(image);
+            const auto box = train::match_detection(detector->detect(gray), truth);
+            if (!box) return std::nullopt;
+            return regressor->predict(gray, *box);
+        };
     }
-    if (!a.examples.empty()) fs::create_directories(a.examples);
-
-    std::array<EvalSums, kYawBins> truth_bins{}, detected_bins{};
-    int detector_misses = 0;
-    std::array<int, kYawBins> bin_misses{};  // detector misses and failed fits per yaw bin
     Progress progress("eval frontalise", static_cast<std::size_t>(a.count), a.quiet);
-    for (int i = 0; i < a.count; ++i) {
-        const auto index = static_cast<std::uint64_t>(i);
-        const frontal::TexturedFace face = frontal::make_textured_face(model, frontaliser, static_cast<std::uint64_t>(a.seed), index, a.isomap_size);
-        const frontal::TrueFrontal truth = frontal::render_true_frontal(frontaliser, face, a.size, view_options.lighting);
-        core::Rng yaw_rng = core::make_rng(static_cast<std::uint64_t>(a.seed), index, core::RandomStream::kPose);
-        for (int b = 0; b < kYawBins; ++b) {
-            const double magnitude = 10.0 * b + yaw_rng.uniform(0, 10);
-            const double yaw = yaw_rng.uniform() < 0.5 ? -magnitude : magnitude;
-            const frontal::SyntheticView view = frontal::render_view(frontaliser.renderer(), model, face, yaw, view_options, &region);
-            const fs::path stem = fs::path(a.examples) / ("face" + std::to_string(i) + "_yaw" + bin_label(b));
-            const bool keep = !a.examples.empty() && i < 2;
-            try {
-                truth_bins[static_cast<std::size_t>(b)].add(score_view(frontaliser, face, view, view.landmarks, truth, layout, a, keep ? &stem : nullptr));
-            } catch (const core::Error& e) {
-                throw core::Error("eval frontalise: identity " + std::to_string(i) + " at yaw " + std::to_string(yaw) + ": " + e.what());
-            }
-            if (regressor) {
-                const frontal::SyntheticView wide = detection_view_options.size == view_options.size
-                                                        ? view
-                                                        : frontal::render_view(frontaliser.renderer(), model, face, yaw, detection_view_options, &region);
-                const cv::Mat gray = train::to_gray8(wide.image);
-                const auto box = train::match_detection(detector->detect(gray), wide.landmarks);
-                if (!box) {
-                    ++detector_misses;
-                    ++bin_misses[static_cast<std::size_t>(b)];
-                    continue;
-                }
-                try {
-                    detected_bins[static_cast<std::size_t>(b)].add(
-                        score_view(frontaliser, face, wide, regressor->predict(gray, *box), truth, layout, a, nullptr));
-                } catch (const core::Error& e) {
-                    ++detector_misses;  // a fit that fails on detected landmarks counts as a miss
-                    ++bin_misses[static_cast<std::size_t>(b)];
-                }
-            }
-        }
-        progress.advance();
-    }
+    const frontal::BenchmarkResult r = frontal::run_benchmark(model, options, [&] { progress.advance(); }, find_landmarks);
     progress.finish();
 
-    nlohmann::json j;
-    j["model"] = model.name;
-    j["model_checksum"] = model.checksum();
-    j["count"] = a.count;
-    j["seed"] = a.seed;
-    j["isomap_size"] = a.isomap_size;
-    j["size"] = a.size;
-    j["image_size"] = a.image_size;
-    j["fov_deg"] = a.fov;
-    j["framing"] = a.framing;
+    nlohmann::json j = frontal::to_json(r, options, model);
     j["lighting"] = a.lighting;
-    j["texture"] = model.albedo && !model.albedo->empty() ? "albedo" : "procedural";
-    EvalSums all, detected_all;
-    for (int b = 0; b < kYawBins; ++b) {
-        truth_bins[static_cast<std::size_t>(b)].write(j, "yaw_" + bin_label(b) + "_");
-        all.add(truth_bins[static_cast<std::size_t>(b)]);
-        if (regressor) {
-            detected_bins[static_cast<std::size_t>(b)].write(j, "detected_yaw_" + bin_label(b) + "_");
-            detected_all.add(detected_bins[static_cast<std::size_t>(b)]);
-        }
-    }
-    all.write(j, "all_");
     if (regressor) {
-        detected_all.write(j, "detected_all_");
         j["regressor"] = regressor->label();
         j["detector"] = train::detector_name(detector->kind());
-        j["detector_misses"] = detector_misses;
-        j["detection_framing"] = a.detection_framing;
-        j["detection_image_size"] = detection_view_options.size;
-        for (int b = 0; b < kYawBins; ++b)
-            j["detector_misses_yaw_" + bin_label(b)] = bin_misses[static_cast<std::size_t>(b)];
     }
     if (!a.quiet) {
-        auto table = [](const char* title, const std::array<EvalSums, kYawBins>& bins, const EvalSums& total) {
-            std::printf("%s\n%-8s %4s %7s %6s %6s %7s %6s %6s %8s %8s %8s %8s\n", title, "|yaw|", "n", "psnr", "ssim", "l1", "psnr_m", "ssim_m",
-                        "l1_m", "iso_l1", "iso_cov", "iso_l1_m", "iso_cov_m");
-            auto row = [](const std::string& label, const EvalSums& s) {
-                if (s.count == 0) {
-                    std::printf("%-8s %4d %7s\n", label.c_str(), 0, "-");
-                    return;
-                }
-                const double n = s.count;
-                std::printf("%-8s %4d %7.2f %6.3f %6.2f %7.2f %6.3f %6.2f %8.2f %8.3f %8.2f %8.3f\n", label.c_str(), s.count, s.psnr / n, s.ssim / n,
-                            s.l1 / n, s.psnr_mirror / n, s.ssim_mirror / n, s.l1_mirror / n, s.isomap_l1 / n, s.isomap_coverage / n,
-                            s.isomap_l1_mirror / n, s.isomap_coverage_mirror / n);
-            };
-            for (int b = 0; b < kYawBins; ++b) row(bin_label(b), bins[static_cast<std::size_t>(b)]);
-            row("all", total);
-        };
-        table("frontalised from ground-truth landmarks (_m: with mirror fill):", truth_bins, all);
+        print_table("frontalised from ground-truth landmarks (_m: with mirror fill):", r.truth, r.truth_all());
         if (regressor) {
-            table("frontalised from detected landmarks:", detected_bins, detected_all);
+            print_table("frontalised from detected landmarks:", r.detected, r.detected_all());
             std::printf("%s detector misses on %d² views at framing %.2f: %d of %d views (per bin:", train::detector_name(detector->kind()),
-                        detection_view_options.size, detection_view_options.framing, detector_misses, a.count * kYawBins);
-            for (int b = 0; b < kYawBins; ++b) std::printf(" %d", bin_misses[static_cast<std::size_t>(b)]);
+                        r.detection_image_size, a.detection_framing, r.detector_misses_all(), a.count * frontal::kYawBins);
+            for (const int misses : r.detector_misses) std::printf(" %d", misses);
             std::printf(")\n");
         }
-        std::printf("CPU %.1f ms per frontalisation (fit + %d² isomap + %d² frontal render)\n", all.cpu_ms / std::max(all.count, 1), a.isomap_size, a.size);
+        std::printf("CPU %.1f ms per frontalisation (fit + %d² isomap + %d² frontal render)\n", r.truth_all().mean().cpu_ms, a.isomap_size,
+                    a.size);
     }
     if (!a.plot.empty()) {
-        std::vector<std::pair<std::string, std::array<double, kYawBins>>> series;
-        auto psnr_of = [](const std::array<EvalSums, kYawBins>& bins, bool mirror) {
-            std::array<double, kYawBins> v{};
-            for (int b = 0; b < kYawBins; ++b) {
-                const EvalSums& s = bins[static_cast<std::size_t>(b)];
-                v[static_cast<std::size_t>(b)] = s.count > 0 ? (mirror ? s.psnr_mirror : s.psnr) / s.count : std::nan("");
-            }
-            return v;
-        };
-        series.emplace_back("true landmarks", psnr_of(truth_bins, false));
-        series.emplace_back("+ mirror fill", psnr_of(truth_bins, true));
+        std::vector<std::pair<std::string, std::array<double, frontal::kYawBins>>> series;
+        series.emplace_back("true landmarks", psnr_by_bin(r.truth, false));
+        series.emplace_back("+ mirror fill", psnr_by_bin(r.truth, true));
         if (regressor) {
-            series.emplace_back("detected", psnr_of(detected_bins, false));
-            series.emplace_back("detected + mirror", psnr_of(detected_bins, true));
+            series.emplace_back("detected", psnr_by_bin(r.detected, false));
+            series.emplace_back("detected + mirror", psnr_by_bin(r.detected, true));
         }
         core::write_file_atomically(a.plot, psnr_plot_svg(series));
     }
