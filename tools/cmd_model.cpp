@@ -12,6 +12,7 @@
 #include "core/random.h"
 #include "morph/sampling.h"
 #include "morph/skin_colour.h"
+#include "synth/albedo_check.h"
 #include "synth/scene.h"
 
 #include <algorithm>
@@ -245,110 +246,37 @@ void run_build(const BuildArgs& a) {
                 built.model.num_albedo_components(), built.model.checksum().c_str());
 }
 
-// The p-th quantile (0..1) of `values` (sorted in place), nearest rank; 0 when empty.
-double quantile(std::vector<double>& values, double p) {
-    if (values.empty()) return 0.0;
-    std::sort(values.begin(), values.end());
-    const auto rank = static_cast<std::size_t>(std::lround(p * static_cast<double>(values.size() - 1)));
-    return values[rank];
-}
-
-// Draws the colour coefficients of samples 0..count-1 exactly as synth does (albedo.truncation,
-// albedo.scale, seed) and counts the draws the skin colour check rejects, by reason; then what
-// albedo.reject_implausible makes of them.
+// Draws the colour coefficients of samples 0..count-1 exactly as synth does and reports the draws
+// the skin colour check rejects, by reason (synth/albedo_check.h).
 void run_albedo_check(const AlbedoCheckArgs& a) {
     const morph::MorphableModel m = morph::load_model(a.model);
     synth::SynthConfig config;
     config.seed = static_cast<std::uint64_t>(a.seed);
     config.albedo.truncation = a.truncation;
     config.albedo.scale = a.scale;
-    const morph::SkinColourCheck check(m);
-    const morph::SkinColourVerdict mean = check.check({});
-    constexpr std::array<morph::SkinColourFlaw, 5> kFlaws{morph::kSkinTooDark, morph::kSkinTooLight, morph::kSkinTooRed, morph::kSkinWrongHue, morph::kSkinClamped};
-    std::array<std::int64_t, kFlaws.size()> per_flaw{};
-    std::int64_t implausible = 0, redrawn = 0, redraws = 0, shrunk = 0, implausible_after = 0;
-    std::string indices;  // the first implausible sample indices, for looking at them
-    int listed = 0;
-    std::vector<double> luminance, green_over_red;
     Progress progress("checking colour draws", static_cast<std::size_t>(a.count), a.quiet);
-    for (std::int64_t i = 0; i < a.count; ++i) {
-        const morph::AlbedoDraw first = synth::sample_albedo(config, m, i, nullptr);
-        const morph::SkinColourVerdict v = check.check(first.beta);
-        luminance.push_back(v.luminance);
-        green_over_red.push_back(v.green_over_red);
-        if (!v.plausible()) {
-            ++implausible;
-            for (std::size_t f = 0; f < kFlaws.size(); ++f)
-                if ((v.flaws & kFlaws[f]) != 0) ++per_flaw[f];
-            if (listed++ < 40) indices += (indices.empty() ? "" : ",") + std::to_string(i);
-            const morph::AlbedoDraw fixed = synth::sample_albedo(config, m, i, &check);
-            ++redrawn;
-            redraws += fixed.redraws;
-            shrunk += fixed.shrink < 1.0 ? 1 : 0;
-            implausible_after += check.check(fixed.beta).plausible() ? 0 : 1;
-        }
-        progress.advance();
-    }
+    const synth::AlbedoCheckResult r = synth::check_albedo_draws(m, config, a.count, [&] { progress.advance(); });
     progress.finish();
-    const double share = a.count > 0 ? static_cast<double>(implausible) / static_cast<double>(a.count) : 0.0;
-    const morph::SkinColourLimits& l = check.limits();
+    const morph::SkinColourLimits& l = r.limits;
 
     std::printf("model:              %s (%s, checksum %s)\n", a.model.c_str(), m.name.c_str(), m.checksum().c_str());
-    std::printf("skin vertices:      %d\n", check.skin_vertices());
+    std::printf("skin vertices:      %d\n", r.skin_vertices);
     std::printf("draws:              %lld (seed %lld, truncation %g, scale %g; synth's kAlbedo stream)\n", static_cast<long long>(a.count),
                 static_cast<long long>(a.seed), a.truncation, a.scale);
     std::printf("limits:             luminance %g..%g, green/red %g..%g, blue/green <= %g, clamped skin <= %g\n", l.min_luminance,
                 l.max_luminance, l.min_green_over_red, l.max_green_over_red, l.max_blue_over_green, l.max_clamped_share);
-    std::printf("mean colour:        luminance %.3f, green/red %.3f, blue/green %.3f (%s)\n", mean.luminance, mean.green_over_red,
-                mean.blue_over_green, mean.plausible() ? "plausible" : morph::flaw_names(mean.flaws).c_str());
-    std::printf("implausible:        %lld (%.2f %%)\n", static_cast<long long>(implausible), 100.0 * share);
-    for (std::size_t f = 0; f < kFlaws.size(); ++f)
-        std::printf("  %-17s %lld\n", (morph::flaw_names(kFlaws[f]) + ":").c_str(), static_cast<long long>(per_flaw[f]));
-    if (!indices.empty()) std::printf("first implausible:  %s\n", indices.c_str());
-    const double lum_p01 = quantile(luminance, 0.01), lum_p50 = quantile(luminance, 0.5), lum_p99 = quantile(luminance, 0.99);
-    const double gr_p01 = quantile(green_over_red, 0.01), gr_p50 = quantile(green_over_red, 0.5), gr_p99 = quantile(green_over_red, 0.99);
-    std::printf("skin luminance:     1 %% %.3f, median %.3f, 99 %% %.3f\n", lum_p01, lum_p50, lum_p99);
-    std::printf("skin green/red:     1 %% %.3f, median %.3f, 99 %% %.3f\n", gr_p01, gr_p50, gr_p99);
+    std::printf("mean colour:        luminance %.3f, green/red %.3f, blue/green %.3f (%s)\n", r.mean.luminance, r.mean.green_over_red,
+                r.mean.blue_over_green, r.mean.plausible() ? "plausible" : morph::flaw_names(r.mean.flaws).c_str());
+    std::printf("implausible:        %lld (%.2f %%)\n", static_cast<long long>(r.implausible), 100.0 * r.implausible_share());
+    for (std::size_t f = 0; f < synth::kSkinColourFlaws.size(); ++f)
+        std::printf("  %-17s %lld\n", (morph::flaw_names(synth::kSkinColourFlaws[f]) + ":").c_str(), static_cast<long long>(r.per_flaw[f]));
+    if (!r.implausible_indices.empty()) std::printf("first implausible:  %s\n", r.implausible_indices.c_str());
+    std::printf("skin luminance:     1 %% %.3f, median %.3f, 99 %% %.3f\n", r.luminance_p01, r.luminance_p50, r.luminance_p99);
+    std::printf("skin green/red:     1 %% %.3f, median %.3f, 99 %% %.3f\n", r.green_over_red_p01, r.green_over_red_p50, r.green_over_red_p99);
     std::printf("reject_implausible: %lld samples redrawn (%lld redraws), %lld shrunk toward the mean, %lld implausible after\n",
-                static_cast<long long>(redrawn), static_cast<long long>(redraws), static_cast<long long>(shrunk),
-                static_cast<long long>(implausible_after));
-
-    if (!a.json.empty()) {
-        nlohmann::json j;
-        j["model"] = a.model;
-        j["model_checksum"] = m.checksum();
-        j["count"] = a.count;
-        j["seed"] = a.seed;
-        j["truncation"] = a.truncation;
-        j["scale"] = a.scale;
-        j["skin_vertices"] = check.skin_vertices();
-        j["implausible"] = implausible;
-        j["implausible_share"] = share;
-        for (std::size_t f = 0; f < kFlaws.size(); ++f) j[morph::flaw_names(kFlaws[f])] = per_flaw[f];
-        j["implausible_indices"] = indices;
-        j["mean_luminance"] = mean.luminance;
-        j["mean_green_over_red"] = mean.green_over_red;
-        j["mean_blue_over_green"] = mean.blue_over_green;
-        j["mean_plausible"] = mean.plausible();
-        j["luminance_p01"] = lum_p01;
-        j["luminance_p50"] = lum_p50;
-        j["luminance_p99"] = lum_p99;
-        j["green_over_red_p01"] = gr_p01;
-        j["green_over_red_p50"] = gr_p50;
-        j["green_over_red_p99"] = gr_p99;
-        j["limit_min_luminance"] = l.min_luminance;
-        j["limit_max_luminance"] = l.max_luminance;
-        j["limit_min_green_over_red"] = l.min_green_over_red;
-        j["limit_max_green_over_red"] = l.max_green_over_red;
-        j["limit_max_blue_over_green"] = l.max_blue_over_green;
-        j["limit_max_clamped_share"] = l.max_clamped_share;
-        j["redrawn"] = redrawn;
-        j["redraws"] = redraws;
-        j["shrunk"] = shrunk;
-        j["implausible_after"] = implausible_after;
-        j["max_redraws"] = synth::kMaxAlbedoRedraws;
-        write_json_file(a.json, j);
-    }
+                static_cast<long long>(r.redrawn), static_cast<long long>(r.redraws), static_cast<long long>(r.shrunk),
+                static_cast<long long>(r.implausible_after));
+    if (!a.json.empty()) write_json_file(a.json, synth::to_json(r, a.model, m, config));
 }
 
 void add_model_option(CLI::App* command, std::string& target) {
