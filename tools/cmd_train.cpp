@@ -15,6 +15,7 @@
 #include "train/lbf_baseline.h"
 #include "train/model_file.h"
 #include "train/regressor.h"
+#include "train/training.h"
 #include "train/training_data.h"
 #include "train/view_baselines.h"
 #include "train/view_cascades.h"
@@ -63,32 +64,9 @@ struct TrainArgs {
     bool quiet = false;
 };
 
-// The mean_x_NN / mean_y_NN keys of an `eval conventions --json` file as 2 x 68 offsets.
-Eigen::Matrix2Xd read_label_offsets(const std::filesystem::path& path) {
-    nlohmann::json j;
-    try {
-        j = nlohmann::json::parse(core::read_file(path));
-    } catch (const nlohmann::json::exception& e) {
-        throw core::file_error(path.string(), std::string("not valid JSON: ") + e.what());
-    }
-    Eigen::Matrix2Xd offsets(2, morph::kNumIbugLandmarks);
-    for (int i = 0; i < morph::kNumIbugLandmarks; ++i)
-        for (int axis = 0; axis < 2; ++axis) {
-            char key[16];
-            std::snprintf(key, sizeof key, "mean_%c_%02d", axis == 0 ? 'x' : 'y', i + 1);
-            if (!j.is_object() || !j.contains(key) || !j[key].is_number())
-                throw core::file_error(path.string(), std::string("no number '") + key + "' (expected the --json of eval conventions)");
-            offsets(axis, i) = j[key].get<double>();
-            if (!std::isfinite(offsets(axis, i)) || std::abs(offsets(axis, i)) > 1)
-                throw core::file_error(path.string(), std::string("'") + key + "' is not a finite offset within one inter-ocular distance");
-        }
-    return offsets;
-}
-
 void run_train(const TrainArgs& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::clock_t cpu_start = std::clock();
-    if (args.method == "lbf") check_lbf_options(args.lbf);  // before the long preparation
     if (args.cascades == "views" && !detector_has_views(parse_detector_kind(args.detector)))
         throw CLI::ValidationError("--cascades", "views needs a detector with views (not frontal)");
     if (!args.view_overlap.empty() && args.method != "sdm")
@@ -100,190 +78,77 @@ void run_train(const TrainArgs& args) {
         throw CLI::ValidationError("--feature-pca", std::to_string(args.feature_pca) + " is more than the feature dimension " +
                                                         std::to_string(dims) + " (68 * " + std::to_string(args.hog_cells) +
                                                         "^2 cells * 16)");
-    const auto images = list_labelled_images(split_folder_list(args.data));
-    PreparedFaces prepared;
-    {
-        Progress progress("faces", images.size(), args.quiet);
-        PrepareOptions options;
-        options.threads = args.threads;
-        options.seed = args.seed;
-        options.detector = parse_detector_kind(args.detector);
-        if (!args.label_offsets.empty()) options.label_offsets = read_label_offsets(args.label_offsets);
-        std::size_t reported = 0;
-        options.on_progress = [&](std::size_t done, std::size_t) {
-            progress.advance(done - reported);
-            reported = done;
-        };
-        prepared = prepare_training_faces(images, options);
-        progress.finish();
-    }
-    for (const auto& w : prepared.warnings) std::fprintf(stderr, "facesynth: warning: %s\n", w.c_str());
-    const BoxStatistics& boxes = prepared.boxes;
-    if (!args.quiet)
-        std::printf("%zu faces (%zu images skipped); %s detector matched %d (frontal %d, nose left %d, nose right %d), "
-                    "missed %d (synthesised boxes: width ratio %.3f±%.3f, offset (%.3f, %.3f))\n",
-                    prepared.faces.size(), prepared.warnings.size(), detector_name(boxes.detector), boxes.detector_matched,
-                    boxes.view_matched[0], boxes.view_matched[1], boxes.view_matched[2], boxes.detector_missed,
-                    boxes.width_ratio_mean, boxes.width_ratio_std, boxes.offset_mean.x(), boxes.offset_mean.y());
-
-    nlohmann::json report = {{"method", args.method},
-                             {"faces", prepared.faces.size()},
-                             {"skipped_images", prepared.warnings.size()},
-                             {"detector", detector_name(boxes.detector)},
-                             {"detector_matched", boxes.detector_matched},
-                             {"detector_missed", boxes.detector_missed},
-                             {"label_offsets", args.label_offsets.string()}};
-    for (std::size_t v = 0; v < kFaceViews; ++v)
-        report[std::string("detector_matched_") + view_name(static_cast<FaceView>(v))] = boxes.view_matched[v];
-    ViewSplit split;
+    TrainingRequest request;
+    request.method = args.method == "ert" ? TrainingMethod::kErt : args.method == "lbf" ? TrainingMethod::kLbf : TrainingMethod::kSdm;
+    request.cascades = args.cascades == "views" ? CascadeChoice::kViews : args.cascades == "single" ? CascadeChoice::kSingle : CascadeChoice::kAuto;
     if (!args.view_overlap.empty()) {
-        split.frontal_max_yaw_deg = args.view_overlap[0];
-        split.profile_min_yaw_deg = args.view_overlap[1];
+        request.split.frontal_max_yaw_deg = args.view_overlap[0];
+        request.split.profile_min_yaw_deg = args.view_overlap[1];
     }
-    // auto: view-specific models (SDM cascades, or ERT/LBF models) when a detector with views gives
-    // each view enough faces.
-    bool views = args.cascades == "views";
-    if (args.cascades == "auto" && detector_has_views(boxes.detector)) {
-        const ViewCascadeCounts planned = count_view_split(prepared.faces, split);
-        views = planned.frontal_faces >= kMinViewCascadeFaces && planned.profile_faces >= kMinViewCascadeFaces;
-        if (!views && !args.quiet)
-            std::printf("one model for all views: view-specific models need %d faces each, the split gives frontal %d, "
-                        "profile %d\n",
-                        kMinViewCascadeFaces, planned.frontal_faces, planned.profile_faces);
-    }
-    report["view_cascades"] = views;
-    if (args.method == "sdm") {
-        SdmTrainOptions options;
-        options.stages = args.stages;
-        options.augment = args.augment;
-        options.threads = args.threads;
-        options.seed = args.seed;
-        options.hog_cells = args.hog_cells;
-        options.lambda_factors = args.lambda_factors;
-        options.validation_share = args.validation_share;
-        options.ranks = args.ranks;
-        options.jaw_features_from = args.jaw_features_from;
-        options.feature_components = args.feature_pca;
-        report["feature_pca"] = args.feature_pca;
-        std::unique_ptr<Progress> progress;
-        std::size_t reported = 0;
-        options.on_progress = [&](std::size_t done, std::size_t total) {
-            if (progress && done < reported) {  // the next cascade (view-specific cascades) counts from 0 again
-                progress->finish();
-                progress.reset();
-                reported = 0;
-            }
-            if (!progress) progress = std::make_unique<Progress>("features", total, args.quiet);
-            progress->advance(done - reported);
-            reported = done;
-        };
-        double first_nme = 0, last_nme = 0;
-        // Stage reports; with view-specific cascades the profile cascade's keys are prefixed "profile_".
-        const auto on_stage = [&](const char* cascade, const SdmStageReport& r) {
-            const bool profile = std::string(cascade) == "profile";
-            if (!profile) {
-                if (r.stage == 1) first_nme = r.nme_before;
-                last_nme = r.nme_after;
-            }
-            if (!args.quiet)
-                std::fprintf(stderr,
-                             "\n%sstage %d/%d: training NME %.4f -> %.4f, validation NME %.4f -> %.4f (lambda factor %g, "
-                             "lambda %.4g, rank %d, feature components %d, %.1f s)\n",
-                             profile ? "profile cascade " : "", r.stage,
-                             args.stages, r.nme_before, r.nme_after, r.validation_nme_before, r.validation_nme_after,
-                             r.lambda_factor, r.lambda, r.rank, r.feature_components, r.seconds);
-            const std::string stage = std::string(profile ? "profile_" : "") + "stage" + std::to_string(r.stage);
-            if (profile && r.stage == 1) report["profile_train_nme_initial"] = r.nme_before;
-            if (profile) report["profile_train_nme_final"] = r.nme_after;
-            report[stage + "_nme"] = r.nme_after;
-            report[stage + "_validation_nme"] = r.validation_nme_after;
-            report[stage + "_lambda_factor"] = r.lambda_factor;
-            report[stage + "_rank"] = r.rank;
-            report[stage + "_feature_components"] = r.feature_components;
-        };
-        SdmModel model;
-        if (views) {
-            ViewCascadeCounts counts;
-            model = train_view_cascades(prepared.faces, boxes, options, split, &counts, on_stage);
-            report["view_cascade_frontal_faces"] = counts.frontal_faces;
-            report["view_cascade_profile_faces"] = counts.profile_faces;
-            report["view_cascade_profile_mirrored"] = counts.profile_mirrored;
-            report["view_cascade_frontal_from_profile"] = counts.frontal_from_profile;
-            report["view_cascade_profile_from_frontal"] = counts.profile_from_frontal;
-            if (!args.quiet)
-                std::printf("view-specific cascades: frontal %d faces (%d from the profile views), profile %d faces (%d "
-                            "mirrored nose-right, %d from the frontal view)\n",
-                            counts.frontal_faces, counts.frontal_from_profile, counts.profile_faces, counts.profile_mirrored,
-                            counts.profile_from_frontal);
-        } else {
-            options.on_stage = [&](const SdmStageReport& r) { on_stage("single", r); };
-            model = train_sdm(prepared.faces, boxes, options);
+    request.out = args.out;
+    request.prepare.threads = args.threads;
+    request.prepare.seed = args.seed;
+    request.prepare.detector = parse_detector_kind(args.detector);
+    if (!args.label_offsets.empty()) request.prepare.label_offsets = read_label_offsets(args.label_offsets);
+    SdmTrainOptions& sdm = request.sdm;
+    sdm.stages = args.stages;
+    sdm.augment = args.augment;
+    sdm.threads = args.threads;
+    sdm.seed = args.seed;
+    sdm.hog_cells = args.hog_cells;
+    sdm.lambda_factors = args.lambda_factors;
+    sdm.validation_share = args.validation_share;
+    sdm.ranks = args.ranks;
+    sdm.jaw_features_from = args.jaw_features_from;
+    sdm.feature_components = args.feature_pca;
+    request.ert.threads = args.threads;
+    request.ert.oversampling = args.augment;
+    request.ert.seed = args.seed;
+    request.lbf = args.lbf;
+    request.lbf.augment = args.augment;
+    request.lbf.seed = args.seed;
+
+    const auto images = list_labelled_images(split_folder_list(args.data));
+    Progress faces_progress("faces", images.size(), args.quiet);
+    std::size_t faces_reported = 0;
+    request.prepare.on_progress = [&](std::size_t done, std::size_t) {
+        faces_progress.advance(done - faces_reported);
+        faces_reported = done;
+    };
+    std::unique_ptr<Progress> features_progress;
+    std::size_t features_reported = 0;
+    sdm.on_progress = [&](std::size_t done, std::size_t total) {
+        if (features_progress && done < features_reported) {  // the next cascade (view-specific cascades) counts from 0 again
+            features_progress->finish();
+            features_progress.reset();
+            features_reported = 0;
         }
-        if (progress) progress->finish();
-        model.training_checksum = prepared.checksum;
-        write_sdm_model(args.out, model);
-        report["train_nme_initial"] = first_nme;
-        report["train_nme_final"] = last_nme;
-        if (!args.quiet)
-            std::printf("training NME (inter-ocular, %d perturbed starts per face%s): %.4f -> %.4f\n", args.augment,
-                        views ? ", frontal cascade" : "", first_nme, last_nme);
-    } else {
-        // The baselines: one model for all views, or one per view bundled (train/view_baselines.h).
-        const bool ert = args.method == "ert";
-        ErtTrainOptions ert_options;
-        ert_options.threads = args.threads;
-        ert_options.oversampling = args.augment;
-        ert_options.seed = args.seed;
-        LbfTrainOptions lbf_options = args.lbf;
-        lbf_options.augment = args.augment;
-        lbf_options.seed = args.seed;
-        if (!args.quiet) {
-            if (ert)
-                std::printf("training dlib ERT (cascade depth %d, oversampling %d)%s...\n", ert_options.cascade_depth,
-                            ert_options.oversampling, views ? ", one model per view" : "");
-            else
-                std::printf("training OpenCV LBF (%d stages, %d trees of depth %d per landmark, %d initial shapes)%s...\n",
-                            lbf_options.stages, lbf_options.trees, lbf_options.depth, lbf_options.augment,
-                            views ? ", one model per view" : "");
-        }
-        LbfTrainReport lbf_total;
-        const auto train_one = [&](std::span<const TrainingFace> faces, const std::filesystem::path& file) {
-            if (ert) {
-                train_dlib_ert(faces, ert_options, file);
-                return;
-            }
-            const LbfTrainReport r = train_lbf(faces, lbf_options, file);
-            // Training NMEs of the view models, weighted by the faces each used.
-            const double used = lbf_total.faces_used + r.faces_used;
-            lbf_total.train_nme_initial = (lbf_total.train_nme_initial * lbf_total.faces_used + r.train_nme_initial * r.faces_used) / used;
-            lbf_total.train_nme_final = (lbf_total.train_nme_final * lbf_total.faces_used + r.train_nme_final * r.faces_used) / used;
-            lbf_total.faces_used += r.faces_used;
-            lbf_total.faces_outside_box += r.faces_outside_box;
-        };
-        if (views) {
-            const ViewFaceSets sets = split_view_faces(prepared.faces, split);
-            report["view_cascade_frontal_faces"] = sets.counts.frontal_faces;
-            report["view_cascade_profile_faces"] = sets.counts.profile_faces;
-            report["view_cascade_profile_mirrored"] = sets.counts.profile_mirrored;
-            if (!args.quiet)
-                std::printf("view-specific models: frontal %d faces, profile %d faces (%d mirrored nose-right)\n",
-                            sets.counts.frontal_faces, sets.counts.profile_faces, sets.counts.profile_mirrored);
-            write_view_baseline_bundle(args.out, train_view_baselines(ert ? BaselineMethod::kErt : BaselineMethod::kLbf,
-                                                                      boxes.detector, sets, args.out, train_one));
-        } else {
-            train_one(prepared.faces, args.out);
-        }
-        if (!ert) {
-            report["lbf_faces_used"] = lbf_total.faces_used;
-            report["lbf_faces_outside_box"] = lbf_total.faces_outside_box;
-            report["train_nme_initial"] = lbf_total.train_nme_initial;
-            report["train_nme_final"] = lbf_total.train_nme_final;
-            if (!args.quiet)
-                std::printf("%d faces used (%d outside OpenCV's box test); training NME (mean shape -> LBF): %.4f -> %.4f\n",
-                            lbf_total.faces_used, lbf_total.faces_outside_box, lbf_total.train_nme_initial,
-                            lbf_total.train_nme_final);
-        }
-    }
+        if (!features_progress) features_progress = std::make_unique<Progress>("features", total, args.quiet);
+        features_progress->advance(done - features_reported);
+        features_reported = done;
+    };
+    TrainingObserver observer;
+    observer.on_warning = [&](const std::string& warning) {
+        faces_progress.finish();
+        std::fprintf(stderr, "facesynth: warning: %s\n", warning.c_str());
+    };
+    observer.on_message = [&](const std::string& message) {
+        faces_progress.finish();
+        if (features_progress && message.starts_with("training NME")) features_progress->finish();
+        if (!args.quiet) std::printf("%s\n", message.c_str());
+    };
+    observer.on_stage = [&](const std::string& cascade, const SdmStageReport& r) {
+        if (args.quiet) return;
+        std::fprintf(stderr,
+                     "\n%sstage %d/%d: training NME %.4f -> %.4f, validation NME %.4f -> %.4f (lambda factor %g, "
+                     "lambda %.4g, rank %d, feature components %d, %.1f s)\n",
+                     cascade == "profile" ? "profile cascade " : "", r.stage, args.stages, r.nme_before, r.nme_after,
+                     r.validation_nme_before, r.validation_nme_after, r.lambda_factor, r.lambda, r.rank, r.feature_components, r.seconds);
+    };
+    nlohmann::json report = train_regressor(images, request, observer);
+    faces_progress.finish();
+    if (features_progress) features_progress->finish();
+    report["label_offsets"] = args.label_offsets.string();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double cpu_seconds = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
     report["seconds"] = seconds;
