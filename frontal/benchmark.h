@@ -1,5 +1,5 @@
 #pragma once
-// The frontalisation benchmark against ground truth (docs/frontalise.md "Evaluation"): known textured
+// The frontalisation benchmark against ground truth (docs/frontalise.md, "Ground-truth benchmark"): known textured
 // faces rendered at yaws in 10° bins, frontalised from their true landmarks (and, with a
 // LandmarkFinder, from detected ones), each frontal render scored against the face's true frontal
 // render, with and without mirror filling. Face detection and landmarking (train/) come in through

@@ -2,7 +2,7 @@
 // Licence-clean background photographs that need no user data: the photographs among the wallpapers of
 // three Debian packages (mate-backgrounds, plasma-workspace-wallpapers, lomiri-wallpapers-16.04), which
 // tools/install-deps.sh installs. The packages hold illustrations and abstract art too; only the 36
-// photographs are listed (docs/synth.md "Backgrounds"). Used by background.type = "wallpapers".
+// photographs are listed (docs/synth.md, "Background"). Used by background.type = "wallpapers".
 #include "synth/sample.h"
 
 #include <filesystem>

@@ -20,7 +20,7 @@ struct DlibDetection {
     double confidence = 0;
 };
 
-// The threshold adjustment facesynth uses (measured in docs/train.md): with dlib's default 0 it
+// The threshold adjustment facesynth uses (docs/train.md "Face detectors"; measured in docs/history/train-runs.md): with dlib's default 0 it
 // missed 146 of 300 synthetic test faces, with -0.6 it misses 50 and finds 6 boxes that are not the
 // labelled face on 20 photographs (1 on the synthetic set); -1.0 misses 19 but finds 28 such boxes.
 inline constexpr double kDlibAdjustThreshold = -0.6;

@@ -134,7 +134,7 @@ TEST_F(FrontaliseTest, FarCheekIsOccludedAtYaw60AndMirrorFillRestoresIt) {
     for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(got[ch], want[ch], 20) << "channel " << ch;
 }
 
-// The isomap as first written (docs/frontalise.md, before the speed work): a full render (colour, ids,
+// The isomap as first written (docs/history/frontalise-runs.md, before the speed work): a full render (colour, ids,
 // normals, depth) as the z-buffer pass, and every texel interpolated straight from the vertices in
 // row-major order. extract_isomap must give the same texels.
 cv::Mat reference_isomap(const cv::Mat& bgr, const morph::MorphableModel& model, const Eigen::Matrix3Xf& vertices, const ImageCamera& camera,
