@@ -5,14 +5,14 @@
 #   2. backgrounds            wallpapers (default): the photographs among Debian's wallpaper packages
 #                             (background.type = wallpapers); photos: `facesynth backgrounds`, the
 #                             photographs with their annotated face cut away
-#   3. facesynth synth        COUNT renders (default 18000) with the bank, the backgrounds, yaw ±60° and degradations
+#   3. facesynth synth        COUNT renders (default 36000) with the bank, the backgrounds, yaw ±60° and degradations
 #                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-photos="" out="" count=18000 threads=2 work="" seed=101 min_side=96 backgrounds=wallpapers
+photos="" out="" count=36000 threads=2 work="" seed=101 min_side=96 backgrounds=wallpapers
 while [[ $# -gt 0 ]]; do
     case $1 in
         --photos) photos=$2; shift 2 ;;
