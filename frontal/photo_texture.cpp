@@ -355,7 +355,29 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
         for (int c = 0; c < 3; ++c) albedo_px[index][c] = static_cast<float>(to_linear[p[2 - c]]);
         weight_px[index] = std::min(1.0f, static_cast<float>(p[3]) / 128.0f);
     }
+    const auto beyond_face = [&](std::size_t k) {
+        const auto r = static_cast<morph::Region>(region[k]);
+        return labelled && (r == morph::Region::kEars || r == morph::Region::kNeck);
+    };
+    if (options.skin_beyond_face)
+        for (std::size_t k = 0; k < texel_count; ++k)
+            if (beyond_face(k)) weight_px[raster.texels[k].index] = 0;
+    cv::Mat unseen = weight == 0;
     push_pull_fill(albedo, weight);
+    if (options.skin_beyond_face) {
+        cv::Mat distance;
+        cv::distanceTransform(unseen, distance, cv::DIST_L2, 3);
+        const float fade = static_cast<float>(std::max(1.0, options.skin_fade * options.size));
+        const auto* distance_px = distance.ptr<float>();
+        for (std::size_t k = 0; k < texel_count; ++k) {
+            const auto r = static_cast<morph::Region>(region[k]);
+            if (labelled && r != morph::Region::kSkin && r != morph::Region::kNose && !beyond_face(k)) continue;
+            const int index = raster.texels[k].index;
+            const float t = beyond_face(k) ? 1.0f : std::min(1.0f, distance_px[index] / fade);
+            const float a = t * t * (3 - 2 * t);
+            albedo_px[index] = (1 - a) * albedo_px[index] + a * median_linear;
+        }
+    }
     out.texture.create(options.size, options.size, CV_8UC3);
     for (int r = 0; r < options.size; ++r) {
         const auto* a = albedo.ptr<cv::Vec3f>(r);

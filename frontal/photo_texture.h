@@ -32,8 +32,15 @@ struct PhotoTextureOptions {
     // Warp the photograph before taking the texture so that its annotated points iBUG 18-68 land where
     // the fitted model projects them: the texture's brows, eyes, nose and mouth then lie at the model's
     // landmark vertices instead of off them by the fit's residual (docs/textures.md "Features aligned").
-    // Off by default: it did not make a better training set (docs/results.md, seventh run).
+    // Off by default: it did not make a better training set (docs/history/results-runs.md, seventh run).
     bool align_features = false;
+    // Beyond the face the photograph shows hair, background or clothing, whatever the fit: the model's
+    // ears and neck take the face's own median skin colour (after shading removal) instead, and unseen
+    // skin fades to it over `skin_fade` of the texture side away from what was seen, instead of smearing
+    // the colours at the face's border outward (docs/textures.md step 8). Off by default: it made a
+    // worse training set (docs/results.md, "Sim-to-real").
+    bool skin_beyond_face = false;
+    double skin_fade = 0.05;
 };
 
 // The photograph warped smoothly so that `annotated` points (iBUG 18-68 of 2 x 68, 0-based pixels) move

@@ -146,6 +146,47 @@ TEST_F(PhotoTextureTest, TurnedFaceIsCompletedFromItsMirrorSide) {
     EXPECT_GT(t.face_coverage, 0.6);
 }
 
+// What surrounds the face in a photograph (here: saturated green) never reaches the model's ears and
+// neck: with skin_beyond_face they take the face's own skin colour; without it the neck shows the green
+// (the render's ears are its own, so they show skin either way).
+TEST_F(PhotoTextureTest, EarsAndNeckTakeTheFacesSkinNotWhatSurroundsIt) {
+    const SyntheticView v = view(0);
+    cv::Mat background = v.image.clone();
+    background.setTo(cv::Scalar(0, 255, 0));  // B G R
+    v.image.copyTo(background, v.mask);
+    const auto mean_of_region = [&](const PhotoTexture& t, morph::Region wanted) {
+        const UvRaster& raster = frontaliser_->uv_raster(kTextureSize);
+        cv::Vec3d sum(0, 0, 0);
+        int n = 0;
+        for (const UvRaster::TriangleTexels& tri : raster.triangles) {
+            if (static_cast<morph::Region>(model_->vertex_labels[static_cast<std::size_t>(tri.vertices[0])]) != wanted) continue;
+            for (int k = tri.first; k < tri.first + tri.count; ++k, ++n) {
+                const cv::Vec3b p = t.texture.ptr<cv::Vec3b>()[raster.texels[static_cast<std::size_t>(k)].index];  // R G B
+                sum += cv::Vec3d(p[0], p[1], p[2]);
+            }
+        }
+        return n > 0 ? sum / n : sum;
+    };
+    PhotoTextureOptions o = options(true);
+    o.skin_beyond_face = true;
+    const PhotoTexture clean = extract_photo_texture(*frontaliser_, background, v.landmarks, o);
+    o.skin_beyond_face = false;
+    const PhotoTexture smeared = extract_photo_texture(*frontaliser_, background, v.landmarks, o);
+    ASSERT_TRUE(clean.rejection.empty()) << clean.rejection;
+    ASSERT_TRUE(smeared.rejection.empty()) << smeared.rejection;
+    for (const morph::Region region : {morph::Region::kEars, morph::Region::kNeck}) {
+        const cv::Vec3d c = mean_of_region(clean, region), s = mean_of_region(smeared, region);
+        std::printf("%s: mean R G B %.0f %.0f %.0f with skin_beyond_face, %.0f %.0f %.0f without; skin %.0f %.0f %.0f\n",
+                    std::string(morph::region_name(region)).c_str(), c[0], c[1], c[2], s[0], s[1], s[2], clean.skin_srgb[0],
+                    clean.skin_srgb[1], clean.skin_srgb[2]);
+        // Within 10 levels: texels on a triangle's edge blend with the neighbouring region's.
+        for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(c[ch], clean.skin_srgb[static_cast<std::size_t>(ch)], 10.0) << ch;
+        if (region == morph::Region::kNeck) {
+            EXPECT_GT(s[1] - s[0], 10.0);  // without it, the green shows
+        }
+    }
+}
+
 TEST_F(PhotoTextureTest, UnusablePhotographsAreRejectedWithTheReason) {
     PhotoTextureOptions o = options(true);
     o.max_abs_yaw_deg = 30;
