@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <exception>
+#include <stdexcept>
 #include <string>
 
 using namespace facesynth;
@@ -33,6 +34,9 @@ int main(int argc, char** argv) try {
                     sample.labels.landmarks_contour(0, 30), sample.labels.landmarks_contour(1, 30));
     }
     return 0;
+} catch (const std::logic_error&) {  // std::stoi and friends: not a number
+    std::fprintf(stderr, "dataset_in_memory: COUNT and SEED must be numbers\n");
+    return 2;
 } catch (const std::exception& e) {
     std::fprintf(stderr, "dataset_in_memory: %s\n", e.what());
     return 1;

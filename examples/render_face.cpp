@@ -16,6 +16,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 
 using namespace facesynth;
@@ -56,6 +57,9 @@ int main(int argc, char** argv) try {
     std::printf("%s: yaw %.0f°, %d of %zu landmarks visible\n", (out / "image.png").c_str(), yaw, visible,
                 landmarks.visible.size());
     return 0;
+} catch (const std::logic_error&) {  // std::stoi and friends: not a number
+    std::fprintf(stderr, "render_face: SEED and YAW_DEGREES must be numbers\n");
+    return 2;
 } catch (const std::exception& e) {
     std::fprintf(stderr, "render_face: %s\n", e.what());
     return 1;

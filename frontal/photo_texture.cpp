@@ -362,7 +362,7 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     if (options.skin_beyond_face)
         for (std::size_t k = 0; k < texel_count; ++k)
             if (beyond_face(k)) weight_px[raster.texels[k].index] = 0;
-    cv::Mat unseen = weight == 0;
+    const cv::Mat unseen = options.skin_beyond_face ? cv::Mat(weight == 0) : cv::Mat();
     push_pull_fill(albedo, weight);
     if (options.skin_beyond_face) {
         cv::Mat distance;

@@ -134,7 +134,7 @@ void run_train(const TrainArgs& args) {
     };
     observer.on_message = [&](const std::string& message) {
         faces_progress.finish();
-        if (features_progress && message.starts_with("training NME")) features_progress->finish();
+        if (features_progress) features_progress->finish();  // messages after preparation come after training
         if (!args.quiet) std::printf("%s\n", message.c_str());
     };
     observer.on_stage = [&](const std::string& cascade, const SdmStageReport& r) {
