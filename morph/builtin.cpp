@@ -304,7 +304,7 @@ private:
                                                                  {kRowStomion, l_.y_sto},
                                                                  {kRowBelowLip, l_.y_sto - 20},
                                                                  {kRowGnathion, l_.y_gn},
-                                                                 {kRows - 1, l_.y_gn - 6}}};
+                                                                 {kRows - 1, l_.y_gn - 1.5}}};
         std::array<double, kRows> y{};
         for (std::size_t i = 0; i + 1 < anchors.size(); ++i) {
             const auto [r0, y0] = anchors[i];
@@ -823,12 +823,11 @@ std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::v
     // annotators put point 1 beside the eyes (0.04 inter-ocular distances below their centre); from
     // 4 mm below the eye line it sat 0.05 lower in near-frontal renders (and dlib put it higher there).
     const int first = row_at_height(v, l.y_eye + 4.0);
-    std::vector<int> outline = right_silhouette(v, first, kRowGnathion);
-    constexpr int kRowMenton = kRows - 2;  // the lowest point of the chin seen from the front
-    outline.push_back(vertex_id(kRowMenton, kMidColumn));
+    std::vector<int> outline = right_silhouette(v, first, kRowGnathion - 1);
+    outline.push_back(vertex_id(kRowGnathion, kMidColumn));
     const auto jaw = along_chain(v, outline, 9);
     for (int i = 0; i < 8; ++i) set_pair(i + 1, jaw[static_cast<std::size_t>(i)]);
-    lm[kChinLandmark] = SurfacePoint::at_vertex(vertex_id(kRowMenton, kMidColumn));
+    lm[kChinLandmark] = SurfacePoint::at_vertex(vertex_id(kRowGnathion, kMidColumn));
     // Brows (18 outer .. 22 inner), on the brow's upper half, at fractions of its length.
     const std::array<double, 5> brow_at = {0.98, 0.79, 0.53, 0.26, 0.0};
     for (int i = 0; i < 5; ++i) {
@@ -954,7 +953,7 @@ ColourRegions colour_regions(const Eigen::Matrix3Xf& v, const Layout& l) {
 
 // Semantic region of each vertex (morph/regions.h), from the construction: the painted colour
 // regions (eyes, lips, mouth line, brows, scalp hair), the nose and ear displacement fields, and
-// the row under the chin and the back below the ears as neck. Computed once on the mean face.
+// the rows under the chin and the back below the ears as neck. Computed once on the mean face.
 std::vector<std::uint8_t> region_labels(const Eigen::Matrix3Xf& v, const Layout& l, const ColourRegions& g,
                                         const FaceBuilder::FeatureMasks& features) {
     std::vector<std::uint8_t> labels(kNumVertices, static_cast<std::uint8_t>(Region::kSkin));
@@ -963,7 +962,7 @@ std::vector<std::uint8_t> region_labels(const Eigen::Matrix3Xf& v, const Layout&
             const int id = vertex_id(r, c);
             const auto i = static_cast<std::size_t>(id);
             Region region = Region::kSkin;
-            if (r == kRows - 1 || (v(2, id) < -5.0 && v(1, id) < l.y_sn - 8.0)) region = Region::kNeck;
+            if (r > kRowGnathion || (v(2, id) < -5.0 && v(1, id) < l.y_sn - 8.0)) region = Region::kNeck;
             if (g.hair[i] > 0.5f) region = Region::kHair;
             if (features.ears[i]) region = Region::kEars;
             if (features.nose[i]) region = Region::kNose;

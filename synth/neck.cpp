@@ -22,7 +22,7 @@ NeckFrame neck_frame(const morph::MorphableModel& model, const Eigen::Matrix3Xf&
     f.radius_x = 0.38f * jaw_width;
     f.radius_z = 0.85f * f.radius_x;
     f.centre_x = 0.5f * (l(0, 0) + l(0, 16));
-    f.centre_z = chin.z() - 0.25f * face_height - f.radius_z;
+    f.centre_z = chin.z() - 0.38f * face_height - f.radius_z;
     f.top_y = chin.y() + 0.35f * face_height;  // inside the head, behind the jaw
     f.bottom_y = chin.y() - 1.1f * face_height;
     return f;
