@@ -185,6 +185,8 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
         return rejected(out, std::string("fit: ") + e.what());
     }
     out.shape = fit.alpha;
+    out.expression = fit.psi;
+    out.expression.resize(static_cast<std::size_t>(model.num_expression_components()), 0.0f);  // an unfitted expression is neutral
     out.yaw_deg = fit.pose.angles.yaw;
     out.pitch_deg = fit.pose.angles.pitch;
     out.roll_deg = fit.pose.angles.roll;

@@ -160,6 +160,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"expression.min_weight", &c.expression.min_weight, "blendshape weight lower bound"});
     f.push_back({"expression.max_weight", &c.expression.max_weight, "blendshape weight upper bound"});
     f.push_back({"expression.truncation", &c.expression.truncation, "PCA expression models: coefficients truncated at ±k σ"});
+    f.push_back({"expression.source", &c.expression.source,
+                 "\"random\" (drawn) or \"texture\" (the expression fitted to the photograph of the sample's texture; needs albedo.texture_bank)"});
     f.push_back({"albedo.truncation", &c.albedo.truncation, "colour coefficients truncated at ±k σ (models without a colour model get a random uniform skin tone)"});
     f.push_back({"albedo.scale", &c.albedo.scale, "multiplier on the colour coefficients (0 = mean colour)"});
     f.push_back({"albedo.reject_implausible", &c.albedo.reject_implausible,
@@ -268,6 +270,9 @@ void validate(const SynthConfig& c) {
     require(c.identity.source == "random" || c.identity.source == "texture", "identity.source", "must be \"random\" or \"texture\"");
     require(c.identity.source != "texture" || !c.albedo.texture_bank.empty(), "identity.source",
             "\"texture\" needs albedo.texture_bank (the shapes come with the bank's textures)");
+    require(c.expression.source == "random" || c.expression.source == "texture", "expression.source", "must be \"random\" or \"texture\"");
+    require(c.expression.source != "texture" || !c.albedo.texture_bank.empty(), "expression.source",
+            "\"texture\" needs albedo.texture_bank (the expressions come with the bank's textures)");
     validate_share(c.expression.neutral_share, "expression.neutral_share");
     require(c.expression.max_active >= 1, "expression.max_active", "must be at least 1");
     require(c.expression.min_weight <= c.expression.max_weight, "expression.min_weight", "must not exceed expression.max_weight");

@@ -37,6 +37,10 @@ struct ExpressionConfig {
     double min_weight = 0.2;     // blendshape weights uniform in [min_weight, max_weight]
     double max_weight = 1.0;
     double truncation = 2.0;     // PCA expression models: coefficients truncated at ±truncation σ
+    // "random": drawn as above; "texture": the expression fitted to the photograph of the sample's
+    // texture (albedo.texture_bank), so that the texture's lips and teeth sit on lips parted as in the
+    // photograph (the settings above unused).
+    std::string source = "random";
 };
 
 struct AlbedoConfig {

@@ -278,13 +278,17 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const morph::Morphab
     if (!config.albedo.texture_bank.empty() && textures.empty())
         throw core::Error("albedo.texture_bank: the bank " + config.albedo.texture_bank + " was not loaded");
     // Checked here, before any sample is written, rather than at the first sample that draws such a texture.
-    if (config.identity.source == "texture") {
-        const auto shapes = textures.shapes();
+    const auto fits = textures.fits();
+    if (config.identity.source == "texture")
         for (std::size_t t = 0; t < textures.size(); ++t)
-            if (t >= shapes.size() || static_cast<int>(shapes[t].size()) != model.num_shape_components())
+            if (t >= fits.size() || static_cast<int>(fits[t].shape.size()) != model.num_shape_components())
                 throw core::Error("identity.source = \"texture\": texture " + textures.name(t) + " of the bank " + config.albedo.texture_bank +
                             " has no stored shape for model '" + model.name + "' (a bank made before shapes were stored: rebuild it)");
-    }
+    if (config.expression.source == "texture")
+        for (std::size_t t = 0; t < textures.size(); ++t)
+            if (t >= fits.size() || !fits[t].expression || static_cast<int>(fits[t].expression->size()) != model.num_expression_components())
+                throw core::Error("expression.source = \"texture\": texture " + textures.name(t) + " of the bank " + config.albedo.texture_bank +
+                            " has no stored expression for model '" + model.name + "' (a bank made before expressions were stored: rebuild it)");
 }
 
 std::string SampleGenerator::renderer_description() const { return renderer_.backend() + " | " + renderer_.renderer_string(); }
@@ -293,7 +297,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     StageClock clock;
     StageTimes local;
     Sample s;
-    s.spec = sample_scene(config_, model_, index, albedo_check_ ? &*albedo_check_ : nullptr, &mesh_.vertices, textures_.shapes());
+    s.spec = sample_scene(config_, model_, index, albedo_check_ ? &*albedo_check_ : nullptr, &mesh_.vertices, textures_.fits());
     morph::Mesh& mesh = mesh_;
     if (s.spec.skin_tone) mesh.colours = s.spec.skin_tone->cast<float>().replicate(1, model_.num_vertices());
     else mesh.colours = model_.albedo_instance(s.spec.beta);

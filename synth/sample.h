@@ -85,19 +85,19 @@ public:
     ImageLibrary(const std::filesystem::path& folder, const std::string& kind);
     // Images already read (CV_8UC3 RGB), with their names.
     ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names) : images_(std::move(images)), names_(std::move(names)) {}
-    // With the identity coefficients each image was taken with (a texture bank's; an entry may be empty).
-    ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names, std::vector<std::vector<float>> shapes)
-        : images_(std::move(images)), names_(std::move(names)), shapes_(std::move(shapes)) {}
+    // With the fit each image was taken with (a texture bank's).
+    ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names, std::vector<TextureFit> fits)
+        : images_(std::move(images)), names_(std::move(names)), fits_(std::move(fits)) {}
     [[nodiscard]] bool empty() const { return images_.empty(); }
     [[nodiscard]] const cv::Mat& image(std::uint64_t choice) const { return images_[choice % images_.size()]; }
     [[nodiscard]] const std::string& name(std::uint64_t choice) const { return names_[choice % names_.size()]; }
     [[nodiscard]] std::size_t size() const { return images_.size(); }
-    [[nodiscard]] std::span<const std::vector<float>> shapes() const { return shapes_; }
+    [[nodiscard]] std::span<const TextureFit> fits() const { return fits_; }
 
 private:
     std::vector<cv::Mat> images_;  // CV_8UC3 RGB
     std::vector<std::string> names_;  // file names
-    std::vector<std::vector<float>> shapes_;  // empty, or one per image
+    std::vector<TextureFit> fits_;  // empty, or one per image
 };
 
 // One per worker thread: owns its Renderer (GL context), created once.

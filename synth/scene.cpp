@@ -278,7 +278,7 @@ HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, c
 }
 
 SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& model, std::int64_t index, const morph::SkinColourCheck* albedo_check,
-                        Eigen::Matrix3Xf* shape, std::span<const std::vector<float>> texture_shapes) {
+                        Eigen::Matrix3Xf* shape, std::span<const TextureFit> texture_fits) {
     const auto i = static_cast<std::uint64_t>(index);
     SampleSpec s;
     s.seed = config.seed;
@@ -310,15 +310,28 @@ SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& 
         if (jitter > 0)
             for (int c = 0; c < 3; ++c) s.texture_gain[c] = rng.uniform(1 - jitter, 1 + jitter);
     }
+    const auto texture_fit = [&](const char* key) -> const TextureFit& {
+        if (!s.texture_choice || texture_fits.empty())
+            throw core::Error(std::string(key) + " = \"texture\": no texture bank fits were given (albedo.texture_bank)");
+        return texture_fits[*s.texture_choice % texture_fits.size()];
+    };
+    const auto texture_number = [&] { return std::to_string(*s.texture_choice % texture_fits.size()); };
     if (config.identity.source == "texture") {
-        if (!s.texture_choice || texture_shapes.empty())
-            throw core::Error("identity.source = \"texture\": no texture bank shapes were given (albedo.texture_bank)");
-        const std::vector<float>& fitted = texture_shapes[*s.texture_choice % texture_shapes.size()];
+        const std::vector<float>& fitted = texture_fit("identity.source").shape;
         if (static_cast<int>(fitted.size()) != model.num_shape_components())
-            throw core::Error("identity.source = \"texture\": the bank's texture " + std::to_string(*s.texture_choice % texture_shapes.size()) +
-                        " has " + std::to_string(fitted.size()) + " shape coefficients, model '" + model.name + "' " +
-                        std::to_string(model.num_shape_components()) + " (a bank made before shapes were stored: rebuild it)");
+            throw core::Error("identity.source = \"texture\": the bank's texture " + texture_number() + " has " + std::to_string(fitted.size()) +
+                        " shape coefficients, model '" + model.name + "' " + std::to_string(model.num_shape_components()) +
+                        " (a bank made before shapes were stored: rebuild it)");
         s.alpha = fitted;
+    }
+    if (config.expression.source == "texture") {
+        const std::optional<std::vector<float>>& fitted = texture_fit("expression.source").expression;
+        if (!fitted || static_cast<int>(fitted->size()) != model.num_expression_components())
+            throw core::Error("expression.source = \"texture\": the bank's texture " + texture_number() + " has " +
+                        (fitted ? std::to_string(fitted->size()) + " expression coefficients" : std::string("no stored expression")) +
+                        ", model '" + model.name + "' " + std::to_string(model.num_expression_components()) +
+                        " (a bank made before expressions were stored: rebuild it)");
+        s.psi = *fitted;
     }
     {
         core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kPose);

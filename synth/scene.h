@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -56,6 +57,13 @@ struct OccluderSpec {
     Eigen::Vector3d colour = Eigen::Vector3d::Zero();  // sRGB in [0, 1]
 };
 
+// The fit a texture bank's texture was taken with: the identity (empty in banks made before shapes
+// were stored) and the expression (absent in banks made before expressions were stored).
+struct TextureFit {
+    std::vector<float> shape;
+    std::optional<std::vector<float>> expression;
+};
+
 struct SampleSpec {
     std::uint64_t seed = 0;
     std::int64_t index = 0;
@@ -88,11 +96,11 @@ struct SampleSpec {
 // make_albedo_check's result, made once per model; without it, it is made here when needed. With
 // `shape`, the sampled shape (identity and expression, model space) that placed the face is moved
 // there, so that a renderer need not evaluate the model a second time.
-// `texture_shapes` are the texture bank's fitted shapes, one per texture (ImageLibrary::shapes), which
-// identity.source = "texture" needs.
+// `texture_fits` are the texture bank's fits, one per texture (ImageLibrary::fits), which
+// identity.source = "texture" and expression.source = "texture" need.
 [[nodiscard]] SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& model, std::int64_t index,
                                       const morph::SkinColourCheck* albedo_check = nullptr, Eigen::Matrix3Xf* shape = nullptr,
-                                      std::span<const std::vector<float>> texture_shapes = {});
+                                      std::span<const TextureFit> texture_fits = {});
 
 // What sample `index` wears with head.body (the kHead stream); `head` is its head pose.
 [[nodiscard]] HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, const morph::EulerAngles& head);

@@ -39,11 +39,14 @@ nlohmann::json to_json(const TextureBankManifest& m) {
     j["size"] = m.size;
     j["settings"] = m.settings;
     nlohmann::json textures = nlohmann::json::array();
-    for (const TextureBankEntry& e : m.textures)
-        textures.push_back({{"file", e.file}, {"source", e.source}, {"landmarks_source", e.landmarks_source}, {"yaw_deg", e.yaw_deg},
+    for (const TextureBankEntry& e : m.textures) {
+        nlohmann::json t = {{"file", e.file}, {"source", e.source}, {"landmarks_source", e.landmarks_source}, {"yaw_deg", e.yaw_deg},
                             {"pitch_deg", e.pitch_deg}, {"roll_deg", e.roll_deg}, {"face_coverage", e.face_coverage},
                             {"seen_share", e.seen_share}, {"skin_outliers", e.skin_outliers}, {"fit_error", e.fit_error},
-                            {"shading_range", e.shading_range}, {"skin_srgb", e.skin_srgb}, {"shape", e.shape}});
+                            {"shading_range", e.shading_range}, {"skin_srgb", e.skin_srgb}, {"shape", e.shape}};
+        if (e.expression) t["expression"] = *e.expression;
+        textures.push_back(std::move(t));
+    }
     j["textures"] = textures;
     nlohmann::json rejected = nlohmann::json::array();
     for (const TextureBankRejection& r : m.rejected) rejected.push_back({{"source", r.source}, {"reason", r.reason}});
@@ -85,11 +88,14 @@ TextureBankManifest texture_bank_from_json(const nlohmann::json& j, const std::s
         e.fit_error = t.value("fit_error", 0.0);
         e.shading_range = t.value("shading_range", 0.0);
         if (t.contains("skin_srgb")) e.skin_srgb = required<std::array<double, 3>>(t, "skin_srgb", where);
-        if (t.contains("shape")) {
-            e.shape = required<std::vector<float>>(t, "shape", where);
-            for (const float a : e.shape)
-                if (!std::isfinite(a)) throw core::Error(where + ": key 'shape' holds a value that is not a finite number");
-        }
+        const auto coefficients = [&](const char* key) {
+            auto values = required<std::vector<float>>(t, key, where);
+            for (const float a : values)
+                if (!std::isfinite(a)) throw core::Error(where + ": key '" + key + "' holds a value that is not a finite number");
+            return values;
+        };
+        if (t.contains("shape")) e.shape = coefficients("shape");
+        if (t.contains("expression")) e.expression = coefficients("expression");
         m.textures.push_back(std::move(e));
     }
     if (j.contains("rejected") && j["rejected"].is_array())
@@ -169,7 +175,7 @@ ImageLibrary load_texture_bank(const fs::path& bank, const morph::MorphableModel
     if (m.textures.empty()) throw core::file_error(manifest, "the bank holds no texture (every photograph was rejected?)");
     std::vector<cv::Mat> images;
     std::vector<std::string> names;
-    std::vector<std::vector<float>> shapes;
+    std::vector<TextureFit> fits;
     images.reserve(m.textures.size());
     for (const TextureBankEntry& e : m.textures) {
         const fs::path file = bank / e.file;
@@ -185,9 +191,12 @@ ImageLibrary load_texture_bank(const fs::path& bank, const morph::MorphableModel
         if (!e.shape.empty() && static_cast<int>(e.shape.size()) != model.num_shape_components())
             throw core::file_error(manifest, e.file + ": " + std::to_string(e.shape.size()) + " shape coefficients, the model has " +
                                            std::to_string(model.num_shape_components()));
-        shapes.push_back(e.shape);
+        if (e.expression && static_cast<int>(e.expression->size()) != model.num_expression_components())
+            throw core::file_error(manifest, e.file + ": " + std::to_string(e.expression->size()) + " expression coefficients, the model has " +
+                                           std::to_string(model.num_expression_components()));
+        fits.push_back({e.shape, e.expression});
     }
-    return {std::move(images), std::move(names), std::move(shapes)};
+    return {std::move(images), std::move(names), std::move(fits)};
 }
 
 }  // namespace facesynth::synth

@@ -14,6 +14,7 @@
 
 #include <array>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,9 @@ struct TextureBankEntry {
     double face_coverage = 0, seen_share = 0, skin_outliers = 0, fit_error = 0, shading_range = 0;
     std::array<double, 3> skin_srgb{};
     std::vector<float> shape;  // identity coefficients of the fit (identity.source = "texture"); empty in older banks
+    // Expression coefficients of the fit (expression.source = "texture"); absent in older banks, empty
+    // for a model without expressions.
+    std::optional<std::vector<float>> expression;
 };
 
 struct TextureBankRejection {

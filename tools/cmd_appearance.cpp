@@ -145,6 +145,7 @@ void run_textures(const TexturesArgs& a) {
                 e.face_coverage = t.face_coverage, e.seen_share = t.seen_share, e.skin_outliers = t.skin_outliers;
                 e.fit_error = t.fit_error, e.shading_range = t.shading_range, e.skin_srgb = t.skin_srgb;
                 e.shape = t.shape;
+                e.expression = t.expression;
                 bank.add(t.texture, std::move(e));
             }
         } catch (const core::Error& e) {

@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # Trains a landmark regressor for real photographs on synthetic images only, with appearance taken from
 # annotated photographs (docs/textures.md; figures in docs/results.md):
-#   1. facesynth textures     a texture bank from the photographs (their labels are not training targets)
+#   1. facesynth textures     a texture bank from the photographs, each texture with the shape and expression
+#                             fitted to its photograph (their labels are not training targets)
 #   2. backgrounds            wallpapers (default): the photographs among Debian's wallpaper packages
 #                             (background.type = wallpapers); photos: `facesynth backgrounds`, the
 #                             photographs with their annotated face cut away
-#   3. facesynth synth        COUNT renders (default 36000) with the bank, the backgrounds, yaw ±60° and degradations
+#   3. facesynth synth        COUNT renders (default 36000): each texture on its own photograph's fitted shape and
+#                             expression, the backgrounds, yaw ±60°, long lenses (fov 4-20°) and degradations
 #                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
@@ -23,7 +25,7 @@ while [[ $# -gt 0 ]]; do
         --seed) seed=$2; shift 2 ;;
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
-        -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -39,7 +41,9 @@ mkdir -p "$work"
 quiet=()
 [[ -t 2 ]] || quiet=(-q)
 
-[[ -f $work/bank/bank.json ]] || "$facesynth" textures --photos "$photos" --out "$work/bank" --json "$work/textures.json" "${quiet[@]}"
+# The bank is rebuilt every time (a minute for 870 photographs): one made by another build may be for
+# another model or lack what synth now takes from it.
+"$facesynth" textures --photos "$photos" --out "$work/bank" --json "$work/textures.json" "${quiet[@]}"
 background=(--set background.type=wallpapers)
 if [[ $backgrounds == photos ]]; then
     [[ -d $work/backgrounds ]] || "$facesynth" backgrounds --photos "$photos" --out "$work/backgrounds" --min-side "$min_side" --json "$work/backgrounds.json" "${quiet[@]}"
@@ -47,7 +51,8 @@ if [[ $backgrounds == photos ]]; then
 fi
 "$facesynth" synth --out "$work/train" --overwrite --count "$count" --seed "$seed" --threads "$threads" "${quiet[@]}" \
     --set pose.yaw.min=-60 --set pose.yaw.max=60 \
-    --set albedo.texture_bank="$work/bank" \
+    --set albedo.texture_bank="$work/bank" --set identity.source=texture --set expression.source=texture \
+    --set camera.fov_min=4 --set camera.fov_max=20 \
     "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \
     --set degrade.downscale_probability=0.3 --set degrade.gamma_probability=0.5 --set degrade.colour_jitter_probability=0.5

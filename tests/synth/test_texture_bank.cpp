@@ -150,8 +150,8 @@ TEST_F(TextureBankTest, TextureIdentityIsTheShapeStoredWithTheDrawnTexture) {
         writer.commit();
     }
     const ImageLibrary library = load_texture_bank(dir / "bank", *model_);
-    ASSERT_EQ(library.shapes().size(), 3u);
-    EXPECT_EQ(library.shapes()[2], shapes[2]);  // through bank.json and back
+    ASSERT_EQ(library.fits().size(), 3u);
+    EXPECT_EQ(library.fits()[2].shape, shapes[2]);  // through bank.json and back
 
     SynthConfig config;
     config.identity.source = "texture";
@@ -160,18 +160,18 @@ TEST_F(TextureBankTest, TextureIdentityIsTheShapeStoredWithTheDrawnTexture) {
     validate(config);
     std::set<std::size_t> used;
     for (int i = 0; i < 12; ++i) {
-        const SampleSpec s = sample_scene(config, *model_, i, nullptr, nullptr, library.shapes());
+        const SampleSpec s = sample_scene(config, *model_, i, nullptr, nullptr, library.fits());
         ASSERT_TRUE(s.texture_choice.has_value());
         const std::size_t t = *s.texture_choice % shapes.size();
         used.insert(t);
         EXPECT_EQ(s.alpha, shapes[t]) << "sample " << i;
-        EXPECT_EQ(s.alpha, sample_scene(config, *model_, i, nullptr, nullptr, library.shapes()).alpha);  // (seed, i) alone
+        EXPECT_EQ(s.alpha, sample_scene(config, *model_, i, nullptr, nullptr, library.fits()).alpha);  // (seed, i) alone
     }
     EXPECT_GT(used.size(), 1u);
     // Without the shapes (no bank loaded), and from a bank whose entries have none.
     EXPECT_NE(testkit::error_message_of([&] { (void)sample_scene(config, *model_, 0); }).find("identity.source"), std::string::npos);
-    const ImageLibrary old_bank({solid_texture(16, 1, 2, 3)}, {"000000.png"}, {std::vector<float>{}});
-    const std::string message = testkit::error_message_of([&] { (void)sample_scene(config, *model_, 0, nullptr, nullptr, old_bank.shapes()); });
+    const ImageLibrary old_bank({solid_texture(16, 1, 2, 3)}, {"000000.png"}, {TextureFit{}});
+    const std::string message = testkit::error_message_of([&] { (void)sample_scene(config, *model_, 0, nullptr, nullptr, old_bank.fits()); });
     EXPECT_NE(message.find("rebuild it"), std::string::npos) << message;
     // A shape of the wrong length, or with a value that is not a number, names the manifest and the key.
     nlohmann::json manifest = nlohmann::json::parse(std::ifstream(dir / "bank" / "bank.json"));
@@ -181,6 +181,52 @@ TEST_F(TextureBankTest, TextureIdentityIsTheShapeStoredWithTheDrawnTexture) {
     manifest["textures"][1]["shape"] = {1.0, "x"};
     std::ofstream(dir / "bank" / "bank.json") << manifest.dump();
     EXPECT_NE(testkit::error_message_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("shape"), std::string::npos);
+}
+
+// expression.source = "texture": each sample's expression is the one fitted to its texture's
+// photograph; banks without stored expressions, and configurations without a bank, are refused.
+TEST_F(TextureBankTest, TextureExpressionIsTheExpressionStoredWithTheDrawnTexture) {
+    const fs::path dir = testkit::fresh_temp_dir("texture_bank_expression");
+    const auto components = static_cast<std::size_t>(model_->num_expression_components());
+    ASSERT_GT(components, 0u);
+    std::vector<std::vector<float>> expressions(3, std::vector<float>(components, 0.0f));
+    expressions[1][0] = 0.7f;
+    expressions[2].back() = 0.4f;
+    {
+        TextureBankWriter writer(dir / "bank", bank_header_for(*model_, 16));
+        for (std::size_t t = 0; t < expressions.size(); ++t) {
+            TextureBankEntry e;
+            e.expression = expressions[t];
+            writer.add(solid_texture(16, static_cast<uchar>(10 * t), 20, 30), e);
+        }
+        writer.commit();
+    }
+    const ImageLibrary library = load_texture_bank(dir / "bank", *model_);
+    ASSERT_EQ(library.fits().size(), 3u);
+    EXPECT_EQ(library.fits()[1].expression, expressions[1]);  // through bank.json and back
+
+    SynthConfig config;
+    config.expression.source = "texture";
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("expression.source"), std::string::npos);
+    config.albedo.texture_bank = (dir / "bank").string();
+    validate(config);
+    std::set<std::size_t> used;
+    for (int i = 0; i < 12; ++i) {
+        const SampleSpec s = sample_scene(config, *model_, i, nullptr, nullptr, library.fits());
+        const std::size_t t = *s.texture_choice % expressions.size();
+        used.insert(t);
+        EXPECT_EQ(s.psi, expressions[t]) << "sample " << i;
+    }
+    EXPECT_GT(used.size(), 1u);
+    // A bank made before expressions were stored, and an expression of the wrong length.
+    const ImageLibrary old_bank({solid_texture(16, 1, 2, 3)}, {"000000.png"}, {TextureFit{}});
+    const std::string message = testkit::error_message_of([&] { (void)sample_scene(config, *model_, 0, nullptr, nullptr, old_bank.fits()); });
+    EXPECT_NE(message.find("expression.source"), std::string::npos) << message;
+    EXPECT_NE(message.find("rebuild it"), std::string::npos) << message;
+    nlohmann::json manifest = nlohmann::json::parse(std::ifstream(dir / "bank" / "bank.json"));
+    manifest["textures"][0]["expression"] = std::vector<float>{1.0f};
+    std::ofstream(dir / "bank" / "bank.json") << manifest.dump();
+    EXPECT_NE(testkit::error_message_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("1 expression coefficients"), std::string::npos);
 }
 
 TEST(PhotoBackgrounds, RegionsNeverMeetTheAnnotatedFace) {
