@@ -3,6 +3,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/image_header.h"
+#include "morph/landmarks.h"
 #include "synth/dataset.h"
 
 #include <nlohmann/json.hpp>
@@ -13,13 +14,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <vector>
 
 namespace facesynth::synth {
 namespace {
 
-enum class PointState { kVisible, kSelfOccluded, kCovered };
+enum class PointState { kVisible, kSelfOccluded, kCovered, kPhotograph };
 
 struct SheetPoint {
     double x = 0, y = 0;
@@ -64,24 +66,90 @@ SheetItem read_sheet_item(const std::filesystem::path& meta_path) {
     }
 }
 
+cv::Mat read_image(const std::filesystem::path& path) {
+    core::check_image_not_too_large(path);
+    cv::Mat bgr = cv::imread(path.string(), cv::IMREAD_COLOR);
+    if (bgr.empty()) throw core::file_error(path.string(), "cannot read image");
+    return bgr;
+}
+
 cv::Mat read_sample_image(const std::filesystem::path& dataset, const std::string& key, const std::filesystem::path& meta_path) {
     auto image_path = dataset / "images" / (key + ".png");
     if (!std::filesystem::exists(image_path)) image_path = dataset / "images" / (key + ".jpg");
     if (!std::filesystem::exists(image_path))
         throw core::file_error((dataset / "images" / (key + ".png")).string(), "missing (no .png or .jpg for " + meta_path.string() + ")");
-    core::check_image_not_too_large(image_path);
-    cv::Mat bgr = cv::imread(image_path.string(), cv::IMREAD_COLOR);
-    if (bgr.empty()) throw core::file_error(image_path.string(), "cannot read image");
-    return bgr;
+    return read_image(image_path);
 }
 
 cv::Scalar colour_of(PointState state) {
     switch (state) {
         case PointState::kCovered: return {0, 150, 255};     // orange (BGR)
         case PointState::kSelfOccluded: return {0, 0, 255};  // red
+        case PointState::kPhotograph: return {255, 255, 255};
         case PointState::kVisible: break;
     }
     return {0, 230, 0};  // green
+}
+
+// The first `count` photographs of `folder` (name order) that have a .pts beside them.
+std::vector<std::filesystem::path> annotated_photos(const std::filesystem::path& folder, std::size_t count) {
+    if (!std::filesystem::is_directory(folder)) throw core::file_error(folder.string(), "photo folder not found");
+    std::vector<std::filesystem::path> photos;
+    for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+        const std::string extension = entry.path().extension().string();
+        if (extension != ".jpg" && extension != ".jpeg" && extension != ".png" && extension != ".JPG" && extension != ".PNG") continue;
+        if (std::filesystem::exists(std::filesystem::path(entry.path()).replace_extension(".pts"))) photos.push_back(entry.path());
+    }
+    std::sort(photos.begin(), photos.end());
+    if (photos.empty()) throw core::file_error(folder.string(), "no photograph with a .pts beside it");
+    photos.resize(std::min(photos.size(), count));
+    return photos;
+}
+
+SheetItem read_photo_item(const std::filesystem::path& photo) {
+    const Eigen::Matrix2Xd landmarks = morph::read_pts(std::filesystem::path(photo).replace_extension(".pts"));
+    SheetItem item;
+    item.key = photo.stem().string();
+    for (Eigen::Index p = 0; p < landmarks.cols(); ++p) item.points.push_back({landmarks(0, p), landmarks(1, p), PointState::kPhotograph});
+    return item;
+}
+
+// A tile of `side` px: the whole image, or with `face_framing` a square 1.6 times the landmarks' box
+// around their centre (outside the image: dark grey); the points drawn, the label in the corner.
+cv::Mat make_tile(const cv::Mat& bgr, const SheetItem& item, int side, bool face_framing, const std::string& label) {
+    cv::Mat tile;
+    std::function<cv::Point2d(const SheetPoint&)> to_tile;
+    if (face_framing && !item.points.empty()) {
+        double x0 = item.points.front().x, x1 = x0, y0 = item.points.front().y, y1 = y0;
+        for (const SheetPoint& p : item.points) x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+        const double scale = side / (1.6 * std::max({x1 - x0, y1 - y0, 1.0}));
+        // Shrinking: area averaging first (warpAffine has none), then a shift; enlarging: one bilinear warp.
+        cv::Mat source = bgr;
+        double s = scale, ox = 0, oy = 0;  // image point p -> (p + o) * s - o in `source`
+        if (scale < 1) {
+            cv::resize(bgr, source, cv::Size(), scale, scale, cv::INTER_AREA);
+            s = scale, ox = oy = 0.5;
+        }
+        const auto in_source = [=](double v, double o) { return (v + o) * s - o; };
+        const double tx = 0.5 * (side - 1) - in_source(0.5 * (x0 + x1), ox), ty = 0.5 * (side - 1) - in_source(0.5 * (y0 + y1), oy);
+        const double warp_scale = scale < 1 ? 1.0 : scale;
+        const cv::Mat affine = scale < 1 ? (cv::Mat_<double>(2, 3) << 1, 0, tx, 0, 1, ty)
+                                         : (cv::Mat_<double>(2, 3) << warp_scale, 0, tx, 0, warp_scale, ty);
+        cv::warpAffine(source, tile, affine, cv::Size(side, side), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(30, 30, 30));
+        to_tile = [=](const SheetPoint& p) { return cv::Point2d(in_source(p.x, ox) + tx, in_source(p.y, oy) + ty); };
+    } else {
+        const double scale = static_cast<double>(side) / std::max(bgr.cols, bgr.rows);
+        cv::resize(bgr, tile, cv::Size(), scale, scale, cv::INTER_AREA);
+        to_tile = [=](const SheetPoint& p) { return cv::Point2d((p.x + 0.5) * scale - 0.5, (p.y + 0.5) * scale - 0.5); };
+    }
+    // Points far outside the tile are clamped just outside it, so that cvRound stays in range.
+    const auto subpixel = [](double v, int limit) { return cvRound(std::clamp(v * 4, -64.0, 4.0 * (limit + 16))); };
+    for (const auto& point : item.points) {
+        const cv::Point2d q = to_tile(point);
+        cv::circle(tile, cv::Point(subpixel(q.x, tile.cols), subpixel(q.y, tile.rows)), 4, colour_of(point.state), cv::FILLED, cv::LINE_AA, 2);
+    }
+    cv::putText(tile, label, cv::Point(3, tile.rows - 4), cv::FONT_HERSHEY_PLAIN, 0.8, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    return tile;
 }
 
 }  // namespace
@@ -95,29 +163,33 @@ cv::Mat contact_sheet(const std::filesystem::path& dataset, const SheetOptions& 
     std::sort(metas.begin(), metas.end());
     if (metas.empty()) throw core::file_error(dataset.string(), "no samples in meta/");
     metas.resize(std::min<std::size_t>(metas.size(), static_cast<std::size_t>(std::max(options.count, 1))));
+    const bool with_photos = !options.photos.empty();
+    const std::vector<std::filesystem::path> photos = with_photos ? annotated_photos(options.photos, metas.size()) : std::vector<std::filesystem::path>{};
 
     const int columns = std::max(1, options.columns);
     const int tile_side = std::max(1, options.tile);
-    const auto rows = static_cast<std::int64_t>((metas.size() + static_cast<std::size_t>(columns) - 1) / static_cast<std::size_t>(columns));
-    if (rows * tile_side * static_cast<std::int64_t>(std::min<std::size_t>(metas.size(), static_cast<std::size_t>(columns))) * tile_side > core::kMaxImagePixels)
-        throw core::Error("synth sheet: " + std::to_string(metas.size()) + " tiles of " + std::to_string(tile_side) + " px make a sheet over " +
-                    std::to_string(core::kMaxImagePixels / 1'000'000) + " megapixels (lower --count or --tile)");
+    const auto columns_z = static_cast<std::size_t>(columns);
+    const auto render_rows = static_cast<std::int64_t>((metas.size() + columns_z - 1) / columns_z);
+    const auto photo_rows = static_cast<std::int64_t>((photos.size() + columns_z - 1) / columns_z);
+    // With photographs, render row r is sheet row 2r and photo row r sheet row 2r + 1.
+    const std::int64_t rows = with_photos ? std::max(2 * render_rows - 1, 2 * photo_rows) : render_rows;
+    if (rows * tile_side * static_cast<std::int64_t>(std::min<std::size_t>(metas.size(), columns_z)) * tile_side > core::kMaxImagePixels)
+        throw core::Error("synth sheet: " + std::to_string(metas.size() + photos.size()) + " tiles of " + std::to_string(tile_side) +
+                    " px make a sheet over " + std::to_string(core::kMaxImagePixels / 1'000'000) + " megapixels (lower --count or --tile)");
     cv::Mat sheet(static_cast<int>(rows) * tile_side, columns * tile_side, CV_8UC3, cv::Scalar(30, 30, 30));
+    const auto place = [&](const cv::Mat& tile, std::size_t n, int row_step, int row_offset) {
+        const int column = static_cast<int>(n % columns_z), row = static_cast<int>(n / columns_z) * row_step + row_offset;
+        tile.copyTo(sheet(cv::Rect(column * tile_side, row * tile_side, tile.cols, tile.rows)));
+    };
     for (std::size_t n = 0; n < metas.size(); ++n) {
         const SheetItem item = read_sheet_item(metas[n]);
-        const cv::Mat bgr = read_sample_image(dataset, item.key, metas[n]);
-        cv::Mat tile;
-        const double scale = static_cast<double>(tile_side) / std::max(bgr.cols, bgr.rows);
-        cv::resize(bgr, tile, cv::Size(), scale, scale, cv::INTER_AREA);
-        // Points far outside the tile are clamped just outside it, so that cvRound stays in range.
-        const auto subpixel = [&](double v, int limit) { return cvRound(std::clamp(((v + 0.5) * scale - 0.5) * 4, -64.0, 4.0 * (limit + 16))); };
-        for (const auto& point : item.points)
-            cv::circle(tile, cv::Point(subpixel(point.x, tile.cols), subpixel(point.y, tile.rows)), 4, colour_of(point.state), cv::FILLED, cv::LINE_AA, 2);
         char label[64];
         std::snprintf(label, sizeof label, "%s y%+.0f", item.key.c_str(), item.yaw);
-        cv::putText(tile, label, cv::Point(3, tile.rows - 4), cv::FONT_HERSHEY_PLAIN, 0.8, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-        const int column = static_cast<int>(n % static_cast<std::size_t>(columns)), row = static_cast<int>(n / static_cast<std::size_t>(columns));
-        tile.copyTo(sheet(cv::Rect(column * tile_side, row * tile_side, tile.cols, tile.rows)));
+        place(make_tile(read_sample_image(dataset, item.key, metas[n]), item, tile_side, with_photos, label), n, with_photos ? 2 : 1, 0);
+    }
+    for (std::size_t n = 0; n < photos.size(); ++n) {
+        const SheetItem item = read_photo_item(photos[n]);
+        place(make_tile(read_image(photos[n]), item, tile_side, true, item.key.substr(0, 20)), n, 2, 1);
     }
     cv::Mat rgb;
     cv::cvtColor(sheet, rgb, cv::COLOR_BGR2RGB);

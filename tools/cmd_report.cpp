@@ -19,6 +19,7 @@ struct ReportArgs {
     std::filesystem::path evals;
     std::string title = "facesynth report";
     int sheet_count = 32;
+    std::string photos;
     bool quiet = false;
 };
 
@@ -32,6 +33,7 @@ void run_report(const ReportArgs& args) {
         sheet.count = args.sheet_count;
         sheet.columns = 8;
         sheet.tile = 144;
+        sheet.photos = args.photos;
         inputs.contact_sheet = synth::contact_sheet(args.dataset, sheet);  // a bad --dataset is the user's error: exit 1
     }
     const report::Report result = report::build_report(inputs);
@@ -59,6 +61,8 @@ void register_report_commands(CLI::App& app) {
         ->check(CLI::ExistingDirectory);
     cmd->add_option("--title", args->title, "Page title")->capture_default_str();
     cmd->add_option("--sheet-count", args->sheet_count, "Samples on the contact sheet")->check(CLI::Range(1, 512))->capture_default_str();
+    cmd->add_option("--photos", args->photos, "Photographs with .pts beside them, shown in rows between the contact sheet's renders")
+        ->check(CLI::ExistingDirectory);
     cmd->add_flag("--quiet", args->quiet, "Print nothing but warnings and errors");
     cmd->callback([args] { run_report(*args); });
 }

@@ -230,6 +230,9 @@ void register_synth_commands(CLI::App& app) {
     sheet->add_option("--count", sheet_options->count, "samples to show")->check(CLI::PositiveNumber);
     sheet->add_option("--columns", sheet_options->columns, "tiles per row")->check(CLI::PositiveNumber);
     sheet->add_option("--tile", sheet_options->tile, "tile side, px")->check(CLI::Range(16, 2048));
+    sheet->add_option("--photos", sheet_options->photos,
+                      "photographs with .pts beside them: rows of these between the rows of renders, every tile framed on its face")
+        ->check(CLI::ExistingDirectory);
     sheet->callback([=] {
         const cv::Mat rgb = synth::contact_sheet(*sheet_dir, *sheet_options);
         cv::Mat bgr;

