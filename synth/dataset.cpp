@@ -181,8 +181,7 @@ ResumeScan scan_for_resume(const fs::path& out, const fs::path& root, const Synt
                            const std::vector<SampleFile>& files) {
     const auto formats = parse_formats(config.output.formats);
     const std::int64_t unit = shard_unit(config);
-    const std::int64_t tar_size = config.output.wds_shard_size;
-    const std::int64_t tar_count = (config.count + tar_size - 1) / tar_size;
+    const TarLayout tars = tar_layout(config);
     ResumeScan scan;
     for (const auto& entry : fs::directory_iterator(root / "meta")) {
         const std::string name = entry.path().filename().string();
@@ -191,26 +190,26 @@ ResumeScan scan_for_resume(const fs::path& out, const fs::path& root, const Synt
     }
     const auto tar_is_complete = [&](const fs::path& tar, std::int64_t t) {
         if (!fs::exists(tar)) return false;
-        const std::int64_t samples = std::min(config.count, (t + 1) * tar_size) - t * tar_size;
+        const std::int64_t samples = tars.end(t) - tars.first(t);
         try {
             return list_tar(tar).size() == static_cast<std::size_t>(samples) * files.size();
         } catch (const core::Error&) {
             return false;
         }
     };
-    scan.tar_done.assign(static_cast<std::size_t>(formats.wds ? tar_count : 0), 0);
+    scan.tar_done.assign(static_cast<std::size_t>(formats.wds ? tars.tars() : 0), 0);
     for (std::int64_t t = 0; t < static_cast<std::int64_t>(scan.tar_done.size()); ++t)
-        scan.tar_done[static_cast<std::size_t>(t)] = in_shard(t * tar_size, shard, unit) && tar_is_complete(out / wds_tar_name(config, t), t);
+        scan.tar_done[static_cast<std::size_t>(t)] = in_shard(tars.first(t), shard, unit) && tar_is_complete(out / wds_tar_name(config, t), t);
     for (std::int64_t i = 0; i < config.count; ++i) {
         if (!in_shard(i, shard, unit)) continue;
-        const bool in_finished_tar = formats.wds && scan.tar_done[static_cast<std::size_t>(i / tar_size)];
+        const bool in_finished_tar = formats.wds && scan.tar_done[static_cast<std::size_t>(tars.tar_of(i))];
         if (scan.done.count(i) || in_finished_tar) {
             ++scan.already_done;
             scan.done.insert(i);
             continue;
         }
         scan.todo.push_back(i);
-        if (formats.wds) ++scan.tar_remaining[i / tar_size];
+        if (formats.wds) ++scan.tar_remaining[tars.tar_of(i)];
     }
     return scan;
 }
@@ -272,9 +271,7 @@ RunResult run_synth(const RunOptions& options, const morph::MorphableModel& mode
     remove_stale_temporaries(out, root, config, options.shard);
 
     const std::int64_t unit = shard_unit(config);
-    const std::int64_t tar_size = config.output.wds_shard_size;
-    const std::int64_t tar_count = (config.count + tar_size - 1) / tar_size;
-    const auto tar_of = [&](std::int64_t index) { return index / tar_size; };
+    const TarLayout tars = tar_layout(config);
     ResumeScan scan = scan_for_resume(out, root, config, options.shard, files);
     std::map<std::int64_t, std::int64_t>& tar_remaining = scan.tar_remaining;
     const std::vector<std::int64_t>& todo = scan.todo;
@@ -293,8 +290,7 @@ RunResult run_synth(const RunOptions& options, const morph::MorphableModel& mode
 
     const auto write_tar = [&](std::int64_t t) {
         std::vector<TarMember> members;
-        const std::int64_t first = t * tar_size, last = std::min(config.count, first + tar_size);
-        for (std::int64_t i = first; i < last; ++i)
+        for (std::int64_t i = tars.first(t); i < tars.end(t); ++i)
             for (const auto& file : files)
                 members.push_back({sample_key(i) + file.wds_extension, root / file.folder / (sample_key(i) + file.suffix)});
         write_tar_file(out / wds_tar_name(config, t), members);
@@ -305,8 +301,8 @@ RunResult run_synth(const RunOptions& options, const morph::MorphableModel& mode
     result.already_done = scan.already_done;
     // Tars whose samples all exist but that a killed run did not finish.
     if (formats.wds)
-        for (std::int64_t t = 0; t < tar_count; ++t)
-            if (in_shard(t * tar_size, options.shard, unit) && !scan.tar_done[static_cast<std::size_t>(t)] && !tar_remaining.count(t)) {
+        for (std::int64_t t = 0; t < tars.tars(); ++t)
+            if (in_shard(tars.first(t), options.shard, unit) && !scan.tar_done[static_cast<std::size_t>(t)] && !tar_remaining.count(t)) {
                 write_tar(t);
                 ++result.tars_written;
             }
@@ -353,11 +349,11 @@ RunResult run_synth(const RunOptions& options, const morph::MorphableModel& mode
                         if (std::fputs(line.c_str(), manifest) < 0 || std::fflush(manifest) != 0)
                             throw core::file_error(manifest_path.string(), "write failed (disk full?)");
                         ++generated;
-                        if (formats.wds) tar_ready = --tar_remaining[tar_of(index)] == 0;
+                        if (formats.wds) tar_ready = --tar_remaining[tars.tar_of(index)] == 0;
                         if (options.on_sample) options.on_sample();
                     }
                     if (tar_ready) {
-                        write_tar(tar_of(index));
+                        write_tar(tars.tar_of(index));
                         std::lock_guard lock(mutex);
                         ++tars_written;
                     }

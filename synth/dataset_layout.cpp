@@ -18,7 +18,7 @@ nlohmann::json manifest_entry(std::int64_t index, const SynthConfig& config) {
     nlohmann::json line = {{"index", index}, {"key", key}};
     if (formats.folder || formats.coco)
         for (const auto& file : sample_files(config)) line[file.folder == "images" ? "image" : file.folder] = file.folder + "/" + key + file.suffix;
-    if (formats.wds) line["tar"] = wds_tar_name(config, index / config.output.wds_shard_size);
+    if (formats.wds) line["tar"] = wds_tar_name(config, tar_layout(config).tar_of(index));
     return line;
 }
 

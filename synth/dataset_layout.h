@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -31,6 +32,18 @@ struct SampleFile {
     std::string wds_extension;  // member name after the key in tars
 };
 [[nodiscard]] std::vector<SampleFile> sample_files(const SynthConfig& config);
+
+// How samples 0..count-1 fall into WebDataset tars of output.wds_shard_size samples each (the last
+// may be short).
+struct TarLayout {
+    std::int64_t count = 0;  // samples in the dataset
+    std::int64_t size = 1;   // samples per tar
+    [[nodiscard]] std::int64_t tars() const { return (count + size - 1) / size; }
+    [[nodiscard]] std::int64_t tar_of(std::int64_t index) const { return index / size; }
+    [[nodiscard]] std::int64_t first(std::int64_t tar) const { return tar * size; }
+    [[nodiscard]] std::int64_t end(std::int64_t tar) const { return std::min(count, (tar + 1) * size); }  // one past its last sample
+};
+[[nodiscard]] inline TarLayout tar_layout(const SynthConfig& config) { return {config.count, config.output.wds_shard_size}; }
 
 // The index of a file name starting with a sample key ("s00000012..."), or nullopt.
 [[nodiscard]] std::optional<std::int64_t> index_of_key(std::string_view name);

@@ -77,12 +77,13 @@ MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& 
     const auto files = sample_files(config);
     std::vector<std::int64_t> indices;
     std::vector<std::pair<fs::path, fs::path>> links;
+    const TarLayout tars = tar_layout(config);
     for (const auto& [index, source] : sources) {
         indices.push_back(index);
         if (formats.folder || formats.coco)
             for (const auto& file : files) links.emplace_back(source / file.folder / (sample_key(index) + file.suffix), out / file.folder / (sample_key(index) + file.suffix));
-        if (formats.wds && index % config.output.wds_shard_size == 0) {
-            const auto tar = wds_tar_name(config, index / config.output.wds_shard_size);
+        if (formats.wds && tars.first(tars.tar_of(index)) == index) {
+            const auto tar = wds_tar_name(config, tars.tar_of(index));
             links.emplace_back(source / tar, out / tar);
         }
     }
