@@ -131,6 +131,13 @@ TEST_F(TextureBankTest, BadBanksAreRefusedNamingTheFileAndTheProblem) {
     EXPECT_THROW((void)load_texture_bank(dir / "missing", *model_), core::Error);
 }
 
+// A bank of 16² textures, one solid colour per entry, with the entries' fits.
+void write_bank_of_fits(const fs::path& bank, const morph::MorphableModel& model, const std::vector<TextureBankEntry>& entries) {
+    TextureBankWriter writer(bank, bank_header_for(model, 16));
+    for (std::size_t t = 0; t < entries.size(); ++t) writer.add(solid_texture(16, static_cast<uchar>(10 * t), 20, 30), entries[t]);
+    writer.commit();
+}
+
 // identity.source = "texture": each sample's shape is the one fitted to its texture's photograph,
 // stored in the bank; banks made before shapes were stored, and configurations without a bank, are
 // refused with the key and the bank named.
@@ -140,15 +147,9 @@ TEST_F(TextureBankTest, TextureIdentityIsTheShapeStoredWithTheDrawnTexture) {
     std::vector<std::vector<float>> shapes(3);
     for (std::size_t t = 0; t < shapes.size(); ++t)
         for (int k = 0; k < components; ++k) shapes[t].push_back(0.1f * static_cast<float>(t + 1) - 0.01f * static_cast<float>(k));
-    {
-        TextureBankWriter writer(dir / "bank", bank_header_for(*model_, 16));
-        for (std::size_t t = 0; t < shapes.size(); ++t) {
-            TextureBankEntry e;
-            e.shape = shapes[t];
-            writer.add(solid_texture(16, static_cast<uchar>(10 * t), 20, 30), e);
-        }
-        writer.commit();
-    }
+    std::vector<TextureBankEntry> entries(shapes.size());
+    for (std::size_t t = 0; t < shapes.size(); ++t) entries[t].shape = shapes[t];
+    write_bank_of_fits(dir / "bank", *model_, entries);
     const ImageLibrary library = load_texture_bank(dir / "bank", *model_);
     ASSERT_EQ(library.fits().size(), 3u);
     EXPECT_EQ(library.fits()[2].shape, shapes[2]);  // through bank.json and back
@@ -192,15 +193,9 @@ TEST_F(TextureBankTest, TextureExpressionIsTheExpressionStoredWithTheDrawnTextur
     std::vector<std::vector<float>> expressions(3, std::vector<float>(components, 0.0f));
     expressions[1][0] = 0.7f;
     expressions[2].back() = 0.4f;
-    {
-        TextureBankWriter writer(dir / "bank", bank_header_for(*model_, 16));
-        for (std::size_t t = 0; t < expressions.size(); ++t) {
-            TextureBankEntry e;
-            e.expression = expressions[t];
-            writer.add(solid_texture(16, static_cast<uchar>(10 * t), 20, 30), e);
-        }
-        writer.commit();
-    }
+    std::vector<TextureBankEntry> entries(expressions.size());
+    for (std::size_t t = 0; t < expressions.size(); ++t) entries[t].expression = expressions[t];
+    write_bank_of_fits(dir / "bank", *model_, entries);
     const ImageLibrary library = load_texture_bank(dir / "bank", *model_);
     ASSERT_EQ(library.fits().size(), 3u);
     EXPECT_EQ(library.fits()[1].expression, expressions[1]);  // through bank.json and back
