@@ -7,7 +7,8 @@
 #                             (background.type = wallpapers); photos: `facesynth backgrounds`, the
 #                             photographs with their annotated face cut away
 #   3. facesynth synth        COUNT renders (default 36000): each texture on its own photograph's fitted shape and
-#                             expression, the backgrounds, yaw ±60°, long lenses (fov 4-20°) and degradations
+#                             expression, the backgrounds, yaw ±60° (uniform), pitch and roll as photographs have
+#                             them (normal, σ 10° and 8°), long lenses (fov 4-20°) and degradations
 #                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
@@ -25,7 +26,7 @@ while [[ $# -gt 0 ]]; do
         --seed) seed=$2; shift 2 ;;
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
-        -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -51,6 +52,7 @@ if [[ $backgrounds == photos ]]; then
 fi
 "$facesynth" synth --out "$work/train" --overwrite --count "$count" --seed "$seed" --threads "$threads" "${quiet[@]}" \
     --set pose.yaw.min=-60 --set pose.yaw.max=60 \
+    --set pose.pitch.distribution=normal --set pose.pitch.stddev=10 --set pose.roll.distribution=normal --set pose.roll.stddev=8 \
     --set albedo.texture_bank="$work/bank" --set identity.source=texture --set expression.source=texture \
     --set camera.fov_min=4 --set camera.fov_max=20 \
     "${background[@]}" \
