@@ -288,7 +288,7 @@ SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& 
         core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kIdentity);
         s.alpha = scaled(morph::sample_coefficients(rng, model.num_shape_components(), config.identity.truncation), config.identity.scale);
     }
-    s.psi = sample_expression(config, model, index);
+    if (config.expression.source != "texture") s.psi = sample_expression(config, model, index);  // else the texture's, below
     if (model.num_albedo_components() > 0) {
         std::optional<morph::SkinColourCheck> local_check;
         if (albedo_check == nullptr && config.albedo.reject_implausible) {

@@ -96,9 +96,8 @@ std::vector<std::filesystem::path> annotated_photos(const std::filesystem::path&
     if (!std::filesystem::is_directory(folder)) throw core::file_error(folder.string(), "photo folder not found");
     std::vector<std::filesystem::path> photos;
     for (const auto& entry : std::filesystem::directory_iterator(folder)) {
-        const std::string extension = entry.path().extension().string();
-        if (extension != ".jpg" && extension != ".jpeg" && extension != ".png" && extension != ".JPG" && extension != ".PNG") continue;
-        if (std::filesystem::exists(std::filesystem::path(entry.path()).replace_extension(".pts"))) photos.push_back(entry.path());
+        if (core::is_image_file(entry.path()) && std::filesystem::exists(std::filesystem::path(entry.path()).replace_extension(".pts")))
+            photos.push_back(entry.path());
     }
     std::sort(photos.begin(), photos.end());
     if (photos.empty()) throw core::file_error(folder.string(), "no photograph with a .pts beside it");
@@ -124,19 +123,16 @@ cv::Mat make_tile(const cv::Mat& bgr, const SheetItem& item, int side, bool face
         for (const SheetPoint& p : item.points) x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
         const double scale = side / (1.6 * std::max({x1 - x0, y1 - y0, 1.0}));
         // Shrinking: area averaging first (warpAffine has none), then a shift; enlarging: one bilinear warp.
+        const bool shrink = scale < 1;
         cv::Mat source = bgr;
-        double s = scale, ox = 0, oy = 0;  // image point p -> (p + o) * s - o in `source`
-        if (scale < 1) {
-            cv::resize(bgr, source, cv::Size(), scale, scale, cv::INTER_AREA);
-            s = scale, ox = oy = 0.5;
-        }
-        const auto in_source = [=](double v, double o) { return (v + o) * s - o; };
-        const double tx = 0.5 * (side - 1) - in_source(0.5 * (x0 + x1), ox), ty = 0.5 * (side - 1) - in_source(0.5 * (y0 + y1), oy);
-        const double warp_scale = scale < 1 ? 1.0 : scale;
-        const cv::Mat affine = scale < 1 ? (cv::Mat_<double>(2, 3) << 1, 0, tx, 0, 1, ty)
-                                         : (cv::Mat_<double>(2, 3) << warp_scale, 0, tx, 0, warp_scale, ty);
+        if (shrink) cv::resize(bgr, source, cv::Size(), scale, scale, cv::INTER_AREA);
+        const double o = shrink ? 0.5 : 0.0;  // cv::resize maps pixel centres: p -> (p + 0.5) * scale - 0.5
+        const auto scaled = [=](double v) { return (v + o) * scale - o; };
+        const double tx = 0.5 * (side - 1) - scaled(0.5 * (x0 + x1)), ty = 0.5 * (side - 1) - scaled(0.5 * (y0 + y1));
+        const double warp = shrink ? 1.0 : scale;
+        const cv::Mat affine = (cv::Mat_<double>(2, 3) << warp, 0, tx, 0, warp, ty);
         cv::warpAffine(source, tile, affine, cv::Size(side, side), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(30, 30, 30));
-        to_tile = [=](const SheetPoint& p) { return cv::Point2d(in_source(p.x, ox) + tx, in_source(p.y, oy) + ty); };
+        to_tile = [=](const SheetPoint& p) { return cv::Point2d(scaled(p.x) + tx, scaled(p.y) + ty); };
     } else {
         const double scale = static_cast<double>(side) / std::max(bgr.cols, bgr.rows);
         cv::resize(bgr, tile, cv::Size(), scale, scale, cv::INTER_AREA);

@@ -19,7 +19,7 @@ struct ReportArgs {
     std::filesystem::path evals;
     std::string title = "facesynth report";
     int sheet_count = 32;
-    std::string photos;
+    std::filesystem::path photos;
     bool quiet = false;
 };
 
