@@ -1,5 +1,6 @@
 // eos file readers: the Surrey model as shipped, synthetic files of every model version, and the
 // bad-file matrix (each must throw core::Error naming the file, never crash).
+#include "core/atomic_file.h"
 #include "core/byte_io.h"
 #include "morph/eos_io.h"
 #include "core/error.h"
@@ -273,4 +274,21 @@ TEST(EosIo, BadSideFiles) {
             EXPECT_NE(std::string(e.what()).find("c.toml: missing key"), std::string::npos) << e.what();
         }
     }
+}
+
+// --- Kept fuzzer finding -----------------------------------------------------------------------------
+
+TEST(EosIo, KeptTomlFuzzFindingIsRefusedByTheMappingReaderNamingTheFileAndLine) {
+    // fuzz_synth_config: toml11 3.7 read past its buffer (heap-buffer-overflow in
+    // location::reset) on a literal string holding invalid UTF-8. core/toml_file.h refuses the
+    // bytes first.
+    const std::filesystem::path kept =
+        testkit::test_files_dir() / "fuzz_regressions" / "synth_config-toml11-heap-overflow-3ea07958.toml";
+    ASSERT_TRUE(std::filesystem::exists(kept)) << kept;
+    const std::string message = testkit::error_message_of([&] { (void)morph::read_landmark_mapping(kept); });
+    EXPECT_NE(message.find(kept.filename().string()), std::string::npos) << message;
+    EXPECT_NE(message.find("line 2, byte 9: not valid UTF-8"), std::string::npos) << message;
+    const std::string text = core::read_file(kept);
+    const std::string completion = testkit::error_message_of([&] { (void)morph::parse_landmark_completion(text, "kept.toml"); });
+    EXPECT_NE(completion.find("kept.toml: line 2"), std::string::npos) << completion;
 }

@@ -1,8 +1,6 @@
-// The checked TOML reader every TOML file goes through (core/toml_file.h): the UTF-8 validator,
-// the text checks that keep toml11 from reading past its buffer or exhausting the stack, and the
-// fuzzer finding that made them necessary.
-#include "core/atomic_file.h"
-#include "morph/eos_io.h"
+// The checked TOML reader every TOML file goes through (core/toml_file.h): the UTF-8 validator and
+// the text checks that keep toml11 from reading past its buffer or exhausting the stack (the fuzzer
+// finding that made them necessary is kept in tests/morph/test_eos_io.cpp, on the reader it hit).
 #include "core/error.h"
 #include "core/toml_file.h"
 
@@ -24,9 +22,6 @@ std::string repeated(const std::string& unit, int times) {
     for (int i = 0; i < times; ++i) out += unit;
     return out;
 }
-
-const std::filesystem::path kKeptFuzzInput =
-    facesynth::testkit::test_files_dir() / "fuzz_regressions" / "synth_config-toml11-heap-overflow-3ea07958.toml";
 
 }  // namespace
 
@@ -69,17 +64,6 @@ TEST(Utf8, MalformedSequencesAreFoundAtTheirFirstByte) {
         {"\xC3\xA9\xE2\x82\xAC\xE2\x28\xA1", 5, "bad second byte after valid characters"},
     };
     for (const auto& c : cases) EXPECT_EQ(core::first_invalid_utf8(c.text), c.offset) << c.what;
-}
-
-TEST(TomlFile, KeptFuzzFindingIsRefusedByTheMappingReaderNamingTheFileAndLine) {
-    // fuzz_synth_config: toml11 3.7 read past its buffer (heap-buffer-overflow in
-    // location::reset) on a literal string holding invalid UTF-8. The bytes are refused first.
-    ASSERT_TRUE(std::filesystem::exists(kKeptFuzzInput)) << kKeptFuzzInput;
-    const std::string message = testkit::error_message_of([] { (void)morph::read_landmark_mapping(kKeptFuzzInput); });
-    EXPECT_TRUE(contains(message, kKeptFuzzInput.filename().string())) << message;
-    EXPECT_TRUE(contains(message, "line 2, byte 9: not valid UTF-8")) << message;
-    const std::string text = core::read_file(kKeptFuzzInput);
-    EXPECT_TRUE(contains(testkit::error_message_of([&] { (void)morph::parse_landmark_completion(text, "kept.toml"); }), "kept.toml: line 2"));
 }
 
 TEST(TomlFile, InvalidUtf8IsRefusedWhereverItStands) {

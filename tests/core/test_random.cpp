@@ -1,5 +1,4 @@
 #include "core/random.h"
-#include "morph/sampling.h"
 
 #include <gtest/gtest.h>
 
@@ -29,17 +28,4 @@ TEST(Random, NormalHasUnitMoments) {
     }
     EXPECT_NEAR(sum / n, 0.0, 0.01);
     EXPECT_NEAR(sum_sq / n, 1.0, 0.01);
-}
-
-TEST(Random, TruncatedCoefficientsStayInRange) {
-    core::Rng rng(5, 6);
-    const auto c = morph::sample_coefficients(rng, 10000, 2.0);
-    ASSERT_EQ(c.size(), 10000u);
-    for (float x : c) EXPECT_LE(std::abs(x), 2.0f);
-}
-
-TEST(Random, SamplingIsReproducibleFromSeedAndIndex) {
-    core::Rng a = core::make_rng(9, 123, core::RandomStream::kIdentity);
-    core::Rng b = core::make_rng(9, 123, core::RandomStream::kIdentity);
-    EXPECT_EQ(morph::sample_coefficients(a, 63, 3.0), morph::sample_coefficients(b, 63, 3.0));
 }
