@@ -132,14 +132,4 @@ void create_output_folder(const std::filesystem::path& dir) {
     if (error) throw core::file_error(dir.string(), "cannot create the output folder: " + error.message());
 }
 
-nlohmann::json matrix_json(const Eigen::MatrixXd& m) {
-    nlohmann::json rows = nlohmann::json::array();
-    for (Eigen::Index r = 0; r < m.rows(); ++r) {
-        nlohmann::json row = nlohmann::json::array();
-        for (Eigen::Index c = 0; c < m.cols(); ++c) row.push_back(m(r, c));
-        rows.push_back(row);
-    }
-    return rows;
-}
-
 }  // namespace facesynth::cli

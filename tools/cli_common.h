@@ -60,8 +60,6 @@ void create_output_folder(const std::filesystem::path& dir);
 // Writes a flat JSON object atomically to `path` (pretty-printed, trailing newline).
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value);
 
-// A matrix as a JSON array of its rows.
-[[nodiscard]] nlohmann::json matrix_json(const Eigen::MatrixXd& m);
 
 // Encodes an OpenCV image (B G R [A] or grey, 8-bit) as PNG and writes it atomically.
 void write_png_file(const std::filesystem::path& path, const cv::Mat& image);

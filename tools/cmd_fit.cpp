@@ -7,6 +7,7 @@
 #include "fit/dataset_eval.h"
 #include "fit/evaluate.h"
 #include "fit/fit.h"
+#include "fit/fit_record.h"
 #include "fit/overlay.h"
 #include "fit/refine.h"
 #include "core/atomic_file.h"
@@ -65,19 +66,28 @@ void run_fit(const FitArgs& a) {
         if (image.empty()) throw core::file_error(a.image, "cannot read the image");
     }
 
-    fit::FitOptions options;
+    fit::LandmarkFitOptions options;
     const auto subset = morph::landmark_subset(morph::parse_landmark_subset(a.landmark_set));
-    options.subset.assign(subset.begin(), subset.end());
-    options.jaw = parse_jaw(a.jaw);
-    options.lambda = options.expression_lambda = a.lambda;
-    options.iterations = a.iterations;
-    options.shape_components = a.components;
-    options.fit_expression = !a.no_expression;
+    options.fit.subset.assign(subset.begin(), subset.end());
+    options.fit.jaw = parse_jaw(a.jaw);
+    options.fit.lambda = options.fit.expression_lambda = a.lambda;
+    options.fit.iterations = a.iterations;
+    options.fit.shape_components = a.components;
+    options.fit.fit_expression = !a.no_expression;
+    options.refine = a.refine;
+    options.refine_options.landmark_sigma_px = a.sigma;
+    if (!image.empty()) {
+        options.refine_options.intrinsics.width = image.cols;
+        options.refine_options.intrinsics.height = image.rows;
+        options.refine_options.intrinsics.cx = 0.5 * (image.cols - 1);
+        options.refine_options.intrinsics.cy = 0.5 * (image.rows - 1);
+    }
+    options.refine_options.intrinsics.fx = options.refine_options.intrinsics.fy = a.focal;
 
     const fit::Fitter fitter(model);
-    fit::FitResult linear;
+    fit::LandmarkFit fitted;
     try {
-        linear = fitter.fit(landmarks, options);
+        fitted = fit::fit_face(fitter, landmarks, options);
     } catch (const core::Error& e) {
         throw core::file_error(a.landmarks, e.what());
     }
@@ -87,69 +97,19 @@ void run_fit(const FitArgs& a) {
     j["landmarks_file"] = a.landmarks;
     j["landmark_set"] = a.landmark_set;
     j["jaw"] = a.jaw;
-    j["landmarks_used"] = linear.used.size();
-    j["refined"] = a.refine;
-    std::vector<float> alpha = linear.alpha, psi = linear.psi;
-    Eigen::Matrix2Xd vertices_px;
-    Eigen::Matrix2Xd fitted_landmarks = linear.projected;
-    const morph::EulerAngles* angles = &linear.pose.angles;
-    Eigen::Matrix3d rotation = linear.pose.rotation;
-    double rms = linear.reprojection_rms_px;
-    fit::RefineResult refined;
-    j["linear_reprojection_rms_px"] = linear.reprojection_rms_px;
-    j["linear_scale_px_per_mm"] = linear.pose.scale;
-    j["linear_translation_px"] = {linear.pose.translation.x(), linear.pose.translation.y()};
-    j["affine_camera"] = matrix_json(linear.camera.matrix);
-    j["iterations"] = linear.iterations;
-    if (a.refine) {
-        fit::RefineOptions r;
-        r.landmark_sigma_px = a.sigma;
-        if (!image.empty()) {
-            r.intrinsics.width = image.cols;
-            r.intrinsics.height = image.rows;
-            r.intrinsics.cx = 0.5 * (image.cols - 1);
-            r.intrinsics.cy = 0.5 * (image.rows - 1);
-        }
-        r.intrinsics.fx = r.intrinsics.fy = a.focal;
-        refined = fit::refine(fitter, landmarks, linear, options, r);
-        alpha = refined.alpha;
-        psi = refined.psi;
-        angles = &refined.angles;
-        rotation = refined.pose.rotation;
-        rms = refined.reprojection_rms_px;
-        fitted_landmarks = refined.projected;
-        j["focal_px"] = refined.intrinsics.fx;
-        j["cx"] = refined.intrinsics.cx;
-        j["cy"] = refined.intrinsics.cy;
-        j["translation_mm"] = {refined.pose.translation.x(), refined.pose.translation.y(), refined.pose.translation.z()};
-        j["refine_iterations"] = refined.iterations;
-    }
-    j["yaw_deg"] = angles->yaw;
-    j["pitch_deg"] = angles->pitch;
-    j["roll_deg"] = angles->roll;
-    j["rotation"] = matrix_json(rotation);
-    j["alpha"] = alpha;
-    j["psi"] = psi;
-    j["reprojection_rms_px"] = rms;
-
-    const morph::Mesh mesh = model.instance(alpha, psi);
-    vertices_px.resize(2, mesh.num_vertices());
-    if (a.refine) {
-        vertices_px = project(refined.intrinsics, refined.pose, mesh.vertices);
-    } else {
-        for (int v = 0; v < mesh.num_vertices(); ++v) vertices_px.col(v) = linear.camera.project(mesh.vertices.col(v).cast<double>());
-    }
+    fit::write_json(j, fitted);
     const std::filesystem::path out(a.out);
     create_output_folder(out);
-    morph::write_obj(mesh, out / "mesh.obj");
-    morph::write_glb(mesh, out / "mesh.glb");
-    if (!image.empty()) write_png_file(out / "overlay.png", fit::draw_fit_overlay(image, vertices_px, mesh.triangles, landmarks, fitted_landmarks));
+    morph::write_obj(fitted.mesh, out / "mesh.obj");
+    morph::write_glb(fitted.mesh, out / "mesh.glb");
+    if (!image.empty())
+        write_png_file(out / "overlay.png", fit::draw_fit_overlay(image, fitted.vertices_px, fitted.mesh.triangles, landmarks, fitted.projected));
     j["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     write_json_file(out / "fit.json", j);
     if (!a.json.empty()) write_json_file(a.json, j);
     if (!a.quiet)
-        std::printf("yaw %.1f pitch %.1f roll %.1f deg, reprojection %.2f px (%zu landmarks) -> %s\n", angles->yaw, angles->pitch,
-                    angles->roll, rms, linear.used.size(), out.string().c_str());
+        std::printf("yaw %.1f pitch %.1f roll %.1f deg, reprojection %.2f px (%zu landmarks) -> %s\n", fitted.angles.yaw, fitted.angles.pitch,
+                    fitted.angles.roll, fitted.reprojection_rms_px, fitted.linear.used.size(), out.string().c_str());
 }
 
 struct LambdaArgs {

@@ -4,6 +4,7 @@
 #include "cli_common.h"
 #include "commands.h"
 
+#include "fit/fit_record.h"
 #include "frontal/benchmark.h"
 #include "frontal/evaluate.h"
 #include "frontal/image_metrics.h"
@@ -144,16 +145,7 @@ nlohmann::json face_record(const fs::path& image, int face, const std::string& s
     nlohmann::json points = nlohmann::json::array();
     for (Eigen::Index i = 0; i < landmarks.cols(); ++i) points.push_back({landmarks(0, i), landmarks(1, i)});
     j["landmarks"] = points;
-    j["yaw_deg"] = r.fit.pose.angles.yaw;
-    j["pitch_deg"] = r.fit.pose.angles.pitch;
-    j["roll_deg"] = r.fit.pose.angles.roll;
-    j["rotation"] = matrix_json(r.fit.pose.rotation);
-    j["scale_px_per_mm"] = r.fit.pose.scale;
-    j["translation_px"] = {r.fit.pose.translation.x(), r.fit.pose.translation.y()};
-    j["affine_camera"] = matrix_json(r.fit.camera.matrix);
-    j["alpha"] = r.fit.alpha;
-    j["psi"] = r.fit.psi;
-    j["reprojection_rms_px"] = r.fit.reprojection_rms_px;
+    fit::write_json(j, r.fit);
     j["isomap_size"] = o.isomap.size;
     j["frontal_size"] = o.frontal.size;
     j["mirror_fill"] = o.mirror_fill;
