@@ -6,6 +6,7 @@
 #include "render/gl_functions.h"
 #include "render/gl_program.h"
 #include "render/shaders.h"
+#include "render/shadow_maps.h"
 #include "render/triangle_list.h"
 
 #include <Eigen/Geometry>
@@ -43,6 +44,14 @@ namespace {
 
 Eigen::Matrix3d model_to_camera_rotation(const morph::CameraPose& pose) { return morph::model_to_camera_flip() * pose.rotation; }
 
+// Model space to camera space (OpenCV axes) as a 4 x 4 matrix.
+Eigen::Matrix4d model_to_camera(const Camera& camera) {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() = model_to_camera_rotation(camera.pose);
+    m.topRightCorner<3, 1>() = camera.pose.translation;
+    return m;
+}
+
 }  // namespace
 
 Eigen::Vector2d project_point(const Camera& camera, const Eigen::Vector3d& model_point) {
@@ -62,131 +71,6 @@ Eigen::Matrix2Xd project_points(const Camera& camera, const Eigen::Matrix3Xf& mo
 namespace {
 
 using detail::GlFunctions;
-
-// EGL failing and OSMesa taking over is worth one line on stderr per process (not one per
-// renderer or thread): rendering works, only slower or without a hardware device.
-void warn_egl_fallback(const std::string& egl_failure) {
-    static std::atomic<bool> warned{false};
-    if (!warned.exchange(true))
-        std::fprintf(stderr, "facesynth: warning: EGL unavailable (%s); rendering with OSMesa\n", egl_failure.c_str());
-}
-
-}  // namespace
-
-namespace detail {
-
-std::unique_ptr<GlContext> open_context(const RendererOptions& options) {
-    const Backend backend = options.backend;
-    std::unique_ptr<GlContext> context;
-    std::string failures;
-    if (backend != Backend::kOsmesa) {
-        try {
-            context = create_egl_context(options.allow_gpu_device, options.software_display % 2 != 0);
-        } catch (const core::Error& e) {
-            if (backend == Backend::kEgl) throw;
-            failures = e.what();
-        }
-    }
-    if (!context) {
-        try {
-            context = create_osmesa_context();
-        } catch (const core::Error& e) {
-            if (backend == Backend::kOsmesa) throw;
-            throw core::Error("render: no OpenGL backend available (" + failures + "; " + e.what() + ")");
-        }
-        if (!failures.empty()) warn_egl_fallback(failures);
-    }
-    return context;
-}
-
-// The clip matrix for a pinhole (or orthographic) camera given in OpenCV pixels. Window x = u + 0.5
-// (pixel u's centre), window y = v + 0.5 with GL row 0 holding image row 0, so read-back needs no
-// flip. z_ndc runs from -1 at `near` to +1 at `far` (camera-space z, mm).
-Eigen::Matrix4d clip_from_camera(const Camera& camera, double near, double far) {
-    const morph::Intrinsics& k = camera.intrinsics;
-    const double w = k.width, h = k.height;
-    Eigen::Matrix4d p = Eigen::Matrix4d::Zero();
-    if (camera.projection == Projection::kPerspective) {
-        p(0, 0) = 2.0 * k.fx / w;
-        p(0, 2) = 2.0 * (k.cx + 0.5) / w - 1.0;
-        p(1, 1) = 2.0 * k.fy / h;
-        p(1, 2) = 2.0 * (k.cy + 0.5) / h - 1.0;
-        p(2, 2) = (far + near) / (far - near);
-        p(2, 3) = -2.0 * far * near / (far - near);
-        p(3, 2) = 1.0;
-    } else {
-        p(0, 0) = 2.0 * k.fx / w;
-        p(0, 3) = 2.0 * (k.cx + 0.5) / w - 1.0;
-        p(1, 1) = 2.0 * k.fy / h;
-        p(1, 3) = 2.0 * (k.cy + 0.5) / h - 1.0;
-        p(2, 2) = 2.0 / (far - near);
-        p(2, 3) = -(far + near) / (far - near);
-        p(3, 3) = 1.0;
-    }
-    return p;
-}
-
-DepthRange depth_range(const Camera& camera, const Eigen::Vector3f& low, const Eigen::Vector3f& high) {
-    const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
-    const double radius = 0.5 * (high - low).cast<double>().norm();
-    const double centre_z = (model_to_camera_rotation(camera.pose) * centre + camera.pose.translation).z();
-    const double margin = 1.0 + 0.01 * radius;
-    double far = centre_z + radius + margin, near = centre_z - radius - margin;
-    if (camera.projection == Projection::kPerspective) near = std::max(near, std::max(1e-3, far * 1e-4));
-    if (far <= near) far = near + 1.0;
-    return {near, far};
-}
-
-GLuint compile_shader(const GlFunctions& gl, GLenum type, const std::string& source) {
-    const GLuint shader = gl.CreateShader(type);
-    const char* text = source.c_str();
-    gl.ShaderSource(shader, 1, &text, nullptr);
-    gl.CompileShader(shader);
-    GLint ok = 0;
-    gl.GetShaderiv(shader, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        std::array<char, 4096> log{};
-        gl.GetShaderInfoLog(shader, static_cast<GLsizei>(log.size()), nullptr, log.data());
-        gl.DeleteShader(shader);
-        throw core::Error(std::string("render: shader compilation failed: ") + log.data());
-    }
-    return shader;
-}
-
-std::string load_functions(const GlContext& context, GlFunctions& gl) {
-    gl.load([&context](const char* name) { return context.get_proc_address(name); }, context.backend_name());
-    return std::string(reinterpret_cast<const char*>(gl.GetString(GL_RENDERER))) + " | " +
-           reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
-}
-
-void check_gl(const GlFunctions& gl, const char* stage) {
-    const GLenum error = gl.GetError();
-    if (error != GL_NO_ERROR) {
-        char code[16];
-        std::snprintf(code, sizeof code, "0x%04x", error);
-        throw core::Error(std::string("render: OpenGL error ") + code + " during " + stage);
-    }
-}
-
-GLuint link_shaders(const GlFunctions& gl, std::span<const GLuint> shaders) {
-    const GLuint program = gl.CreateProgram();
-    for (GLuint s : shaders) gl.AttachShader(program, s);
-    gl.LinkProgram(program);
-    for (GLuint s : shaders) gl.DeleteShader(s);
-    GLint ok = 0;
-    gl.GetProgramiv(program, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        std::array<char, 4096> log{};
-        gl.GetProgramInfoLog(program, static_cast<GLsizei>(log.size()), nullptr, log.data());
-        gl.DeleteProgram(program);
-        throw core::Error(std::string("render: shader program link failed: ") + log.data());
-    }
-    return program;
-}
-
-}  // namespace detail
-
-namespace {
 
 // Names of vertex attribute locations (shaders.h).
 enum Attribute : GLuint { kPosition = 0, kNormal = 1, kAlbedo = 2, kUv = 3, kTriangle = 4, kNumAttributes = 5 };
@@ -338,52 +222,6 @@ std::vector<Eigen::Vector3d> light_directions_in_camera(const Lighting& lighting
     return directions;
 }
 
-// Shadow-map padding in texels on each side of the mesh's footprint, so that every PCF tap of a
-// mesh point (up to 2 texels away) reads inside the map.
-constexpr int kShadowPadTexels = 3;
-// Depth margin (mm) in front of and behind the mesh in light space.
-constexpr double kShadowDepthMarginMm = 1.0;
-
-// One light's orthographic shadow projection, fitted to the mesh as the light sees it.
-struct ShadowProjection {
-    Eigen::Matrix4d clip_from_camera;  // camera space to the light's clip space
-    double texel_mm = 0;               // the larger side of one texel
-    double depth_range_mm = 0;         // far - near
-};
-
-// Light space: x, y across the beam, z along it (away from the light); the orthographic box is the
-// mesh's bounding box in those axes (a tight fit, recomputed per render), padded by a few texels.
-ShadowProjection fit_shadow_projection(const Eigen::Vector3d& toward_light, const Eigen::Matrix3Xd& camera_points,
-                                       int map_size) {
-    const Eigen::Vector3d along = -toward_light;
-    const Eigen::Vector3d helper = std::abs(along.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-    const Eigen::Vector3d across_x = helper.cross(along).normalized();
-    const Eigen::Vector3d across_y = along.cross(across_x);
-    Eigen::Matrix3d light_from_camera;
-    light_from_camera << across_x.transpose(), across_y.transpose(), along.transpose();
-    Eigen::Vector3d low = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), high = -low;
-    for (Eigen::Index i = 0; i < camera_points.cols(); ++i) {
-        const Eigen::Vector3d p = light_from_camera * camera_points.col(i);
-        low = low.cwiseMin(p);
-        high = high.cwiseMax(p);
-    }
-    const double usable = static_cast<double>(map_size - 2 * kShadowPadTexels) / map_size;
-    Eigen::Matrix4d ortho = Eigen::Matrix4d::Identity();
-    double texel_mm = 0;
-    for (int axis = 0; axis < 2; ++axis) {
-        const double half = std::max(0.5 * (high[axis] - low[axis]), 1e-3) / usable;
-        ortho(axis, axis) = 1.0 / half;
-        ortho(axis, 3) = -0.5 * (high[axis] + low[axis]) / half;
-        texel_mm = std::max(texel_mm, 2.0 * half / map_size);
-    }
-    const double near = low.z() - kShadowDepthMarginMm, far = high.z() + kShadowDepthMarginMm;
-    ortho(2, 2) = 2.0 / (far - near);
-    ortho(2, 3) = -(far + near) / (far - near);
-    Eigen::Matrix4d light = Eigen::Matrix4d::Identity();
-    light.topLeftCorner<3, 3>() = light_from_camera;
-    return {ortho * light, texel_mm, far - near};
-}
-
 // The irradiance-convolved SH coefficients divided by π (Ramamoorthi & Hanrahan): Â_l / π.
 constexpr std::array<float, 9> kShBandScale{1.0f, 2.0f / 3.0f, 2.0f / 3.0f, 2.0f / 3.0f, 0.25f, 0.25f, 0.25f, 0.25f, 0.25f};
 
@@ -414,9 +252,6 @@ bool uniform_albedo(const morph::Mesh& mesh) {
     return true;
 }
 
-// Texture unit of the shadow maps (unit 0 holds the albedo texture).
-constexpr GLint kShadowTextureUnit = 1;
-constexpr int kMinShadowMapSize = 16;
 constexpr int kMaxSupersampling = 4;
 
 // Single-sample colour attachments by shader output location, then the depth attachment.
@@ -454,14 +289,7 @@ struct Renderer::Impl {
     std::vector<std::uint8_t> triangle_labels;
     cv::Mat rgba;                 // 8-bit colour + coverage read-back
     cv::Mat vectors;              // RGBA float read-back (normals, barycentrics)
-    // Shadow maps (created on the first render with shadows, kept for later ones): one depth layer
-    // per light, re-created only when the map size or a larger light count asks for it.
-    GLuint shadow_fbo = 0;
-    GLuint shadow_texture = 0;
-    int shadow_size = 0, shadow_layers = 0;
-    Eigen::Matrix3Xd camera_points;  // mesh vertices in camera space, for fitting the light boxes
-    std::array<float, 64> shadow_from_camera{};  // 4 column-major 4x4 matrices
-    std::array<float, 4> shadow_texel_depth{};
+    detail::ShadowMaps shadow_maps{gl};  // created on the first render with shadows, kept for later ones
     double near_plane = 0, far_plane = 0;
     bool perspective = true;
 
@@ -507,8 +335,7 @@ struct Renderer::Impl {
         gl.DeleteFramebuffers(1, &fbo);
         gl.DeleteFramebuffers(1, &msaa_fbo);
         gl.DeleteTextures(1, &texture);
-        if (shadow_fbo) gl.DeleteFramebuffers(1, &shadow_fbo);
-        if (shadow_texture) gl.DeleteTextures(1, &shadow_texture);
+        shadow_maps.release();
         gl.DeleteBuffers(1, &index_buffer);
         gl.DeleteBuffers(static_cast<GLsizei>(vertex_buffers.size()), vertex_buffers.data());
         gl.DeleteVertexArrays(1, &vao);
@@ -692,13 +519,10 @@ struct Renderer::Impl {
     }
 
     void set_uniforms(const Program& program, const Camera& camera, const Lighting& lighting) {
-        const Eigen::Matrix3d rotation = model_to_camera_rotation(camera.pose);
-        Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
-        model_to_camera.topLeftCorner<3, 3>() = rotation;
-        model_to_camera.topRightCorner<3, 1>() = camera.pose.translation;
+        const Eigen::Matrix4d to_camera = model_to_camera(camera);
         choose_depth_range(camera);
-        const Eigen::Matrix4f model_to_clip = (detail::clip_from_camera(camera, near_plane, far_plane) * model_to_camera).cast<float>();
-        const Eigen::Matrix4f model_to_camera_f = model_to_camera.cast<float>();
+        const Eigen::Matrix4f model_to_clip = (detail::clip_from_camera(camera, near_plane, far_plane) * to_camera).cast<float>();
+        const Eigen::Matrix4f model_to_camera_f = to_camera.cast<float>();
         gl.UseProgram(program.id);
         gl.UniformMatrix4fv(program.model_to_clip, 1, GL_FALSE, model_to_clip.data());
         gl.UniformMatrix4fv(program.model_to_camera, 1, GL_FALSE, model_to_camera_f.data());
@@ -728,89 +552,16 @@ struct Renderer::Impl {
         gl.Uniform4fv(program.window_to_ray, 1, window_to_ray.data());
         gl.Uniform1i(program.albedo_texture, 0);
         if (program.shadow_maps >= 0) {
-            gl.Uniform1i(program.shadow_maps, kShadowTextureUnit);
-            gl.UniformMatrix4fv(program.shadow_from_camera, 4, GL_FALSE, shadow_from_camera.data());
-            gl.Uniform1fv(program.shadow_texel_depth, 4, shadow_texel_depth.data());
-            gl.Uniform1f(program.shadow_texel, 1.0f / static_cast<float>(shadow_size));
+            gl.Uniform1i(program.shadow_maps, detail::kShadowTextureUnit);
+            gl.UniformMatrix4fv(program.shadow_from_camera, 4, GL_FALSE, shadow_maps.lookup_from_camera().data());
+            gl.Uniform1fv(program.shadow_texel_depth, 4, shadow_maps.texel_depth().data());
+            gl.Uniform1f(program.shadow_texel, 1.0f / static_cast<float>(shadow_maps.size()));
         }
     }
 
-    // Depth textures for `layers` lights at `size`²; the texture object is made once and its storage
-    // replaced only when the size changes or more lights than ever before need a layer.
-    void ensure_shadow_maps(int size, int layers) {
-        if (shadow_texture && size == shadow_size && layers <= shadow_layers) return;
-        if (size == shadow_size) layers = std::max(layers, shadow_layers);
-        if (!shadow_fbo) gl.GenFramebuffers(1, &shadow_fbo);
-        if (!shadow_texture) gl.GenTextures(1, &shadow_texture);
-        gl.ActiveTexture(GL_TEXTURE0 + kShadowTextureUnit);
-        gl.BindTexture(GL_TEXTURE_2D_ARRAY, shadow_texture);
-        gl.TexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_DEPTH_COMPONENT32F, size, size, layers, 0, GL_DEPTH_COMPONENT, GL_FLOAT,
-                      nullptr);
-        // Bilinear comparisons: each tap is a 2x2 percentage-closer filter in itself.
-        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
-        gl.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
-        gl.ActiveTexture(GL_TEXTURE0);
-        gl.BindFramebuffer(GL_FRAMEBUFFER, shadow_fbo);
-        gl.FramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, shadow_texture, 0, 0);
-        const GLenum none = GL_NONE;
-        gl.DrawBuffers(1, &none);
-        gl.ReadBuffer(GL_NONE);
-        if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw core::Error("render: shadow-map framebuffer incomplete at " + std::to_string(size) + "x" + std::to_string(size));
-        shadow_size = size;
-        shadow_layers = layers;
-        check("creating shadow maps");
-    }
+    [[nodiscard]] GLsizei index_count() const { return static_cast<GLsizei>(topology.indices.size()); }
 
-    // One depth-only pass per light, seen along the light with an orthographic box fitted to the mesh;
-    // fills the lookup matrices and bias scales that set_uniforms hands to the shading pass.
-    void render_shadow_maps(const morph::Mesh& mesh, const Camera& camera, const std::vector<Eigen::Vector3d>& toward_lights,
-                            int size) {
-        if (size < kMinShadowMapSize || size > max_texture_size)
-            throw core::Error("render: shadow_map_size " + std::to_string(size) + " is out of range [" +
-                        std::to_string(kMinShadowMapSize) + ", " + std::to_string(max_texture_size) + "]");
-        ensure_shadow_maps(size, static_cast<int>(toward_lights.size()));
-        Eigen::Matrix4d model_to_camera = Eigen::Matrix4d::Identity();
-        model_to_camera.topLeftCorner<3, 3>() = model_to_camera_rotation(camera.pose);
-        model_to_camera.topRightCorner<3, 1>() = camera.pose.translation;
-        camera_points.resize(3, mesh.num_vertices());
-        camera_points.noalias() = model_to_camera.topLeftCorner<3, 3>() * mesh.vertices.cast<double>();
-        camera_points.colwise() += camera.pose.translation;
-        const Program& depth_only = program(kDepthOnly);
-        gl.UseProgram(depth_only.id);
-        gl.BindFramebuffer(GL_FRAMEBUFFER, shadow_fbo);
-        gl.Viewport(0, 0, size, size);
-        gl.Scissor(0, 0, size, size);  // the image's scissor (ensure_targets) would clip the map
-        gl.Disable(GL_CULL_FACE);  // open meshes cast shadows with either side
-        Eigen::Matrix4d texture_from_clip = 0.5 * Eigen::Matrix4d::Identity();
-        texture_from_clip(3, 3) = 1.0;
-        texture_from_clip.topRightCorner<3, 1>().setConstant(0.5);
-        const float far_depth = 1.0f;
-        for (std::size_t i = 0; i < toward_lights.size(); ++i) {
-            const ShadowProjection projection = fit_shadow_projection(toward_lights[i], camera_points, size);
-            const Eigen::Matrix4f clip = (projection.clip_from_camera * model_to_camera).cast<float>();
-            gl.FramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, shadow_texture, 0, static_cast<GLint>(i));
-            gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
-            gl.UniformMatrix4fv(depth_only.model_to_clip, 1, GL_FALSE, clip.data());
-            draw();
-            const Eigen::Matrix4f lookup = (texture_from_clip * projection.clip_from_camera).cast<float>();
-            std::copy(lookup.data(), lookup.data() + 16, shadow_from_camera.begin() + static_cast<std::ptrdiff_t>(16 * i));
-            shadow_texel_depth[i] = static_cast<float>(projection.texel_mm / projection.depth_range_mm);
-        }
-        gl.Scissor(0, 0, width, height);
-        gl.ActiveTexture(GL_TEXTURE0 + kShadowTextureUnit);
-        gl.BindTexture(GL_TEXTURE_2D_ARRAY, shadow_texture);
-        gl.ActiveTexture(GL_TEXTURE0);
-        check("rendering shadow maps");
-    }
-
-    void draw() {
-        gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(topology.indices.size()), GL_UNSIGNED_INT, nullptr);
-    }
+    void draw() { gl.DrawElements(GL_TRIANGLES, index_count(), GL_UNSIGNED_INT, nullptr); }
 
     void render(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame,
                 const MeshExtras& extras) {
@@ -827,8 +578,13 @@ struct Renderer::Impl {
         const bool with_texture = extras.texture != nullptr;
         upload_mesh(mesh, extras, with_texture);
         const bool with_shadows = settings.lighting.shadows && !settings.lighting.lights.empty();
-        if (with_shadows)
-            render_shadow_maps(mesh, camera, light_directions_in_camera(settings.lighting), settings.shadow_map_size);
+        if (with_shadows) {
+            const Program& depth_only = program(kDepthOnly);
+            shadow_maps.render(mesh.vertices, model_to_camera(camera), light_directions_in_camera(settings.lighting), settings.shadow_map_size,
+                               max_texture_size, depth_only.id, depth_only.model_to_clip, index_count());
+            gl.Scissor(0, 0, width, height);
+            check("rendering shadow maps");
+        }
         if (settings.cull_back_faces)
             gl.Enable(GL_CULL_FACE);
         else
