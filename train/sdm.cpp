@@ -188,9 +188,9 @@ double landmark_nme(const Eigen::Matrix2Xd& predicted, const Eigen::Matrix2Xd& t
     return (predicted - truth).colwise().norm().mean() / morph::inter_ocular_distance(truth);
 }
 
-SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, const SdmTrainOptions& options) {
-    for (const auto& f : faces)
-        if (f.truth.cols() != morph::kNumIbugLandmarks) throw core::Error("SDM training needs 68-point landmarks");
+namespace {
+
+void validate_options(const SdmTrainOptions& options) {
     if (options.augment < 1) throw core::Error("SDM training: --augment must be at least 1");
     if (options.lambda_factors.empty()) throw core::Error("SDM training: no λ factor given");
     for (double f : options.lambda_factors)
@@ -205,32 +205,33 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
             throw core::Error("SDM training: ranks must be between 1 and " + std::to_string(2 * morph::kNumIbugLandmarks));
     if (options.validation_share < 0 || options.validation_share >= 1)
         throw core::Error("SDM training: the validation share must be in [0, 1)");
-    const auto settings = options.stage_settings.empty() ? default_stage_settings(options.stages, options.jaw_features_from)
-                                                         : options.stage_settings;
+}
 
-    // Held-out validation faces: every k-th one.
-    std::vector<std::size_t> train_faces, validation_faces;
+struct FaceSplit {
+    std::vector<std::size_t> train, validation;
+};
+
+// Held-out validation faces: every k-th one.
+FaceSplit split_faces(std::size_t count, const SdmTrainOptions& options) {
+    FaceSplit split;
     const std::size_t stride =
         options.validation_share > 0 ? static_cast<std::size_t>(std::max(2.0, std::round(1 / options.validation_share))) : 0;
-    for (std::size_t f = 0; f < faces.size(); ++f)
-        (stride && f % stride == stride - 1 ? validation_faces : train_faces).push_back(f);
-    if (train_faces.size() < 2)
-        throw core::Error("SDM training needs at least 2 training faces, got " + std::to_string(train_faces.size()));
+    for (std::size_t f = 0; f < count; ++f) (stride && f % stride == stride - 1 ? split.validation : split.train).push_back(f);
+    if (split.train.size() < 2)
+        throw core::Error("SDM training needs at least 2 training faces, got " + std::to_string(split.train.size()));
     const bool choose = options.lambda_factors.size() > 1 || options.ranks.size() > 1;
-    if (choose && validation_faces.empty())
+    if (choose && split.validation.empty())
         throw core::Error("SDM training: choosing among " + std::to_string(options.lambda_factors.size()) + " λ factors and " +
                     std::to_string(options.ranks.size()) +
                     " ranks needs validation faces (more faces or a larger validation share)");
+    return split;
+}
 
-    SdmModel model;
-    model.num_landmarks = morph::kNumIbugLandmarks;
-    model.hog_cells = options.hog_cells;
-    model.training_faces = static_cast<std::uint32_t>(faces.size());
-    model.augment = static_cast<std::uint32_t>(options.augment);
-
-    // The mean shape in the box frame is the learned box-to-shape alignment: averaged over the training
-    // faces whose box came from the detector (all training faces if there are none), overall and per
-    // detector view.
+// The mean shape in the box frame is the learned box-to-shape alignment: averaged over the training
+// faces whose box came from the detector (all training faces if there are none), overall and per
+// detector view. The spread of the true shapes around their start (detector faces only) becomes the
+// initialisation noise in model.boxes.
+void learn_starts(std::span<const TrainingFace> faces, std::span<const std::size_t> train_faces, BoxStatistics boxes, SdmModel& model) {
     const bool have_detector_faces =
         std::any_of(train_faces.begin(), train_faces.end(), [&](std::size_t f) { return faces[f].box_from_detector; });
     const auto shapes_the_mean = [&](std::size_t f) { return !have_detector_faces || faces[f].box_from_detector; };
@@ -251,13 +252,11 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
     model.mean_shape /= used;
     for (std::size_t v = 0; v < kFaceViews; ++v)
         if (view_used[v] >= kMinViewFaces && view_used[v] < used) model.view_mean_shapes[v] = view_sums[v] / view_used[v];
-    const auto start_shape = [&](std::size_t f) -> const Eigen::Matrix2Xd& { return model.initial_shape(faces[f].view); };
 
-    // Spread of the true shapes around their start (detector faces only): the initialisation noise.
     std::vector<double> dx, dy, scales, rotations;
     for (std::size_t f : train_faces) {
         if (!shapes_the_mean(f)) continue;
-        const Similarity s = fit_similarity(start_shape(f), faces[f].truth);
+        const Similarity s = fit_similarity(model.initial_shape(faces[f].view), faces[f].truth);
         dx.push_back(s.translation.x() / kCanonicalBoxWidth);
         dy.push_back(s.translation.y() / kCanonicalBoxWidth);
         scales.push_back(s.scale);
@@ -269,234 +268,289 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, con
         boxes.init_rotation_std_deg = standard_deviation(rotations);
     }
     model.boxes = boxes;
+}
 
-    // Rows: `augment` perturbed starts per face, training faces first, then validation faces. A start
-    // depends only on (seed, face index, augmentation index).
-    const std::size_t augment = static_cast<std::size_t>(options.augment);
-    const std::size_t train_rows = train_faces.size() * augment;
-    const std::size_t validation_rows = validation_faces.size() * augment;
-    const std::size_t rows = train_rows + validation_rows;
-    std::vector<std::size_t> row_face(rows);
-    for (std::size_t r = 0; r < rows; ++r)
-        row_face[r] = r < train_rows ? train_faces[r / augment] : validation_faces[(r - train_rows) / augment];
-    std::vector<Eigen::Matrix2Xd> shapes(rows);
-    for (std::size_t r = 0; r < rows; ++r) {
-        core::Rng rng(options.seed, row_face[r], kInitStreamBase + r % augment);
-        Similarity s;
-        s.scale = 1 + boxes.init_scale_std * rng.normal();
-        s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
-        s.translation = Eigen::Vector2d(rng.normal(), rng.normal()) * boxes.init_translation_std * kCanonicalBoxWidth;
-        shapes[r] = apply_similarity(start_shape(row_face[r]), s);
+// One (λ factor, rank) pair of a stage and its validation NME.
+struct Candidate {
+    double nme;
+    std::size_t factor_index;
+    int rank;
+};
+
+// The smallest rank within `tolerance` (relative) of the best validation NME, the lower NME among equals.
+const Candidate& choose_candidate(std::span<const Candidate> candidates, double tolerance) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& c : candidates) best = std::min(best, c.nme);
+    const Candidate* chosen = nullptr;
+    for (const auto& c : candidates) {
+        if (c.nme > best * (1 + tolerance)) continue;
+        if (!chosen || c.rank < chosen->rank || (c.rank == chosen->rank && c.nme < chosen->nme)) chosen = &c;
     }
-    const auto face_of = [&](std::size_t row) -> const TrainingFace& { return faces[row_face[row]]; };
-    const auto mean_nme = [&](std::size_t first, std::size_t count) {
-        double sum = 0;
-        for (std::size_t r = first; r < first + count; ++r) sum += landmark_nme(shapes[r], face_of(r).truth);
-        return count ? sum / static_cast<double>(count) : 0.0;
+    return *chosen;
+}
+
+// The cascade's training rows (`augment` perturbed starts per face, training faces first, then
+// validation faces) and the stages learned on them, one after the other.
+class CascadeTrainer {
+public:
+    CascadeTrainer(std::span<const TrainingFace> faces, const FaceSplit& split, const SdmTrainOptions& options, SdmModel& model,
+                   std::span<const SdmStageSettings> settings)
+        : faces_(faces), options_(options), model_(model) {
+        // A start depends only on (seed, face index, augmentation index).
+        const auto augment = static_cast<std::size_t>(options.augment);
+        train_rows_ = split.train.size() * augment;
+        validation_rows_ = split.validation.size() * augment;
+        const std::size_t rows = train_rows_ + validation_rows_;
+        row_face_.resize(rows);
+        for (std::size_t r = 0; r < rows; ++r)
+            row_face_[r] = r < train_rows_ ? split.train[r / augment] : split.validation[(r - train_rows_) / augment];
+        shapes_.resize(rows);
+        const BoxStatistics& boxes = model.boxes;
+        for (std::size_t r = 0; r < rows; ++r) {
+            core::Rng rng(options.seed, row_face_[r], kInitStreamBase + r % augment);
+            Similarity s;
+            s.scale = 1 + boxes.init_scale_std * rng.normal();
+            s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
+            s.translation = Eigen::Vector2d(rng.normal(), rng.normal()) * boxes.init_translation_std * kCanonicalBoxWidth;
+            shapes_[r] = apply_similarity(model.initial_shape(faces[row_face_[r]].view), s);
+        }
+        for (const auto& stage : settings)
+            total_feature_rows_ +=
+                train_rows_ * (train_rows_ < static_cast<std::size_t>(model.feature_dims(stage)) ? 1 : 2) + validation_rows_;
+    }
+
+    // Learns stage k (0-based) with `settings`, applies it to every row and appends it to the model.
+    void train_stage(std::size_t k, const SdmStageSettings& settings);
+
+private:
+    // The full-rank ridge solution for one λ factor: W (2L x D) and b.
+    struct FullSolution {
+        Eigen::MatrixXf weights;
+        Eigen::VectorXf bias;
     };
 
-    const int outputs = 2 * morph::kNumIbugLandmarks;
-    int dims = 0;  // of the current stage
-    std::size_t total_feature_rows = 0;
-    for (const auto& stage : settings)
-        total_feature_rows += train_rows * (train_rows < static_cast<std::size_t>(model.feature_dims(stage)) ? 1 : 2) + validation_rows;
-    std::size_t feature_rows_done = 0;
-    const auto extract_rows = [&](std::size_t first, std::size_t count, const SdmStageSettings& stage, RowMatrixXf& out) {
-        out.resize(static_cast<Eigen::Index>(count), dims);
-        parallel_for(0, count, options.threads, [&](std::size_t i) {
-            sdm_features(face_of(first + i).crop, shapes[first + i], model.hog_cells, stage,
-                         {out.row(static_cast<Eigen::Index>(i)).data(), static_cast<std::size_t>(dims)});
+    [[nodiscard]] const TrainingFace& face_of(std::size_t row) const { return faces_[row_face_[row]]; }
+
+    [[nodiscard]] double mean_nme(std::size_t first, std::size_t count) const {
+        double sum = 0;
+        for (std::size_t r = first; r < first + count; ++r) sum += landmark_nme(shapes_[r], face_of(r).truth);
+        return count ? sum / static_cast<double>(count) : 0.0;
+    }
+
+    void extract_rows(std::size_t first, std::size_t count, const SdmStageSettings& stage, RowMatrixXf& out) {
+        out.resize(static_cast<Eigen::Index>(count), dims_);
+        parallel_for(0, count, options_.threads, [&](std::size_t i) {
+            sdm_features(face_of(first + i).crop, shapes_[first + i], model_.hog_cells, stage,
+                         {out.row(static_cast<Eigen::Index>(i)).data(), static_cast<std::size_t>(dims_)});
         });
-        feature_rows_done += count;
-        if (options.on_progress) options.on_progress(feature_rows_done, total_feature_rows);
-    };
-    const auto targets = [&](std::size_t first, std::size_t count) {
-        Eigen::MatrixXd y(static_cast<Eigen::Index>(count), outputs);
+        feature_rows_done_ += count;
+        if (options_.on_progress) options_.on_progress(feature_rows_done_, total_feature_rows_);
+    }
+
+    // Normalised shape updates (truth − start) / inter-ocular distance of rows [first, first + count).
+    [[nodiscard]] Eigen::MatrixXd targets(std::size_t first, std::size_t count) const {
+        Eigen::MatrixXd y(static_cast<Eigen::Index>(count), kOutputs);
         for (std::size_t i = 0; i < count; ++i) {
-            const auto& shape = shapes[first + i];
+            const auto& shape = shapes_[first + i];
             const Eigen::Matrix2Xd delta = (face_of(first + i).truth - shape) / morph::inter_eye_centre_distance(shape);
-            y.row(static_cast<Eigen::Index>(i)) = Eigen::Map<const Eigen::RowVectorXd>(delta.data(), outputs);
+            y.row(static_cast<Eigen::Index>(i)) = Eigen::Map<const Eigen::RowVectorXd>(delta.data(), kOutputs);
         }
         return y;
-    };
-    // Applies a stage to rows [first, first + features.rows()) of `shapes`.
-    const auto update_rows = [&](std::size_t first, const RowMatrixXf& features, const SdmStage& stage) {
-        const RowMatrixXf delta =
-            ((features * stage.weights.transpose()) * stage.basis.transpose()).rowwise() + stage.bias.transpose();
-        for (Eigen::Index i = 0; i < delta.rows(); ++i) apply_update(shapes[first + static_cast<std::size_t>(i)], delta.row(i).data());
-    };
-
-    for (std::size_t k = 0; k < settings.size(); ++k) {
-        const auto start = std::chrono::steady_clock::now();
-        dims = model.feature_dims(settings[k]);
-        const bool dual = train_rows < static_cast<std::size_t>(dims);
-        SdmStageReport report;
-        report.stage = static_cast<int>(k + 1);
-        report.nme_before = mean_nme(0, train_rows);
-        report.validation_nme_before = mean_nme(train_rows, validation_rows);
-        const double n = static_cast<double>(train_rows);
-
-        RowMatrixXf validation_features;
-        if (validation_rows) extract_rows(train_rows, validation_rows, settings[k], validation_features);
-
-        // The full-rank ridge solution for one λ factor: W (2L x D) and b.
-        struct FullSolution {
-            Eigen::MatrixXf weights;
-            Eigen::VectorXf bias;
-        };
-        std::function<FullSolution(double factor, double& lambda)> solve;
-        RowMatrixXf a;  // dual form: the centred training features, kept for the update
-        Eigen::RowVectorXf mean_x_dual;
-        Eigen::MatrixXd gram_dual, y_centred;
-        Eigen::MatrixXd centred, xty;
-        Eigen::VectorXd mean_x;
-        Eigen::RowVectorXd mean_y;
-        Eigen::MatrixXd target_scatter;  // centred Yᵀ Y of the training rows, 2L x 2L
-        Eigen::RowVectorXf shift;
-        std::optional<LeadingEigenpairs> feature_pca;
-        const std::uint64_t pca_seed = options.seed + k;
-        if (dual) {
-            // Dual form: W = A_cᵀ (A_c A_cᵀ + λI)⁻¹ Y_c, cheaper when there are fewer rows than features.
-            extract_rows(0, train_rows, settings[k], a);
-            const Eigen::MatrixXd y = targets(0, train_rows);
-            mean_x_dual = a.colwise().mean();
-            mean_y = y.colwise().mean();
-            a.rowwise() -= mean_x_dual;
-            gram_dual = (a * a.transpose()).cast<double>();
-            y_centred = y.rowwise() - mean_y;
-            target_scatter = y_centred.transpose() * y_centred;
-            // The Gram matrix's leading eigenvectors are the features' principal components seen
-            // from the rows, with the same eigenvalues (docs/train.md, "Feature PCA").
-            if (options.feature_components > 0)
-                feature_pca = leading_eigenpairs(gram_dual, std::min<int>(options.feature_components, static_cast<int>(train_rows)),
-                                                 pca_seed);
-            solve = [&](double factor, double& lambda) {
-                const Eigen::MatrixXd alpha = ridge_solution(gram_dual, feature_pca, y_centred, factor, n, lambda);
-                FullSolution full;
-                full.weights = (a.transpose() * alpha.cast<float>()).transpose();
-                full.bias = mean_y.transpose().cast<float>() - full.weights * mean_x_dual.transpose();
-                return full;
-            };
-        } else {
-            // Primal form, streamed in chunks: (A_cᵀA_c + λI) W = A_cᵀ Y_c. Features are shifted by the
-            // first chunk's mean before accumulating so that float sums keep their precision.
-            Eigen::MatrixXf gram = Eigen::MatrixXf::Zero(dims, dims);
-            Eigen::VectorXd sum_x = Eigen::VectorXd::Zero(dims);
-            xty = Eigen::MatrixXd::Zero(dims, outputs);
-            Eigen::RowVectorXd sum_y = Eigen::RowVectorXd::Zero(outputs);
-            target_scatter = Eigen::MatrixXd::Zero(outputs, outputs);
-            for (std::size_t first = 0; first < train_rows; first += kChunkRows) {
-                const std::size_t count = std::min(kChunkRows, train_rows - first);
-                extract_rows(first, count, settings[k], a);
-                if (first == 0) shift = a.colwise().mean();
-                a.rowwise() -= shift;
-                const Eigen::MatrixXd y = targets(first, count);
-                gram.selfadjointView<Eigen::Lower>().rankUpdate(a.transpose());
-                sum_x += a.colwise().sum().transpose().cast<double>();
-                xty.noalias() += a.transpose().cast<double>() * y;
-                sum_y += y.colwise().sum();
-                target_scatter.noalias() += y.transpose() * y;
-            }
-            mean_x = sum_x / n;
-            mean_y = sum_y / n;
-            target_scatter.noalias() -= n * mean_y.transpose() * mean_y;
-            centred = gram.cast<double>().selfadjointView<Eigen::Lower>();
-            gram.resize(0, 0);
-            centred.noalias() -= n * mean_x * mean_x.transpose();
-            xty.noalias() -= n * mean_x * mean_y;
-            if (options.feature_components > 0)
-                feature_pca = leading_eigenpairs(centred, std::min(options.feature_components, dims), pca_seed);
-            solve = [&](double factor, double& lambda) {
-                const Eigen::MatrixXd w = ridge_solution(centred, feature_pca, xty, factor, n, lambda);
-                FullSolution full;
-                full.weights = w.transpose().cast<float>();
-                full.bias = (mean_y.transpose() - w.transpose() * (mean_x + shift.transpose().cast<double>())).cast<float>();
-                return full;
-            };
-        }
-        // Principal directions of the targets, largest variance first.
-        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(target_scatter);
-        const Eigen::MatrixXf principal = eigen.eigenvectors().rowwise().reverse().cast<float>();
-        const Eigen::RowVectorXf target_mean = mean_y.cast<float>();
-        const auto reduce = [&](const FullSolution& full, int rank) {
-            SdmStage stage;
-            stage.settings = settings[k];
-            stage.basis = principal.leftCols(rank);
-            stage.weights = stage.basis.transpose() * full.weights;
-            // b_r = ȳ − P Pᵀ (ȳ − b), so that b_r + W_r x = ȳ + P Pᵀ (W x + b − ȳ).
-            stage.bias = target_mean.transpose() - stage.basis * (stage.basis.transpose() * (target_mean.transpose() - full.bias));
-            return stage;
-        };
-        // Held-out NME after applying the (centred, projected) predictions to the validation starts.
-        const auto validation_nme = [&](const RowMatrixXf& delta) {
-            double sum = 0;
-            for (std::size_t i = 0; i < validation_rows; ++i) {
-                Eigen::Matrix2Xd shape = shapes[train_rows + i];
-                apply_update(shape, delta.row(static_cast<Eigen::Index>(i)).data());
-                sum += landmark_nme(shape, face_of(train_rows + i).truth);
-            }
-            return sum / static_cast<double>(validation_rows);
-        };
-
-        struct Candidate {
-            double nme;
-            std::size_t factor_index;
-            int rank;
-        };
-        std::vector<Candidate> candidates;
-        std::vector<FullSolution> solutions;
-        std::vector<double> lambdas;
-        for (std::size_t f = 0; f < options.lambda_factors.size(); ++f) {
-            double lambda = 0;
-            solutions.push_back(solve(options.lambda_factors[f], lambda));
-            lambdas.push_back(lambda);
-            const FullSolution& full = solutions.back();
-            if (!full.weights.allFinite() || !full.bias.allFinite()) continue;
-            if (!choose) {
-                candidates.push_back({0.0, f, options.ranks.front()});
-                continue;
-            }
-            const RowMatrixXf predicted =
-                ((validation_features * full.weights.transpose()).rowwise() + full.bias.transpose()).rowwise() - target_mean;
-            for (int rank : options.ranks) {
-                const auto p = principal.leftCols(rank);
-                const RowMatrixXf delta = ((predicted * p) * p.transpose()).rowwise() + target_mean;
-                candidates.push_back({validation_nme(delta), f, rank});
-            }
-        }
-        if (candidates.empty())
-            throw core::Error("SDM training: stage " + std::to_string(k + 1) + " produced non-finite weights");
-        double best = std::numeric_limits<double>::infinity();
-        for (const auto& c : candidates) best = std::min(best, c.nme);
-        const Candidate* chosen = nullptr;
-        for (const auto& c : candidates) {
-            if (c.nme > best * (1 + options.rank_tolerance)) continue;
-            if (!chosen || c.rank < chosen->rank || (c.rank == chosen->rank && c.nme < chosen->nme)) chosen = &c;
-        }
-        SdmStage stage = reduce(solutions[chosen->factor_index], chosen->rank);
-        report.lambda_factor = options.lambda_factors[chosen->factor_index];
-        report.lambda = lambdas[chosen->factor_index];
-        report.rank = chosen->rank;
-        report.feature_components = feature_pca ? static_cast<int>(feature_pca->values.size()) : 0;
-        solutions.clear();
-
-        if (dual) {
-            a.rowwise() += mean_x_dual;  // the features themselves again
-            update_rows(0, a, stage);
-        } else {
-            for (std::size_t first = 0; first < train_rows; first += kChunkRows) {
-                const std::size_t count = std::min(kChunkRows, train_rows - first);
-                extract_rows(first, count, settings[k], a);
-                update_rows(first, a, stage);
-            }
-        }
-        if (validation_rows) update_rows(train_rows, validation_features, stage);
-        report.nme_after = mean_nme(0, train_rows);
-        report.validation_nme_after = mean_nme(train_rows, validation_rows);
-        report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        model.stages.push_back(std::move(stage));
-        if (options.on_stage) options.on_stage(report);
     }
+
+    // Applies a stage to rows [first, first + features.rows()).
+    void update_rows(std::size_t first, const RowMatrixXf& features, const SdmStage& stage) {
+        const RowMatrixXf delta = ((features * stage.weights.transpose()) * stage.basis.transpose()).rowwise() + stage.bias.transpose();
+        for (Eigen::Index i = 0; i < delta.rows(); ++i) apply_update(shapes_[first + static_cast<std::size_t>(i)], delta.row(i).data());
+    }
+
+    // Held-out NME after applying the (centred, projected) predictions to the validation starts.
+    [[nodiscard]] double validation_nme(const RowMatrixXf& delta) const {
+        double sum = 0;
+        for (std::size_t i = 0; i < validation_rows_; ++i) {
+            Eigen::Matrix2Xd shape = shapes_[train_rows_ + i];
+            apply_update(shape, delta.row(static_cast<Eigen::Index>(i)).data());
+            sum += landmark_nme(shape, face_of(train_rows_ + i).truth);
+        }
+        return sum / static_cast<double>(validation_rows_);
+    }
+
+    static constexpr int kOutputs = 2 * morph::kNumIbugLandmarks;
+
+    std::span<const TrainingFace> faces_;
+    const SdmTrainOptions& options_;
+    SdmModel& model_;
+    std::vector<std::size_t> row_face_;
+    std::vector<Eigen::Matrix2Xd> shapes_;  // every row's current shape
+    std::size_t train_rows_ = 0, validation_rows_ = 0;
+    int dims_ = 0;  // of the current stage's features
+    std::size_t total_feature_rows_ = 0, feature_rows_done_ = 0;
+};
+
+void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings) {
+    const auto start = std::chrono::steady_clock::now();
+    const std::size_t train_rows = train_rows_, validation_rows = validation_rows_;
+    const bool choose = options_.lambda_factors.size() > 1 || options_.ranks.size() > 1;
+    dims_ = model_.feature_dims(settings);
+    const bool dual = train_rows < static_cast<std::size_t>(dims_);
+    SdmStageReport report;
+    report.stage = static_cast<int>(k + 1);
+    report.nme_before = mean_nme(0, train_rows);
+    report.validation_nme_before = mean_nme(train_rows, validation_rows);
+    const double n = static_cast<double>(train_rows);
+
+    RowMatrixXf validation_features;
+    if (validation_rows) extract_rows(train_rows, validation_rows, settings, validation_features);
+
+    std::function<FullSolution(double factor, double& lambda)> solve;
+    RowMatrixXf a;  // dual form: the centred training features, kept for the update
+    Eigen::RowVectorXf mean_x_dual;
+    Eigen::MatrixXd gram_dual, y_centred;
+    Eigen::MatrixXd centred, xty;
+    Eigen::VectorXd mean_x;
+    Eigen::RowVectorXd mean_y;
+    Eigen::MatrixXd target_scatter;  // centred Yᵀ Y of the training rows, 2L x 2L
+    Eigen::RowVectorXf shift;
+    std::optional<LeadingEigenpairs> feature_pca;
+    const std::uint64_t pca_seed = options_.seed + k;
+    if (dual) {
+        // Dual form: W = A_cᵀ (A_c A_cᵀ + λI)⁻¹ Y_c, cheaper when there are fewer rows than features.
+        extract_rows(0, train_rows, settings, a);
+        const Eigen::MatrixXd y = targets(0, train_rows);
+        mean_x_dual = a.colwise().mean();
+        mean_y = y.colwise().mean();
+        a.rowwise() -= mean_x_dual;
+        gram_dual = (a * a.transpose()).cast<double>();
+        y_centred = y.rowwise() - mean_y;
+        target_scatter = y_centred.transpose() * y_centred;
+        // The Gram matrix's leading eigenvectors are the features' principal components seen
+        // from the rows, with the same eigenvalues (docs/train.md, "Feature PCA").
+        if (options_.feature_components > 0)
+            feature_pca = leading_eigenpairs(gram_dual, std::min<int>(options_.feature_components, static_cast<int>(train_rows)), pca_seed);
+        solve = [&](double factor, double& lambda) {
+            const Eigen::MatrixXd alpha = ridge_solution(gram_dual, feature_pca, y_centred, factor, n, lambda);
+            FullSolution full;
+            full.weights = (a.transpose() * alpha.cast<float>()).transpose();
+            full.bias = mean_y.transpose().cast<float>() - full.weights * mean_x_dual.transpose();
+            return full;
+        };
+    } else {
+        // Primal form, streamed in chunks: (A_cᵀA_c + λI) W = A_cᵀ Y_c. Features are shifted by the
+        // first chunk's mean before accumulating so that float sums keep their precision.
+        Eigen::MatrixXf gram = Eigen::MatrixXf::Zero(dims_, dims_);
+        Eigen::VectorXd sum_x = Eigen::VectorXd::Zero(dims_);
+        xty = Eigen::MatrixXd::Zero(dims_, kOutputs);
+        Eigen::RowVectorXd sum_y = Eigen::RowVectorXd::Zero(kOutputs);
+        target_scatter = Eigen::MatrixXd::Zero(kOutputs, kOutputs);
+        for (std::size_t first = 0; first < train_rows; first += kChunkRows) {
+            const std::size_t count = std::min(kChunkRows, train_rows - first);
+            extract_rows(first, count, settings, a);
+            if (first == 0) shift = a.colwise().mean();
+            a.rowwise() -= shift;
+            const Eigen::MatrixXd y = targets(first, count);
+            gram.selfadjointView<Eigen::Lower>().rankUpdate(a.transpose());
+            sum_x += a.colwise().sum().transpose().cast<double>();
+            xty.noalias() += a.transpose().cast<double>() * y;
+            sum_y += y.colwise().sum();
+            target_scatter.noalias() += y.transpose() * y;
+        }
+        mean_x = sum_x / n;
+        mean_y = sum_y / n;
+        target_scatter.noalias() -= n * mean_y.transpose() * mean_y;
+        centred = gram.cast<double>().selfadjointView<Eigen::Lower>();
+        gram.resize(0, 0);
+        centred.noalias() -= n * mean_x * mean_x.transpose();
+        xty.noalias() -= n * mean_x * mean_y;
+        if (options_.feature_components > 0) feature_pca = leading_eigenpairs(centred, std::min(options_.feature_components, dims_), pca_seed);
+        solve = [&](double factor, double& lambda) {
+            const Eigen::MatrixXd w = ridge_solution(centred, feature_pca, xty, factor, n, lambda);
+            FullSolution full;
+            full.weights = w.transpose().cast<float>();
+            full.bias = (mean_y.transpose() - w.transpose() * (mean_x + shift.transpose().cast<double>())).cast<float>();
+            return full;
+        };
+    }
+    // Principal directions of the targets, largest variance first.
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(target_scatter);
+    const Eigen::MatrixXf principal = eigen.eigenvectors().rowwise().reverse().cast<float>();
+    const Eigen::RowVectorXf target_mean = mean_y.cast<float>();
+    const auto reduce = [&](const FullSolution& full, int rank) {
+        SdmStage stage;
+        stage.settings = settings;
+        stage.basis = principal.leftCols(rank);
+        stage.weights = stage.basis.transpose() * full.weights;
+        // b_r = ȳ − P Pᵀ (ȳ − b), so that b_r + W_r x = ȳ + P Pᵀ (W x + b − ȳ).
+        stage.bias = target_mean.transpose() - stage.basis * (stage.basis.transpose() * (target_mean.transpose() - full.bias));
+        return stage;
+    };
+
+    std::vector<Candidate> candidates;
+    std::vector<FullSolution> solutions;
+    std::vector<double> lambdas;
+    for (std::size_t f = 0; f < options_.lambda_factors.size(); ++f) {
+        double lambda = 0;
+        solutions.push_back(solve(options_.lambda_factors[f], lambda));
+        lambdas.push_back(lambda);
+        const FullSolution& full = solutions.back();
+        if (!full.weights.allFinite() || !full.bias.allFinite()) continue;
+        if (!choose) {
+            candidates.push_back({0.0, f, options_.ranks.front()});
+            continue;
+        }
+        const RowMatrixXf predicted =
+            ((validation_features * full.weights.transpose()).rowwise() + full.bias.transpose()).rowwise() - target_mean;
+        for (int rank : options_.ranks) {
+            const auto p = principal.leftCols(rank);
+            const RowMatrixXf delta = ((predicted * p) * p.transpose()).rowwise() + target_mean;
+            candidates.push_back({validation_nme(delta), f, rank});
+        }
+    }
+    if (candidates.empty()) throw core::Error("SDM training: stage " + std::to_string(k + 1) + " produced non-finite weights");
+    const Candidate& chosen = choose_candidate(candidates, options_.rank_tolerance);
+    SdmStage stage = reduce(solutions[chosen.factor_index], chosen.rank);
+    report.lambda_factor = options_.lambda_factors[chosen.factor_index];
+    report.lambda = lambdas[chosen.factor_index];
+    report.rank = chosen.rank;
+    report.feature_components = feature_pca ? static_cast<int>(feature_pca->values.size()) : 0;
+    solutions.clear();
+
+    if (dual) {
+        a.rowwise() += mean_x_dual;  // the features themselves again
+        update_rows(0, a, stage);
+    } else {
+        for (std::size_t first = 0; first < train_rows; first += kChunkRows) {
+            const std::size_t count = std::min(kChunkRows, train_rows - first);
+            extract_rows(first, count, settings, a);
+            update_rows(first, a, stage);
+        }
+    }
+    if (validation_rows) update_rows(train_rows, validation_features, stage);
+    report.nme_after = mean_nme(0, train_rows);
+    report.validation_nme_after = mean_nme(train_rows, validation_rows);
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    model_.stages.push_back(std::move(stage));
+    if (options_.on_stage) options_.on_stage(report);
+}
+
+}  // namespace
+
+SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, const SdmTrainOptions& options) {
+    for (const auto& f : faces)
+        if (f.truth.cols() != morph::kNumIbugLandmarks) throw core::Error("SDM training needs 68-point landmarks");
+    validate_options(options);
+    const auto settings = options.stage_settings.empty() ? default_stage_settings(options.stages, options.jaw_features_from)
+                                                         : options.stage_settings;
+    const FaceSplit split = split_faces(faces.size(), options);
+
+    SdmModel model;
+    model.num_landmarks = morph::kNumIbugLandmarks;
+    model.hog_cells = options.hog_cells;
+    model.training_faces = static_cast<std::uint32_t>(faces.size());
+    model.augment = static_cast<std::uint32_t>(options.augment);
+    learn_starts(faces, split.train, boxes, model);
+
+    CascadeTrainer trainer(faces, split, options, model, settings);
+    for (std::size_t k = 0; k < settings.size(); ++k) trainer.train_stage(k, settings[k]);
     return model;
 }
 
