@@ -21,6 +21,7 @@
 #include <cmath>
 #include <concepts>
 #include <csignal>
+#include <functional>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -28,6 +29,7 @@
 #include <sstream>
 #include <string_view>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -251,13 +253,137 @@ std::vector<std::string> encode_sample(const Sample& sample, const std::vector<S
     return contents;
 }
 
+// The shard's manifest and WebDataset tars while its samples are made: the manifest is rebuilt from
+// what is on disk, then appended to as samples finish; a tar is written when its last sample is.
+// sample_done may be called from any thread.
+class ShardOutputs {
+public:
+    ShardOutputs(const RunOptions& options, const fs::path& root, const std::vector<SampleFile>& files, ResumeScan& scan)
+        : options_(options), config_(options.config), root_(root), files_(files), formats_(parse_formats(config_.output.formats)),
+          tars_(tar_layout(config_)), tar_remaining_(scan.tar_remaining), manifest_path_(options.out / manifest_name(options.shard)) {
+        core::write_file_atomically(manifest_path_, manifest_text({scan.done.begin(), scan.done.end()}, config_));
+        manifest_.reset(std::fopen(manifest_path_.c_str(), "a"));
+        if (!manifest_) throw core::file_error(manifest_path_.string(), "cannot open for appending");
+    }
+
+    // Tars whose samples all exist but that a killed run did not finish; returns how many were written.
+    std::size_t write_unfinished_tars(const ResumeScan& scan) {
+        if (!formats_.wds) return 0;
+        std::size_t written = 0;
+        const std::int64_t unit = shard_unit(config_);
+        for (std::int64_t t = 0; t < tars_.tars(); ++t)
+            if (in_shard(tars_.first(t), options_.shard, unit) && !scan.tar_done[static_cast<std::size_t>(t)] && !tar_remaining_.count(t)) {
+                write_tar(t);
+                ++written;
+            }
+        return written;
+    }
+
+    // After the sample's files are written: its manifest line, the progress callback, and its tar when
+    // it completes one.
+    void sample_done(std::int64_t index) {
+        bool tar_ready = false;
+        {
+            const std::lock_guard lock(mutex_);
+            const std::string line = manifest_entry(index, config_).dump() + "\n";
+            if (std::fputs(line.c_str(), manifest_.get()) < 0 || std::fflush(manifest_.get()) != 0)
+                throw core::file_error(manifest_path_.string(), "write failed (disk full?)");
+            ++generated_;
+            if (formats_.wds) tar_ready = --tar_remaining_[tars_.tar_of(index)] == 0;
+            if (options_.on_sample) options_.on_sample();
+        }
+        if (tar_ready) {
+            write_tar(tars_.tar_of(index));
+            const std::lock_guard lock(mutex_);
+            ++tars_written_;
+        }
+    }
+
+    // The final manifest and COCO file list this shard's samples in index order, whatever the order
+    // they finished in.
+    void finish() {
+        const std::int64_t unit = shard_unit(config_);
+        std::vector<std::int64_t> all;
+        for (std::int64_t i = 0; i < config_.count; ++i)
+            if (in_shard(i, options_.shard, unit)) all.push_back(i);
+        core::write_file_atomically(manifest_path_, manifest_text(all, config_));
+        if (formats_.coco) core::write_file_atomically(options_.out / coco_name(options_.shard), coco_from_meta(options_.out, all, config_).dump() + "\n");
+        if (!formats_.folder && !formats_.coco) {
+            std::error_code ignored;
+            fs::remove_all(options_.out / kStagingFolder, ignored);  // succeeds only when other shards left nothing there either
+        }
+    }
+
+    [[nodiscard]] std::size_t generated() const { return generated_; }
+    [[nodiscard]] std::size_t tars_written() const { return tars_written_; }
+
+private:
+    void write_tar(std::int64_t t) {
+        std::vector<TarMember> members;
+        for (std::int64_t i = tars_.first(t); i < tars_.end(t); ++i)
+            for (const auto& file : files_)
+                members.push_back({sample_key(i) + file.wds_extension, root_ / file.folder / (sample_key(i) + file.suffix)});
+        write_tar_file(options_.out / wds_tar_name(config_, t), members);
+        if (!formats_.folder && !formats_.coco)
+            for (const auto& member : members) fs::remove(member.source);
+    }
+
+    struct FileCloser {
+        void operator()(std::FILE* f) const { std::fclose(f); }
+    };
+
+    const RunOptions& options_;
+    const SynthConfig& config_;
+    const fs::path root_;
+    const std::vector<SampleFile>& files_;
+    const OutputFormats formats_;
+    const TarLayout tars_;
+    std::map<std::int64_t, std::int64_t>& tar_remaining_;
+    const fs::path manifest_path_;
+    std::unique_ptr<std::FILE, FileCloser> manifest_;
+    std::mutex mutex_;  // manifest, tar bookkeeping, progress
+    std::size_t generated_ = 0, tars_written_ = 0;
+};
+
+// Runs worker(0) on the calling thread and worker(1 .. count - 1) on their own; the first exception
+// any of them throws is rethrown here after all have stopped, and `failed` tells the others to stop.
+void run_workers(int count, std::atomic<bool>& failed, const std::function<void(int)>& worker) {
+    std::mutex mutex;
+    std::exception_ptr first_error;
+    const auto guarded = [&](int index) {
+        try {
+            worker(index);
+        } catch (...) {
+            failed = true;
+            const std::lock_guard lock(mutex);
+            if (!first_error) first_error = std::current_exception();
+        }
+    };
+    std::vector<std::thread> threads;
+    for (int t = 1; t < count; ++t) threads.emplace_back(guarded, t);
+    guarded(0);
+    for (auto& thread : threads) thread.join();
+    if (first_error) std::rethrow_exception(first_error);
+}
+
+// Each distinct renderer description once, joined by " + ".
+std::string distinct_renderers(const std::vector<std::string>& descriptions) {
+    std::vector<std::string> distinct;
+    std::string joined;
+    for (const auto& name : descriptions)
+        if (std::find(distinct.begin(), distinct.end(), name) == distinct.end()) {
+            joined += (distinct.empty() ? "" : " + ") + name;
+            distinct.push_back(name);
+        }
+    return joined;
+}
+
 }  // namespace
 
 RunResult run_synth(const RunOptions& options, const morph::MorphableModel& model) {
     const SynthConfig& config = options.config;
     validate(config);
     if (options.threads < 1) throw core::Error("--threads must be at least 1");
-    const auto formats = parse_formats(config.output.formats);
     const std::string checksum = model.checksum();
     const fs::path& out = options.out;
     prepare_folder(out, config, model, checksum, options.overwrite);
@@ -270,134 +396,57 @@ RunResult run_synth(const RunOptions& options, const morph::MorphableModel& mode
     }
     remove_stale_temporaries(out, root, config, options.shard);
 
-    const std::int64_t unit = shard_unit(config);
-    const TarLayout tars = tar_layout(config);
     ResumeScan scan = scan_for_resume(out, root, config, options.shard, files);
-    std::map<std::int64_t, std::int64_t>& tar_remaining = scan.tar_remaining;
     const std::vector<std::int64_t>& todo = scan.todo;
-
-    // Rebuild the manifest from what is on disk, then append as samples finish.
-    const fs::path manifest_path = out / manifest_name(options.shard);
-    core::write_file_atomically(manifest_path, manifest_text({scan.done.begin(), scan.done.end()}, config));
-    std::FILE* manifest = std::fopen(manifest_path.c_str(), "a");
-    if (!manifest) throw core::file_error(manifest_path.string(), "cannot open for appending");
-    struct Closer {
-        std::FILE* f;
-        ~Closer() { std::fclose(f); }
-    } closer{manifest};
-
+    ShardOutputs outputs(options, root, files, scan);
     if (options.on_start) options.on_start(todo.size(), scan.already_done);
-
-    const auto write_tar = [&](std::int64_t t) {
-        std::vector<TarMember> members;
-        for (std::int64_t i = tars.first(t); i < tars.end(t); ++i)
-            for (const auto& file : files)
-                members.push_back({sample_key(i) + file.wds_extension, root / file.folder / (sample_key(i) + file.suffix)});
-        write_tar_file(out / wds_tar_name(config, t), members);
-        if (!formats.folder && !formats.coco)
-            for (const auto& member : members) fs::remove(member.source);
-    };
     RunResult result;
     result.already_done = scan.already_done;
-    // Tars whose samples all exist but that a killed run did not finish.
-    if (formats.wds)
-        for (std::int64_t t = 0; t < tars.tars(); ++t)
-            if (in_shard(tars.first(t), options.shard, unit) && !scan.tar_done[static_cast<std::size_t>(t)] && !tar_remaining.count(t)) {
-                write_tar(t);
-                ++result.tars_written;
-            }
+    result.tars_written = outputs.write_unfinished_tars(scan);
 
     const Appearance appearance = load_appearance(config, model);
-
     std::atomic<std::size_t> next{0};
     std::atomic<bool> failed{false};
-    std::mutex mutex;  // manifest, tar bookkeeping, progress, first error, stage times
-    std::exception_ptr first_error;
-    std::size_t generated = 0;
-    std::size_t tars_written = 0;
+    std::mutex times_mutex;
     const int thread_count = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(options.threads), std::max<std::size_t>(todo.size(), 1)));
     std::vector<std::string> worker_renderers(static_cast<std::size_t>(thread_count));
     const OpenCvOnCallingThread opencv_threads;
     const auto start = Clock::now();
-
-    const auto worker = [&](int worker_index) {
-        try {
-            // Workers alternate between Mesa's two software displays: llvmpipe rasterises one scene
-            // at a time per display, and two workers on one display waited for each other.
-            render::RendererOptions renderer_options = options.renderer;
-            renderer_options.software_display = options.renderer.software_display + worker_index;
-            SampleGenerator generator(config, model, appearance.backgrounds, appearance.textures, renderer_options);
-            worker_renderers[static_cast<std::size_t>(worker_index)] = generator.renderer_description();
-            PngEncoder png(config.output.png_compression);
-            StageTimes times;
-            for (;;) {
-                const std::size_t slot = next.fetch_add(1);
-                if (slot >= todo.size() || failed) break;
-                const std::int64_t index = todo[slot];
-                const std::string key = sample_key(index);
-                try {
-                    Sample sample = generator.generate(index, &times);
-                    StageClock clock;
-                    const std::vector<std::string> contents = encode_sample(sample, files, config, model, checksum, png, key);
-                    clock.lap(times.encode);
-                    for (std::size_t f = 0; f < files.size(); ++f)
-                        core::write_file_atomically(root / files[f].folder / (key + files[f].suffix), contents[f]);
-                    bool tar_ready = false;
-                    {
-                        std::lock_guard lock(mutex);
-                        const std::string line = manifest_entry(index, config).dump() + "\n";
-                        if (std::fputs(line.c_str(), manifest) < 0 || std::fflush(manifest) != 0)
-                            throw core::file_error(manifest_path.string(), "write failed (disk full?)");
-                        ++generated;
-                        if (formats.wds) tar_ready = --tar_remaining[tars.tar_of(index)] == 0;
-                        if (options.on_sample) options.on_sample();
-                    }
-                    if (tar_ready) {
-                        write_tar(tars.tar_of(index));
-                        std::lock_guard lock(mutex);
-                        ++tars_written;
-                    }
-                    clock.lap(times.write);
-                } catch (const core::Error& e) {
-                    throw core::Error("sample " + key + ": " + e.what());
-                } catch (const std::exception& e) {
-                    throw core::Error("sample " + key + ": " + e.what());
-                }
+    run_workers(thread_count, failed, [&](int worker_index) {
+        // Workers alternate between Mesa's two software displays: llvmpipe rasterises one scene
+        // at a time per display, and two workers on one display waited for each other.
+        render::RendererOptions renderer_options = options.renderer;
+        renderer_options.software_display = options.renderer.software_display + worker_index;
+        SampleGenerator generator(config, model, appearance.backgrounds, appearance.textures, renderer_options);
+        worker_renderers[static_cast<std::size_t>(worker_index)] = generator.renderer_description();
+        PngEncoder png(config.output.png_compression);
+        StageTimes times;
+        for (;;) {
+            const std::size_t slot = next.fetch_add(1);
+            if (slot >= todo.size() || failed) break;
+            const std::int64_t index = todo[slot];
+            const std::string key = sample_key(index);
+            try {
+                Sample sample = generator.generate(index, &times);
+                StageClock clock;
+                const std::vector<std::string> contents = encode_sample(sample, files, config, model, checksum, png, key);
+                clock.lap(times.encode);
+                for (std::size_t f = 0; f < files.size(); ++f)
+                    core::write_file_atomically(root / files[f].folder / (key + files[f].suffix), contents[f]);
+                outputs.sample_done(index);
+                clock.lap(times.write);
+            } catch (const std::exception& e) {
+                throw core::Error("sample " + key + ": " + e.what());
             }
-            std::lock_guard lock(mutex);
-            result.times += times;
-        } catch (...) {
-            failed = true;
-            std::lock_guard lock(mutex);
-            if (!first_error) first_error = std::current_exception();
         }
-    };
-    std::vector<std::thread> threads;
-    for (int t = 1; t < thread_count; ++t) threads.emplace_back(worker, t);
-    worker(0);
-    for (auto& thread : threads) thread.join();
-    if (first_error) std::rethrow_exception(first_error);
+        const std::lock_guard lock(times_mutex);
+        result.times += times;
+    });
     result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    result.generated = generated;
-    result.tars_written += tars_written;
-    std::vector<std::string> distinct_renderers;
-    for (const auto& name : worker_renderers)
-        if (std::find(distinct_renderers.begin(), distinct_renderers.end(), name) == distinct_renderers.end()) {
-            result.renderer += (distinct_renderers.empty() ? "" : " + ") + name;
-            distinct_renderers.push_back(name);
-        }
-
-    // The final manifest and COCO file list this shard's samples in index order, whatever the
-    // order they finished in.
-    std::vector<std::int64_t> all;
-    for (std::int64_t i = 0; i < config.count; ++i)
-        if (in_shard(i, options.shard, unit)) all.push_back(i);
-    core::write_file_atomically(manifest_path, manifest_text(all, config));
-    if (formats.coco) core::write_file_atomically(out / coco_name(options.shard), coco_from_meta(out, all, config).dump() + "\n");
-    if (!formats.folder && !formats.coco) {
-        std::error_code ignored;
-        fs::remove_all(out / kStagingFolder, ignored);  // succeeds only when other shards left nothing there either
-    }
+    result.generated = outputs.generated();
+    result.tars_written += outputs.tars_written();
+    result.renderer = distinct_renderers(worker_renderers);
+    outputs.finish();
     return result;
 }
 
