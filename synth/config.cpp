@@ -155,6 +155,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"identity.scale", &c.identity.scale, "multiplier on the identity coefficients (0 = mean face)"});
     f.push_back({"identity.source", &c.identity.source,
                  "\"random\" (drawn) or \"texture\" (the shape fitted to the photograph of the sample's texture; needs albedo.texture_bank)"});
+    f.push_back({"identity.texture_jitter", &c.identity.texture_jitter,
+                 "with source = \"texture\": N(0, x^2) added to each fitted shape coefficient per sample (sigma units; 0 = the fitted shape)"});
     f.push_back({"expression.neutral_share", &c.expression.neutral_share, "share of neutral faces"});
     f.push_back({"expression.max_active", &c.expression.max_active, "blendshape models: 1..max_active blendshapes per expressive face"});
     f.push_back({"expression.min_weight", &c.expression.min_weight, "blendshape weight lower bound"});
@@ -267,6 +269,8 @@ void validate(const SynthConfig& c) {
     require(c.count >= 0, "count", "must not be negative");
     require(c.count <= 99'999'999, "count", "at most 99999999 samples (8-digit keys)");
     require(c.identity.truncation >= 0, "identity.truncation", "must not be negative");
+    require(c.identity.texture_jitter >= 0 && c.identity.texture_jitter <= 3, "identity.texture_jitter", "must be in [0, 3]");
+    require(c.identity.texture_jitter == 0 || c.identity.source == "texture", "identity.texture_jitter", "needs identity.source = \"texture\"");
     require(c.identity.source == "random" || c.identity.source == "texture", "identity.source", "must be \"random\" or \"texture\"");
     require(c.identity.source != "texture" || !c.albedo.texture_bank.empty(), "identity.source",
             "\"texture\" needs albedo.texture_bank (the shapes come with the bank's textures)");

@@ -29,6 +29,9 @@ struct IdentityConfig {
     // "random": drawn as above; "texture": the shape fitted to the photograph of the sample's texture
     // (albedo.texture_bank), so that face and texture come from one person (truncation, scale unused).
     std::string source = "random";
+    // With source "texture": N(0, texture_jitter²) added to each fitted coefficient (σ units) per
+    // sample, so that one photograph's texture lies on a family of shapes around its own.
+    double texture_jitter = 0;
 };
 
 struct ExpressionConfig {

@@ -323,6 +323,10 @@ SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& 
                         " shape coefficients, model '" + model.name + "' " + std::to_string(model.num_shape_components()) +
                         " (a bank made before shapes were stored: rebuild it)");
         s.alpha = fitted;
+        if (config.identity.texture_jitter > 0) {
+            core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kIdentity);  // unused otherwise with this source
+            for (float& a : s.alpha) a += static_cast<float>(config.identity.texture_jitter * rng.normal());
+        }
     }
     if (config.expression.source == "texture") {
         const std::optional<std::vector<float>>& fitted = texture_fit("expression.source").expression;

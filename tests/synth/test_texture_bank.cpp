@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -182,6 +183,42 @@ TEST_F(TextureBankTest, TextureIdentityIsTheShapeStoredWithTheDrawnTexture) {
     manifest["textures"][1]["shape"] = {1.0, "x"};
     std::ofstream(dir / "bank" / "bank.json") << manifest.dump();
     EXPECT_NE(testkit::error_message_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("shape"), std::string::npos);
+}
+
+// identity.texture_jitter: the fitted shape plus N(0, x²) per coefficient, from (seed, i) alone; only
+// with identity.source = "texture".
+TEST_F(TextureBankTest, TextureIdentityJitterVariesTheFittedShapeBySample) {
+    const fs::path dir = testkit::fresh_temp_dir("texture_bank_identity_jitter");
+    const int components = model_->num_shape_components();
+    std::vector<TextureBankEntry> entries(1);
+    entries[0].shape.assign(static_cast<std::size_t>(components), 0.5f);
+    write_bank_of_fits(dir / "bank", *model_, entries);
+    const ImageLibrary library = load_texture_bank(dir / "bank", *model_);
+
+    SynthConfig config;
+    config.albedo.texture_bank = (dir / "bank").string();
+    config.identity.texture_jitter = 0.3;
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("identity.texture_jitter"), std::string::npos);  // source random
+    config.identity.source = "texture";
+    validate(config);
+    double sum = 0, sum_sq = 0;
+    int n = 0;
+    for (int i = 0; i < 40; ++i) {
+        const SampleSpec s = sample_scene(config, *model_, i, nullptr, nullptr, library.fits());
+        ASSERT_EQ(s.alpha.size(), static_cast<std::size_t>(components));
+        EXPECT_EQ(s.alpha, sample_scene(config, *model_, i, nullptr, nullptr, library.fits()).alpha);  // (seed, i) alone
+        for (float a : s.alpha) {
+            sum += a - 0.5;
+            sum_sq += (a - 0.5) * (a - 0.5);
+            ++n;
+        }
+    }
+    EXPECT_NEAR(sum / n, 0.0, 0.05);
+    EXPECT_NEAR(std::sqrt(sum_sq / n), 0.3, 0.05);
+    config.identity.texture_jitter = 0;
+    EXPECT_EQ(sample_scene(config, *model_, 3, nullptr, nullptr, library.fits()).alpha, entries[0].shape);
+    config.identity.texture_jitter = 4;
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("must be in [0, 3]"), std::string::npos);
 }
 
 // expression.source = "texture": each sample's expression is the one fitted to its texture's
