@@ -2,6 +2,7 @@
 // `facesynth bench render` (renders per second). The renderer lives in render/.
 #include "cli_common.h"
 #include "commands.h"
+#include "fit/fit_record.h"
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -208,15 +209,8 @@ cv::Mat overlay_picture(const cv::Mat& rgb, const render::ProjectedLandmarks& lm
     return big;
 }
 
-nlohmann::json points_json(const Eigen::MatrixXd& points) {
-    nlohmann::json out = nlohmann::json::array();
-    for (Eigen::Index i = 0; i < points.cols(); ++i) {
-        nlohmann::json p = nlohmann::json::array();
-        for (Eigen::Index r = 0; r < points.rows(); ++r) p.push_back(points(r, i));
-        out.push_back(std::move(p));
-    }
-    return out;
-}
+// One [x, y(, z)] array per column.
+nlohmann::json points_json(const Eigen::MatrixXd& points) { return fit::matrix_json(points.transpose()); }
 
 void run_render(const RenderArgs& a) {
     const morph::MorphableModel model = morph::load_model(a.view.model);
@@ -266,7 +260,7 @@ void run_render(const RenderArgs& a) {
     j["yaw"] = a.view.yaw;
     j["pitch"] = a.view.pitch;
     j["roll"] = a.view.roll;
-    j["rotation"] = points_json(camera.pose.rotation.transpose());  // rows of R
+    j["rotation"] = fit::matrix_json(camera.pose.rotation);  // rows of R
     j["translation"] = {camera.pose.translation.x(), camera.pose.translation.y(), camera.pose.translation.z()};
     j["seed"] = a.seed ? nlohmann::json(*a.seed) : nlohmann::json(nullptr);
     j["alpha"] = alpha;
