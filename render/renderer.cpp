@@ -5,6 +5,7 @@
 #include "render/gl_context.h"
 #include "render/gl_functions.h"
 #include "render/gl_program.h"
+#include "render/render_targets.h"
 #include "render/shaders.h"
 #include "render/shadow_maps.h"
 #include "render/triangle_list.h"
@@ -254,8 +255,11 @@ bool uniform_albedo(const morph::Mesh& mesh) {
 
 constexpr int kMaxSupersampling = 4;
 
-// Single-sample colour attachments by shader output location, then the depth attachment.
-enum Target : std::size_t { kColourTarget = 0, kNormalTarget = 1, kIdTarget = 2, kBarycentricTarget = 3, kDepthTarget = 4 };
+using detail::Target;
+using detail::kColourTarget;
+using detail::kNormalTarget;
+using detail::kIdTarget;
+using detail::kBarycentricTarget;
 
 struct Renderer::Impl {
     std::unique_ptr<detail::GlContext> context;
@@ -268,20 +272,12 @@ struct Renderer::Impl {
     GLuint index_buffer = 0;
     GLuint texture = 0;
     int texture_width = 0, texture_height = 0;
-    GLuint fbo = 0;
-    std::array<GLuint, 5> targets{};  // by Target
-    // Multisampled colour pass.
-    GLuint msaa_fbo = 0;
-    std::array<GLuint, 2> msaa_targets{};
-    // Supersampled colour pass (created on first use): colour and depth, growing like the others.
-    GLuint supersample_fbo = 0;
-    std::array<GLuint, 2> supersample_targets{};
-    int supersample_width = 0, supersample_height = 0;
-    cv::Mat fine_rgba;  // its read-back before the box filter
+    detail::RenderTargets targets{gl};
+    cv::Mat fine_rgba;  // the supersampled pass's read-back before the box filter
     EdgeAntialiasing edge_antialiasing;  // silhouette edges of the last triangle list, with scratch
     cv::Mat edge_depth;                  // the depth it needs when the frame has none (geometry off)
     int width = 0, height = 0;  // this render's image: the bottom-left corner of the targets
-    int target_width = 0, target_height = 0, samples = 0, max_samples = 0, max_texture_size = 0;
+    int max_texture_size = 0;
     detail::ProvokingTopology topology;
     Eigen::Vector3f mesh_low, mesh_high;  // bounding box of the uploaded positions
     Eigen::Matrix3Xf normals;
@@ -297,6 +293,7 @@ struct Renderer::Impl {
         context = detail::open_context(options);
         context->make_current();
         renderer_string = detail::load_functions(*context, gl);
+        int max_samples = 0;
         gl.GetIntegerv(GL_MAX_SAMPLES, &max_samples);
         gl.GetIntegerv(GL_MAX_TEXTURE_SIZE, &max_texture_size);
         (void)program(kWithColour | kWithIds);
@@ -304,8 +301,7 @@ struct Renderer::Impl {
         gl.GenBuffers(static_cast<GLsizei>(vertex_buffers.size()), vertex_buffers.data());
         gl.GenBuffers(1, &index_buffer);
         gl.GenTextures(1, &texture);
-        gl.GenFramebuffers(1, &fbo);
-        gl.GenFramebuffers(1, &msaa_fbo);
+        targets.create(max_samples);
         gl.BindVertexArray(vao);
         gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, index_buffer);
         gl.Enable(GL_DEPTH_TEST);
@@ -330,10 +326,7 @@ struct Renderer::Impl {
         } catch (const core::Error&) {
             return;  // the context goes with it
         }
-        release_targets();
-        release_supersample_targets();
-        gl.DeleteFramebuffers(1, &fbo);
-        gl.DeleteFramebuffers(1, &msaa_fbo);
+        targets.release();
         gl.DeleteTextures(1, &texture);
         shadow_maps.release();
         gl.DeleteBuffers(1, &index_buffer);
@@ -355,73 +348,11 @@ struct Renderer::Impl {
 
     void check(const char* stage) const { detail::check_gl(gl, stage); }
 
-    void release_targets() {
-        for (GLuint& t : targets)
-            if (t) gl.DeleteRenderbuffers(1, &t), t = 0;
-        for (GLuint& t : msaa_targets)
-            if (t) gl.DeleteRenderbuffers(1, &t), t = 0;
-    }
-
-    void release_supersample_targets() {
-        for (GLuint& t : supersample_targets)
-            if (t) gl.DeleteRenderbuffers(1, &t), t = 0;
-        if (supersample_fbo) gl.DeleteFramebuffers(1, &supersample_fbo), supersample_fbo = 0;
-    }
-
-    GLuint storage(GLenum format, int sample_count) {
-        GLuint rb = 0;
-        gl.GenRenderbuffers(1, &rb);
-        gl.BindRenderbuffer(GL_RENDERBUFFER, rb);
-        if (sample_count > 1)
-            gl.RenderbufferStorageMultisample(GL_RENDERBUFFER, sample_count, format, target_width, target_height);
-        else
-            gl.RenderbufferStorage(GL_RENDERBUFFER, format, target_width, target_height);
-        return rb;
-    }
-
-    GLuint sized_storage(GLenum format, int w, int h) {
-        GLuint rb = 0;
-        gl.GenRenderbuffers(1, &rb);
-        gl.BindRenderbuffer(GL_RENDERBUFFER, rb);
-        gl.RenderbufferStorage(GL_RENDERBUFFER, format, w, h);
-        return rb;
-    }
-
-    // At one sample count, targets only grow: an image smaller than them is drawn into their corner
-    // (viewport and scissor), so that renders of varying sizes (a visibility pass per face, then a
-    // frontal view) allocate nothing. A new sample count starts again at the image's size.
+    // The targets for this render's w x h image (drawn into their bottom-left corner).
     void ensure_targets(int w, int h, int sample_count) {
-        sample_count = std::min(sample_count <= 1 ? 0 : sample_count, max_samples);
+        targets.ensure(w, h, sample_count);
         width = w;
         height = h;
-        gl.Scissor(0, 0, w, h);
-        if (w <= target_width && h <= target_height && sample_count == samples && targets[0]) return;
-        const bool grow = sample_count == samples && targets[0];
-        release_targets();
-        target_width = grow ? std::max(w, target_width) : w;
-        target_height = grow ? std::max(h, target_height) : h;
-        samples = sample_count;
-        const std::array<GLenum, 4> colour_formats{GL_RGBA8, GL_RGBA32F, GL_R32UI, GL_RGBA32F};  // by Target
-        gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
-        for (std::size_t i = 0; i < colour_formats.size(); ++i) {
-            targets[i] = storage(colour_formats[i], 0);
-            gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0 + static_cast<GLenum>(i), GL_RENDERBUFFER, targets[i]);
-        }
-        // 32-bit float depth: camera z is recovered from it to ~1e-5 mm (read_depth).
-        targets[kDepthTarget] = storage(GL_DEPTH_COMPONENT32F, 0);
-        gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, targets[kDepthTarget]);
-        if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw core::Error("render: framebuffer incomplete at " + std::to_string(target_width) + "x" + std::to_string(target_height));
-        if (samples > 1) {
-            gl.BindFramebuffer(GL_FRAMEBUFFER, msaa_fbo);
-            msaa_targets[0] = storage(GL_RGBA8, samples);
-            gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, msaa_targets[0]);
-            msaa_targets[1] = storage(GL_DEPTH_COMPONENT24, samples);
-            gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, msaa_targets[1]);
-            if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-                throw core::Error("render: multisample framebuffer incomplete (" + std::to_string(samples) + " samples)");
-        }
-        check("creating render targets");
     }
 
     // Vertex buffers keep their storage between renders; data of the same size is replaced in place.
@@ -598,7 +529,7 @@ struct Renderer::Impl {
                                  (settings.per_pixel_colour || !uniform_albedo(mesh) ? kPerPixelColour : 0u) |
                                  (lights_per_vertex ? kLightsPerVertex : 0u) |
                                  (settings.lighting.gamma == kFastGamma ? kGamma22 : 0u);
-        const bool multisampled = samples > 1;
+        const bool multisampled = targets.samples() > 1;
         const bool separate_colour_pass = multisampled || supersampled;
         const bool with_normals = settings.geometry && settings.normals;
         const bool with_ids = settings.geometry || settings.barycentrics;
@@ -613,7 +544,7 @@ struct Renderer::Impl {
         if (single_sample_pass) {
             const unsigned variant = geometry_outputs | (separate_colour_pass ? 0u : kWithColour | shading);
             set_uniforms(program(variant), camera, settings.lighting);
-            gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+            gl.BindFramebuffer(GL_FRAMEBUFFER, targets.single_sample());
             const GLenum buffers[4] = {separate_colour_pass ? GLenum(GL_NONE) : GLenum(GL_COLOR_ATTACHMENT0),
                                        with_normals ? GLenum(GL_COLOR_ATTACHMENT1) : GLenum(GL_NONE),
                                        with_ids ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE),
@@ -628,20 +559,20 @@ struct Renderer::Impl {
         }
         if (multisampled) {
             set_uniforms(program(kWithColour | shading), camera, settings.lighting);
-            gl.BindFramebuffer(GL_FRAMEBUFFER, msaa_fbo);
+            gl.BindFramebuffer(GL_FRAMEBUFFER, targets.multisample());
             const GLenum buffer = GL_COLOR_ATTACHMENT0;
             gl.DrawBuffers(1, &buffer);
             gl.ClearBufferfv(GL_COLOR, 0, zeros);
             gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
             draw();
-            gl.BindFramebuffer(GL_READ_FRAMEBUFFER, msaa_fbo);
-            gl.BindFramebuffer(GL_DRAW_FRAMEBUFFER, fbo);
+            gl.BindFramebuffer(GL_READ_FRAMEBUFFER, targets.multisample());
+            gl.BindFramebuffer(GL_DRAW_FRAMEBUFFER, targets.single_sample());
             gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
             gl.DrawBuffers(1, &buffer);
             gl.BlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
         }
         if (supersampled) render_supersampled_colour(camera, settings, shading);
-        gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+        gl.BindFramebuffer(GL_FRAMEBUFFER, targets.single_sample());
         read_back(settings, with_normals, with_ids, !supersampled, !separate_colour_pass, frame);
         if (settings.edge_antialiasing) antialias_edges(mesh, camera, settings, frame);
         check("rendering");
@@ -662,9 +593,9 @@ struct Renderer::Impl {
         const int factor = settings.supersampling;
         const Camera fine = supersampled_camera(camera, factor);
         const int fine_width = fine.intrinsics.width, fine_height = fine.intrinsics.height;
-        ensure_supersample_targets(fine_width, fine_height);
+        targets.ensure_supersampled(fine_width, fine_height);
         set_uniforms(program(kWithColour | shading), fine, settings.lighting);
-        gl.BindFramebuffer(GL_FRAMEBUFFER, supersample_fbo);
+        gl.BindFramebuffer(GL_FRAMEBUFFER, targets.supersample());
         gl.Viewport(0, 0, fine_width, fine_height);
         gl.Scissor(0, 0, fine_width, fine_height);
         const GLenum buffer = GL_COLOR_ATTACHMENT0;
@@ -683,24 +614,6 @@ struct Renderer::Impl {
         gl.Scissor(0, 0, width, height);
     }
 
-    // Colour target and depth buffer of the supersampled pass; like the others they only grow.
-    void ensure_supersample_targets(int w, int h) {
-        if (w <= supersample_width && h <= supersample_height) return;
-        supersample_width = std::max(w, supersample_width);
-        supersample_height = std::max(h, supersample_height);
-        for (GLuint& t : supersample_targets)
-            if (t) gl.DeleteRenderbuffers(1, &t), t = 0;
-        if (!supersample_fbo) gl.GenFramebuffers(1, &supersample_fbo);
-        gl.BindFramebuffer(GL_FRAMEBUFFER, supersample_fbo);
-        supersample_targets[0] = sized_storage(GL_RGBA8, supersample_width, supersample_height);
-        gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, supersample_targets[0]);
-        supersample_targets[1] = sized_storage(GL_DEPTH_COMPONENT24, supersample_width, supersample_height);
-        gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, supersample_targets[1]);
-        if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw core::Error("render: supersampling framebuffer incomplete at " + std::to_string(w) + "x" + std::to_string(h));
-        check("creating supersampling targets");
-    }
-
     // The nearest surface only: the fragment stage writes nothing, and only the depth buffer is read.
     void render_depth(const morph::Mesh& mesh, const Camera& camera, const RenderSettings& settings, Frame& frame) {
         const int w = camera.intrinsics.width, h = camera.intrinsics.height;
@@ -714,7 +627,7 @@ struct Renderer::Impl {
             gl.Disable(GL_CULL_FACE);
         gl.Viewport(0, 0, w, h);
         set_uniforms(program(0), camera, settings.lighting);
-        gl.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+        gl.BindFramebuffer(GL_FRAMEBUFFER, targets.single_sample());
         const GLenum none[4] = {GL_NONE, GL_NONE, GL_NONE, GL_NONE};
         gl.DrawBuffers(4, none);
         const float far_depth = 1.0f;
