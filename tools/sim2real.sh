@@ -7,14 +7,13 @@
 #                             (background.type = wallpapers); photos: `facesynth backgrounds`, the
 #                             photographs with their annotated face cut away
 #   3. facesynth synth        COUNT renders (default 36000): each texture on its own photograph's fitted shape and
-#                             expression, the backgrounds, yaw ±60° (uniform), pitch and roll as photographs have
-#                             them (normal, σ 10° and 8°), long lenses (fov 4-20°) and degradations
+#                             expression, the backgrounds, yaw normal (σ 25°, within ±60°), pitch and roll as
+#                             photographs have them (normal, σ 10° and 8°), long lenses (fov 4-20°) and degradations
 #                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 set -euo pipefail
-cd "$(dirname "$0")/.."
 photos="" out="" count=36000 threads=2 work="" seed=101 min_side=96 backgrounds=wallpapers
 while [[ $# -gt 0 ]]; do
     case $1 in
@@ -35,6 +34,13 @@ done
 [[ -d $photos ]] || { echo "sim2real: $photos: photo folder not found" >&2; exit 1; }
 [[ $count =~ ^[1-9][0-9]*$ && $threads =~ ^[1-9][0-9]*$ && $seed =~ ^[0-9]+$ && $min_side =~ ^[1-9][0-9]*$ ]] ||
     { echo "sim2real: --count, --threads, --seed and --min-side take whole numbers" >&2; exit 2; }
+# Paths given relative to where the script was started from; the script then works from the checkout.
+absolute() { [[ $1 == /* ]] && echo "$1" || echo "$PWD/$1"; }
+photos=$(absolute "$photos")
+out=$(absolute "$out")
+[[ -z $work ]] || work=$(absolute "$work")
+[[ ${FACESYNTH:-} != */* ]] || FACESYNTH=$(absolute "$FACESYNTH")
+cd "$(dirname "$0")/.."
 facesynth=${FACESYNTH:-build/facesynth}
 [[ -x $facesynth ]] || { echo "sim2real: $facesynth not found: build first (README) or set FACESYNTH" >&2; exit 1; }
 work=${work:-$(dirname "$out")/sim2real-work}
@@ -51,7 +57,7 @@ if [[ $backgrounds == photos ]]; then
     background=(--set background.type=images --set background.folder="$work/backgrounds")
 fi
 "$facesynth" synth --out "$work/train" --overwrite --count "$count" --seed "$seed" --threads "$threads" "${quiet[@]}" \
-    --set pose.yaw.min=-60 --set pose.yaw.max=60 \
+    --set pose.yaw.distribution=normal --set pose.yaw.stddev=25 --set pose.yaw.min=-60 --set pose.yaw.max=60 \
     --set pose.pitch.distribution=normal --set pose.pitch.stddev=10 --set pose.roll.distribution=normal --set pose.roll.stddev=8 \
     --set albedo.texture_bank="$work/bank" --set identity.source=texture --set expression.source=texture \
     --set camera.fov_min=4 --set camera.fov_max=20 \

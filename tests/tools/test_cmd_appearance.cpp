@@ -182,10 +182,13 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     const auto meta = read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json");
     EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);  // rendered with the bank
     EXPECT_EQ(meta["background"]["type"], "wallpapers");                       // the default backgrounds
-    // The photographs' own backgrounds instead (the bank in the work folder is reused).
-    ASSERT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() +
-                              " --count 20 --min-side 24 --backgrounds photos", &out), 0)
+    // The photographs' own backgrounds instead, with paths relative to the folder the script is started
+    // from (not the checkout it works in).
+    fs::remove(model);
+    ASSERT_EQ(run_command("cd " + dir.string() + " && " + env + "bash " + script + " --photos " + fs::relative(photos, dir).string() +
+                              " --out sim2real.sdm --count 20 --min-side 24 --backgrounds photos", &out), 0)
         << out;
+    EXPECT_TRUE(fs::exists(model));
     EXPECT_EQ(read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json")["background"]["type"], "images");
     EXPECT_TRUE(fs::exists(dir / "sim2real-work" / "backgrounds"));
     EXPECT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --backgrounds walls", &out), 2);
