@@ -231,7 +231,9 @@ FaceSplit split_faces(std::size_t count, const SdmTrainOptions& options) {
 // faces whose box came from the detector (all training faces if there are none), overall and per
 // detector view. The spread of the true shapes around their start (detector faces only) becomes the
 // initialisation noise in model.boxes.
-void learn_starts(std::span<const TrainingFace> faces, std::span<const std::size_t> train_faces, BoxStatistics boxes, SdmModel& model) {
+void learn_starts(std::span<const TrainingFace> faces, std::span<const std::size_t> train_faces, const BoxStatistics& boxes,
+                  SdmModel& model) {
+    model.boxes = boxes;
     const bool have_detector_faces =
         std::any_of(train_faces.begin(), train_faces.end(), [&](std::size_t f) { return faces[f].box_from_detector; });
     const auto shapes_the_mean = [&](std::size_t f) { return !have_detector_faces || faces[f].box_from_detector; };
@@ -263,11 +265,10 @@ void learn_starts(std::span<const TrainingFace> faces, std::span<const std::size
         rotations.push_back(s.rotation * 180.0 / std::numbers::pi);
     }
     if (used >= 10) {
-        boxes.init_translation_std = std::sqrt(0.5 * (std::pow(standard_deviation(dx), 2) + std::pow(standard_deviation(dy), 2)));
-        boxes.init_scale_std = standard_deviation(scales);
-        boxes.init_rotation_std_deg = standard_deviation(rotations);
+        model.boxes.init_translation_std = std::sqrt(0.5 * (std::pow(standard_deviation(dx), 2) + std::pow(standard_deviation(dy), 2)));
+        model.boxes.init_scale_std = standard_deviation(scales);
+        model.boxes.init_rotation_std_deg = standard_deviation(rotations);
     }
-    model.boxes = boxes;
 }
 
 // One (λ factor, rank) pair of a stage and its validation NME.
@@ -534,7 +535,7 @@ void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings
 
 }  // namespace
 
-SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes, const SdmTrainOptions& options) {
+SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& boxes, const SdmTrainOptions& options) {
     for (const auto& f : faces)
         if (f.truth.cols() != morph::kNumIbugLandmarks) throw core::Error("SDM training needs 68-point landmarks");
     validate_options(options);

@@ -180,7 +180,7 @@ struct SdmTrainOptions {
 // Deterministic for a given seed whatever the thread count. Throws core::Error for fewer than
 // 2 training faces, landmark counts other than 68, or several λ or rank candidates without validation
 // faces.
-[[nodiscard]] SdmModel train_sdm(std::span<const TrainingFace> faces, BoxStatistics boxes,
+[[nodiscard]] SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& boxes,
                                  const SdmTrainOptions& options);
 
 // Point-to-point error / inter-ocular distance (outer eye corners) of 68-point shapes.
