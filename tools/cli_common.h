@@ -1,7 +1,6 @@
 #pragma once
 // Shared CLI plumbing: progress reporting, JSON result files, model loading from --model.
 #include <CLI/CLI.hpp>
-#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
@@ -59,7 +58,6 @@ void create_output_folder(const std::filesystem::path& dir);
 
 // Writes a flat JSON object atomically to `path` (pretty-printed, trailing newline).
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& value);
-
 
 // Encodes an OpenCV image (B G R [A] or grey, 8-bit) as PNG and writes it atomically.
 void write_png_file(const std::filesystem::path& path, const cv::Mat& image);

@@ -142,9 +142,7 @@ nlohmann::json face_record(const fs::path& image, int face, const std::string& s
     j["model_checksum"] = model.checksum();
     j["landmarks_source"] = source;
     j["coordinates"] = "0-based pixels";
-    nlohmann::json points = nlohmann::json::array();
-    for (Eigen::Index i = 0; i < landmarks.cols(); ++i) points.push_back({landmarks(0, i), landmarks(1, i)});
-    j["landmarks"] = points;
+    j["landmarks"] = fit::matrix_json(landmarks.transpose());  // one [x, y] per point
     fit::write_json(j, r.fit);
     j["isomap_size"] = o.isomap.size;
     j["frontal_size"] = o.frontal.size;
