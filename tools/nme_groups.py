@@ -3,14 +3,19 @@
 
     facesynth detect --regressor MODEL.sdm --detector dlib --out DET --quiet GT/*.jpg GT/*.png
     tools/nme_groups.py GT DET [DET2 ...]
+    tools/nme_groups.py GT DET --write-offsets OFFSETS.json   # label adaptation: train --label-offsets
 
 For every GT/NAME.pts with a detection DET/NAME_<k>.pts (the detection nearest the annotation when there
 are several), on the faces every DET folder found: the mean point error per group (jaw 1-17, brows 18-27,
 nose 28-36, eyes 37-48, mouth 49-68) in inter-ocular distances (outer eye corners), and the landmarks whose
 mean offset (prediction - annotation, face frame: x along the eye line, y down) exceeds 0.03.
+--write-offsets writes, for one DET folder, the mean (annotation - prediction) per landmark in the keys
+`train --label-offsets` reads (mean_x_NN, mean_y_NN, as `eval conventions --json`): the training labels
+then move by the detector's mean bias on these annotations (docs/results.md, "Label adaptation").
 """
 import argparse
 import glob
+import json
 import math
 import os
 import sys
@@ -38,7 +43,10 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("gt", help="folder of annotated images' .pts files")
     parser.add_argument("detections", nargs="+", help="`facesynth detect --out` folders")
+    parser.add_argument("--write-offsets", metavar="FILE", help="with one DET folder: its mean (annotation - prediction) as label offsets")
     args = parser.parse_args()
+    if args.write_offsets and len(args.detections) != 1:
+        sys.exit("--write-offsets takes exactly one detection folder")
     truth = {os.path.basename(p)[:-4]: read_pts(p) for p in sorted(glob.glob(os.path.join(args.gt, "*.pts")))}
     if not truth:
         sys.exit(f"{args.gt}: no .pts files")
@@ -76,6 +84,14 @@ def main():
         print(f"{folder}: mean {sum(errors) / (68 * n):.4f}  {groups}")
         biased = [f"{i + 1}:{o[0] / n:+.3f},{o[1] / n:+.3f}" for i, o in enumerate(offsets) if math.hypot(o[0] / n, o[1] / n) > 0.03]
         print("  offsets over 0.03 (x,y):", " ".join(biased) or "none")
+        if args.write_offsets:
+            written = {"faces": n}
+            for i, o in enumerate(offsets):
+                written[f"mean_x_{i + 1:02d}"] = -o[0] / n
+                written[f"mean_y_{i + 1:02d}"] = -o[1] / n
+            with open(args.write_offsets, "w") as f:
+                json.dump(written, f, indent=1)
+                f.write("\n")
 
 
 if __name__ == "__main__":
