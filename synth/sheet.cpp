@@ -167,25 +167,27 @@ cv::Mat contact_sheet(const std::filesystem::path& dataset, const SheetOptions& 
     const auto columns_z = static_cast<std::size_t>(columns);
     const auto render_rows = static_cast<std::int64_t>((metas.size() + columns_z - 1) / columns_z);
     const auto photo_rows = static_cast<std::int64_t>((photos.size() + columns_z - 1) / columns_z);
-    // With photographs, render row r is sheet row 2r and photo row r sheet row 2r + 1.
-    const std::int64_t rows = with_photos ? std::max(2 * render_rows - 1, 2 * photo_rows) : render_rows;
+    // Photo row q (there are never more than render rows) follows render row q: sheet row 2q + 1; the
+    // render rows after the last photo row follow each other.
+    const auto sheet_row = [&](std::int64_t row, bool photo) { return photo ? 2 * row + 1 : row + std::min(row, photo_rows); };
+    const std::int64_t rows = render_rows + photo_rows;
     if (rows * tile_side * static_cast<std::int64_t>(std::min<std::size_t>(metas.size(), columns_z)) * tile_side > core::kMaxImagePixels)
         throw core::Error("synth sheet: " + std::to_string(metas.size() + photos.size()) + " tiles of " + std::to_string(tile_side) +
                     " px make a sheet over " + std::to_string(core::kMaxImagePixels / 1'000'000) + " megapixels (lower --count or --tile)");
     cv::Mat sheet(static_cast<int>(rows) * tile_side, columns * tile_side, CV_8UC3, cv::Scalar(30, 30, 30));
-    const auto place = [&](const cv::Mat& tile, std::size_t n, int row_step, int row_offset) {
-        const int column = static_cast<int>(n % columns_z), row = static_cast<int>(n / columns_z) * row_step + row_offset;
+    const auto place = [&](const cv::Mat& tile, std::size_t n, bool photo) {
+        const int column = static_cast<int>(n % columns_z), row = static_cast<int>(sheet_row(static_cast<std::int64_t>(n / columns_z), photo));
         tile.copyTo(sheet(cv::Rect(column * tile_side, row * tile_side, tile.cols, tile.rows)));
     };
     for (std::size_t n = 0; n < metas.size(); ++n) {
         const SheetItem item = read_sheet_item(metas[n]);
         char label[64];
         std::snprintf(label, sizeof label, "%s y%+.0f", item.key.c_str(), item.yaw);
-        place(make_tile(read_sample_image(dataset, item.key, metas[n]), item, tile_side, with_photos, label), n, with_photos ? 2 : 1, 0);
+        place(make_tile(read_sample_image(dataset, item.key, metas[n]), item, tile_side, with_photos, label), n, false);
     }
     for (std::size_t n = 0; n < photos.size(); ++n) {
         const SheetItem item = read_photo_item(photos[n]);
-        place(make_tile(read_image(photos[n]), item, tile_side, true, item.key.substr(0, 20)), n, 2, 1);
+        place(make_tile(read_image(photos[n]), item, tile_side, true, item.key.substr(0, 20)), n, true);
     }
     cv::Mat rgb;
     cv::cvtColor(sheet, rgb, cv::COLOR_BGR2RGB);

@@ -610,6 +610,18 @@ TEST(SynthDatasetFiles, SheetPutsAnnotatedPhotographsBetweenTheRenders) {
         EXPECT_GT(face[1], 200) << column;
         EXPECT_LT(corner[1], 40) << column;
     }
+    // Fewer photographs than render rows: the renders after the last photo row follow each other, with
+    // no empty rows between them (one photograph, 3 renders on 1 column: render, photo, render, render).
+    fs::remove(photos / "b.pts");
+    ASSERT_EQ(synth(" sheet " + dir.string() + " --columns 1 --tile 64 --photos " + photos.string() + " -o " + (dir / "sheet.png").string(), &log), 0)
+        << log;
+    const cv::Mat one_photo = cv::imread((dir / "sheet.png").string());
+    ASSERT_EQ(one_photo.rows, 4 * 64);
+    for (const int row : {0, 2, 3}) {  // renders: a face tile is never the sheet's flat background
+        cv::Scalar mean, stddev;
+        cv::meanStdDev(one_photo(cv::Rect(0, row * 64, 64, 64)), mean, stddev);
+        EXPECT_GT(stddev[0] + stddev[1] + stddev[2], 10.0) << "row " << row;
+    }
     // No annotated photograph, or an unreadable one: an error naming it, and no sheet.
     fs::remove(dir / "sheet.png");
     const fs::path empty = testkit::fresh_temp_dir("synth_sheet_photos_empty");
