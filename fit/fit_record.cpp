@@ -8,22 +8,7 @@ LandmarkFit fit_face(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, co
     LandmarkFit f;
     f.linear = fitter.fit(landmarks, options.fit);
     if (options.refine) f.refined = refine(fitter, landmarks, f.linear, options.fit, options.refine_options);
-    if (f.refined) {
-        f.alpha = f.refined->alpha;
-        f.psi = f.refined->psi;
-        f.angles = f.refined->angles;
-        f.rotation = f.refined->pose.rotation;
-        f.reprojection_rms_px = f.refined->reprojection_rms_px;
-        f.projected = f.refined->projected;
-    } else {
-        f.alpha = f.linear.alpha;
-        f.psi = f.linear.psi;
-        f.angles = f.linear.pose.angles;
-        f.rotation = f.linear.pose.rotation;
-        f.reprojection_rms_px = f.linear.reprojection_rms_px;
-        f.projected = f.linear.projected;
-    }
-    f.mesh = fitter.model().instance(f.alpha, f.psi);
+    f.mesh = fitter.model().instance(f.alpha(), f.psi());
     if (f.refined) {
         f.vertices_px = morph::project(f.refined->intrinsics, f.refined->pose, f.mesh.vertices);
     } else {
@@ -60,13 +45,13 @@ void write_json(nlohmann::json& j, const LandmarkFit& fit) {
         j["translation_mm"] = {r.pose.translation.x(), r.pose.translation.y(), r.pose.translation.z()};
         j["refine_iterations"] = r.iterations;
     }
-    j["yaw_deg"] = fit.angles.yaw;
-    j["pitch_deg"] = fit.angles.pitch;
-    j["roll_deg"] = fit.angles.roll;
-    j["rotation"] = matrix_json(fit.rotation);
-    j["alpha"] = fit.alpha;
-    j["psi"] = fit.psi;
-    j["reprojection_rms_px"] = fit.reprojection_rms_px;
+    j["yaw_deg"] = fit.angles().yaw;
+    j["pitch_deg"] = fit.angles().pitch;
+    j["roll_deg"] = fit.angles().roll;
+    j["rotation"] = matrix_json(fit.rotation());
+    j["alpha"] = fit.alpha();
+    j["psi"] = fit.psi();
+    j["reprojection_rms_px"] = fit.reprojection_rms_px();
 }
 
 void write_json(nlohmann::json& j, const FitResult& fit) {

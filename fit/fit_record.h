@@ -24,14 +24,16 @@ struct LandmarkFitOptions {
 struct LandmarkFit {
     FitResult linear;
     std::optional<RefineResult> refined;
-    // The final fit: the refined one when there is one, else the linear one.
-    std::vector<float> alpha, psi;
-    morph::EulerAngles angles;
-    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-    double reprojection_rms_px = 0;
-    Eigen::Matrix2Xd projected;    // the 68 fitted landmarks (pixels)
     morph::Mesh mesh;              // the fitted instance in model space
     Eigen::Matrix2Xd vertices_px;  // its vertices in the image, through the final camera
+
+    // The final fit: the refined one when there is one, else the linear one.
+    [[nodiscard]] const std::vector<float>& alpha() const { return refined ? refined->alpha : linear.alpha; }
+    [[nodiscard]] const std::vector<float>& psi() const { return refined ? refined->psi : linear.psi; }
+    [[nodiscard]] const morph::EulerAngles& angles() const { return refined ? refined->angles : linear.pose.angles; }
+    [[nodiscard]] const Eigen::Matrix3d& rotation() const { return refined ? refined->pose.rotation : linear.pose.rotation; }
+    [[nodiscard]] double reprojection_rms_px() const { return refined ? refined->reprojection_rms_px : linear.reprojection_rms_px; }
+    [[nodiscard]] const Eigen::Matrix2Xd& projected() const { return refined ? refined->projected : linear.projected; }  // the 68 landmarks
 };
 
 // Throws core::Error (as Fitter::fit and refine) on unusable landmarks or a failed solve.

@@ -3,7 +3,7 @@
 #include "render/gl_program.h"
 
 #include "core/error.h"
-#include "morph/pose.h"
+#include "morph/camera.h"
 
 #include <algorithm>
 #include <array>
@@ -83,7 +83,7 @@ Eigen::Matrix4d clip_from_camera(const Camera& camera, double near, double far) 
 DepthRange depth_range(const Camera& camera, const Eigen::Vector3f& low, const Eigen::Vector3f& high) {
     const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
     const double radius = 0.5 * (high - low).cast<double>().norm();
-    const double centre_z = ((morph::model_to_camera_flip() * camera.pose.rotation) * centre + camera.pose.translation).z();
+    const double centre_z = morph::to_camera(camera.pose, centre).z();
     const double margin = 1.0 + 0.01 * radius;
     double far = centre_z + radius + margin, near = centre_z - radius - margin;
     if (camera.projection == Projection::kPerspective) near = std::max(near, std::max(1e-3, far * 1e-4));

@@ -15,12 +15,8 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <bit>
 #include <cmath>
-#include <cstdio>
-#include <limits>
-#include <numbers>
 #include <vector>
 
 namespace facesynth::render {

@@ -103,13 +103,13 @@ void run_fit(const FitArgs& a) {
     morph::write_obj(fitted.mesh, out / "mesh.obj");
     morph::write_glb(fitted.mesh, out / "mesh.glb");
     if (!image.empty())
-        write_png_file(out / "overlay.png", fit::draw_fit_overlay(image, fitted.vertices_px, fitted.mesh.triangles, landmarks, fitted.projected));
+        write_png_file(out / "overlay.png", fit::draw_fit_overlay(image, fitted.vertices_px, fitted.mesh.triangles, landmarks, fitted.projected()));
     j["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     write_json_file(out / "fit.json", j);
     if (!a.json.empty()) write_json_file(a.json, j);
     if (!a.quiet)
-        std::printf("yaw %.1f pitch %.1f roll %.1f deg, reprojection %.2f px (%zu landmarks) -> %s\n", fitted.angles.yaw, fitted.angles.pitch,
-                    fitted.angles.roll, fitted.reprojection_rms_px, fitted.linear.used.size(), out.string().c_str());
+        std::printf("yaw %.1f pitch %.1f roll %.1f deg, reprojection %.2f px (%zu landmarks) -> %s\n", fitted.angles().yaw, fitted.angles().pitch,
+                    fitted.angles().roll, fitted.reprojection_rms_px(), fitted.linear.used.size(), out.string().c_str());
 }
 
 struct LambdaArgs {

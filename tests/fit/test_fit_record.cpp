@@ -44,8 +44,8 @@ TEST(FitRecord, LinearFitGivesTheFinalValuesAndProjectsEveryVertexThroughTheAffi
     o.fit.fit_expression = false;
     const LandmarkFit f = fit_face(Fitter(m), face.landmarks, o);
     EXPECT_FALSE(f.refined.has_value());
-    EXPECT_EQ(f.alpha, f.linear.alpha);
-    EXPECT_EQ(f.reprojection_rms_px, f.linear.reprojection_rms_px);
+    EXPECT_EQ(f.alpha(), f.linear.alpha);
+    EXPECT_EQ(f.reprojection_rms_px(), f.linear.reprojection_rms_px);
     ASSERT_EQ(f.vertices_px.cols(), m.num_vertices());
     const int v = landmark_on_a_vertex(m).second;
     EXPECT_TRUE(f.vertices_px.col(v).isApprox(f.linear.camera.project(f.mesh.vertices.col(v).cast<double>())));
@@ -68,9 +68,9 @@ TEST(FitRecord, RefinedFitReplacesTheFinalValuesAndReportsItsCamera) {
     o.refine_options.intrinsics = face.intrinsics;
     const LandmarkFit f = fit_face(Fitter(m), face.landmarks, o);
     ASSERT_TRUE(f.refined.has_value());
-    EXPECT_EQ(f.alpha, f.refined->alpha);
-    EXPECT_NEAR(f.angles.yaw, face.angles.yaw, 0.5);
-    EXPECT_LT(f.reprojection_rms_px, f.linear.reprojection_rms_px);
+    EXPECT_EQ(f.alpha(), f.refined->alpha);
+    EXPECT_NEAR(f.angles().yaw, face.angles.yaw, 0.5);
+    EXPECT_LT(f.reprojection_rms_px(), f.linear.reprojection_rms_px);
     // The refined camera puts the fitted landmark vertices on the landmarks.
     const auto [landmark, v] = landmark_on_a_vertex(m);
     EXPECT_LT((f.vertices_px.col(v) - face.landmarks.col(landmark)).norm(), 0.5);
