@@ -12,6 +12,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -161,16 +162,18 @@ struct Layout {
         const double s = std::max(0.0, 1.0 - t * t);
         return eye_centre_y(t) - std::pow(s, 0.85) * fissure_down;
     }
-    // Vermilion borders (upper with a Cupid's bow) and the mouth line, as functions of x.
+    // Vermilion borders (upper with a Cupid's bow) and the mouth line, as functions of x. The lips
+    // taper toward the corners as helen_train's annotations have them (`facesynth eval conventions`:
+    // fuller sides put the outer lip points 50/54 0.04 and 56/60 0.02 inter-ocular distances off).
     [[nodiscard]] double mouth_line(double x) const { return y_sto + 1.0 * (x / x_ch) * (x / x_ch); }
     [[nodiscard]] double upper_vermilion(double x) const {
         const double r = std::min(1.0, std::abs(x) / x_ch);
-        const double bow = 1.0 - 0.12 * gauss(x, 2.2);
-        return mouth_line(x) + 8.0 * std::pow(1.0 - r * r, 0.55) * bow;
+        const double bow = 1.0 - 0.18 * gauss(x, 2.2);
+        return mouth_line(x) + 7.0 * std::pow(1.0 - r * r, 1.4) * bow;
     }
     [[nodiscard]] double lower_vermilion(double x) const {
         const double r = std::min(1.0, std::abs(x) / x_ch);
-        return mouth_line(x) - 10.0 * std::pow(1.0 - r * r, 0.6);
+        return mouth_line(x) - 10.0 * std::pow(1.0 - r * r, 0.95);
     }
 };
 
@@ -211,9 +214,10 @@ public:
                           {l_.y_sto + 4, 0.5 * (fw + jw) + 4.0},
                           {l_.y_go, jw},
                           {l_.y_go - 10, 0.93 * jw},
-                          {l_.y_gn + 14, 0.78 * jw},
-                          {l_.y_gn + 4, 0.6 * jw},
-                          {l_.y_gn, 0.5 * jw}});
+                          {l_.y_gn + 14, 0.76 * jw},
+                          {l_.y_gn + 8, 0.58 * jw},
+                          {l_.y_gn + 4, 0.42 * jw},
+                          {l_.y_gn, 0.18 * jw}});
         // Behind the face: the skull above, the neck below (where the mask stops short of it).
         back_depth_ = Profile({{l_.y_top, 22.0}, {l_.y_tr + 32, 70.0}, {l_.y_tr + 16, 88.0}, {l_.y_tr, 97.0}, {l_.y_eye, 97.0},
                                {l_.y_sn, 75.0}, {l_.y_go, 30.0}});
@@ -760,20 +764,27 @@ SurfacePoint mirrored(const SurfacePoint& p) {
     return {{mirror_vertex(p.vertices[0]), mirror_vertex(p.vertices[1]), mirror_vertex(p.vertices[2])}, p.weights};
 }
 
-// Evenly spaced (by frontal arc length) points along a vertex chain.
-std::vector<SurfacePoint> along_chain(const Eigen::Matrix3Xf& v, const std::vector<int>& chain, int count) {
+// Points along a vertex chain at the given fractions (ascending, in [0, 1]) of its frontal arc length.
+std::vector<SurfacePoint> along_chain(const Eigen::Matrix3Xf& v, const std::vector<int>& chain, std::span<const double> fractions) {
     std::vector<double> arc(chain.size(), 0.0);
     for (std::size_t i = 1; i < chain.size(); ++i)
         arc[i] = arc[i - 1] + (v.col(chain[i]).head<2>() - v.col(chain[i - 1]).head<2>()).norm();
     std::vector<SurfacePoint> out;
     std::size_t j = 0;
-    for (int k = 0; k < count; ++k) {
-        const double target = arc.back() * k / (count - 1);
+    for (const double fraction : fractions) {
+        const double target = arc.back() * fraction;
         while (j + 2 < arc.size() && arc[j + 1] < target) ++j;
         const float f = static_cast<float>(std::clamp((target - arc[j]) / std::max(1e-9, arc[j + 1] - arc[j]), 0.0, 1.0));
         out.push_back({{chain[j], chain[j + 1], chain[j + 1]}, {1.0f - f, f, 0.0f}});
     }
     return out;
+}
+
+// `count` points evenly spaced by frontal arc length along a vertex chain.
+std::vector<SurfacePoint> along_chain(const Eigen::Matrix3Xf& v, const std::vector<int>& chain, int count) {
+    std::vector<double> fractions(static_cast<std::size_t>(count));
+    for (int k = 0; k < count; ++k) fractions[static_cast<std::size_t>(k)] = double(k) / (count - 1);
+    return along_chain(v, chain, fractions);
 }
 
 // Where 300-W's annotators put the points that the anatomical definitions above miss: a shift in mm in
@@ -812,6 +823,11 @@ constexpr std::array<AnnotatorShift, 20> kAnnotatorShifts{{
 }};
 // END annotator shifts
 
+// Where jaw points 1-9 lie along the outline from its top to gnathion (fractions of its frontal arc
+// length): evenly spaced, except 7 and 8, which helen_train's annotators put nearer the chin
+// (`facesynth eval conventions`; docs/builtin-model.md "Landmarks and contours").
+constexpr std::array<double, 9> kJawArcFractions = {0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.775, 0.91, 1.0};
+
 std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::vector<Triangle>& triangles, const Layout& l) {
     std::vector<SurfacePoint> lm(kNumIbugLandmarks);
     const auto set_pair = [&](int right_id, SurfacePoint right) {  // 1-based id on the subject's right
@@ -825,7 +841,7 @@ std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::v
     const int first = row_at_height(v, l.y_eye + 4.0);
     std::vector<int> outline = right_silhouette(v, first, kRowGnathion - 1);
     outline.push_back(vertex_id(kRowGnathion, kMidColumn));
-    const auto jaw = along_chain(v, outline, 9);
+    const auto jaw = along_chain(v, outline, kJawArcFractions);
     for (int i = 0; i < 8; ++i) set_pair(i + 1, jaw[static_cast<std::size_t>(i)]);
     lm[kChinLandmark] = SurfacePoint::at_vertex(vertex_id(kRowGnathion, kMidColumn));
     // Brows (18 outer .. 22 inner), on the brow's upper half, at fractions of its length.
@@ -850,7 +866,7 @@ std::vector<SurfacePoint> ibug_landmarks(const Eigen::Matrix3Xf& v, const std::v
     set_pair(42, on_row(v, kRowEye + kFissureRows, eye_x(1.0 / 3.0)));
     // Outer lips: corners on the mouth line, the rest on the vermilion borders.
     set_pair(49, on_row(v, kRowStomion, -l.x_ch));
-    for (const auto& [id, fx] : std::array<std::pair<int, double>, 2>{{{50, 0.55}, {51, 0.2}}})
+    for (const auto& [id, fx] : std::array<std::pair<int, double>, 2>{{{50, 0.62}, {51, 0.2}}})
         set_pair(id, front(-fx * l.x_ch, l.upper_vermilion(fx * l.x_ch)));
     lm[51] = front(0.0, l.upper_vermilion(0.0));
     for (const auto& [id, fx] : std::array<std::pair<int, double>, 2>{{{60, 0.6}, {59, 0.28}}})

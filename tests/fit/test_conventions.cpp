@@ -63,8 +63,10 @@ TEST(Conventions, BuiltinPointsSitWhereHelenAnnotatorsPutThem) {
     options.jaw = JawMode::kContour;
     const ConventionStudy study = study_conventions(Fitter(model), annotations, options, 30);
     EXPECT_GT(study.faces, 800);
-    for (int i = 17; i < morph::kNumIbugLandmarks; ++i)
-        EXPECT_LT(study.mean.col(i).norm(), 0.06) << "iBUG point " << i + 1 << ": " << study.mean.col(i).transpose();
+    // Measured: at most 0.028 (lower lid 48, chin 9, jaw 7 and 11); before the chin was
+    // rounded and the lips tapered, 0.058 (jaw 8) and 0.052 (outer upper lip 54).
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i)
+        EXPECT_LT(study.mean.col(i).norm(), 0.04) << "iBUG point " << i + 1 << ": " << study.mean.col(i).transpose();
 }
 
 }  // namespace
