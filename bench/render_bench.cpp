@@ -30,11 +30,11 @@ morph::Mesh one_triangle() {
     return mesh;
 }
 
-void run(benchmark::State& state, const morph::Mesh& mesh, int size, bool geometry, int msaa) {
+void run(benchmark::State& state, const morph::Mesh& mesh, int size, bool geometry, int msaa) {  // msaa: samples, 0 = none
     render::Renderer renderer({render::Backend::kAuto, false});
     render::RenderSettings settings;
     settings.geometry = geometry;
-    settings.msaa_samples = msaa;
+    settings.antialiasing = msaa > 1 ? render::Antialiasing::msaa(msaa) : render::Antialiasing::none();
     render::Frame frame;
     const render::Camera camera = camera_for(size, 20.0);
     for (auto _ : state) renderer.render(mesh, camera, settings, frame);
@@ -69,7 +69,7 @@ void BM_ProjectLandmarksSurrey(benchmark::State& state) {
     const morph::JawContourRegion region = morph::jaw_contour_region(model);
     render::Renderer renderer({render::Backend::kAuto, false});
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     const render::Camera camera = camera_for(256, 60.0);
     const render::Frame frame = renderer.render(mesh, camera, settings);
     for (auto _ : state) benchmark::DoNotOptimize(render::project_landmarks(model.landmarks, mesh, camera, frame, {}, &region));

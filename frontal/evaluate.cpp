@@ -113,7 +113,7 @@ SyntheticView render_view(render::Renderer& renderer, const morph::MorphableMode
     camera.pose.translation = Eigen::Vector3d(-rotated_centre.x(), -rotated_centre.y(), distance);
 
     render::RenderSettings settings;
-    settings.msaa_samples = 4;
+    settings.antialiasing = render::Antialiasing::msaa(4);
     settings.geometry = true;
     settings.lighting = options.lighting;
     cv::Mat texture;
@@ -138,7 +138,7 @@ SyntheticView render_view(render::Renderer& renderer, const morph::MorphableMode
 TrueFrontal render_true_frontal(Frontaliser& frontaliser, const TexturedFace& face, int size, const render::Lighting& lighting) {
     const render::Camera camera = frontaliser.frontal_camera(size);
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     settings.geometry = false;
     settings.lighting = lighting;
     cv::Mat texture;

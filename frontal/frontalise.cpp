@@ -153,7 +153,7 @@ FrontalImage Frontaliser::render_frontal(const Eigen::Matrix3Xf& vertices, const
     mesh.triangles = model_.triangles;
     mesh.uv = model_.uv;
     render::RenderSettings settings;
-    settings.msaa_samples = options.msaa_samples;
+    settings.antialiasing = options.antialiasing;
     settings.geometry = false;
     settings.lighting = unlit();
     render::MeshExtras extras;

@@ -22,7 +22,7 @@ namespace facesynth::frontal {
 struct FrontalRenderOptions {
     int size = 256;                         // output is size x size
     std::optional<cv::Vec3b> background;    // B G R composited behind the face; none: black
-    int msaa_samples = 0;                   // anti-aliasing of the face outline
+    render::Antialiasing antialiasing = render::Antialiasing::none();  // of the face outline
 };
 
 struct FrontaliseOptions {

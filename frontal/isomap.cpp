@@ -40,7 +40,7 @@ UvRaster rasterise_uv(const morph::MorphableModel& model, int size, render::Rend
     camera.intrinsics = {static_cast<double>(size), static_cast<double>(size), -0.5, -0.5, size, size};
     camera.pose.translation = Eigen::Vector3d(0, 0, 10);
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     settings.geometry = true;
     settings.barycentrics = true;
     settings.cull_back_faces = false;

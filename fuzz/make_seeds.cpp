@@ -131,7 +131,6 @@ int main(int argc, char** argv) {
         run.config.count = 2;
         run.config.seed = 3;
         run.config.camera.width = run.config.camera.height = 48;
-        run.config.render.msaa_samples = 0;
         run.out = out / "seed-dataset";
         morph::MorphableModel with_landmarks = testkit::make_toy_model();
         (void)synth::run_synth(run, with_landmarks);

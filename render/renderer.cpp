@@ -66,6 +66,46 @@ Eigen::Matrix2Xd project_points(const Camera& camera, const Eigen::Matrix3Xf& mo
 }
 
 namespace {
+constexpr std::array<std::pair<Antialiasing::Method, std::string_view>, 4> kAntialiasingNames{{
+    {Antialiasing::Method::kNone, "none"},
+    {Antialiasing::Method::kMsaa, "msaa"},
+    {Antialiasing::Method::kSupersampling, "supersampling"},
+    {Antialiasing::Method::kEdges, "edges"},
+}};
+}  // namespace
+
+std::string_view antialiasing_name(Antialiasing::Method method) {
+    for (const auto& [m, name] : kAntialiasingNames)
+        if (m == method) return name;
+    throw core::Error("render: unknown anti-aliasing method " + std::to_string(static_cast<int>(method)));
+}
+
+std::pair<int, int> antialiasing_sample_range(Antialiasing::Method method) {
+    switch (method) {
+        case Antialiasing::Method::kMsaa: return {2, 16};
+        case Antialiasing::Method::kSupersampling: return {2, 4};
+        case Antialiasing::Method::kNone:
+        case Antialiasing::Method::kEdges: return {1, 1};
+    }
+    return {1, 1};
+}
+
+Antialiasing antialiasing_from(std::string_view name, int samples) {
+    const auto known = std::find_if(kAntialiasingNames.begin(), kAntialiasingNames.end(), [&](const auto& entry) { return entry.second == name; });
+    if (known == kAntialiasingNames.end())
+        throw core::Error("unknown anti-aliasing method '" + std::string(name) + "' (none, msaa, supersampling or edges)");
+    const Antialiasing::Method method = known->first;
+    const auto [fewest, most] = antialiasing_sample_range(method);
+    if (samples == 0) samples = method == Antialiasing::Method::kMsaa ? 4 : fewest;
+    if (samples < fewest || samples > most) {
+        if (fewest == most) throw core::Error(std::string(name) + " anti-aliasing takes no sample count (0 or 1), not " + std::to_string(samples));
+        throw core::Error(std::string(name) + " anti-aliasing takes " + std::to_string(fewest) + " to " + std::to_string(most) +
+                          " samples (0: " + std::to_string(method == Antialiasing::Method::kMsaa ? 4 : fewest) + "), not " + std::to_string(samples));
+    }
+    return {method, samples};
+}
+
+namespace {
 
 using detail::GlFunctions;
 
@@ -248,8 +288,6 @@ bool uniform_albedo(const morph::Mesh& mesh) {
         if (mesh.colours.col(i) != first) return false;
     return true;
 }
-
-constexpr int kMaxSupersampling = 4;
 
 using detail::Target;
 using detail::kColourTarget;
@@ -499,8 +537,8 @@ struct Renderer::Impl {
             return;
         }
         const int w = camera.intrinsics.width, h = camera.intrinsics.height;
-        const bool supersampled = settings.supersampling > 1;
-        ensure_targets(w, h, supersampled ? 0 : settings.msaa_samples);
+        const bool supersampled = settings.antialiasing.method == Antialiasing::Method::kSupersampling;
+        ensure_targets(w, h, settings.antialiasing.msaa_samples());
         gl.BindVertexArray(vao);
         const bool with_texture = extras.texture != nullptr;
         upload_mesh(mesh, extras, with_texture);
@@ -570,7 +608,7 @@ struct Renderer::Impl {
         if (supersampled) render_supersampled_colour(camera, settings, shading);
         gl.BindFramebuffer(GL_FRAMEBUFFER, targets.single_sample());
         read_back(settings, with_normals, with_ids, !supersampled, !separate_colour_pass, frame);
-        if (settings.edge_antialiasing) antialias_edges(mesh, camera, settings, frame);
+        if (settings.antialiasing.method == Antialiasing::Method::kEdges) antialias_edges(mesh, camera, settings, frame);
         check("rendering");
     }
 
@@ -586,7 +624,7 @@ struct Renderer::Impl {
     // each factor x factor block). Colours are premultiplied by coverage, so the average is the
     // anti-aliased composite over black.
     void render_supersampled_colour(const Camera& camera, const RenderSettings& settings, unsigned shading) {
-        const int factor = settings.supersampling;
+        const int factor = settings.antialiasing.supersampling_factor();
         const Camera fine = supersampled_camera(camera, factor);
         const int fine_width = fine.intrinsics.width, fine_height = fine.intrinsics.height;
         targets.ensure_supersampled(fine_width, fine_height);
@@ -734,16 +772,14 @@ struct Renderer::Impl {
         const morph::Intrinsics& k = camera.intrinsics;
         if (k.width <= 0 || k.height <= 0 || k.width > 16384 || k.height > 16384)
             throw core::Error("render: image size " + std::to_string(k.width) + "x" + std::to_string(k.height) + " is out of range");
-        if (settings.supersampling < 1 || settings.supersampling > kMaxSupersampling)
-            throw core::Error("render: supersampling " + std::to_string(settings.supersampling) + " is out of range [1, " +
-                        std::to_string(kMaxSupersampling) + "]");
-        if (settings.supersampling > 1 && settings.msaa_samples > 1)
-            throw core::Error("render: supersampling and msaa_samples are alternatives; set msaa_samples to 0 with supersampling");
-        if (settings.edge_antialiasing && (settings.msaa_samples > 1 || settings.supersampling > 1))
-            throw core::Error("render: edge_antialiasing works on a single-sample render; set msaa_samples to 0 and supersampling to 1 with it");
-        if (static_cast<long>(settings.supersampling) * std::max(k.width, k.height) > max_texture_size)
+        const Antialiasing& aa = settings.antialiasing;
+        const auto [fewest, most] = antialiasing_sample_range(aa.method);
+        if (aa.samples < fewest || aa.samples > most)
+            throw core::Error("render: " + std::string(antialiasing_name(aa.method)) + " anti-aliasing with " + std::to_string(aa.samples) +
+                              " samples is out of range [" + std::to_string(fewest) + ", " + std::to_string(most) + "]");
+        if (static_cast<long>(aa.supersampling_factor()) * std::max(k.width, k.height) > max_texture_size)
             throw core::Error("render: a " + std::to_string(k.width) + "x" + std::to_string(k.height) + " image supersampled " +
-                        std::to_string(settings.supersampling) + "x exceeds the largest render target (" +
+                        std::to_string(aa.supersampling_factor()) + "x exceeds the largest render target (" +
                         std::to_string(max_texture_size) + ")");
         if (!(k.fx > 0) || !(k.fy > 0)) throw core::Error("render: camera focal lengths must be positive");
         if (mesh.num_vertices() == 0 || mesh.triangles.empty()) throw core::Error("render: the mesh is empty");

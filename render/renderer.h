@@ -17,6 +17,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace facesynth::render {
 
@@ -48,18 +49,42 @@ struct MeshExtras {
     const cv::Mat* texture = nullptr;              // 8-bit RGB (sRGB) albedo sampled with mesh.uv
 };
 
+// How the colour image and the mask are anti-aliased; geometry maps stay single-sampled
+// (docs/render.md "Anti-aliasing").
+struct Antialiasing {
+    enum class Method {
+        kNone,
+        kMsaa,           // multisampling, `samples` per pixel (2..16)
+        // The colour pass drawn `samples` times larger per side (2..4) and box-filtered: samples² per
+        // pixel on an ordered grid, shading included. On llvmpipe 2 costs about 60 % of MSAA 4's colour pass.
+        kSupersampling,
+        // Analytic coverage of silhouette edges on the CPU after a single-sample render: outline pixels
+        // get fractional coverage, pixels where the face lies over itself a blend of both surfaces
+        // (render/edge_antialiasing.h).
+        kEdges,
+    };
+    Method method = Method::kMsaa;
+    int samples = 4;  // kMsaa: samples per pixel; kSupersampling: factor per side; otherwise 1
+
+    [[nodiscard]] static Antialiasing none() { return {Method::kNone, 1}; }
+    [[nodiscard]] static Antialiasing msaa(int samples_per_pixel) { return {Method::kMsaa, samples_per_pixel}; }
+    [[nodiscard]] static Antialiasing supersampling(int factor) { return {Method::kSupersampling, factor}; }
+    [[nodiscard]] static Antialiasing edges() { return {Method::kEdges, 1}; }
+    [[nodiscard]] int msaa_samples() const { return method == Method::kMsaa ? samples : 0; }
+    [[nodiscard]] int supersampling_factor() const { return method == Method::kSupersampling ? samples : 1; }
+    bool operator==(const Antialiasing&) const = default;
+};
+
+// "none", "msaa", "supersampling", "edges": the names synth's config and the CLI use.
+[[nodiscard]] std::string_view antialiasing_name(Antialiasing::Method method);
+// The method's sample range (kMsaa 2..16, kSupersampling 2..4, otherwise 1..1); out of range is an error.
+[[nodiscard]] std::pair<int, int> antialiasing_sample_range(Antialiasing::Method method);
+// The method named as above with `samples` (0: the method's default, 4 for MSAA and 2 for
+// supersampling); throws core::Error for an unknown name or a count out of the method's range.
+[[nodiscard]] Antialiasing antialiasing_from(std::string_view name, int samples);
+
 struct RenderSettings {
-    int msaa_samples = 4;          // colour/mask anti-aliasing; 0 or 1 = none
-    // Colour/mask anti-aliasing by supersampling instead of MSAA (needs msaa_samples 0): the colour
-    // pass drawn `supersampling` times larger and box-filtered, i.e. supersampling² samples per pixel on
-    // an ordered grid, shading included; 1 = off, at most 4. Geometry maps stay single-sampled.
-    // On llvmpipe 2 costs about 60 % of MSAA 4's colour pass (docs/render.md "Anti-aliasing").
-    int supersampling = 1;
-    // Analytic anti-aliasing of silhouette edges on the CPU after a single-sample render (needs
-    // msaa_samples 0 and supersampling 1): outline pixels get fractional coverage, pixels where the
-    // face lies over itself a blend of both surfaces; geometry maps unchanged (render/edge_antialiasing.h,
-    // docs/render.md "Anti-aliasing").
-    bool edge_antialiasing = false;
+    Antialiasing antialiasing = Antialiasing::msaa(4);
     bool geometry = true;          // depth, triangle ids and labels (and normals when `normals`)
     bool normals = true;           // with geometry: camera-space normals (an extra float target)
     bool barycentrics = false;     // per-pixel barycentrics and triangle ids (a slower geometry-shader pass)

@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/toml_file.h"
+#include "render/renderer.h"
 
 #include <charconv>
 #include <cmath>
@@ -23,6 +24,10 @@ void add_angle(std::vector<ConfigField>& f, const std::string& name, AngleDistri
 const ConfigField& find_field(const std::vector<ConfigField>& fields, std::string_view key, const std::string& context) {
     for (const auto& field : fields)
         if (field.key == key) return field;
+    for (const std::string_view replaced : {"render.edge_antialiasing", "render.msaa_samples", "render.supersampling"})
+        if (key == replaced)
+            throw core::Error(context + "config key '" + std::string(key) +
+                              "' was replaced by render.antialiasing (\"edges\", \"msaa\", \"supersampling\" or \"none\") and render.antialiasing_samples");
     throw core::Error(context + "unknown config key '" + std::string(key) + "'");
 }
 
@@ -225,12 +230,10 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"head.hair_probability", &c.head.hair_probability, "with head.body: share of samples with a hair mesh (the others show the model's scalp)"});
     f.push_back({"head.parts_file", &c.head.parts_file, "with head.body: a head parts file from tools/makehuman_parts.py (empty = the project's assets/head_parts.bin)"});
     f.push_back({"landmarks.mode", &c.landmarks.mode, "jaw points written to .pts: \"contour\" (300-W style) or \"fixed\""});
-    f.push_back({"render.edge_antialiasing", &c.render.edge_antialiasing,
-                 "anti-aliasing of silhouette edges on the CPU after a single-sample render (off for MSAA or supersampling)"});
-    f.push_back({"render.msaa_samples", &c.render.msaa_samples,
-                 "multisample anti-aliasing samples instead of edge anti-aliasing (0 or 1 = none; needs edge_antialiasing = false)"});
-    f.push_back({"render.supersampling", &c.render.supersampling,
-                 "anti-aliasing by supersampling instead: N x N samples per pixel (1 = off; needs msaa_samples = 0, edge_antialiasing = false)"});
+    f.push_back({"render.antialiasing", &c.render.antialiasing,
+                 "\"edges\" (silhouette edges blended on the CPU after a single-sample render), \"msaa\", \"supersampling\" or \"none\""});
+    f.push_back({"render.antialiasing_samples", &c.render.antialiasing_samples,
+                 "msaa: samples per pixel (2-16); supersampling: N x N samples per pixel (N 2-4); 0 = 4 for msaa, 2 for supersampling"});
     f.push_back({"render.shadow_map_size", &c.render.shadow_map_size, "shadow-map texels per side, per light (with shadows)"});
     f.push_back({"render.lights_per_vertex", &c.render.lights_per_vertex,
                  "directional lights shaded per vertex (Gouraud): cheaper, narrow highlights softened; not with shadows"});
@@ -328,14 +331,14 @@ void validate(const SynthConfig& c) {
     require(c.occluders.max_count >= 1, "occluders.max_count", "must be at least 1");
     require(c.occluders.max_size > 0 && c.occluders.max_size <= 1, "occluders.max_size", "must be in (0, 1]");
     require(c.landmarks.mode == "contour" || c.landmarks.mode == "fixed", "landmarks.mode", "must be \"contour\" or \"fixed\"");
-    require(c.render.msaa_samples >= 0 && c.render.msaa_samples <= 16, "render.msaa_samples", "must be in [0, 16]");
-    require(c.render.supersampling >= 1 && c.render.supersampling <= 4, "render.supersampling", "must be in [1, 4]");
-    require(c.render.supersampling == 1 || c.render.msaa_samples <= 1, "render.supersampling",
-            "replaces MSAA: set render.msaa_samples = 0 with it");
-    require(!c.render.edge_antialiasing || c.render.msaa_samples <= 1, "render.msaa_samples",
-            "replaces edge anti-aliasing (on by default): set render.edge_antialiasing = false with it");
-    require(!c.render.edge_antialiasing || c.render.supersampling == 1, "render.supersampling",
-            "replaces edge anti-aliasing (on by default): set render.edge_antialiasing = false with it");
+    // The method first (with its default count), then the count, so that the error names the key at fault.
+    for (const auto& [key, samples] : {std::pair{"render.antialiasing", 0}, std::pair{"render.antialiasing_samples", c.render.antialiasing_samples}}) {
+        try {
+            (void)render::antialiasing_from(c.render.antialiasing, samples);
+        } catch (const core::Error& e) {
+            require(false, key, e.what());
+        }
+    }
     require(c.render.shadow_map_size >= 16 && c.render.shadow_map_size <= 8192, "render.shadow_map_size", "must be in [16, 8192]");
     (void)parse_formats(c.output.formats);
     require(c.output.image_format == "png" || c.output.image_format == "jpg", "output.image_format", "must be \"png\" or \"jpg\"");

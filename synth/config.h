@@ -121,11 +121,11 @@ struct OccluderConfig {
 };
 
 struct RenderConfig {
-    // Anti-aliasing: one of edge anti-aliasing (the default: better outlines than MSAA 4 for ~2 % of its
-    // CPU on llvmpipe, docs/render.md "Edge anti-aliasing"), MSAA or supersampling.
-    bool edge_antialiasing = true;  // silhouette edges blended on the CPU after a single-sample render
-    int msaa_samples = 0;  // multisample anti-aliasing samples instead (0 or 1 = none; needs edge_antialiasing off)
-    int supersampling = 1;  // instead of MSAA: colour drawn N times larger, box-filtered (needs both others off)
+    // Anti-aliasing (render::antialiasing_from): "edges" (the default: silhouette edges blended on the CPU
+    // after a single-sample render, better outlines than MSAA 4 for ~2 % of its CPU on llvmpipe,
+    // docs/render.md "Edge anti-aliasing"), "msaa", "supersampling" or "none".
+    std::string antialiasing = "edges";
+    int antialiasing_samples = 0;  // msaa: samples per pixel (2-16); supersampling: factor per side (2-4); 0: 4 and 2
     int shadow_map_size = 512;  // shadow-map texels per side, per light (render::RenderSettings)
     // Directional lights shaded per vertex (Gouraud; render::RenderSettings::lights_per_vertex): about
     // half a lit render's CPU; within a mean 0.13 levels of per-pixel lights on synth's lightings, narrow

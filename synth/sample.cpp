@@ -326,9 +326,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     settings.lighting = s.spec.lighting.lighting;
     settings.geometry = true;  // depth for landmark visibility
     settings.normals = config_.output.normals;  // an extra float target: only when written
-    settings.msaa_samples = config_.render.msaa_samples;
-    settings.supersampling = config_.render.supersampling;
-    settings.edge_antialiasing = config_.render.edge_antialiasing;
+    settings.antialiasing = render::antialiasing_from(config_.render.antialiasing, config_.render.antialiasing_samples);
     settings.shadow_map_size = config_.render.shadow_map_size;
     settings.lights_per_vertex = config_.render.lights_per_vertex;
     render::MeshExtras extras;

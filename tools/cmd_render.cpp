@@ -40,9 +40,8 @@ struct ViewArgs {
     double distance = 0.0;  // 0: frame the mesh
     bool orthographic = false;
     std::string backend = "auto";
-    int msaa = 4;
-    int supersample = 1;
-    bool edge_aa = false;
+    std::string antialiasing = "msaa";
+    int antialiasing_samples = 0;
     std::string lighting_file;
     bool shadows = false;
     int shadow_map_size = render::RenderSettings{}.shadow_map_size;
@@ -84,11 +83,12 @@ void add_view_options(CLI::App* cmd, ViewArgs& v) {
     cmd->add_flag("--orthographic", v.orthographic, "orthographic camera scaled to fit the mesh (ignores --fov, --distance)");
     cmd->add_option("--backend", v.backend, "auto, egl or osmesa (auto: EGL, then OSMesa)")
         ->check(CLI::IsMember({"auto", "egl", "osmesa"}))->capture_default_str();
-    cmd->add_option("--msaa", v.msaa, "multisample anti-aliasing samples (0 = off)")->check(CLI::Range(0, 16))->capture_default_str();
-    cmd->add_option("--supersample", v.supersample, "anti-aliasing by N x N supersampling instead of MSAA (1 = off; needs --msaa 0)")
-        ->check(CLI::Range(1, 4))->capture_default_str();
-    cmd->add_flag("--edge-aa", v.edge_aa,
-                  "anti-aliasing of silhouette edges on the CPU after a single-sample render (needs --msaa 0, no --supersample)");
+    cmd->add_option("--antialiasing", v.antialiasing,
+                    "msaa, supersampling, edges (silhouette edges blended on the CPU after a single-sample render) or none")
+        ->check(CLI::IsMember({"none", "msaa", "supersampling", "edges"}))->capture_default_str();
+    cmd->add_option("--antialiasing-samples", v.antialiasing_samples,
+                    "msaa: samples per pixel (2-16); supersampling: N x N per pixel (N 2-4); 0: 4 for msaa, 2 for supersampling")
+        ->check(CLI::Range(0, 16))->capture_default_str();
     cmd->add_option("--lighting", v.lighting_file, "lighting JSON (docs/render.md)")->check(CLI::ExistingFile);
     cmd->add_flag("--shadows", v.shadows, "directional lights cast shadows (shadow maps; sets the lighting's \"shadows\")");
     cmd->add_option("--shadow-map-size", v.shadow_map_size, "shadow map texels per side, per light")
@@ -100,12 +100,12 @@ void add_view_options(CLI::App* cmd, ViewArgs& v) {
 
 // The render settings the view options ask for: anti-aliasing, the lighting file and shadows.
 render::RenderSettings view_settings(const ViewArgs& v) {
-    if (v.edge_aa && (v.msaa > 1 || v.supersample > 1))
-        throw CLI::ValidationError("--edge-aa", "works on a single-sample render: give --msaa 0 (and no --supersample)");
     render::RenderSettings settings;
-    settings.msaa_samples = v.msaa;
-    settings.supersampling = v.supersample;
-    settings.edge_antialiasing = v.edge_aa;
+    try {
+        settings.antialiasing = render::antialiasing_from(v.antialiasing, v.antialiasing_samples);
+    } catch (const core::Error& e) {
+        throw CLI::ValidationError("--antialiasing-samples", e.what());
+    }
     settings.shadow_map_size = v.shadow_map_size;
     settings.lights_per_vertex = v.lights_per_vertex;
     if (!v.lighting_file.empty()) {
@@ -266,9 +266,8 @@ void run_render(const RenderArgs& a) {
     j["alpha"] = alpha;
     j["beta"] = beta;
     j["lighting"] = settings.lighting;
-    j["msaa"] = settings.msaa_samples;
-    j["supersampling"] = settings.supersampling;
-    j["edge_antialiasing"] = settings.edge_antialiasing;
+    j["antialiasing"] = render::antialiasing_name(settings.antialiasing.method);
+    j["antialiasing_samples"] = settings.antialiasing.samples;
     j["shadow_map_size"] = settings.shadow_map_size;
     j["lights_per_vertex"] = settings.lights_per_vertex;
     j["landmarks_fixed"] = points_json(lm.pixels);
@@ -296,8 +295,8 @@ struct BenchResult {
 // --bare draws positions only, without anti-aliasing, shading or extra outputs.
 void check_bare_options(const RenderBenchArgs& b) {
     if (!b.bare) return;
-    if (b.view.msaa > 1 || b.view.supersample > 1 || b.view.edge_aa)
-        throw CLI::ValidationError("--bare", "draws without anti-aliasing: give --msaa 0 (and no --supersample or --edge-aa)");
+    if (b.view.antialiasing != "none")
+        throw CLI::ValidationError("--bare", "draws without anti-aliasing: give --antialiasing none");
     if (!b.view.lighting_file.empty() || b.view.shadows)
         throw CLI::ValidationError("--bare", "draws a constant colour: --lighting and --shadows do not apply");
     if (b.barycentrics || b.colour_only || b.no_normals)
@@ -408,9 +407,8 @@ void run_bench(const RenderBenchArgs& b) {
     j["height"] = b.view.height > 0 ? b.view.height : b.view.size;
     j["count"] = total;
     j["threads"] = threads;
-    j["msaa"] = b.view.msaa;
-    j["supersampling"] = b.view.supersample;
-    j["edge_antialiasing"] = b.view.edge_aa;
+    j["antialiasing"] = render::antialiasing_name(settings.antialiasing.method);
+    j["antialiasing_samples"] = settings.antialiasing.samples;
     j["lights"] = settings.lighting.lights.size();
     j["shadows"] = settings.lighting.shadows;
     j["shadow_map_size"] = settings.shadow_map_size;
@@ -421,9 +419,9 @@ void run_bench(const RenderBenchArgs& b) {
     j["bare"] = b.bare;
     j["lp_num_threads"] = lp_threads ? lp_threads : "";
     if (!b.json.empty()) write_json_file(b.json, j);
-    std::printf("bench render%s: %s (%d vertices) %dx%d, %d thread(s), msaa %d%s, %zu light(s), shadows %s: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
-                b.bare ? " (bare)" : "", model.name.c_str(), mesh.num_vertices(), j["width"].get<int>(), j["height"].get<int>(), threads, b.view.msaa,
-                b.view.edge_aa ? " + edge AA" : "", settings.lighting.lights.size(), settings.lighting.shadows ? "on" : "off", rate, j["ms_per_render"].get<double>(), j["cpu_ms_per_render"].get<double>(), backends[0].c_str(), renderers[0].c_str());
+    std::printf("bench render%s: %s (%d vertices) %dx%d, %d thread(s), %s anti-aliasing (%d), %zu light(s), shadows %s: %.1f renders/s, %.3f ms/render per thread, %.3f CPU ms/render [%s | %s]\n",
+                b.bare ? " (bare)" : "", model.name.c_str(), mesh.num_vertices(), j["width"].get<int>(), j["height"].get<int>(), threads,
+                j["antialiasing"].get<std::string>().c_str(), settings.antialiasing.samples, settings.lighting.lights.size(), settings.lighting.shadows ? "on" : "off", rate, j["ms_per_render"].get<double>(), j["cpu_ms_per_render"].get<double>(), backends[0].c_str(), renderers[0].c_str());
 }
 
 }  // namespace
@@ -448,7 +446,7 @@ void register_render_commands(CLI::App& app) {
     bench->add_flag("--colour-only", bench_args->colour_only, "RGB and mask only (no depth, normals, ids, labels)");
     bench->add_flag("--no-normals", bench_args->no_normals, "everything but normals (what synth renders by default)");
     bench->add_flag("--bare", bench_args->bare,
-                    "the floor: positions only, constant colour, RGBA8 + 24-bit depth, RGBA read back (needs --msaa 0)");
+                    "the floor: positions only, constant colour, RGBA8 + 24-bit depth, RGBA read back (needs --antialiasing none)");
     bench->add_option("--json", bench_args->json, "write the result (renders_per_s, ms_per_render, backend, renderer, ...) here");
     bench->add_flag("--quiet,-q", bench_args->quiet, "no progress output");
     bench->callback([bench_args] { run_bench(*bench_args); });

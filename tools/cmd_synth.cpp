@@ -128,8 +128,8 @@ void run_bench(SynthBenchArgs& b) {
     const std::filesystem::path work = b.work.empty() ? std::filesystem::temp_directory_path() / ("facesynth-bench-synth-" + std::to_string(::getpid())) : std::filesystem::path(b.work);
     nlohmann::json report = {{"model", model.name}, {"vertices", model.num_vertices()}, {"width", config.camera.width},
                              {"height", config.camera.height}, {"count", config.count}, {"image_format", config.output.image_format},
-                             {"png_compression", config.output.png_compression}, {"msaa", config.render.msaa_samples},
-                             {"supersampling", config.render.supersampling}, {"edge_antialiasing", config.render.edge_antialiasing},
+                             {"png_compression", config.output.png_compression}, {"antialiasing", config.render.antialiasing},
+                             {"antialiasing_samples", render::antialiasing_from(config.render.antialiasing, config.render.antialiasing_samples).samples},
                              {"lights_per_vertex", config.render.lights_per_vertex}};
     const char* lp_threads = std::getenv("LP_NUM_THREADS");
     report["lp_num_threads"] = lp_threads ? lp_threads : "";

@@ -160,7 +160,7 @@ cv::Mat reference_isomap(const cv::Mat& bgr, const morph::MorphableModel& model,
                                static_cast<int>(std::ceil((high.x() - origin.x()) * shrink)) + 2,
                                static_cast<int>(std::ceil((high.y() - origin.y()) * shrink)) + 2};
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     settings.geometry = true;
     morph::Mesh mesh;
     mesh.vertices = vertices;

@@ -1,5 +1,4 @@
-// Anti-aliasing by supersampling (RenderSettings::supersampling) and by analytic silhouette edges
-// (RenderSettings::edge_antialiasing): the geometry maps are those of a plain render, and the
+// Anti-aliasing by supersampling and by analytic silhouette edges (render::Antialiasing): the geometry maps are those of a plain render, and the
 // silhouette over a background approaches a 16-sample reference as MSAA 4 does.
 #include "common/test_data.h"
 #include "core/error.h"
@@ -22,12 +21,11 @@ const morph::Mesh& builtin_mean() {
     return mesh;
 }
 
-render::Frame render_with(const render::Camera& camera, int msaa, int supersampling, bool edge_antialiasing = false,
-                          const morph::Mesh& mesh = builtin_mean()) {
+using render::Antialiasing;
+
+render::Frame render_with(const render::Camera& camera, Antialiasing antialiasing, const morph::Mesh& mesh = builtin_mean()) {
     render::RenderSettings settings;
-    settings.msaa_samples = msaa;
-    settings.supersampling = supersampling;
-    settings.edge_antialiasing = edge_antialiasing;
+    settings.antialiasing = antialiasing;
     settings.normals = false;
     return testkit::shared_renderer().render(mesh, camera, settings);
 }
@@ -77,8 +75,8 @@ cv::Mat changed_by_antialiasing(const render::Frame& reference, const render::Fr
 
 TEST(AntiAliasing, SupersamplingKeepsTheGeometryMapsOfAPlainRender) {
     const render::Camera camera = make_camera(35, -10, 5, 211, 173);
-    const render::Frame plain = render_with(camera, 0, 1);
-    const render::Frame fine = render_with(camera, 0, 2);
+    const render::Frame plain = render_with(camera, Antialiasing::none());
+    const render::Frame fine = render_with(camera, Antialiasing::supersampling(2));
     ASSERT_EQ(fine.rgb.size(), cv::Size(211, 173));
     ASSERT_EQ(fine.mask.size(), cv::Size(211, 173));
     EXPECT_EQ(cv::countNonZero(plain.triangle_ids != fine.triangle_ids), 0);
@@ -120,11 +118,11 @@ Comparison compare_antialiasing(const morph::Mesh& mesh, const std::string& insp
     Comparison result;
     for (const double yaw : {-50.0, 0.0, 40.0}) {
         const render::Camera camera = make_camera(yaw, -10, 8, 256, 256);
-        const render::Frame reference = render_with(camera, 0, 4, false, mesh);
-        const render::Frame plain = render_with(camera, 0, 1, false, mesh);
-        const render::Frame msaa4 = render_with(camera, 4, 1, false, mesh);
-        const render::Frame supersampled2 = render_with(camera, 0, 2, false, mesh);
-        const render::Frame edge = render_with(camera, 0, 1, true, mesh);
+        const render::Frame reference = render_with(camera, Antialiasing::supersampling(4), mesh);
+        const render::Frame plain = render_with(camera, Antialiasing::none(), mesh);
+        const render::Frame msaa4 = render_with(camera, Antialiasing::msaa(4), mesh);
+        const render::Frame supersampled2 = render_with(camera, Antialiasing::supersampling(2), mesh);
+        const render::Frame edge = render_with(camera, Antialiasing::edges(), mesh);
         const cv::Mat reference_over_grey = over_grey(reference);
         const cv::Mat selections[2] = {(reference.mask > 0) & (reference.mask < 255), changed_by_antialiasing(reference, plain)};
         Comparison::Methods* methods[2] = {&result.outline, &result.changed};
@@ -167,8 +165,8 @@ TEST(AntiAliasing, EdgeAntialiasedSurreyOutlinesApproachASixteenSampleReference)
 
 TEST(AntiAliasing, EdgeAntialiasingKeepsTheGeometryMapsOfAPlainRender) {
     const render::Camera camera = make_camera(35, -10, 5, 211, 173);
-    const render::Frame plain = render_with(camera, 0, 1);
-    const render::Frame edge = render_with(camera, 0, 1, true);
+    const render::Frame plain = render_with(camera, Antialiasing::none());
+    const render::Frame edge = render_with(camera, Antialiasing::edges());
     EXPECT_EQ(cv::countNonZero(plain.triangle_ids != edge.triangle_ids), 0);
     EXPECT_EQ(cv::countNonZero(plain.labels != edge.labels), 0);
     EXPECT_EQ(cv::norm(plain.depth, edge.depth, cv::NORM_INF), 0.0);
@@ -189,8 +187,7 @@ TEST(AntiAliasing, EdgeAntialiasingKeepsTheGeometryMapsOfAPlainRender) {
     EXPECT_GT(cv::countNonZero((changed > 8) & (inside == 255)), 20);
     // Without the geometry maps (depth read internally) the image is the same.
     render::RenderSettings colour_only;
-    colour_only.msaa_samples = 0;
-    colour_only.edge_antialiasing = true;
+    colour_only.antialiasing = Antialiasing::edges();
     colour_only.geometry = false;
     const render::Frame bare = testkit::shared_renderer().render(builtin_mean(), camera, colour_only);
     EXPECT_EQ(cv::norm(bare.rgb, edge.rgb, cv::NORM_INF), 0.0);
@@ -214,9 +211,8 @@ void add_quad(morph::Mesh& mesh, float cx, float cy, float z, float half, const 
 
 render::RenderSettings edge_settings(bool edge_antialiasing) {
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = edge_antialiasing ? Antialiasing::edges() : Antialiasing::none();
     settings.normals = false;
-    settings.edge_antialiasing = edge_antialiasing;
     return settings;
 }
 
@@ -330,7 +326,7 @@ TEST(EdgeAntialiasing, WithBackFacesDrawnTheOutlineOfABackFacingSurfaceIsAntiali
     EXPECT_EQ(cv::countNonZero(testkit::shared_renderer().render(quad, camera, settings).mask), 0);  // culled
     settings.cull_back_faces = false;
     const render::Frame edge = testkit::shared_renderer().render(quad, camera, settings);
-    settings.edge_antialiasing = false;
+    settings.antialiasing = Antialiasing::none();
     const render::Frame plain = testkit::shared_renderer().render(quad, camera, settings);
     EXPECT_GT(cv::countNonZero((edge.mask > 0) & (edge.mask < 255)), 60);  // a 24-pixel square: 84
     cv::Mat inside;
@@ -363,38 +359,34 @@ TEST(EdgeAntialiasing, TopologyPairsEdgesWithTheirTriangles) {
     EXPECT_THROW(topology.build(quad), core::Error);
 }
 
-TEST(AntiAliasing, EdgeAntialiasingWithMsaaOrSupersamplingIsAnError) {
+// Each method's sample count is bounded (MSAA 2-16, supersampling 2-4, none and edges 1), and a
+// count out of range is refused with the method named.
+TEST(AntiAliasing, SampleCountsOutOfTheMethodsRangeAreErrors) {
     const render::Camera camera = make_camera(0, 0, 0, 64, 64);
     render::RenderSettings settings;
-    settings.edge_antialiasing = true;  // MSAA 4 by default
-    for (const auto& [msaa, supersampling] : {std::pair{4, 1}, std::pair{0, 2}}) {
-        settings.msaa_samples = msaa;
-        settings.supersampling = supersampling;
-        try {
-            (void)testkit::shared_renderer().render(builtin_mean(), camera, settings);
-            FAIL() << "edge anti-aliasing with msaa " << msaa << ", supersampling " << supersampling << " must be refused";
-        } catch (const core::Error& e) {
-            EXPECT_NE(std::string(e.what()).find("edge_antialiasing"), std::string::npos) << e.what();
-        }
+    for (const Antialiasing bad : {Antialiasing::supersampling(5), Antialiasing::supersampling(1), Antialiasing::msaa(1),
+                                   Antialiasing::msaa(17), Antialiasing{Antialiasing::Method::kEdges, 4}, Antialiasing{Antialiasing::Method::kNone, 2}}) {
+        settings.antialiasing = bad;
+        const std::string name(render::antialiasing_name(bad.method));
+        const std::string message = testkit::error_message_of([&] { (void)testkit::shared_renderer().render(builtin_mean(), camera, settings); });
+        EXPECT_NE(message.find(name + " anti-aliasing with " + std::to_string(bad.samples) + " samples"), std::string::npos) << message;
     }
+    settings.antialiasing = Antialiasing::supersampling(4);
+    EXPECT_NO_THROW((void)testkit::shared_renderer().render(builtin_mean(), camera, settings));
 }
 
-TEST(AntiAliasing, BadSupersamplingSettingsAreErrors) {
-    const render::Camera camera = make_camera(0, 0, 0, 64, 64);
-    render::RenderSettings settings;
-    settings.msaa_samples = 0;
-    settings.supersampling = 5;
-    EXPECT_THROW((void)testkit::shared_renderer().render(builtin_mean(), camera, settings), core::Error);
-    settings.supersampling = 0;
-    EXPECT_THROW((void)testkit::shared_renderer().render(builtin_mean(), camera, settings), core::Error);
-    settings.supersampling = 2;
-    settings.msaa_samples = 4;
-    try {
-        (void)testkit::shared_renderer().render(builtin_mean(), camera, settings);
-        FAIL() << "supersampling with MSAA must be refused";
-    } catch (const core::Error& e) {
-        EXPECT_NE(std::string(e.what()).find("supersampling"), std::string::npos) << e.what();
-    }
+// Names and sample counts as synth's config and the CLI give them; 0 is the method's default.
+TEST(AntiAliasing, FromNameResolvesDefaultsAndRefusesUnknownNames) {
+    EXPECT_EQ(render::antialiasing_from("msaa", 0), Antialiasing::msaa(4));
+    EXPECT_EQ(render::antialiasing_from("msaa", 8), Antialiasing::msaa(8));
+    EXPECT_EQ(render::antialiasing_from("supersampling", 0), Antialiasing::supersampling(2));
+    EXPECT_EQ(render::antialiasing_from("edges", 0), Antialiasing::edges());
+    EXPECT_EQ(render::antialiasing_from("none", 1), Antialiasing::none());
+    for (const Antialiasing a : {Antialiasing::none(), Antialiasing::msaa(4), Antialiasing::supersampling(3), Antialiasing::edges()})
+        EXPECT_EQ(render::antialiasing_from(render::antialiasing_name(a.method), a.samples), a);
+    EXPECT_NE(testkit::error_message_of([] { (void)render::antialiasing_from("fxaa", 0); }).find("'fxaa'"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([] { (void)render::antialiasing_from("msaa", 32); }).find("2 to 16"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([] { (void)render::antialiasing_from("edges", 2); }).find("no sample count"), std::string::npos);
 }
 
 }  // namespace

@@ -62,7 +62,7 @@ testkit::ColourDifference compare_encodings(const morph::MorphableModel& model, 
             mesh.colours.resize(3, 0);
         }
         render::RenderSettings settings;
-        settings.msaa_samples = 0;
+        settings.antialiasing = render::Antialiasing::none();
         settings.normals = false;
         settings.lighting = random_lighting(rng);
         render::Camera framed = make_camera(yaw(rng), pitch(rng), roll(rng), size, size);
@@ -120,7 +120,7 @@ TEST(ColourPerVertex, VaryingAlbedoKeepsThePerPixelEncoding) {
     const morph::Mesh mesh = model.instance({});
     ASSERT_GT((mesh.colours.rowwise().maxCoeff() - mesh.colours.rowwise().minCoeff()).maxCoeff(), 0.2f);
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     const render::Camera camera = make_camera(30, -10, 0, 256, 256, 30.0, 700.0);
     const render::Frame per_vertex = shared_renderer().render(mesh, camera, settings);
     settings.per_pixel_colour = true;
@@ -136,7 +136,7 @@ TEST(BareRenderer, CoversExactlyTheFullRendersMask) {
     const morph::Mesh mesh = model.instance({});
     render::BareRenderer bare(mesh, {render::Backend::kEgl, false});
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     cv::Mat rgba;
     for (const double yaw : {-50.0, 0.0, 35.0}) {
         const render::Camera camera = make_camera(yaw, 10, -5, 200, 160, 30.0, 700.0);

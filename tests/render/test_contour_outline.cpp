@@ -74,7 +74,7 @@ void check_model(const morph::MorphableModel& model, const std::string& name) {
     const morph::JawContourRegion region = morph::jaw_contour_region(model);
     ASSERT_FALSE(region.vertices.empty()) << name;
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     int checked = 0, on_outline = 0, hidden = 0;
     for (int identity = 0; identity < 3; ++identity) {
         std::vector<float> alpha(static_cast<std::size_t>(model.num_shape_components()), 0.0f);

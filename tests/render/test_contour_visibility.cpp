@@ -70,7 +70,7 @@ void expect_flags(const morph::MorphableModel& model, const std::string& name, d
     const morph::JawContourRegion region = morph::jaw_contour_region(model);
     const morph::Mesh mesh = model.instance({});
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     for (const int size : {256, 512}) {
         const render::Camera camera = make_camera(yaw, 0, 0, size, size, 30.0, 600.0);
         const render::Frame frame = shared_renderer().render(mesh, camera, settings);
@@ -125,7 +125,7 @@ TEST(LandmarkTopology, SameResultAsPerCallAndRefusesAnotherMesh) {
     alpha[2] = -1.0f;
     const morph::Mesh mesh = model.instance(alpha);
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     for (const double yaw : {-70.0, -20.0, 0.0, 45.0}) {
         const render::Camera camera = make_camera(yaw, 10, -5, 256, 256, 30.0, 600.0);
         const render::Frame frame = shared_renderer().render(mesh, camera, settings);

@@ -30,7 +30,7 @@ TEST(FastGamma, WithinOneLevelOfPowOnTheBuiltinModelsOwnColours) {
     const int views = 8;
     for (int i = 0; i < views; ++i) {
         render::RenderSettings settings;
-        settings.msaa_samples = 0;
+        settings.antialiasing = render::Antialiasing::none();
         settings.normals = false;
         settings.lights_per_vertex = i % 2 == 0;
         const float a = ambient(rng), s = strength(rng);

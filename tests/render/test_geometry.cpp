@@ -62,7 +62,7 @@ struct Agreement {
 Agreement check_vertex_projection(render::Renderer& renderer, const morph::Mesh& mesh, const render::Camera& camera) {
     render::RenderSettings settings;
     settings.barycentrics = true;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     const render::Frame frame = renderer.render(mesh, camera, settings);
     // Triangles around each landmark vertex, by pixel count.
     std::map<int, int> pixels_per_triangle;

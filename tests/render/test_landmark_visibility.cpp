@@ -126,7 +126,7 @@ struct VisibilityComparison {
 VisibilityComparison compare_with_ray_cast(const morph::MorphableModel& model, const std::string& name, int size) {
     const morph::Mesh mesh = model.instance({});
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     settings.normals = false;
     VisibilityComparison out;
     for (const double pitch : {-20.0, 0.0, 20.0})

@@ -124,7 +124,7 @@ TEST(Lighting, WhiteFurnaceConservesEnergyAndBandOneFollowsTheNormal) {
     render::RenderSettings settings;
     settings.lighting = render::uniform_lighting(1.0f);
     settings.lighting.gamma = 1.0f;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     const render::Camera camera = make_camera(0, 0, 0, 96, 96);
     render::Frame frame = shared_renderer().render(mesh, camera, settings);
     cv::Scalar inside = cv::mean(frame.rgb, frame.mask);
@@ -157,7 +157,7 @@ TEST(Resources, ThousandsOfRendersKeepMemorySteady) {
     render::Renderer& renderer = shared_renderer();
     render::Frame frame;
     render::RenderSettings settings;
-    settings.msaa_samples = 2;
+    settings.antialiasing = render::Antialiasing::msaa(2);
     auto run = [&](int count) {
         for (int i = 0; i < count; ++i) {
             const int size = 24 + (i / 250 % 3) * 8;  // targets are re-created on each size change
@@ -210,8 +210,7 @@ TEST(Resources, TheSecondSoftwareDisplayRendersTheSameBytesInParallel) {
     render::RenderSettings lit;
     lit.lighting.lights.push_back({{0.5f, 0.5f, 1.0f}, {0.6f, 0.6f, 0.6f}});
     lit.lighting.specular = 0.3f;
-    lit.msaa_samples = 0;
-    lit.edge_antialiasing = true;
+    lit.antialiasing = render::Antialiasing::edges();
     std::vector<render::Renderer> pool;
     for (int display = 0; display < 2; ++display) pool.emplace_back(render::RendererOptions{render::Backend::kEgl, false, display});
     EXPECT_EQ(pool[0].backend(), "egl-surfaceless");

@@ -44,7 +44,7 @@ TEST(LightsPerVertex, ChangesNothingWithoutLightsWithShadowsOrTwoSided) {
     const morph::Mesh mesh = model.instance({});
     const render::Camera camera = make_camera(25, -5, 0, 160, 160, 30.0, 700.0);
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     const Pair unlit = render_both(mesh, camera, settings);
     EXPECT_EQ(cv::norm(unlit.per_pixel.rgb, unlit.per_vertex.rgb, cv::NORM_INF), 0.0);
     settings.lighting = two_lights();
@@ -71,7 +71,7 @@ TEST(LightsPerVertex, TexturedAndOrthographicRendersStayCloseToPerPixelLights) {
     cv::randu(texture, cv::Scalar(150, 100, 80), cv::Scalar(230, 170, 140));
     const render::MeshExtras textured{{}, &texture};
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     settings.normals = false;
     settings.lighting = two_lights();
     for (const auto projection : {render::Projection::kPerspective, render::Projection::kOrthographic}) {

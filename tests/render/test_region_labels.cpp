@@ -49,7 +49,7 @@ TEST(RegionLabelImage, SurreyFrontalRegionsSitAtTheirLandmarks) {
     const morph::Mesh mesh = model.instance({});
     const render::Camera camera = make_camera(0, 0, 0, 256, 256, 30.0, 600.0);
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     const render::Frame frame = shared_renderer().render(mesh, camera, settings, {model.vertex_labels, nullptr});
     const cv::Mat& labels = frame.labels;
     const Eigen::Matrix2Xd lm = render::project_points(camera, model.landmark_positions(mesh.vertices));

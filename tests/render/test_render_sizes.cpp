@@ -19,7 +19,7 @@ TEST(RenderSizes, DepthOnlyPassHasTheDepthOfAFullRender) {
     const morph::Mesh mesh = toy().instance({});
     const render::Camera camera = make_camera(35, -10, 5, 200, 150);
     render::RenderSettings full;
-    full.msaa_samples = 0;
+    full.antialiasing = render::Antialiasing::none();
     render::RenderSettings depth_only;
     depth_only.depth_only = true;
     auto& renderer = testkit::shared_renderer();
@@ -38,7 +38,7 @@ TEST(RenderSizes, DepthOnlyPassHasTheDepthOfAFullRender) {
 TEST(RenderSizes, SmallImageAfterALargeOneMatchesAFreshRenderer) {
     const morph::Mesh mesh = toy().instance({});
     render::RenderSettings plain;
-    plain.msaa_samples = 0;
+    plain.antialiasing = render::Antialiasing::none();
     render::RenderSettings depth_only;
     depth_only.depth_only = true;
     const render::Camera small = make_camera(20, 5, 0, 96, 80);
@@ -66,7 +66,7 @@ TEST(RenderSizes, SmallImageAfterALargeOneMatchesAFreshRenderer) {
 TEST(RenderSizes, ASecondTextureOfTheSameSizeReplacesTheFirst) {
     const morph::Mesh mesh = toy().instance({});
     render::RenderSettings settings;
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     const render::Camera camera = make_camera(0, 0, 0, 64, 64);
     const cv::Mat first(16, 16, CV_8UC3, cv::Scalar(200, 100, 50));
     cv::Mat second(16, 16, CV_8UC3, cv::Scalar(30, 160, 220));

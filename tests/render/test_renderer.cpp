@@ -63,7 +63,7 @@ TEST(Renderer, TextureAndVertexLabelsReachTheOutputs) {
                                            static_cast<std::uint8_t>(render::Region::kLips));
     render::RenderSettings settings;
     settings.lighting = render::uniform_lighting(1.0f);
-    settings.msaa_samples = 0;
+    settings.antialiasing = render::Antialiasing::none();
     const render::Frame frame =
         shared_renderer().render(mesh, make_camera(0, 0, 0, 64, 64), settings, {labels, &texture});
     // Sampled as sRGB (linearised), lit by a uniform radiance of 1, re-encoded with gamma 2.2: the
@@ -89,7 +89,7 @@ TEST(Renderer, IdsLabelsMaskAndDepthMatchTheReferencePassAndTheSurface) {
         camera.projection = projection;
         if (projection == render::Projection::kOrthographic) camera.intrinsics.fx = camera.intrinsics.fy = 0.7;
         render::RenderSettings fast;
-        fast.msaa_samples = 0;
+        fast.antialiasing = render::Antialiasing::none();
         fast.normals = false;
         render::RenderSettings reference = fast;
         reference.barycentrics = true;

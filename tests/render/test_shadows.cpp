@@ -143,7 +143,7 @@ TEST(Shadows, OffRendersByteForByteAsWithoutAnyShadowSetting) {
     expect_identical(sky_plain, render_face(sky), "shadows without directional lights");
     // MSAA off takes the single-pass path.
     render::RenderSettings single = side_light(false);
-    single.msaa_samples = 0;
+    single.antialiasing = render::Antialiasing::none();
     const render::Frame single_plain = render_face(single);
     (void)render_face([&] { auto s = single; s.lighting.shadows = true; return s; }());
     expect_identical(single_plain, render_face(single), "single-sample shadows off");
@@ -153,7 +153,7 @@ TEST(Shadows, EglAndOsmesaAgree) {
     for (int msaa : {0, 4}) {
         render::RenderSettings settings = side_light(true);
         settings.lighting.lights.push_back({{-0.3f, 1.0f, 0.5f}, {0.3f, 0.3f, 0.25f}});  // a second light, another layer
-        settings.msaa_samples = msaa;
+        settings.antialiasing = msaa > 0 ? render::Antialiasing::msaa(msaa) : render::Antialiasing::none();
         const render::Frame egl = render_face(settings, render::Backend::kEgl);
         const render::Frame osmesa = render_face(settings, render::Backend::kOsmesa);
         int worst = 0, differing = 0;
@@ -229,7 +229,7 @@ TEST(Shadows, ManyRendersWithShadowsKeepMemorySteady) {
     auto run = [&](int count) {
         for (int i = 0; i < count; ++i) {
             settings.shadow_map_size = 64 + 64 * (i / 100 % 2);  // maps are re-made on each size change
-            settings.msaa_samples = i % 3 == 0 ? 2 : 0;
+            settings.antialiasing = i % 3 == 0 ? render::Antialiasing::msaa(2) : render::Antialiasing::none();
             settings.lighting.lights.assign(static_cast<std::size_t>(1 + i % 2), light);
             renderer.render(mesh, make_camera(i % 90 - 45.0, 0, 0, 32, 33), settings, frame);
         }

@@ -230,38 +230,37 @@ TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
     EXPECT_NE(testkit::error_message_of([&] { validate(half); }).find("render.shadow_map_size"), std::string::npos);
 }
 
-TEST(SynthConfig, SupersamplingReplacesMsaaAndIsBounded) {
+// One anti-aliasing method, with a sample count bounded per method; the error names the key at fault.
+TEST(SynthConfig, AntialiasingIsOneMethodWithItsSampleCount) {
     SynthConfig config;
-    config.render.edge_antialiasing = false;
-    config.render.msaa_samples = 4;
-    config.render.supersampling = 2;
-    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
-    config.render.msaa_samples = 0;
+    EXPECT_EQ(config.render.antialiasing, "edges");  // the default
+    EXPECT_EQ(config.render.antialiasing_samples, 0);
     EXPECT_NO_THROW(validate(config));
-    config.render.supersampling = 5;
-    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
-}
-
-TEST(SynthConfig, EdgeAntialiasingIsTheDefaultAndMsaaOrSupersamplingReplaceIt) {
-    SynthConfig config;
-    EXPECT_TRUE(config.render.edge_antialiasing);
-    EXPECT_EQ(config.render.msaa_samples, 0);
-    EXPECT_EQ(config.render.supersampling, 1);
+    apply_override(config, "render.antialiasing=msaa");
+    EXPECT_NO_THROW(validate(config));  // 0: MSAA's default of 4
+    apply_override(config, "render.antialiasing_samples=32");
+    const std::string too_many = testkit::error_message_of([&] { validate(config); });
+    EXPECT_NE(too_many.find("render.antialiasing_samples"), std::string::npos) << too_many;
+    EXPECT_NE(too_many.find("2 to 16"), std::string::npos) << too_many;
+    apply_override(config, "render.antialiasing=supersampling");
+    apply_override(config, "render.antialiasing_samples=5");
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("render.antialiasing_samples"), std::string::npos);
+    apply_override(config, "render.antialiasing_samples=2");
     EXPECT_NO_THROW(validate(config));
-    apply_override(config, "render.msaa_samples=4");
-    const std::string msaa_error = testkit::error_message_of([&] { validate(config); });
-    EXPECT_NE(msaa_error.find("render.msaa_samples"), std::string::npos) << msaa_error;
-    EXPECT_NE(msaa_error.find("render.edge_antialiasing = false"), std::string::npos) << msaa_error;
-    apply_override(config, "render.edge_antialiasing=false");
-    EXPECT_NO_THROW(validate(config));
-    config.render.msaa_samples = 0;
-    config.render.edge_antialiasing = true;
-    config.render.supersampling = 2;
-    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("render.supersampling"), std::string::npos);
-    config.render.edge_antialiasing = false;
-    EXPECT_NO_THROW(validate(config));
-    EXPECT_FALSE(config_from_json(to_json(config)).render.edge_antialiasing);
-    EXPECT_EQ(config_from_json(to_json(config)).render.supersampling, 2);
+    apply_override(config, "render.antialiasing=edges");
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("render.antialiasing_samples"), std::string::npos);  // edges take none
+    apply_override(config, "render.antialiasing=blur");
+    const std::string unknown = testkit::error_message_of([&] { validate(config); });
+    EXPECT_NE(unknown.find("render.antialiasing'"), std::string::npos) << unknown;
+    EXPECT_NE(unknown.find("none, msaa, supersampling or edges"), std::string::npos) << unknown;
+    apply_override(config, "render.antialiasing=supersampling");
+    EXPECT_EQ(config_from_json(to_json(config)).render.antialiasing, "supersampling");
+    EXPECT_EQ(config_from_json(to_json(config)).render.antialiasing_samples, 2);
+    // The keys it replaced are named as such.
+    for (const char* old_key : {"render.msaa_samples=4", "render.supersampling=2", "render.edge_antialiasing=false"}) {
+        const std::string replaced = testkit::error_message_of([&] { apply_override(config, old_key); });
+        EXPECT_NE(replaced.find("was replaced by render.antialiasing"), std::string::npos) << replaced;
+    }
 }
 
 TEST(SynthScene, ColourTemperatureIsWhiteAtDaylightAndWarmBelow) {

@@ -61,7 +61,7 @@ LitComparison compare_lights(const morph::MorphableModel& model, SynthConfig con
         else mesh.colours = model.albedo_instance(s.beta);
         const render::Camera camera{s.intrinsics, s.pose, render::Projection::kPerspective};
         render::RenderSettings settings;
-        settings.msaa_samples = 0;
+        settings.antialiasing = render::Antialiasing::none();
         settings.normals = false;
         settings.lighting = s.lighting.lighting;
         renderer.render(mesh, camera, settings, per_pixel);

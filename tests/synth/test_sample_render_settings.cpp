@@ -1,4 +1,4 @@
-// Synth's render keys reach the renderer: render.edge_antialiasing (the default) blends the outline
+// Synth's render keys reach the renderer: render.antialiasing = "edges" (the default) blends the outline
 // (fractional coverage in the mask) and leaves the geometry and the landmarks as they are.
 #include "morph/model_io.h"
 #include "render/renderer.h"
@@ -23,9 +23,9 @@ TEST(SampleRenderSettings, EdgeAntialiasingKeyBlendsTheOutlineOnly) {
     const morph::MorphableModel model = morph::load_model("builtin");
     SynthConfig antialiased;
     antialiased.camera.width = antialiased.camera.height = 128;
-    ASSERT_TRUE(antialiased.render.edge_antialiasing);  // the default
+    ASSERT_EQ(antialiased.render.antialiasing, "edges");  // the default
     SynthConfig aliased = antialiased;
-    apply_override(aliased, "render.edge_antialiasing=false");
+    apply_override(aliased, "render.antialiasing=none");
     const ImageLibrary none;
     const render::RendererOptions options{render::Backend::kEgl, false};
     SampleGenerator with(antialiased, model, none, none, options), without(aliased, model, none, none, options);

@@ -384,7 +384,7 @@ TEST(SynthCli, LabelMapsHoldTheModelsRegionIds) {
     std::string log;
     const std::string args = " --model " + labelled_toy_model_file().string() +
                              " -n 4 --size 64 --seed 5 --format folder,wds --set output.labels=true --set output.mask=true"
-                             " --set render.edge_antialiasing=false --quiet";  // no anti-aliasing
+                             " --set render.antialiasing=none --quiet";
     ASSERT_EQ(synth(" -o " + dir.string() + args, &log), 0) << log;
     for (int i = 0; i < 4; ++i) {
         const std::string key = "s0000000" + std::to_string(i);
@@ -705,11 +705,11 @@ TEST(SynthCli, BenchJsonHasTheListedKeysAndTheSettingsItRan) {
     const nlohmann::json report = nlohmann::json::parse(in);
     for (const char* key : {"samples_per_s_1_thread", "samples_per_s_all_threads", "cpu_ms_per_sample_1_thread",
                             "cpu_ms_per_sample_all_threads", "cpu_ms_render", "cpu_ms_render_all_threads", "ms_write_all_threads",
-                            "msaa", "supersampling", "edge_antialiasing", "lights_per_vertex", "lp_num_threads", "renderer"})
+                            "antialiasing", "antialiasing_samples", "lights_per_vertex", "lp_num_threads", "renderer"})
         EXPECT_TRUE(report.contains(key)) << key;
-    EXPECT_EQ(report["edge_antialiasing"], true);
+    EXPECT_EQ(report["antialiasing"], "edges");
     EXPECT_EQ(report["lights_per_vertex"], false);
-    EXPECT_EQ(report["msaa"], 0);
+    EXPECT_EQ(report["antialiasing_samples"], 1);
     EXPECT_EQ(report["count"], 2);
     // The two workers render on Mesa's two software displays (a GPU device, where one is offered,
     // serves both instead).

@@ -25,7 +25,7 @@ fs::path make_dataset(const fs::path& dir, const std::string& model, int count) 
     const fs::path data = dir / "data";
     std::string out;
     const std::string cmd = cli_path().string() + " synth --model " + model + " --out " + data.string() + " -n " + std::to_string(count) +
-                            " --size 128 --seed 11 --set pose.yaw.min=-60 --set pose.yaw.max=60 --set render.msaa_samples=0"
+                            " --size 128 --seed 11 --set pose.yaw.min=-60 --set pose.yaw.max=60"
                             " --set background.type=solid --quiet";
     EXPECT_EQ(run_command(cmd, &out), 0) << cmd << "\n" << out;
     return data;

@@ -20,7 +20,7 @@ fs::path make_renders(const fs::path& dir) {
     const fs::path data = dir / "data";
     std::string out;
     const std::string cmd = cli_path().string() + " synth --model builtin --out " + data.string() +
-                            " -n 2 --size 192 --seed 3 --set pose.yaw.min=-40 --set pose.yaw.max=40 --set render.msaa_samples=0 --quiet";
+                            " -n 2 --size 192 --seed 3 --set pose.yaw.min=-40 --set pose.yaw.max=40 --quiet";
     EXPECT_EQ(run_command(cmd, &out), 0) << cmd << "\n" << out;
     return data;
 }

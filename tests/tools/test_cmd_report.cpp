@@ -50,7 +50,7 @@ TEST(CmdReport, SelfContainedPageFromDatasetAndResults) {
     const std::string fs_cli = cli_path().string();
     std::string out;
     ASSERT_EQ(run_command(fs_cli + " synth --model builtin --out " + data.string() +
-                              " -n 6 --size 96 --seed 5 --set render.msaa_samples=0 --quiet",
+                              " -n 6 --size 96 --seed 5 --quiet",
                           &out),
               0)
         << out;

@@ -35,7 +35,7 @@ bool contains(const std::string& text, const std::string& part) { return text.fi
 // A frontal built-in face, large in a 256² image, that the Haar detector finds.
 fs::path rendered_face(const fs::path& dir) {
     std::string log;
-    EXPECT_EQ(run_cli("render --size 256 --msaa 0 --quiet -o " + (dir / "render").string(), &log), 0) << log;
+    EXPECT_EQ(run_cli("render --size 256 --antialiasing none --quiet -o " + (dir / "render").string(), &log), 0) << log;
     return dir / "render" / "image.png";
 }
 
@@ -126,7 +126,7 @@ TEST(Robustness, EvalLandmarksCountsCorruptItemsAndExitsOne) {
     const fs::path data = dir / "data";
     std::string log;
     ASSERT_EQ(run_cli("synth --model builtin --out " + data.string() + " -n 4 --size 96 --seed 3 --format folder"
-                  " --set render.msaa_samples=0 --quiet", &log), 0) << log;
+                  " --quiet", &log), 0) << log;
     const std::string png = core::read_file(data / "images" / "s00000001.png");
     write_bytes(data / "images" / "s00000001.png", png.substr(0, png.size() / 3));
     write_bytes(data / "landmarks" / "s00000002.pts", "version: 1\nn_points: 3\n{\n1 1\n2 2\n3 3\n}\n");
@@ -145,7 +145,7 @@ TEST(Robustness, FitRefusesUnreadableAndHugeImagesByName) {
     const auto dir = fresh_temp_dir("robust_fit");
     const fs::path data = dir / "data";
     std::string log;
-    ASSERT_EQ(run_cli("synth --model builtin --out " + data.string() + " -n 1 --size 64 --format folder --set render.msaa_samples=0 --quiet", &log), 0) << log;
+    ASSERT_EQ(run_cli("synth --model builtin --out " + data.string() + " -n 1 --size 64 --format folder --quiet", &log), 0) << log;
     const std::string pts = (data / "landmarks" / "s00000000.pts").string();
     write_bytes(dir / "text.jpg", "not a JPEG");
     write_bytes(dir / "huge.png", png_header_only(20000, 20000));
@@ -163,7 +163,7 @@ TEST(Robustness, FrontaliseRefusesHugeImagesByName) {
     const auto dir = fresh_temp_dir("robust_frontalise");
     const fs::path data = dir / "data";
     std::string log;
-    ASSERT_EQ(run_cli("synth --model builtin --out " + data.string() + " -n 1 --size 64 --format folder --set render.msaa_samples=0 --quiet", &log), 0) << log;
+    ASSERT_EQ(run_cli("synth --model builtin --out " + data.string() + " -n 1 --size 64 --format folder --quiet", &log), 0) << log;
     write_bytes(dir / "huge.png", png_header_only(20000, 20000));
     const std::string pts = (data / "landmarks" / "s00000000.pts").string();
     EXPECT_EQ(run_cli("frontalise --model builtin --pts " + pts + " --quiet --out " + (dir / "out").string() + " " + (dir / "huge.png").string(), &log), 1) << log;
@@ -210,20 +210,29 @@ TEST(Robustness, NonFiniteNumbersAreRefusedNamingTheOptionOrKey) {
     EXPECT_FALSE(fs::exists(dir / "s"));
 }
 
-TEST(Robustness, EdgeAntialiasingNeedsASingleSampleRenderAndIsRecorded) {
-    const auto dir = fresh_temp_dir("robust_edge_aa");
+TEST(Robustness, AntialiasingIsOneMethodWithABoundedSampleCountAndIsRecorded) {
+    const auto dir = fresh_temp_dir("robust_antialiasing");
     std::string log;
-    EXPECT_EQ(run_cli("render --size 64 --edge-aa -o " + (dir / "r").string(), &log), 2) << log;  // MSAA 4 by default
-    EXPECT_TRUE(contains(log, "--edge-aa")) << log;
-    EXPECT_EQ(run_cli("render --size 64 --msaa 0 --supersample 2 --edge-aa -o " + (dir / "r").string(), &log), 2) << log;
+    EXPECT_EQ(run_cli("render --size 64 --antialiasing fxaa -o " + (dir / "r").string(), &log), 2) << log;
+    EXPECT_TRUE(contains(log, "--antialiasing")) << log;
+    EXPECT_EQ(run_cli("render --size 64 --antialiasing supersampling --antialiasing-samples 8 -o " + (dir / "r").string(), &log), 2) << log;
+    EXPECT_TRUE(contains(log, "--antialiasing-samples") && contains(log, "2 to 4")) << log;
+    EXPECT_EQ(run_cli("render --size 64 --antialiasing edges --antialiasing-samples 4 -o " + (dir / "r").string(), &log), 2) << log;
     EXPECT_FALSE(fs::exists(dir / "r"));
-    EXPECT_EQ(run_cli("bench render --size 64 -n 5 --msaa 0 --bare --edge-aa --quiet", &log), 2) << log;
-    // synth anti-aliases edges by default: MSAA asks for edge anti-aliasing off.
+    EXPECT_EQ(run_cli("bench render --size 64 -n 5 --bare --antialiasing edges --quiet", &log), 2) << log;
+    EXPECT_TRUE(contains(log, "--antialiasing none")) << log;
+    // synth's config: the keys the method replaced are named as replaced, a bad count names its key.
     EXPECT_EQ(run_cli("synth -o " + (dir / "s").string() + " -n 1 --set render.msaa_samples=4", &log), 1) << log;
-    EXPECT_TRUE(contains(log, "render.msaa_samples") && contains(log, "render.edge_antialiasing = false")) << log;
+    EXPECT_TRUE(contains(log, "render.msaa_samples' was replaced by render.antialiasing")) << log;
+    EXPECT_EQ(run_cli("synth -o " + (dir / "s").string() + " -n 1 --set render.antialiasing=msaa --set render.antialiasing_samples=64", &log), 1) << log;
+    EXPECT_TRUE(contains(log, "render.antialiasing_samples")) << log;
     EXPECT_FALSE(fs::exists(dir / "s" / "manifest.jsonl"));
-    ASSERT_EQ(run_cli("render --size 64 --msaa 0 --edge-aa --quiet -o " + (dir / "r").string(), &log), 0) << log;
-    EXPECT_EQ(read_json(dir / "r" / "render.json")["edge_antialiasing"], true);
+    ASSERT_EQ(run_cli("render --size 64 --antialiasing edges --quiet -o " + (dir / "r").string(), &log), 0) << log;
+    EXPECT_EQ(read_json(dir / "r" / "render.json")["antialiasing"], "edges");
+    EXPECT_EQ(read_json(dir / "r" / "render.json")["antialiasing_samples"], 1);
+    ASSERT_EQ(run_cli("render --size 64 --quiet -o " + (dir / "r2").string(), &log), 0) << log;
+    EXPECT_EQ(read_json(dir / "r2" / "render.json")["antialiasing"], "msaa");  // the render command's default
+    EXPECT_EQ(read_json(dir / "r2" / "render.json")["antialiasing_samples"], 4);
 }
 
 TEST(Robustness, UnwritableOutputIsAOneLineErrorNamingThePath) {
@@ -232,7 +241,7 @@ TEST(Robustness, UnwritableOutputIsAOneLineErrorNamingThePath) {
     write_bytes(dir / "blocker", "a file, not a folder");
     const std::string blocked = (dir / "blocker" / "sub").string();
     std::string log;
-    for (const std::string& command : {"render --size 32 --msaa 0 -o " + blocked, "synth -n 1 --size 32 -o " + blocked,
+    for (const std::string& command : {"render --size 32 --antialiasing none -o " + blocked, "synth -n 1 --size 32 -o " + blocked,
                                        "model convert --model builtin --out " + blocked + "/m.fsm",
                                        "model info --model builtin --json " + blocked + "/info.json",
                                        "detect --regressor dlib " + (dir / "blocker").string() + " --out " + blocked}) {
@@ -262,7 +271,7 @@ TEST(Robustness, EglUnavailableFallsBackToOsmesaWithAWarning) {
     // glvnd finds no EGL vendor library: EGL cannot start, as on a machine without Mesa's EGL.
     const std::string no_egl = "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent/egl.json ";
     std::string log;
-    ASSERT_EQ(facesynth::testkit::run_command(no_egl + cli_path().string() + " render --size 32 --msaa 0 --quiet -o " + dir.string(), &log), 0) << log;
+    ASSERT_EQ(facesynth::testkit::run_command(no_egl + cli_path().string() + " render --size 32 --antialiasing none --quiet -o " + dir.string(), &log), 0) << log;
     EXPECT_TRUE(contains(log, "facesynth: warning: EGL unavailable")) << log;
     EXPECT_TRUE(contains(log, "rendering with OSMesa")) << log;
     EXPECT_EQ(read_json(dir / "render.json")["backend"], "osmesa");

@@ -26,7 +26,7 @@ fs::path make_train_dataset(const fs::path& dir, const std::string& name, int co
                             std::to_string(count) + " --size 160 --seed " + std::to_string(seed) +
                             " --set pose.yaw.min=-20 --set pose.yaw.max=20 --set pose.pitch.min=-10"
                             " --set pose.pitch.max=10 --set pose.roll.min=-5 --set pose.roll.max=5"
-                            " --set render.msaa_samples=0 --quiet";
+                            " --quiet";
     EXPECT_EQ(run_command(cmd, &out), 0) << cmd << "\n" << out;
     return data;
 }
