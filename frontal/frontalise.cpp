@@ -47,6 +47,16 @@ StageTimes& StageTimes::operator+=(const StageTimes& t) {
     return *this;
 }
 
+StageTimes StageTimes::per(double count) const {
+    return {fit_cpu_ms / count, isomap_cpu_ms / count, mirror_cpu_ms / count, frontal_cpu_ms / count,
+            fit_ms / count,     isomap_ms / count,     mirror_ms / count,     frontal_ms / count};
+}
+
+void to_json(nlohmann::json& j, const StageTimes& t) {
+    j = {{"fit_ms", t.fit_ms},         {"isomap_ms", t.isomap_ms},         {"mirror_ms", t.mirror_ms},         {"frontal_ms", t.frontal_ms},
+         {"fit_cpu_ms", t.fit_cpu_ms}, {"isomap_cpu_ms", t.isomap_cpu_ms}, {"mirror_cpu_ms", t.mirror_cpu_ms}, {"frontal_cpu_ms", t.frontal_cpu_ms}};
+}
+
 render::Lighting unlit() {
     render::Lighting lighting;
     for (auto& coefficient : lighting.sh) coefficient = {0.0f, 0.0f, 0.0f};

@@ -12,6 +12,7 @@
 #include "render/renderer.h"
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include <map>
@@ -40,7 +41,10 @@ struct StageTimes {
     [[nodiscard]] double total_cpu_ms() const { return fit_cpu_ms + isomap_cpu_ms + mirror_cpu_ms + frontal_cpu_ms; }
     StageTimes& operator+=(const StageTimes& t);
     [[nodiscard]] double total_ms() const { return fit_ms + isomap_ms + mirror_ms + frontal_ms; }
+    [[nodiscard]] StageTimes per(double count) const;  // every time divided by count
 };
+// The flat keys fit_ms, isomap_ms, mirror_ms, frontal_ms and the same with _cpu_ms.
+void to_json(nlohmann::json& j, const StageTimes& t);
 
 struct FrontalImage {
     cv::Mat image;  // CV_8UC3 B G R

@@ -151,14 +151,7 @@ nlohmann::json face_record(const fs::path& image, int face, const std::string& s
     j["covered_texels"] = r.isomap_stats.covered_texels;
     j["visible_texels"] = r.isomap_stats.visible_texels;
     j["detect_ms"] = detect_ms;
-    j["fit_ms"] = r.times.fit_ms;
-    j["isomap_ms"] = r.times.isomap_ms;
-    j["mirror_ms"] = r.times.mirror_ms;
-    j["frontal_ms"] = r.times.frontal_ms;
-    j["fit_cpu_ms"] = r.times.fit_cpu_ms;
-    j["isomap_cpu_ms"] = r.times.isomap_cpu_ms;
-    j["mirror_cpu_ms"] = r.times.mirror_cpu_ms;
-    j["frontal_cpu_ms"] = r.times.frontal_cpu_ms;
+    j.update(nlohmann::json(r.times));
     return j;
 }
 
@@ -437,16 +430,10 @@ void run_bench_frontalise(const FrontaliseBenchArgs& a) {
     j["image_size"] = frontal::ViewOptions{}.size;
     j["renderer"] = frontaliser.renderer().renderer_string();
     j["lp_num_threads"] = lp_threads ? lp_threads : "";
-    j["fit_cpu_ms"] = sum.fit_cpu_ms / n;
-    j["isomap_cpu_ms"] = sum.isomap_cpu_ms / n;
-    j["mirror_cpu_ms"] = sum.mirror_cpu_ms / n;
-    j["frontal_cpu_ms"] = sum.frontal_cpu_ms / n;
-    j["cpu_ms_per_face"] = sum.total_cpu_ms() / n;
-    j["ms_per_face"] = sum.total_ms() / n;
-    j["fit_ms"] = sum.fit_ms / n;
-    j["isomap_ms"] = sum.isomap_ms / n;
-    j["mirror_ms"] = sum.mirror_ms / n;
-    j["frontal_ms"] = sum.frontal_ms / n;
+    const frontal::StageTimes per_face = sum.per(n);
+    j.update(nlohmann::json(per_face));
+    j["cpu_ms_per_face"] = per_face.total_cpu_ms();
+    j["ms_per_face"] = per_face.total_ms();
     if (!a.quiet)
         std::printf("%s, %d faces, isomap %d², frontal %d²%s (LP_NUM_THREADS=%s)\n"
                     "per face, CPU (process) / wall ms: fit %.2f / %.2f, isomap %.2f / %.2f, mirror %.2f / %.2f, frontal %.2f / %.2f, total %.2f / %.2f\n",

@@ -98,6 +98,15 @@ void add_view_options(CLI::App* cmd, ViewArgs& v) {
                   "within a few levels at 256^2 (docs/render.md \"Shading\"); not with --shadows");
 }
 
+// The settings both render.json and the benchmark's JSON record (render.json adds the whole lighting,
+// the benchmark its light count and shadow flag).
+nlohmann::json settings_json(const render::RenderSettings& settings) {
+    return {{"antialiasing", render::antialiasing_name(settings.antialiasing.method)},
+            {"antialiasing_samples", settings.antialiasing.samples},
+            {"shadow_map_size", settings.shadow_map_size},
+            {"lights_per_vertex", settings.lights_per_vertex}};
+}
+
 // The render settings the view options ask for: anti-aliasing, the lighting file and shadows.
 render::RenderSettings view_settings(const ViewArgs& v) {
     render::RenderSettings settings;
@@ -266,10 +275,7 @@ void run_render(const RenderArgs& a) {
     j["alpha"] = alpha;
     j["beta"] = beta;
     j["lighting"] = settings.lighting;
-    j["antialiasing"] = render::antialiasing_name(settings.antialiasing.method);
-    j["antialiasing_samples"] = settings.antialiasing.samples;
-    j["shadow_map_size"] = settings.shadow_map_size;
-    j["lights_per_vertex"] = settings.lights_per_vertex;
+    j.update(settings_json(settings));
     j["landmarks_fixed"] = points_json(lm.pixels);
     j["landmarks_contour"] = points_json(lm.contour_pixels);
     j["landmarks_3d_fixed"] = points_json(lm.model_points);
@@ -407,12 +413,9 @@ void run_bench(const RenderBenchArgs& b) {
     j["height"] = b.view.height > 0 ? b.view.height : b.view.size;
     j["count"] = total;
     j["threads"] = threads;
-    j["antialiasing"] = render::antialiasing_name(settings.antialiasing.method);
-    j["antialiasing_samples"] = settings.antialiasing.samples;
+    j.update(settings_json(settings));
     j["lights"] = settings.lighting.lights.size();
     j["shadows"] = settings.lighting.shadows;
-    j["shadow_map_size"] = settings.shadow_map_size;
-    j["lights_per_vertex"] = settings.lights_per_vertex;
     j["barycentrics"] = b.barycentrics;
     j["geometry"] = !b.colour_only && !b.bare;
     j["normals"] = !b.colour_only && !b.no_normals && !b.bare;

@@ -330,6 +330,37 @@ private:
         Eigen::VectorXf bias;
     };
 
+    // One stage's ridge regression from the training rows' features to their targets, reduced to what
+    // solving it for a λ factor needs: in dual form (fewer rows than features) or primal form.
+    struct RidgeProblem {
+        bool dual = false;
+        double rows = 0;
+        RowMatrixXf features;               // dual: the centred training features, kept for the update
+        Eigen::RowVectorXf feature_offset;  // dual: the features' mean; primal: the first chunk's (the shift)
+        Eigen::MatrixXd scatter;            // dual: A_c A_cᵀ; primal: A_cᵀ A_c (centred)
+        Eigen::MatrixXd right_side;         // dual: Y_c; primal: A_cᵀ Y_c
+        Eigen::VectorXd feature_mean;       // primal: the shifted features' mean
+        Eigen::RowVectorXd target_mean;
+        Eigen::MatrixXd target_scatter;     // centred Yᵀ Y of the training rows, 2L x 2L
+        std::optional<LeadingEigenpairs> feature_pca;
+
+        [[nodiscard]] FullSolution solve(double factor, double& lambda) const;
+    };
+
+    // The chosen stage (λ factor and rank by held-out NME when there is a choice) and its report fields.
+    struct ChosenStage {
+        SdmStage stage;
+        double lambda_factor = 0, lambda = 0;
+        int rank = 0;
+    };
+
+    [[nodiscard]] RidgeProblem dual_problem(const SdmStageSettings& settings, std::uint64_t pca_seed);
+    [[nodiscard]] RidgeProblem primal_problem(const SdmStageSettings& settings, std::uint64_t pca_seed);
+    [[nodiscard]] ChosenStage choose_stage(std::size_t k, const RidgeProblem& problem, const RowMatrixXf& validation_features,
+                                           const SdmStageSettings& settings) const;
+    // Moves every row's shape by the stage (the training rows' features recomputed chunk by chunk in primal form).
+    void apply_stage(const SdmStage& stage, RidgeProblem& problem, const RowMatrixXf& validation_features, const SdmStageSettings& settings);
+
     [[nodiscard]] const TrainingFace& face_of(std::size_t row) const { return faces_[row_face_[row]]; }
 
     [[nodiscard]] double mean_nme(std::size_t first, std::size_t count) const {
@@ -388,109 +419,88 @@ private:
     std::size_t total_feature_rows_ = 0, feature_rows_done_ = 0;
 };
 
-void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings) {
-    const auto start = std::chrono::steady_clock::now();
-    const std::size_t train_rows = train_rows_, validation_rows = validation_rows_;
-    const bool choose = options_.lambda_factors.size() > 1 || options_.ranks.size() > 1;
-    dims_ = model_.feature_dims(settings);
-    const bool dual = train_rows < static_cast<std::size_t>(dims_);
-    SdmStageReport report;
-    report.stage = static_cast<int>(k + 1);
-    report.nme_before = mean_nme(0, train_rows);
-    report.validation_nme_before = mean_nme(train_rows, validation_rows);
-    const double n = static_cast<double>(train_rows);
-
-    RowMatrixXf validation_features;
-    if (validation_rows) extract_rows(train_rows, validation_rows, settings, validation_features);
-
-    std::function<FullSolution(double factor, double& lambda)> solve;
-    RowMatrixXf a;  // dual form: the centred training features, kept for the update
-    Eigen::RowVectorXf mean_x_dual;
-    Eigen::MatrixXd gram_dual, y_centred;
-    Eigen::MatrixXd centred, xty;
-    Eigen::VectorXd mean_x;
-    Eigen::RowVectorXd mean_y;
-    Eigen::MatrixXd target_scatter;  // centred Yᵀ Y of the training rows, 2L x 2L
-    Eigen::RowVectorXf shift;
-    std::optional<LeadingEigenpairs> feature_pca;
-    const std::uint64_t pca_seed = options_.seed + k;
+CascadeTrainer::FullSolution CascadeTrainer::RidgeProblem::solve(double factor, double& lambda) const {
+    FullSolution full;
     if (dual) {
-        // Dual form: W = A_cᵀ (A_c A_cᵀ + λI)⁻¹ Y_c, cheaper when there are fewer rows than features.
-        extract_rows(0, train_rows, settings, a);
-        const Eigen::MatrixXd y = targets(0, train_rows);
-        mean_x_dual = a.colwise().mean();
-        mean_y = y.colwise().mean();
-        a.rowwise() -= mean_x_dual;
-        gram_dual = (a * a.transpose()).cast<double>();
-        y_centred = y.rowwise() - mean_y;
-        target_scatter = y_centred.transpose() * y_centred;
-        // The Gram matrix's leading eigenvectors are the features' principal components seen
-        // from the rows, with the same eigenvalues (docs/train.md, "Feature PCA").
-        if (options_.feature_components > 0)
-            feature_pca = leading_eigenpairs(gram_dual, std::min<int>(options_.feature_components, static_cast<int>(train_rows)), pca_seed);
-        solve = [&](double factor, double& lambda) {
-            const Eigen::MatrixXd alpha = ridge_solution(gram_dual, feature_pca, y_centred, factor, n, lambda);
-            FullSolution full;
-            full.weights = (a.transpose() * alpha.cast<float>()).transpose();
-            full.bias = mean_y.transpose().cast<float>() - full.weights * mean_x_dual.transpose();
-            return full;
-        };
+        const Eigen::MatrixXd alpha = ridge_solution(scatter, feature_pca, right_side, factor, rows, lambda);
+        full.weights = (features.transpose() * alpha.cast<float>()).transpose();
+        full.bias = target_mean.transpose().cast<float>() - full.weights * feature_offset.transpose();
     } else {
-        // Primal form, streamed in chunks: (A_cᵀA_c + λI) W = A_cᵀ Y_c. Features are shifted by the
-        // first chunk's mean before accumulating so that float sums keep their precision.
-        Eigen::MatrixXf gram = Eigen::MatrixXf::Zero(dims_, dims_);
-        Eigen::VectorXd sum_x = Eigen::VectorXd::Zero(dims_);
-        xty = Eigen::MatrixXd::Zero(dims_, kOutputs);
-        Eigen::RowVectorXd sum_y = Eigen::RowVectorXd::Zero(kOutputs);
-        target_scatter = Eigen::MatrixXd::Zero(kOutputs, kOutputs);
-        for (std::size_t first = 0; first < train_rows; first += kChunkRows) {
-            const std::size_t count = std::min(kChunkRows, train_rows - first);
-            extract_rows(first, count, settings, a);
-            if (first == 0) shift = a.colwise().mean();
-            a.rowwise() -= shift;
-            const Eigen::MatrixXd y = targets(first, count);
-            gram.selfadjointView<Eigen::Lower>().rankUpdate(a.transpose());
-            sum_x += a.colwise().sum().transpose().cast<double>();
-            xty.noalias() += a.transpose().cast<double>() * y;
-            sum_y += y.colwise().sum();
-            target_scatter.noalias() += y.transpose() * y;
-        }
-        mean_x = sum_x / n;
-        mean_y = sum_y / n;
-        target_scatter.noalias() -= n * mean_y.transpose() * mean_y;
-        centred = gram.cast<double>().selfadjointView<Eigen::Lower>();
-        gram.resize(0, 0);
-        centred.noalias() -= n * mean_x * mean_x.transpose();
-        xty.noalias() -= n * mean_x * mean_y;
-        if (options_.feature_components > 0) feature_pca = leading_eigenpairs(centred, std::min(options_.feature_components, dims_), pca_seed);
-        solve = [&](double factor, double& lambda) {
-            const Eigen::MatrixXd w = ridge_solution(centred, feature_pca, xty, factor, n, lambda);
-            FullSolution full;
-            full.weights = w.transpose().cast<float>();
-            full.bias = (mean_y.transpose() - w.transpose() * (mean_x + shift.transpose().cast<double>())).cast<float>();
-            return full;
-        };
+        const Eigen::MatrixXd w = ridge_solution(scatter, feature_pca, right_side, factor, rows, lambda);
+        full.weights = w.transpose().cast<float>();
+        full.bias = (target_mean.transpose() - w.transpose() * (feature_mean + feature_offset.transpose().cast<double>())).cast<float>();
     }
-    // Principal directions of the targets, largest variance first.
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(target_scatter);
-    const Eigen::MatrixXf principal = eigen.eigenvectors().rowwise().reverse().cast<float>();
-    const Eigen::RowVectorXf target_mean = mean_y.cast<float>();
-    const auto reduce = [&](const FullSolution& full, int rank) {
-        SdmStage stage;
-        stage.settings = settings;
-        stage.basis = principal.leftCols(rank);
-        stage.weights = stage.basis.transpose() * full.weights;
-        // b_r = ȳ − P Pᵀ (ȳ − b), so that b_r + W_r x = ȳ + P Pᵀ (W x + b − ȳ).
-        stage.bias = target_mean.transpose() - stage.basis * (stage.basis.transpose() * (target_mean.transpose() - full.bias));
-        return stage;
-    };
+    return full;
+}
 
+// Dual form: W = A_cᵀ (A_c A_cᵀ + λI)⁻¹ Y_c, cheaper when there are fewer rows than features.
+CascadeTrainer::RidgeProblem CascadeTrainer::dual_problem(const SdmStageSettings& settings, std::uint64_t pca_seed) {
+    RidgeProblem p;
+    p.dual = true;
+    p.rows = static_cast<double>(train_rows_);
+    extract_rows(0, train_rows_, settings, p.features);
+    const Eigen::MatrixXd y = targets(0, train_rows_);
+    p.feature_offset = p.features.colwise().mean();
+    p.target_mean = y.colwise().mean();
+    p.features.rowwise() -= p.feature_offset;
+    p.scatter = (p.features * p.features.transpose()).cast<double>();
+    p.right_side = y.rowwise() - p.target_mean;
+    p.target_scatter = p.right_side.transpose() * p.right_side;
+    // The Gram matrix's leading eigenvectors are the features' principal components seen
+    // from the rows, with the same eigenvalues (docs/train.md, "Feature PCA").
+    if (options_.feature_components > 0)
+        p.feature_pca = leading_eigenpairs(p.scatter, std::min<int>(options_.feature_components, static_cast<int>(train_rows_)), pca_seed);
+    return p;
+}
+
+// Primal form, streamed in chunks: (A_cᵀA_c + λI) W = A_cᵀ Y_c. Features are shifted by the first
+// chunk's mean before accumulating so that float sums keep their precision.
+CascadeTrainer::RidgeProblem CascadeTrainer::primal_problem(const SdmStageSettings& settings, std::uint64_t pca_seed) {
+    RidgeProblem p;
+    p.rows = static_cast<double>(train_rows_);
+    const double n = p.rows;
+    Eigen::MatrixXf gram = Eigen::MatrixXf::Zero(dims_, dims_);
+    Eigen::VectorXd sum_x = Eigen::VectorXd::Zero(dims_);
+    p.right_side = Eigen::MatrixXd::Zero(dims_, kOutputs);
+    Eigen::RowVectorXd sum_y = Eigen::RowVectorXd::Zero(kOutputs);
+    p.target_scatter = Eigen::MatrixXd::Zero(kOutputs, kOutputs);
+    RowMatrixXf a;
+    for (std::size_t first = 0; first < train_rows_; first += kChunkRows) {
+        const std::size_t count = std::min(kChunkRows, train_rows_ - first);
+        extract_rows(first, count, settings, a);
+        if (first == 0) p.feature_offset = a.colwise().mean();
+        a.rowwise() -= p.feature_offset;
+        const Eigen::MatrixXd y = targets(first, count);
+        gram.selfadjointView<Eigen::Lower>().rankUpdate(a.transpose());
+        sum_x += a.colwise().sum().transpose().cast<double>();
+        p.right_side.noalias() += a.transpose().cast<double>() * y;
+        sum_y += y.colwise().sum();
+        p.target_scatter.noalias() += y.transpose() * y;
+    }
+    p.feature_mean = sum_x / n;
+    p.target_mean = sum_y / n;
+    p.target_scatter.noalias() -= n * p.target_mean.transpose() * p.target_mean;
+    p.scatter = gram.cast<double>().selfadjointView<Eigen::Lower>();
+    gram.resize(0, 0);
+    p.scatter.noalias() -= n * p.feature_mean * p.feature_mean.transpose();
+    p.right_side.noalias() -= n * p.feature_mean * p.target_mean;
+    if (options_.feature_components > 0) p.feature_pca = leading_eigenpairs(p.scatter, std::min(options_.feature_components, dims_), pca_seed);
+    return p;
+}
+
+CascadeTrainer::ChosenStage CascadeTrainer::choose_stage(std::size_t k, const RidgeProblem& problem, const RowMatrixXf& validation_features,
+                                                         const SdmStageSettings& settings) const {
+    const bool choose = options_.lambda_factors.size() > 1 || options_.ranks.size() > 1;
+    // Principal directions of the targets, largest variance first.
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(problem.target_scatter);
+    const Eigen::MatrixXf principal = eigen.eigenvectors().rowwise().reverse().cast<float>();
+    const Eigen::RowVectorXf target_mean = problem.target_mean.cast<float>();
     std::vector<Candidate> candidates;
     std::vector<FullSolution> solutions;
     std::vector<double> lambdas;
     for (std::size_t f = 0; f < options_.lambda_factors.size(); ++f) {
         double lambda = 0;
-        solutions.push_back(solve(options_.lambda_factors[f], lambda));
+        solutions.push_back(problem.solve(options_.lambda_factors[f], lambda));
         lambdas.push_back(lambda);
         const FullSolution& full = solutions.back();
         if (!full.weights.allFinite() || !full.bias.allFinite()) continue;
@@ -508,28 +518,58 @@ void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings
     }
     if (candidates.empty()) throw core::Error("SDM training: stage " + std::to_string(k + 1) + " produced non-finite weights");
     const Candidate& chosen = choose_candidate(candidates, options_.rank_tolerance);
-    SdmStage stage = reduce(solutions[chosen.factor_index], chosen.rank);
-    report.lambda_factor = options_.lambda_factors[chosen.factor_index];
-    report.lambda = lambdas[chosen.factor_index];
-    report.rank = chosen.rank;
-    report.feature_components = feature_pca ? static_cast<int>(feature_pca->values.size()) : 0;
-    solutions.clear();
+    const FullSolution& full = solutions[chosen.factor_index];
+    ChosenStage out;
+    out.stage.settings = settings;
+    out.stage.basis = principal.leftCols(chosen.rank);
+    out.stage.weights = out.stage.basis.transpose() * full.weights;
+    // b_r = ȳ − P Pᵀ (ȳ − b), so that b_r + W_r x = ȳ + P Pᵀ (W x + b − ȳ).
+    out.stage.bias = target_mean.transpose() - out.stage.basis * (out.stage.basis.transpose() * (target_mean.transpose() - full.bias));
+    out.lambda_factor = options_.lambda_factors[chosen.factor_index];
+    out.lambda = lambdas[chosen.factor_index];
+    out.rank = chosen.rank;
+    return out;
+}
 
-    if (dual) {
-        a.rowwise() += mean_x_dual;  // the features themselves again
-        update_rows(0, a, stage);
+void CascadeTrainer::apply_stage(const SdmStage& stage, RidgeProblem& problem, const RowMatrixXf& validation_features,
+                                 const SdmStageSettings& settings) {
+    if (problem.dual) {
+        problem.features.rowwise() += problem.feature_offset;  // the features themselves again
+        update_rows(0, problem.features, stage);
     } else {
-        for (std::size_t first = 0; first < train_rows; first += kChunkRows) {
-            const std::size_t count = std::min(kChunkRows, train_rows - first);
+        RowMatrixXf a;
+        for (std::size_t first = 0; first < train_rows_; first += kChunkRows) {
+            const std::size_t count = std::min(kChunkRows, train_rows_ - first);
             extract_rows(first, count, settings, a);
             update_rows(first, a, stage);
         }
     }
-    if (validation_rows) update_rows(train_rows, validation_features, stage);
-    report.nme_after = mean_nme(0, train_rows);
-    report.validation_nme_after = mean_nme(train_rows, validation_rows);
+    if (validation_rows_) update_rows(train_rows_, validation_features, stage);
+}
+
+void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings) {
+    const auto start = std::chrono::steady_clock::now();
+    dims_ = model_.feature_dims(settings);
+    SdmStageReport report;
+    report.stage = static_cast<int>(k + 1);
+    report.nme_before = mean_nme(0, train_rows_);
+    report.validation_nme_before = mean_nme(train_rows_, validation_rows_);
+
+    RowMatrixXf validation_features;
+    if (validation_rows_) extract_rows(train_rows_, validation_rows_, settings, validation_features);
+    const std::uint64_t pca_seed = options_.seed + k;
+    RidgeProblem problem = train_rows_ < static_cast<std::size_t>(dims_) ? dual_problem(settings, pca_seed) : primal_problem(settings, pca_seed);
+    ChosenStage chosen = choose_stage(k, problem, validation_features, settings);
+    report.lambda_factor = chosen.lambda_factor;
+    report.lambda = chosen.lambda;
+    report.rank = chosen.rank;
+    report.feature_components = problem.feature_pca ? static_cast<int>(problem.feature_pca->values.size()) : 0;
+    apply_stage(chosen.stage, problem, validation_features, settings);
+
+    report.nme_after = mean_nme(0, train_rows_);
+    report.validation_nme_after = mean_nme(train_rows_, validation_rows_);
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    model_.stages.push_back(std::move(stage));
+    model_.stages.push_back(std::move(chosen.stage));
     if (options_.on_stage) options_.on_stage(report);
 }
 
