@@ -280,8 +280,11 @@ TEST_F(BuiltinModel, RegionLabelsFollowTheFeaturesAndMirror) {
     ASSERT_EQ(static_cast<int>(labels.size()), m.num_vertices());
     std::set<int> present(labels.begin(), labels.end());
     // Every face region; clothing is synth's head parts', never a model's.
-    for (int r = 1; r < morph::kNumRegions; ++r)
-        if (static_cast<morph::Region>(r) != morph::Region::kClothing) EXPECT_TRUE(present.count(r)) << morph::region_name(static_cast<morph::Region>(r));
+    for (int r = 1; r < morph::kNumRegions; ++r) {
+        if (static_cast<morph::Region>(r) != morph::Region::kClothing) {
+            EXPECT_TRUE(present.count(r)) << morph::region_name(static_cast<morph::Region>(r));
+        }
+    }
     EXPECT_FALSE(present.count(static_cast<int>(morph::Region::kClothing)));
     EXPECT_FALSE(present.count(0));  // no vertex is background
     for (int v = 0; v < m.num_vertices(); ++v)
