@@ -25,7 +25,7 @@ step "one render with every ground-truth map"
 $fs render --model builtin --yaw 30 --pitch -10 --out "$out/render"
 
 step "synthetic datasets (train: seed 1, test: seed 2; yaw within ±60°)"
-synth_opts=(--model builtin --size 256 --set pose.yaw.min=-60 --set pose.yaw.max=60)
+synth_opts=(--model builtin --size 256 --set pose.yaw.min=-60 --set pose.yaw.max=60 --overwrite)  # --overwrite: a set made by an earlier version with other settings is replaced
 $fs synth "${synth_opts[@]}" --out "$out/train" --count "${FACESYNTH_TRAIN_COUNT:-600}" --seed 1
 $fs synth "${synth_opts[@]}" --out "$out/test" --count 150 --seed 2
 real=../shared/data/real

@@ -230,6 +230,33 @@ TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
     EXPECT_NE(testkit::error_message_of([&] { validate(half); }).find("render.shadow_map_size"), std::string::npos);
 }
 
+// The defaults are the recipe's pose, lens and degradations (measured, docs/results.md); the file of the
+// earlier defaults restores exactly what figures measured before them were made with.
+TEST(SynthConfig, DefaultsAreThePhotographsPoseAndTheEarlierOnesAreAFileAway) {
+    const SynthConfig now;
+    EXPECT_EQ(now.pose.yaw.distribution, "normal");
+    EXPECT_EQ(now.pose.yaw.stddev, 25.0);
+    EXPECT_EQ(now.pose.yaw.max, 60.0);
+    EXPECT_EQ(now.pose.pitch.distribution, "normal");
+    EXPECT_EQ(now.pose.roll.stddev, 8.0);
+    EXPECT_EQ(now.camera.fov_max, 20.0);
+    EXPECT_EQ(now.degrade.jpeg_probability, 0.5);
+    EXPECT_NO_THROW(validate(now));
+    SynthConfig earlier;
+    apply_toml_file(earlier, testkit::source_dir() / "data" / "synth_defaults_2026-11.toml");
+    EXPECT_EQ(earlier.pose.yaw.distribution, "uniform");
+    EXPECT_EQ(earlier.pose.yaw.min, -90.0);
+    EXPECT_EQ(earlier.pose.yaw.max, 90.0);
+    EXPECT_EQ(earlier.pose.pitch.distribution, "uniform");
+    EXPECT_EQ(earlier.pose.roll.distribution, "uniform");
+    EXPECT_EQ(earlier.camera.fov_min, 10.0);
+    EXPECT_EQ(earlier.camera.fov_max, 40.0);
+    for (const double p : {earlier.degrade.blur_probability, earlier.degrade.noise_probability, earlier.degrade.jpeg_probability,
+                           earlier.degrade.gamma_probability, earlier.degrade.colour_jitter_probability, earlier.degrade.downscale_probability})
+        EXPECT_EQ(p, 0.0);
+    EXPECT_NO_THROW(validate(earlier));
+}
+
 // One anti-aliasing method, with a sample count bounded per method; the error names the key at fault.
 TEST(SynthConfig, AntialiasingIsOneMethodWithItsSampleCount) {
     SynthConfig config;

@@ -146,6 +146,7 @@ TEST(HeadParts, FaceOnlyModelsWearTheHeadAndEars) {
     config.camera.width = config.camera.height = 128;
     config.output.labels = true;
     apply_override(config, "head.body=true");
+    apply_override(config, "pose.yaw.distribution=uniform");
     apply_override(config, "pose.yaw.min=50");
     apply_override(config, "pose.yaw.max=60");
     const ImageLibrary none;

@@ -457,7 +457,7 @@ TEST(SynthCli, UvTexturesComeFromTheFolderSkippingUnreadableOnes) {
 TEST(SynthCli, CocoKeypointsHaveTheExpectedStructure) {
     const auto dir = testkit::fresh_temp_dir("synth_coco");
     std::string log;
-    ASSERT_EQ(synth(" -o " + dir.string() + base_args(4) + " --format coco --set pose.yaw.min=60 --set pose.yaw.max=80", &log), 0) << log;
+    ASSERT_EQ(synth(" -o " + dir.string() + base_args(4) + " --format coco --set pose.yaw.distribution=uniform --set pose.yaw.min=60 --set pose.yaw.max=80", &log), 0) << log;
     const auto coco = nlohmann::json::parse(core::read_file(dir / "coco.json"));
     ASSERT_EQ(coco["images"].size(), 4u);
     ASSERT_EQ(coco["annotations"].size(), 4u);
