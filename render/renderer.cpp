@@ -96,11 +96,12 @@ Antialiasing antialiasing_from(std::string_view name, int samples) {
         throw core::Error("unknown anti-aliasing method '" + std::string(name) + "' (none, msaa, supersampling or edges)");
     const Antialiasing::Method method = known->first;
     const auto [fewest, most] = antialiasing_sample_range(method);
-    if (samples == 0) samples = method == Antialiasing::Method::kMsaa ? 4 : fewest;
+    const int default_samples = method == Antialiasing::Method::kMsaa ? 4 : fewest;
+    if (samples == 0) samples = default_samples;
     if (samples < fewest || samples > most) {
         if (fewest == most) throw core::Error(std::string(name) + " anti-aliasing takes no sample count (0 or 1), not " + std::to_string(samples));
         throw core::Error(std::string(name) + " anti-aliasing takes " + std::to_string(fewest) + " to " + std::to_string(most) +
-                          " samples (0: " + std::to_string(method == Antialiasing::Method::kMsaa ? 4 : fewest) + "), not " + std::to_string(samples));
+                          " samples (0: " + std::to_string(default_samples) + "), not " + std::to_string(samples));
     }
     return {method, samples};
 }

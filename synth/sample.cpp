@@ -251,7 +251,8 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const morph::Morphab
                                  const ImageLibrary& textures, const render::RendererOptions& renderer_options)
     : config_(config), model_(model), backgrounds_(backgrounds), textures_(textures),
       contour_region_(morph::jaw_contour_region(model)),
-      albedo_check_(make_albedo_check(config, model)), renderer_(renderer_options) {
+      albedo_check_(make_albedo_check(config, model)),
+      antialiasing_(render::antialiasing_from(config.render.antialiasing, config.render.antialiasing_samples)), renderer_(renderer_options) {
     mesh_.triangles = model.triangles;
     mesh_.uv = model.uv;
     vertex_labels_ = model.vertex_labels;
@@ -326,7 +327,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     settings.lighting = s.spec.lighting.lighting;
     settings.geometry = true;  // depth for landmark visibility
     settings.normals = config_.output.normals;  // an extra float target: only when written
-    settings.antialiasing = render::antialiasing_from(config_.render.antialiasing, config_.render.antialiasing_samples);
+    settings.antialiasing = antialiasing_;
     settings.shadow_map_size = config_.render.shadow_map_size;
     settings.lights_per_vertex = config_.render.lights_per_vertex;
     render::MeshExtras extras;

@@ -120,6 +120,7 @@ private:
     morph::JawContourRegion contour_region_;  // the face region of the jaw contour definition
     render::LandmarkTopology landmark_topology_;  // the model's, for project_landmarks
     std::optional<morph::SkinColourCheck> albedo_check_;  // albedo.reject_implausible
+    render::Antialiasing antialiasing_;  // render.antialiasing and its samples, resolved once
     std::optional<NeckTemplate> neck_;  // head.neck
     std::optional<HeadParts> head_parts_;  // head.body
     std::optional<HeadPlacement> head_placement_;
