@@ -17,6 +17,7 @@
 #include "train/dataset.h"
 #include "train/realism.h"
 #include "train/face_box.h"
+#include "train/photo_landmarks.h"
 #include "train/regressor.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -53,23 +54,11 @@ struct TexturesArgs {
     bool quiet = false;
 };
 
-// The images of a folder, sorted (the bank and the backgrounds must not depend on directory order).
-std::vector<fs::path> photographs_in(const std::string& folder) {
-    const fs::path photos(folder);
-    if (!fs::is_directory(photos)) throw core::file_error(folder, "photo folder not found");
-    std::vector<fs::path> images;
-    for (const auto& entry : fs::directory_iterator(photos))
-        if (entry.is_regular_file() && core::is_image_file(entry.path())) images.push_back(entry.path());
-    std::sort(images.begin(), images.end());
-    if (images.empty()) throw core::file_error(folder, "no images in the folder");
-    return images;
-}
-
 // The reason's first word ("pose", "coverage", ...) for the summary.
 std::string reason_kind(const std::string& reason) { return reason.substr(0, reason.find(':')); }
 
 void run_textures(const TexturesArgs& a) {
-    const std::vector<fs::path> images = photographs_in(a.photos);
+    const std::vector<fs::path> images = train::list_photos(a.photos);
     const fs::path photos(a.photos);
 
     const morph::MorphableModel model = morph::load_model(a.model);
@@ -101,38 +90,15 @@ void run_textures(const TexturesArgs& a) {
     synth::TextureBankWriter bank(a.out, header);
 
     // Photographs without a .pts: the largest face the regressor's detector finds.
-    std::unique_ptr<train::LandmarkRegressor> regressor;
-    std::unique_ptr<train::FaceDetector> detector;
+    train::PtsOrDetected landmarker(a.regressor, a.detector);
     std::map<std::string, int> reasons;
     int from_pts = 0, detected = 0;
     Progress progress("textures", images.size(), a.quiet);
     for (const fs::path& path : images) {
-        std::string source = "pts";
         try {
-            core::check_image_not_too_large(path);
-            const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
-            if (image.empty()) throw core::file_error(path.string(), "cannot read the image (not an image file, or corrupt)");
-            fs::path pts = path;
-            pts.replace_extension(".pts");
-            Eigen::Matrix2Xd landmarks;
-            if (fs::exists(pts)) {
-                landmarks = morph::read_pts(pts);
-                if (landmarks.cols() != morph::kNumIbugLandmarks)
-                    throw core::file_error(pts.string(), "has " + std::to_string(landmarks.cols()) + " points, expected 68 (iBUG)");
-                ++from_pts;
-            } else {
-                if (!regressor) {
-                    regressor = train::open_regressor(a.regressor);
-                    const train::LandmarkRegressor* const regressors[] = {regressor.get()};
-                    detector = std::make_unique<train::FaceDetector>(train::choose_detector(a.detector, regressors));
-                }
-                const cv::Mat gray = train::to_gray8(image);
-                const auto boxes = detector->detect(gray);
-                if (boxes.empty()) throw core::file_error(path.string(), "no face found (and no .pts beside it)");
-                landmarks = regressor->predict(gray, boxes.front());
-                source = regressor->label();
-                ++detected;
-            }
+            const cv::Mat image = train::read_photo(path);
+            const auto [landmarks, source] = landmarker.find(path, image);
+            ++(source == "pts" ? from_pts : detected);
             frontal::PhotoTexture t = frontal::extract_photo_texture(frontaliser, image, landmarks, options);
             if (!t.rejection.empty()) {
                 ++reasons[reason_kind(t.rejection)];
@@ -191,7 +157,7 @@ struct BackgroundsArgs {
 };
 
 void run_backgrounds(const BackgroundsArgs& a) {
-    const std::vector<fs::path> images = photographs_in(a.photos);
+    const std::vector<fs::path> images = train::list_photos(a.photos);
     const fs::path out(a.out);
     if (fs::exists(out)) throw core::file_error(a.out, "exists already; choose a new folder");
     fs::path temporary = out;

@@ -15,5 +15,6 @@ void register_report_commands(CLI::App& app);  // cmd_report.cpp: report
 void register_frontal_commands(CLI::App& app);  // cmd_frontal.cpp: frontalise, eval frontalise, bench frontalise
 void register_recognition_commands(CLI::App& app);  // cmd_recognition.cpp: eval recognition
 void register_appearance_commands(CLI::App& app);  // cmd_appearance.cpp: textures, backgrounds
+void register_profile_commands(CLI::App& app);  // cmd_profile.cpp: profile
 
 }  // namespace facesynth::cli

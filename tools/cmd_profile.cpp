@@ -1,0 +1,149 @@
+// `facesynth profile`: annotated photographs re-rendered at new head poses (profile/dataset.h), and
+// `bench profile`, its speed.
+#include "cli_common.h"
+#include "commands.h"
+#include "core/error.h"
+#include "morph/model_io.h"
+#include "profile/dataset.h"
+#include "train/photo_landmarks.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <thread>
+
+namespace facesynth::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ProfileArgs {
+    std::string photos;
+    std::string out;
+    std::string model = "builtin";
+    std::string yaws;
+    int views_per_photo = 0;
+    double yaw_limit = 90;
+    double max_turn = 90;
+    double pitch_jitter = 0;
+    std::uint64_t seed = 1;
+    int size = 256;
+    double crop_margin = 2.0;
+    std::string jaw = "contour";
+    std::string image_format = "png";
+    bool no_residual = false;
+    int threads = 0;
+    std::string shard = "0/1";
+    int shard_count = 0;
+    bool overwrite = false;
+    std::string regressor = "dlib";
+    std::string detector = "auto";
+    std::string json;
+    bool quiet = false;
+};
+
+profile::ProfileRunOptions run_options(const ProfileArgs& a) {
+    profile::ProfileRunOptions o;
+    o.photos = a.photos;
+    o.out = a.out;
+    if (!a.yaws.empty() && a.views_per_photo > 0) throw CLI::ValidationError("--yaws and --views-per-photo", "give one of them, not both");
+    if (!a.yaws.empty()) {
+        o.plan.yaws = profile::parse_yaws(a.yaws);
+    } else if (a.views_per_photo > 0) {
+        o.plan.views_per_photo = a.views_per_photo;
+    } else {
+        o.plan.yaws = profile::parse_yaws("-90:90:15");
+    }
+    o.plan.yaw_limit = a.yaw_limit;
+    o.plan.max_turn = a.max_turn;
+    o.plan.pitch_jitter = a.pitch_jitter;
+    o.seed = a.seed;
+    o.profile.size = a.size;
+    o.profile.crop_margin = a.crop_margin;
+    o.profile.apply_residual = !a.no_residual;
+    o.jaw = a.jaw;
+    o.image_format = a.image_format;
+    o.threads = a.threads > 0 ? a.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    o.shard = synth::parse_shard(a.shard, a.shard_count);
+    o.overwrite = a.overwrite;
+    return o;
+}
+
+void run_profile_command(const ProfileArgs& a) {
+    profile::ProfileRunOptions options = run_options(a);
+    const morph::MorphableModel model = morph::load_model(a.model);
+    auto landmarker = std::make_shared<train::PtsOrDetected>(a.regressor, a.detector);
+    options.landmarks = [landmarker](const fs::path& path, const cv::Mat& image) {
+        train::PhotoLandmarks found = landmarker->find(path, image);
+        return profile::FoundLandmarks{std::move(found.points), std::move(found.source)};
+    };
+    std::unique_ptr<Progress> progress;
+    options.on_start = [&](std::size_t todo) { progress = std::make_unique<Progress>("profile", todo, a.quiet); };
+    options.on_photo = [&] { progress->advance(); };
+    const profile::ProfileRunResult r = profile::run_profile(options, model);
+    if (progress) progress->finish();
+    for (const auto& failure : r.failures) std::fprintf(stderr, "facesynth: error: %s\n", failure.message.c_str());
+    const double views = static_cast<double>(std::max<std::size_t>(r.views_written, 1));
+    if (!a.quiet)
+        std::printf("profile: %zu views of %zu photographs -> %s (%zu already done, %zu failed, %zu detected; %zu views beyond --max-turn skipped); "
+                    "%.1f views/s, per view: render %.1f ms, write %.1f ms; per photograph: fit and scene %.1f ms\n",
+                    r.views_written, r.photos_in_shard - r.photos_done_before - r.failures.size(), a.out.c_str(), r.photos_done_before,
+                    r.failures.size(), r.detected, r.views_skipped, r.views_written / std::max(r.seconds, 1e-9), 1e3 * r.render_seconds / views,
+                    1e3 * r.write_seconds / views,
+                    1e3 * r.prepare_seconds / static_cast<double>(std::max<std::size_t>(r.photos_in_shard - r.photos_done_before, 1)));
+    if (!a.json.empty()) {
+        nlohmann::json j;
+        j["photos"] = r.photos;
+        j["photos_in_shard"] = r.photos_in_shard;
+        j["photos_done_before"] = r.photos_done_before;
+        j["photos_failed"] = r.failures.size();
+        j["photos_detected"] = r.detected;
+        j["views_written"] = r.views_written;
+        j["views_skipped"] = r.views_skipped;
+        j["seconds"] = r.seconds;
+        j["views_per_s"] = r.views_written / std::max(r.seconds, 1e-9);
+        j["prepare_ms_per_photo"] = 1e3 * r.prepare_seconds / static_cast<double>(std::max<std::size_t>(r.photos_in_shard - r.photos_done_before, 1));
+        j["render_ms_per_view"] = 1e3 * r.render_seconds / views;
+        j["write_ms_per_view"] = 1e3 * r.write_seconds / views;
+        j["threads"] = options.threads;
+        j["model"] = model.name;
+        write_json_file(a.json, j);
+    }
+    if (!r.failures.empty())
+        throw core::Error(std::to_string(r.failures.size()) + " of " + std::to_string(r.photos_in_shard) +
+                          " photographs failed (listed above); the others' views are written");
+}
+
+}  // namespace
+
+void register_profile_commands(CLI::App& app) {
+    auto a = std::make_shared<ProfileArgs>();
+    CLI::App* cmd = app.add_subcommand("profile", "Re-render annotated photographs at new head poses with exact landmarks (face profiling, 300W-LP style)");
+    cmd->add_option("--photos", a->photos, "folder of photographs, each with its 68-point .pts (photographs without one are detected)")->required();
+    cmd->add_option("--out,-o", a->out, "output dataset folder (synth's folder layout)")->required();
+    cmd->add_option("--model,-m", a->model, "model: builtin, a model file or a model folder");
+    cmd->add_option("--yaws", a->yaws, "the views' yaws, first:last:step or a,b,c (degrees; default -90:90:15)");
+    cmd->add_option("--views-per-photo", a->views_per_photo, "instead of --yaws: this many views per photograph at random yaws")->check(CLI::Range(1, 1000));
+    cmd->add_option("--yaw-limit", a->yaw_limit, "random yaws lie in [-limit, limit]")->check(finite_range(0, 180));
+    cmd->add_option("--max-turn", a->max_turn, "no view turns the face more than this from its yaw in the photograph (degrees)")->check(finite_range(0, 360));
+    cmd->add_option("--pitch-jitter", a->pitch_jitter, "standard deviation of a random change of pitch per view (degrees)")->check(finite_range(0, 45));
+    cmd->add_option("--seed", a->seed, "seed of the random yaws and pitches (view i depends on seed and i only)");
+    cmd->add_option("--size", a->size, "view side, px")->check(CLI::Range(16, 4096));
+    cmd->add_option("--crop-margin", a->crop_margin, "the view shows this many times the landmarks' box")->check(finite_range(1, 8));
+    cmd->add_option("--jaw", a->jaw, "jaw landmarks in the .pts: contour (on the silhouette, as annotated) or fixed")->check(CLI::IsMember({"contour", "fixed"}));
+    cmd->add_option("--image-format", a->image_format, "png or jpg")->check(CLI::IsMember({"png", "jpg"}));
+    cmd->add_flag("--no-residual", a->no_residual, "landmarks of the fitted model only, without the annotation's residual to the fit");
+    cmd->add_option("--threads,-j", a->threads, "worker threads (default: all cores)")->check(CLI::Range(1, 256));
+    cmd->add_option("--shard", a->shard, "K/N (0-based; photographs are shared out whole) or auto");
+    cmd->add_option("--shard-count", a->shard_count, "total shards for --shard auto");
+    cmd->add_flag("--overwrite", a->overwrite, "replace a profiled dataset made with other settings in --out");
+    cmd->add_option("--regressor", a->regressor, "landmarks for photographs without a .pts: dlib or a regressor file");
+    add_detector_option(*cmd, a->detector);
+    cmd->add_option("--json", a->json, "write the run's figures as flat JSON to this file");
+    cmd->add_flag("--quiet,-q", a->quiet, "no progress or summary");
+    cmd->callback([a] { run_profile_command(*a); });
+}
+
+}  // namespace facesynth::cli
