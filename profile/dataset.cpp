@@ -137,8 +137,16 @@ std::optional<ViewPose> plan_view(const ViewPlan& plan, const ViewPose& source, 
         pose.yaw = plan.yaws[static_cast<std::size_t>(index % views)];
         if (std::abs(pose.yaw - source.yaw) > plan.max_turn + 1e-9) return std::nullopt;
     } else {
-        const double low = std::max(-plan.yaw_limit, source.yaw - plan.max_turn);
-        const double high = std::min(plan.yaw_limit, source.yaw + plan.max_turn);
+        double low = std::max(-plan.yaw_limit, source.yaw - plan.max_turn);
+        double high = std::min(plan.yaw_limit, source.yaw + plan.max_turn);
+        if (plan.toward_profile) {
+            constexpr double kFrontal = 5;
+            const bool right = source.yaw > kFrontal || (std::abs(source.yaw) <= kFrontal && rng.uniform() < 0.5);
+            if (right)
+                low = std::max(low, std::min(source.yaw, high));
+            else
+                high = std::min(high, std::max(source.yaw, low));
+        }
         if (high < low) return std::nullopt;
         pose.yaw = rng.uniform(low, high);
     }
@@ -155,6 +163,7 @@ nlohmann::json profile_settings(const ProfileRunOptions& options, const morph::M
             {"yaws", options.plan.yaws},
             {"views_per_photo", options.plan.views()},
             {"yaw_limit", options.plan.yaw_limit},
+            {"toward_profile", options.plan.toward_profile},
             {"max_turn", options.plan.max_turn},
             {"pitch_jitter", options.plan.pitch_jitter},
             {"jaw", options.jaw},
@@ -167,6 +176,7 @@ nlohmann::json profile_settings(const ProfileRunOptions& options, const morph::M
             {"falloff_mm", p.falloff_mm},
             {"far_plane_mm", p.far_plane_mm},
             {"grid_behind_mm", p.grid_behind_mm},
+            {"smoothing_px", p.smoothing_px},
             {"apply_residual", p.apply_residual},
             {"fit_lambda", p.fit.lambda},
             {"fit_expression_lambda", p.fit.expression_lambda},

@@ -30,6 +30,11 @@ struct ViewPlan {
     std::vector<double> yaws;  // the views' yaws (degrees); empty: views_per_photo random yaws
     int views_per_photo = 0;
     double yaw_limit = 90;     // random yaws: uniform in [-yaw_limit, yaw_limit]
+    // Random yaws turn the face further toward profile only: uniform between its yaw in the
+    // photograph and the limit on the side it faces (either side within 5° of frontal), as 300W-LP
+    // does; turning it the other way shows what the photograph hid (the far side, the back of the
+    // hair), and the mirror image of a view covers that side.
+    bool toward_profile = true;
     // Views that turn the face more than this from its yaw in the photograph are not made (listed
     // yaws: skipped and counted; random yaws: drawn within reach).
     double max_turn = 90;

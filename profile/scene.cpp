@@ -5,6 +5,7 @@
 #include "frontal/photo_texture.h"
 #include "morph/jaw_contour.h"
 #include "morph/landmarks.h"
+#include "morph/polygon.h"
 #include "morph/pose.h"
 #include "morph/regions.h"
 
@@ -20,6 +21,8 @@ namespace {
 // Camera-space depth is stored with this added, so that every surface has a positive depth (the CPU
 // z-buffer marks "no surface" with 0); the renderer's orthographic camera stands as far away.
 constexpr double kCameraDistanceMm = 1000;
+// A grid triangle shown at more than this many times its area in the photograph is "stretched".
+constexpr double kStretchedArea = 2;
 
 bool is_face_region(std::uint8_t label) {
     const auto r = static_cast<morph::Region>(label);
@@ -61,17 +64,155 @@ double triangle_area(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const E
     return 0.5 * std::abs((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
 }
 
+// The face's texture (the renderer's RGB for the model's uv): the photograph's texels seen by the fit,
+// then the mirror side, then push-pull from the neighbours for the rest of the layout. `seen` gets, per
+// model triangle, whether its centre's texel was seen (not filled).
+cv::Mat filled_face_texture(frontal::Frontaliser& frontaliser, const cv::Mat& working, const PhotoScene& scene, int size,
+                            std::vector<char>& seen) {
+    const morph::MorphableModel& model = frontaliser.model();
+    frontal::IsomapOptions isomap_options;
+    isomap_options.size = size;
+    const frontal::ImageCamera image_camera{scene.camera.to_affine(), scene.camera};
+    cv::Mat isomap = frontaliser.extract_isomap(working, scene.vertices, image_camera, isomap_options);
+    const frontal::UvRaster& raster = frontaliser.uv_raster(size);
+    seen.assign(model.triangles.size(), 0);
+    for (std::size_t t = 0; t < model.triangles.size(); ++t) {
+        Eigen::Vector2f uv = Eigen::Vector2f::Zero();
+        for (const int v : model.triangles[t]) uv += model.uv.col(v) / 3.0f;
+        const int c = std::clamp(static_cast<int>(uv.x() * static_cast<float>(size)), 0, size - 1);
+        const int r = std::clamp(static_cast<int>(uv.y() * static_cast<float>(size)), 0, size - 1);
+        seen[t] = isomap.at<cv::Vec4b>(r, c)[3] > 0 ? 1 : 0;
+    }
+    if (!model.symmetry.empty()) frontaliser.mirror_fill(isomap);
+    cv::Mat bgr, colour, weight(isomap.size(), CV_32FC1);
+    cv::cvtColor(isomap, bgr, cv::COLOR_BGRA2BGR);
+    bgr.convertTo(colour, CV_32FC3);
+    for (int r = 0; r < size; ++r)
+        for (int c = 0; c < size; ++c) weight.at<float>(r, c) = isomap.at<cv::Vec4b>(r, c)[3] > 0 ? 1.0f : 0.0f;
+    if (cv::countNonZero(weight) == 0) throw core::Error("profile: no part of the fitted face is seen in the photograph");
+    frontal::push_pull_fill(colour, weight);
+    const cv::Mat inside = frontal::layout_mask(raster);
+    for (int r = 0; r < size; ++r)
+        for (int c = 0; c < size; ++c) {
+            if (!inside.at<std::uint8_t>(r, c)) continue;
+            const cv::Vec3f& f = colour.at<cv::Vec3f>(r, c);
+            isomap.at<cv::Vec4b>(r, c) = cv::Vec4b(cv::saturate_cast<std::uint8_t>(f[0]), cv::saturate_cast<std::uint8_t>(f[1]),
+                                                   cv::saturate_cast<std::uint8_t>(f[2]), 255);
+        }
+    return frontal::texture_for_unlit_render(isomap, raster);
+}
+
+// The picture's grid (scene.grid, grid_motion, grid_uv, grid_triangles, grid_source_area) over the
+// working image: depth from the fitted head inside its outline, the outline's depth carried outward and
+// fading to the far plane, and how much of the head's motion each vertex follows.
+void build_picture_grid(PhotoScene& scene, const morph::MorphableModel& model, const ProfileOptions& options) {
+    const int width = scene.working_size.width, height = scene.working_size.height;
+    Eigen::Matrix2Xf pixels;
+    std::vector<float> depth;
+    project_source(scene.camera, scene.vertices, pixels, depth);
+    const cv::Mat zbuffer = frontal::orthographic_zbuffer(pixels, depth, model.triangles, width, height);
+    const int step = options.grid_step_px;
+    const int columns = (width - 1 + step - 1) / step + 1, rows = (height - 1 + step - 1) / step + 1;
+    const auto grid_x = [&](int i) { return std::min(i * step, width - 1); };
+    const auto grid_y = [&](int j) { return std::min(j * step, height - 1); };
+    cv::Mat head_depth(rows, columns, CV_32FC1), head(rows, columns, CV_8UC1);
+    for (int j = 0; j < rows; ++j)
+        for (int i = 0; i < columns; ++i) {
+            const float z = zbuffer.at<float>(grid_y(j), grid_x(i));
+            head_depth.at<float>(j, i) = z;
+            head.at<std::uint8_t>(j, i) = z > 0 ? 255 : 0;
+        }
+    if (cv::countNonZero(head) == 0) throw core::Error("profile: the fitted head covers no grid point of the photograph");
+    // The outline band's depth, extended over the whole grid.
+    cv::Mat inner, outline_weight, extended;
+    cv::erode(head, inner, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, 0);
+    cv::Mat band = head & ~inner;
+    if (cv::countNonZero(band) == 0) band = head;
+    band.convertTo(outline_weight, CV_32FC1, 1.0 / 255);
+    cv::merge(std::vector<cv::Mat>{head_depth, head_depth, head_depth}, extended);
+    frontal::push_pull_fill(extended, outline_weight);
+    cv::Mat distance;  // grid steps to the nearest head grid point
+    cv::distanceTransform(255 - head, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    const double mm_per_step = step / scene.camera.scale;
+    const double far_depth = kCameraDistanceMm + options.far_plane_mm;
+    cv::Mat depth_grid(rows, columns, CV_64FC1), motion_grid(rows, columns, CV_64FC1);
+    for (int j = 0; j < rows; ++j)
+        for (int i = 0; i < columns; ++i) {
+            if (head.at<std::uint8_t>(j, i)) {
+                depth_grid.at<double>(j, i) = head_depth.at<float>(j, i) + options.grid_behind_mm;
+                motion_grid.at<double>(j, i) = 1;
+                continue;
+            }
+            const double fade = smoothstep(distance.at<float>(j, i) * mm_per_step / std::max(1e-6, options.falloff_mm));
+            // What lies just beyond the outline is at least as far as the head's centre: beyond the far
+            // cheek's outline it is behind the face, not beside it.
+            const double outline = std::max<double>(extended.at<cv::Vec3f>(j, i)[0], kCameraDistanceMm);
+            depth_grid.at<double>(j, i) = (1 - fade) * outline + fade * far_depth;
+            motion_grid.at<double>(j, i) = 1 - fade;
+        }
+    // Smoothed over a few grid cells: where the head's surface meets what lies beyond it the depth
+    // jumps, and a turned view would show the grid's cells there as a staircase.
+    const double sigma = options.smoothing_px / step;
+    if (sigma > 0) {
+        cv::GaussianBlur(depth_grid, depth_grid, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+        cv::GaussianBlur(motion_grid, motion_grid, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+    }
+    const Eigen::Index count = static_cast<Eigen::Index>(rows) * columns;
+    scene.grid.resize(3, count);
+    scene.grid_uv.resize(2, count);
+    scene.grid_motion.resize(static_cast<std::size_t>(count));
+    for (int j = 0; j < rows; ++j)
+        for (int i = 0; i < columns; ++i) {
+            const Eigen::Index v = static_cast<Eigen::Index>(j) * columns + i;
+            const double x = grid_x(i), y = grid_y(j);
+            scene.grid.col(v) = Eigen::Vector3d(x, y, depth_grid.at<double>(j, i));
+            scene.grid_motion[static_cast<std::size_t>(v)] = static_cast<float>(motion_grid.at<double>(j, i));
+            scene.grid_uv.col(v) = Eigen::Vector2f(static_cast<float>((x + 0.5) / width), static_cast<float>((y + 0.5) / height));
+        }
+    scene.grid_triangles.clear();
+    for (int j = 0; j + 1 < rows; ++j)
+        for (int i = 0; i + 1 < columns; ++i) {
+            const int a = j * columns + i, b = a + 1, c = a + columns, d = c + 1;
+            scene.grid_triangles.push_back({a, c, b});
+            scene.grid_triangles.push_back({b, c, d});
+        }
+    scene.grid_source_area.clear();
+    scene.grid_source_area.reserve(scene.grid_triangles.size());
+    for (const auto& t : scene.grid_triangles)
+        scene.grid_source_area.push_back(triangle_area(scene.grid.col(t[0]).head<2>(), scene.grid.col(t[1]).head<2>(), scene.grid.col(t[2]).head<2>()));
+}
+
 }  // namespace
 
 Profiler::Profiler(const morph::MorphableModel& model, const render::RendererOptions& renderer_options)
     : frontaliser_(model, renderer_options), contour_region_(morph::jaw_contour_region(model)),
       topology_(render::landmark_topology(model.triangles, model.num_vertices(), &contour_region_)) {
     if (model.uv.cols() != model.num_vertices()) throw core::Error("profile: the model '" + model.name + "' has no uv layout");
-    face_triangle_.resize(model.triangles.size(), 1);
+    // The face mesh is drawn where its texture can be trusted: the face regions inside the jaw line,
+    // up to the forehead, in front of the jaw's ends. Beyond that (temples, the skin towards the ears)
+    // a photograph often shows hair, and the mirror side's hair painted on the model's skin reads
+    // worse than the picture's own surroundings turned with the head.
+    const Eigen::Matrix3Xf mean = model.shape_instance({});
+    std::vector<char> face_vertex(static_cast<std::size_t>(model.num_vertices()), 1);
+    if (static_cast<int>(model.landmarks.size()) >= morph::kNumIbugLandmarks) {
+        const Eigen::Matrix3Xf points = model.landmark_positions(mean);
+        std::vector<Eigen::Vector2f> outline;
+        for (int k = 0; k < 17; ++k) outline.emplace_back(points(0, k), points(1, k));
+        const float brow = std::max(points(1, 19), points(1, 24));
+        const float top = brow + 0.6f * (brow - points(1, 8));  // the forehead, to about the hairline
+        outline.emplace_back(points(0, 16), top);
+        outline.emplace_back(points(0, 0), top);
+        const float back = std::min(points(2, 0), points(2, 16)) - 5.0f;
+        for (int v = 0; v < model.num_vertices(); ++v)
+            face_vertex[static_cast<std::size_t>(v)] = mean(2, v) >= back && morph::inside_polygon(mean.col(v).head<2>(), outline);
+    }
     if (!model.vertex_labels.empty())
-        for (std::size_t t = 0; t < model.triangles.size(); ++t)
-            for (const int v : model.triangles[t])
-                if (!is_face_region(model.vertex_labels[static_cast<std::size_t>(v)])) face_triangle_[t] = 0;
+        for (int v = 0; v < model.num_vertices(); ++v)
+            if (!is_face_region(model.vertex_labels[static_cast<std::size_t>(v)])) face_vertex[static_cast<std::size_t>(v)] = 0;
+    face_triangle_.resize(model.triangles.size(), 1);
+    for (std::size_t t = 0; t < model.triangles.size(); ++t)
+        for (const int v : model.triangles[t])
+            if (!face_vertex[static_cast<std::size_t>(v)]) face_triangle_[t] = 0;
 }
 
 ViewPose Profiler::source_pose(const PhotoScene& scene) {
@@ -134,106 +275,9 @@ PhotoScene Profiler::prepare(const cv::Mat& photo_in, const Eigen::Matrix2Xd& la
     scene.camera.rotation = morph::rotation_from_euler(scene.camera.angles);  // exactly the views' rotation at the source pose
     scene.fit_error_iod = scene.fit.reprojection_rms_px / std::max(1e-9, morph::inter_ocular_distance(scene.annotated));
 
-    // The face's texture: seen texels, then the mirror side, then the neighbours for the rest.
-    frontal::IsomapOptions isomap_options;
-    isomap_options.size = options.isomap_size;
-    const frontal::ImageCamera image_camera{scene.camera.to_affine(), scene.camera};
-    cv::Mat isomap = frontaliser_.extract_isomap(working, scene.vertices, image_camera, isomap_options);
-    const frontal::UvRaster& raster = frontaliser_.uv_raster(options.isomap_size);
-    scene.triangle_seen.assign(model.triangles.size(), 0);
-    for (std::size_t t = 0; t < model.triangles.size(); ++t) {
-        Eigen::Vector2f uv = Eigen::Vector2f::Zero();
-        for (const int v : model.triangles[t]) uv += model.uv.col(v) / 3.0f;
-        const int c = std::clamp(static_cast<int>(uv.x() * static_cast<float>(isomap.cols)), 0, isomap.cols - 1);
-        const int r = std::clamp(static_cast<int>(uv.y() * static_cast<float>(isomap.rows)), 0, isomap.rows - 1);
-        scene.triangle_seen[t] = isomap.at<cv::Vec4b>(r, c)[3] > 0 ? 1 : 0;
-    }
-    if (!model.symmetry.empty()) frontaliser_.mirror_fill(isomap);
-    {
-        cv::Mat colour, weight(isomap.size(), CV_32FC1);
-        cv::Mat bgr;
-        cv::cvtColor(isomap, bgr, cv::COLOR_BGRA2BGR);
-        bgr.convertTo(colour, CV_32FC3);
-        for (int r = 0; r < isomap.rows; ++r)
-            for (int c = 0; c < isomap.cols; ++c) weight.at<float>(r, c) = isomap.at<cv::Vec4b>(r, c)[3] > 0 ? 1.0f : 0.0f;
-        if (cv::countNonZero(weight) == 0) throw core::Error("profile: no part of the fitted face is seen in the photograph");
-        frontal::push_pull_fill(colour, weight);
-        const cv::Mat inside = frontal::layout_mask(raster);
-        for (int r = 0; r < isomap.rows; ++r)
-            for (int c = 0; c < isomap.cols; ++c) {
-                if (!inside.at<std::uint8_t>(r, c)) continue;
-                const cv::Vec3f& f = colour.at<cv::Vec3f>(r, c);
-                isomap.at<cv::Vec4b>(r, c) = cv::Vec4b(cv::saturate_cast<std::uint8_t>(f[0]), cv::saturate_cast<std::uint8_t>(f[1]),
-                                                       cv::saturate_cast<std::uint8_t>(f[2]), 255);
-            }
-    }
-    scene.face_texture = frontal::texture_for_unlit_render(isomap, raster);
+    scene.face_texture = filled_face_texture(frontaliser_, working, scene, options.isomap_size, scene.triangle_seen);
     scene.photo_texture = frontal::render_texture_from_display(working);
-
-    // The picture's depth: the fitted head inside its outline, its outline's depth carried outward and
-    // fading to the far plane.
-    Eigen::Matrix2Xf pixels;
-    std::vector<float> depth;
-    project_source(scene.camera, scene.vertices, pixels, depth);
-    const cv::Mat zbuffer = frontal::orthographic_zbuffer(pixels, depth, model.triangles, width, height);
-    const int step = std::max(1, static_cast<int>(std::lround(options.grid_step_px)));
-    const int columns = (width - 1 + step - 1) / step + 1, rows = (height - 1 + step - 1) / step + 1;
-    const auto grid_x = [&](int i) { return std::min(i * step, width - 1); };
-    const auto grid_y = [&](int j) { return std::min(j * step, height - 1); };
-    cv::Mat head_depth(rows, columns, CV_32FC1), head(rows, columns, CV_8UC1);
-    for (int j = 0; j < rows; ++j)
-        for (int i = 0; i < columns; ++i) {
-            const float z = zbuffer.at<float>(grid_y(j), grid_x(i));
-            head_depth.at<float>(j, i) = z;
-            head.at<std::uint8_t>(j, i) = z > 0 ? 255 : 0;
-        }
-    if (cv::countNonZero(head) == 0) throw core::Error("profile: the fitted head covers no grid point of the photograph");
-    cv::Mat inner;
-    cv::erode(head, inner, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, 0);
-    cv::Mat outline_weight(rows, columns, CV_32FC1), extended;
-    for (int j = 0; j < rows; ++j)
-        for (int i = 0; i < columns; ++i)
-            outline_weight.at<float>(j, i) = head.at<std::uint8_t>(j, i) && !inner.at<std::uint8_t>(j, i) ? 1.0f : 0.0f;
-    if (cv::countNonZero(outline_weight) == 0) outline_weight = head_depth > 0, outline_weight.convertTo(outline_weight, CV_32FC1, 1.0 / 255);
-    cv::merge(std::vector<cv::Mat>{head_depth, head_depth, head_depth}, extended);
-    frontal::push_pull_fill(extended, outline_weight);
-    cv::Mat distance;  // grid steps to the nearest head grid point
-    cv::distanceTransform(255 - head, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-    const double mm_per_step = step / scene.camera.scale;
-    const double far_depth = kCameraDistanceMm + options.far_plane_mm;
-
-    const Eigen::Index count = static_cast<Eigen::Index>(rows) * columns;
-    scene.grid.resize(3, count);
-    scene.grid_uv.resize(2, count);
-    scene.grid_motion.resize(static_cast<std::size_t>(count));
-    for (int j = 0; j < rows; ++j)
-        for (int i = 0; i < columns; ++i) {
-            const Eigen::Index v = static_cast<Eigen::Index>(j) * columns + i;
-            const double x = grid_x(i), y = grid_y(j);
-            double z = 0, motion = 1;
-            if (head.at<std::uint8_t>(j, i)) {
-                z = head_depth.at<float>(j, i) + options.grid_behind_mm;
-            } else {
-                const double fade = smoothstep(distance.at<float>(j, i) * mm_per_step / std::max(1e-6, options.falloff_mm));
-                // What lies just beyond the outline is at least as far as the head's centre: beyond the
-                // far cheek's outline it is behind the face, not beside it.
-                const double outline = std::max<double>(extended.at<cv::Vec3f>(j, i)[0], kCameraDistanceMm);
-                z = (1 - fade) * outline + fade * far_depth;
-                motion = 1 - fade;
-            }
-            scene.grid.col(v) = Eigen::Vector3d(x, y, z);
-            scene.grid_motion[static_cast<std::size_t>(v)] = static_cast<float>(motion);
-            scene.grid_uv.col(v) = Eigen::Vector2f(static_cast<float>((x + 0.5) / width), static_cast<float>((y + 0.5) / height));
-        }
-    for (int j = 0; j + 1 < rows; ++j)
-        for (int i = 0; i + 1 < columns; ++i) {
-            const int a = j * columns + i, b = a + 1, c = a + columns, d = c + 1;
-            scene.grid_triangles.push_back({a, c, b});
-            scene.grid_triangles.push_back({b, c, d});
-        }
-    scene.grid_source_area.reserve(scene.grid_triangles.size());
-    for (const auto& t : scene.grid_triangles)
-        scene.grid_source_area.push_back(triangle_area(scene.grid.col(t[0]).head<2>(), scene.grid.col(t[1]).head<2>(), scene.grid.col(t[2]).head<2>()));
+    build_picture_grid(scene, model, options);
 
     // The annotator's residual to the fitted model's landmarks at the source pose (contour mode: jaw
     // on the silhouette, as photographs are annotated), lifted into the source view's image plane.
@@ -303,7 +347,7 @@ ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose
     for (std::size_t k = 0; k < scene.grid_triangles.size(); ++k) {
         const auto& tri = scene.grid_triangles[k];
         const double area = triangle_area(grid_pixels.col(tri[0]), grid_pixels.col(tri[1]), grid_pixels.col(tri[2]));
-        stretched[k] = area > 4 * scene.grid_source_area[k] + 1e-9 ? 1 : 0;
+        stretched[k] = area > kStretchedArea * scene.grid_source_area[k] + 1e-9 ? 1 : 0;
     }
 
     // Composite: the face wherever its face regions are the face mesh's nearest surface, the picture

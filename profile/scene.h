@@ -37,6 +37,8 @@ struct ProfileOptions {
     // The grid lies this far behind the fitted surface inside the head's outline, so that the face mesh
     // (with the hidden side filled) is drawn wherever both are.
     double grid_behind_mm = 3;
+    // The grid's depth and motion are smoothed with a Gaussian of this standard deviation (output px).
+    double smoothing_px = 6;
     // Add the annotation's residual to the fit (at the source pose) to every view's landmarks.
     bool apply_residual = true;
     ProfileOptions() { fit.jaw = fit::JawMode::kContour; }
@@ -86,7 +88,7 @@ struct ProfiledView {
     Eigen::Matrix2Xd landmarks_contour;
     std::vector<std::uint8_t> visible_fixed, visible_contour;
     double filled_share = 0;     // of the face's pixels: texture filled (mirror or neighbours), not seen
-    double stretched_share = 0;  // of the view's pixels: picture grid stretched over 4x its source area
+    double stretched_share = 0;  // of the view's pixels: picture grid stretched over twice its area in the photograph
     double face_share = 0;       // of the view's pixels: the fitted face
 };
 

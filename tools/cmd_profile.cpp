@@ -14,6 +14,8 @@
 #include <memory>
 #include <thread>
 
+#include <unistd.h>
+
 namespace facesynth::cli {
 namespace {
 
@@ -28,6 +30,7 @@ struct ProfileArgs {
     double yaw_limit = 90;
     double max_turn = 90;
     double pitch_jitter = 0;
+    bool both_ways = false;
     std::uint64_t seed = 1;
     int size = 256;
     double crop_margin = 2.0;
@@ -50,7 +53,11 @@ profile::ProfileRunOptions run_options(const ProfileArgs& a) {
     o.out = a.out;
     if (!a.yaws.empty() && a.views_per_photo > 0) throw CLI::ValidationError("--yaws and --views-per-photo", "give one of them, not both");
     if (!a.yaws.empty()) {
-        o.plan.yaws = profile::parse_yaws(a.yaws);
+        try {
+            o.plan.yaws = profile::parse_yaws(a.yaws);
+        } catch (const core::Error& e) {
+            throw CLI::ValidationError(e.what());
+        }
     } else if (a.views_per_photo > 0) {
         o.plan.views_per_photo = a.views_per_photo;
     } else {
@@ -59,6 +66,7 @@ profile::ProfileRunOptions run_options(const ProfileArgs& a) {
     o.plan.yaw_limit = a.yaw_limit;
     o.plan.max_turn = a.max_turn;
     o.plan.pitch_jitter = a.pitch_jitter;
+    o.plan.toward_profile = !a.both_ways;
     o.seed = a.seed;
     o.profile.size = a.size;
     o.profile.crop_margin = a.crop_margin;
@@ -116,6 +124,60 @@ void run_profile_command(const ProfileArgs& a) {
                           " photographs failed (listed above); the others' views are written");
 }
 
+struct ProfileBenchArgs {
+    std::string photos;
+    std::size_t max_photos = 40;
+    int views_per_photo = 13;
+    int size = 256;
+    int threads = 0;
+    std::string work;
+    std::string json;
+    bool quiet = false;
+};
+
+// Views per second end to end (read, fit, scene, render, label, encode, write), one fit per photograph.
+void run_profile_bench(const ProfileBenchArgs& b) {
+    const morph::MorphableModel model = morph::load_model("builtin");
+    const fs::path work = b.work.empty() ? fs::temp_directory_path() / ("facesynth-bench-profile-" + std::to_string(::getpid())) : fs::path(b.work);
+    const fs::path photos = work / "photos";
+    fs::remove_all(work);
+    fs::create_directories(photos);
+    std::size_t copied = 0;
+    for (const fs::path& photo : train::list_photos(b.photos)) {
+        const fs::path pts = fs::path(photo).replace_extension(".pts");
+        if (!fs::exists(pts)) continue;
+        fs::copy_file(photo, photos / photo.filename());
+        fs::copy_file(pts, photos / pts.filename());
+        if (++copied == b.max_photos) break;
+    }
+    if (copied == 0) throw core::file_error(b.photos, "no photograph with a .pts beside it");
+    profile::ProfileRunOptions options;
+    options.photos = photos;
+    options.out = work / "out";
+    options.plan.views_per_photo = b.views_per_photo;
+    options.profile.size = b.size;
+    options.threads = b.threads > 0 ? b.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    const profile::ProfileRunResult r = profile::run_profile(options, model);
+    if (b.work.empty()) fs::remove_all(work);
+    if (!r.failures.empty()) throw core::Error("bench profile: " + r.failures.front().message);
+    const double views = static_cast<double>(std::max<std::size_t>(r.views_written, 1));
+    nlohmann::json j = {{"photos", copied},
+                        {"views", r.views_written},
+                        {"size", b.size},
+                        {"threads", options.threads},
+                        {"seconds", r.seconds},
+                        {"views_per_s", static_cast<double>(r.views_written) / std::max(r.seconds, 1e-9)},
+                        {"prepare_ms_per_photo", 1e3 * r.prepare_seconds / static_cast<double>(copied)},
+                        {"render_ms_per_view", 1e3 * r.render_seconds / views},
+                        {"write_ms_per_view", 1e3 * r.write_seconds / views}};
+    if (!b.quiet)
+        std::printf("bench profile: %zu views of %zu photographs at %d² on %d thread(s): %.1f views/s; per photograph fit and scene %.1f ms, "
+                    "per view render and labels %.1f ms, encode and write %.1f ms (thread times)\n",
+                    r.views_written, copied, b.size, options.threads, j["views_per_s"].get<double>(), j["prepare_ms_per_photo"].get<double>(),
+                    j["render_ms_per_view"].get<double>(), j["write_ms_per_view"].get<double>());
+    if (!b.json.empty()) write_json_file(b.json, j);
+}
+
 }  // namespace
 
 void register_profile_commands(CLI::App& app) {
@@ -127,6 +189,7 @@ void register_profile_commands(CLI::App& app) {
     cmd->add_option("--yaws", a->yaws, "the views' yaws, first:last:step or a,b,c (degrees; default -90:90:15)");
     cmd->add_option("--views-per-photo", a->views_per_photo, "instead of --yaws: this many views per photograph at random yaws")->check(CLI::Range(1, 1000));
     cmd->add_option("--yaw-limit", a->yaw_limit, "random yaws lie in [-limit, limit]")->check(finite_range(0, 180));
+    cmd->add_flag("--both-ways", a->both_ways, "random yaws on both sides of the photograph's (default: only further toward profile, as 300W-LP)");
     cmd->add_option("--max-turn", a->max_turn, "no view turns the face more than this from its yaw in the photograph (degrees)")->check(finite_range(0, 360));
     cmd->add_option("--pitch-jitter", a->pitch_jitter, "standard deviation of a random change of pitch per view (degrees)")->check(finite_range(0, 45));
     cmd->add_option("--seed", a->seed, "seed of the random yaws and pitches (view i depends on seed and i only)");
@@ -144,6 +207,18 @@ void register_profile_commands(CLI::App& app) {
     cmd->add_option("--json", a->json, "write the run's figures as flat JSON to this file");
     cmd->add_flag("--quiet,-q", a->quiet, "no progress or summary");
     cmd->callback([a] { run_profile_command(*a); });
+
+    auto b = std::make_shared<ProfileBenchArgs>();
+    CLI::App* bench = bench_group(app).add_subcommand("profile", "Face profiling speed: views per second end to end, one fit per photograph");
+    bench->add_option("--photos", b->photos, "folder of photographs with .pts (the first --max-photos are used)")->required()->check(CLI::ExistingDirectory);
+    bench->add_option("--max-photos", b->max_photos, "photographs to profile")->check(CLI::Range(1, 100000));
+    bench->add_option("--views-per-photo", b->views_per_photo, "views per photograph")->check(CLI::Range(1, 1000));
+    bench->add_option("--size", b->size, "view side, px")->check(CLI::Range(16, 4096));
+    bench->add_option("--threads,-j", b->threads, "worker threads (default: all cores)")->check(CLI::Range(1, 256));
+    bench->add_option("--work", b->work, "folder for the copied photographs and the views (default: a temporary folder, removed)");
+    bench->add_option("--json", b->json, "write the figures as flat JSON to this file");
+    bench->add_flag("--quiet,-q", b->quiet, "no summary line");
+    bench->callback([b] { run_profile_bench(*b); });
 }
 
 }  // namespace facesynth::cli

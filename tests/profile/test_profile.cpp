@@ -164,11 +164,13 @@ TEST_F(ProfileTest, TurnedViewsShowLessOfThePhotographAndSayHowMuchWasFilled) {
     const PhotoScene scene = profiler_->prepare(p.image, p.landmarks, options);
     const ProfiledView front = profiler_->render_view(scene, Profiler::source_pose(scene), options);
     const ProfiledView side = profiler_->render_view(scene, {75, 0, 0}, options);
-    // Measured: filled 0.019 frontal, 0.264 at 75°; stretched 0 and 0.034.
-    EXPECT_LT(front.filled_share, 0.05);
-    EXPECT_GT(side.filled_share, front.filled_share + 0.1);
+    // Measured: filled 0.008 frontal, 0.081 at 75°; stretched 0 and 0.54 (the side of the head, seen
+    // edge-on in the photograph, fills half the view).
+    EXPECT_LT(front.filled_share, 0.03);
+    EXPECT_GT(side.filled_share, front.filled_share + 0.04);
     EXPECT_GT(front.face_share, 0.05);
-    EXPECT_GT(side.stretched_share, front.stretched_share);
+    EXPECT_LT(front.stretched_share, 0.01);
+    EXPECT_GT(side.stretched_share, 0.3);
 }
 
 TEST(ProfileYaws, ParsesRangesAndListsAndRefusesNonsense) {
@@ -185,6 +187,8 @@ TEST(ProfileYaws, ParsesRangesAndListsAndRefusesNonsense) {
     ViewPlan random;
     random.views_per_photo = 4;
     random.max_turn = 30;
+    random.toward_profile = false;
+    double lowest = 90;
     for (int i = 0; i < 50; ++i) {
         const auto pose = plan_view(random, {80, 3, 1}, 7, i);
         ASSERT_TRUE(pose.has_value());
@@ -192,7 +196,21 @@ TEST(ProfileYaws, ParsesRangesAndListsAndRefusesNonsense) {
         EXPECT_LE(pose->yaw, 90);
         EXPECT_EQ(pose->pitch, 3);
         EXPECT_EQ(plan_view(random, {80, 3, 1}, 7, i)->yaw, pose->yaw);
+        lowest = std::min(lowest, pose->yaw);
     }
+    EXPECT_LT(lowest, 70);
+    // Toward profile: from the photograph's yaw outward on its side; either side from near frontal.
+    random.toward_profile = true;
+    random.max_turn = 90;
+    int right = 0;
+    for (int i = 0; i < 200; ++i) {
+        const auto turned = plan_view(random, {-30, 0, 0}, 7, i);
+        EXPECT_LE(turned->yaw, -30);
+        EXPECT_GE(turned->yaw, -90);
+        right += plan_view(random, {2, 0, 0}, 7, i)->yaw > 2;
+    }
+    EXPECT_GT(right, 70);
+    EXPECT_LT(right, 130);
 }
 
 // A folder of rendered "photographs" with .pts, and broken ones.

@@ -100,7 +100,7 @@ TEST(Robustness, DetectBatchReportsEachBadImageAndGoesOn) {
     ASSERT_TRUE(cv::imwrite((dir / "tiny.png").string(), cv::Mat(1, 1, CV_8UC3, cv::Scalar(90, 120, 200))));
     write_bytes(dir / "text.png", "this is a text file with an image extension\n");
     write_bytes(dir / "empty.jpg", "");
-    const std::string png = core::read_file(face);
+    const std::string png = read_file(face);
     write_bytes(dir / "truncated.png", png.substr(0, png.size() / 2));
     write_bytes(dir / "huge.png", png_header_only(20000, 20000));
 
@@ -127,7 +127,7 @@ TEST(Robustness, EvalLandmarksCountsCorruptItemsAndExitsOne) {
     std::string log;
     ASSERT_EQ(run_cli("synth --model builtin --out " + data.string() + " -n 4 --size 96 --seed 3 --format folder"
                   " --quiet", &log), 0) << log;
-    const std::string png = core::read_file(data / "images" / "s00000001.png");
+    const std::string png = read_file(data / "images" / "s00000001.png");
     write_bytes(data / "images" / "s00000001.png", png.substr(0, png.size() / 3));
     write_bytes(data / "landmarks" / "s00000002.pts", "version: 1\nn_points: 3\n{\n1 1\n2 2\n3 3\n}\n");
     const fs::path json = dir / "eval.json";
