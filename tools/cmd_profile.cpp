@@ -34,6 +34,7 @@ struct ProfileArgs {
     std::uint64_t seed = 1;
     int size = 256;
     double crop_margin = 2.0;
+    int isomap_size = 256;
     std::string jaw = "contour";
     std::string image_format = "png";
     bool no_residual = false;
@@ -70,6 +71,7 @@ profile::ProfileRunOptions run_options(const ProfileArgs& a) {
     o.seed = a.seed;
     o.profile.size = a.size;
     o.profile.crop_margin = a.crop_margin;
+    o.profile.isomap_size = a.isomap_size;
     o.profile.apply_residual = !a.no_residual;
     o.jaw = a.jaw;
     o.image_format = a.image_format;
@@ -195,6 +197,7 @@ void register_profile_commands(CLI::App& app) {
     cmd->add_option("--seed", a->seed, "seed of the random yaws and pitches (view i depends on seed and i only)");
     cmd->add_option("--size", a->size, "view side, px")->check(CLI::Range(16, 4096));
     cmd->add_option("--crop-margin", a->crop_margin, "the view shows this many times the landmarks' box")->check(finite_range(1, 8));
+    cmd->add_option("--isomap-size", a->isomap_size, "face texture side, texels")->check(CLI::Range(64, 4096));
     cmd->add_option("--jaw", a->jaw, "jaw landmarks in the .pts: contour (on the silhouette, as annotated) or fixed")->check(CLI::IsMember({"contour", "fixed"}));
     cmd->add_option("--image-format", a->image_format, "png or jpg")->check(CLI::IsMember({"png", "jpg"}));
     cmd->add_flag("--no-residual", a->no_residual, "landmarks of the fitted model only, without the annotation's residual to the fit");
