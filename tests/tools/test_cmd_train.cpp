@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 namespace {
 
@@ -77,6 +78,35 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     int rows = 0;
     while (std::getline(nme_csv, line)) ++rows;
     EXPECT_EQ(rows, 30);
+
+    // Photographs (image and .pts side by side, no meta): their yaw comes from fitting the built-in
+    // model to the annotations, close to the renders' true yaw.
+    const fs::path photos = dir / "photos";
+    fs::create_directories(photos);
+    std::map<std::string, double> true_yaw;
+    for (const auto& e : fs::directory_iterator(test / "images")) {
+        const std::string stem = e.path().stem().string();
+        fs::copy_file(e.path(), photos / e.path().filename());
+        fs::copy_file(test / "landmarks" / (stem + ".pts"), photos / (stem + ".pts"));
+        true_yaw["photos/" + stem] = read_json(test / "meta" / (stem + ".json"))["yaw"].get<double>();
+    }
+    ASSERT_EQ(run_command(cli_path().string() + " eval landmarks --regressor " + model.string() + " --data " + photos.string() +
+                              " --nme-csv " + (dir / "photos.csv").string(),
+                          &out),
+              0)
+        << out;
+    EXPECT_NE(out.find("30 faces without meta: yaw from fitting the built-in model to their annotations"), std::string::npos) << out;
+    std::ifstream photo_csv(dir / "photos.csv");
+    ASSERT_TRUE(std::getline(photo_csv, line));
+    int fitted = 0;
+    while (std::getline(photo_csv, line)) {
+        const std::string key = line.substr(0, line.find(','));
+        const double yaw = std::stod(line.substr(key.size() + 1));
+        ASSERT_TRUE(true_yaw.count(key)) << key;
+        EXPECT_NEAR(yaw, true_yaw[key], 8.0) << key;
+        ++fitted;
+    }
+    EXPECT_EQ(fitted, 30);
 
     // detect: one unreadable file in the batch gives a per-image error, the rest continue, exit 1.
     const auto images = test / "images";
