@@ -300,6 +300,7 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
                                                {"landmarks_contour", points_json(view.landmarks_contour)},
                                                {"visibility_fixed", flags_json(view.visible_fixed)},
                                                {"visibility_contour", flags_json(view.visible_contour)},
+                                               {"residual_px", points_json(view.residual_px)},
                                                {"filled_share", view.filled_share},
                                                {"stretched_share", view.stretched_share},
                                                {"face_share", view.face_share},

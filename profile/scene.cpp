@@ -404,12 +404,11 @@ ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose
     view.landmarks_contour = projected.contour_pixels;
     view.visible_fixed = projected.visible;
     view.visible_contour = projected.contour_visible;
+    view.residual_px = Eigen::Matrix2Xd::Zero(2, 68);
     if (options.apply_residual && scene.residual_mm.cols() == 68) {
-        for (int k = 0; k < 68; ++k) {
-            const Eigen::Vector2d offset = s * (view_from_model * scene.residual_mm.col(k)).head<2>();
-            view.landmarks_fixed.col(k) += offset;
-            view.landmarks_contour.col(k) += offset;
-        }
+        for (int k = 0; k < 68; ++k) view.residual_px.col(k) = s * (view_from_model * scene.residual_mm.col(k)).head<2>();
+        view.landmarks_fixed += view.residual_px;
+        view.landmarks_contour += view.residual_px;
     }
     return view;
 }

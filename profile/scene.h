@@ -87,6 +87,7 @@ struct ProfiledView {
     Eigen::Matrix2Xd landmarks_fixed;     // 2 x 68, view pixels (0-based), residual applied
     Eigen::Matrix2Xd landmarks_contour;
     std::vector<std::uint8_t> visible_fixed, visible_contour;
+    Eigen::Matrix2Xd residual_px;         // 2 x 68: what the annotation's residual added to each landmark in this view
     double filled_share = 0;     // of the face's pixels: texture filled (mirror or neighbours), not seen
     double stretched_share = 0;  // of the view's pixels: picture grid stretched over twice its area in the photograph
     double face_share = 0;       // of the view's pixels: the fitted face

@@ -100,6 +100,7 @@ TEST_F(ProfileTest, SourcePoseReproducesThePhotographInsideTheFaceAndItsAnnotati
     // With the residual, the labels at the source pose are the annotations.
     const Eigen::Matrix2Xd annotated = view_to_photo(view.landmarks_contour, scene);
     EXPECT_LT((annotated - p.landmarks).colwise().norm().maxCoeff(), 1e-6);
+    EXPECT_LT((view.residual_px - scene.residual_px).cwiseAbs().maxCoeff(), 1e-9);
     // Without it, they are the fitted model's, within the fit's error of the annotations.
     ProfileOptions plain = options;
     plain.apply_residual = false;
