@@ -388,4 +388,14 @@ Eigen::Matrix3Xf fitted_shape(const morph::MorphableModel& model, const FitResul
     return model.shape_instance(result.alpha, result.psi);
 }
 
+std::optional<double> annotated_yaw(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks) {
+    FitOptions options;
+    options.jaw = JawMode::kContour;
+    try {
+        return fitter.fit(landmarks, options).pose.angles.yaw;
+    } catch (const core::Error&) {
+        return std::nullopt;
+    }
+}
+
 }  // namespace facesynth::fit

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -77,6 +78,11 @@ private:
 [[nodiscard]] std::vector<float> fit_identity_for_camera(const morph::MorphableModel& model, const AffineCamera& camera,
                                                          const Eigen::Matrix2Xd& landmarks, const FitOptions& options = {},
                                                          std::span<const float> psi = {});
+
+// The yaw (degrees) of the model fitted to a face's 68 annotated points with the jaw on the silhouette,
+// as photographs are annotated: the pose estimate per photograph that reports bin faces by. nullopt
+// when the points cannot be fitted (non-finite, degenerate).
+[[nodiscard]] std::optional<double> annotated_yaw(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks);
 
 // Shape (3 x V) of a fit with its identity and expression.
 [[nodiscard]] Eigen::Matrix3Xf fitted_shape(const morph::MorphableModel& model, const FitResult& result);

@@ -236,11 +236,9 @@ std::vector<train::LabelledImage> near_frontal(const std::vector<train::Labelled
             yaw = train::read_meta_yaw(image);
         } else {
             try {
-                fit::FitOptions options;
-                options.jaw = fit::JawMode::kContour;
-                yaw = fitter->fit(morph::read_pts(image.pts), options).pose.angles.yaw;
+                yaw = fit::annotated_yaw(*fitter, morph::read_pts(image.pts));
             } catch (const core::Error&) {
-                yaw.reset();  // unreadable or degenerate: measure_realism reports it when kept
+                yaw.reset();  // unreadable: measure_realism reports it when kept
             }
         }
         if (yaw && std::abs(*yaw) <= max_yaw) out.push_back(image);

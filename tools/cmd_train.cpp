@@ -300,13 +300,11 @@ void add_detector_breakdown(const Evaluation& evaluation, nlohmann::json& report
     }
 }
 
-// Photographs have no meta with their pose: their yaw (for the per-|yaw| tables) comes from fitting
-// the built-in model to their annotations, jaw on the silhouette. Returns how many were fitted.
+// Photographs have no meta with their pose: their yaw (for the per-|yaw| tables) is the fitted
+// built-in model's. Returns how many were fitted.
 int add_fitted_yaws(const std::vector<LabelledImage>& images, Evaluation& evaluation) {
     std::unique_ptr<morph::MorphableModel> model;
     std::unique_ptr<fit::Fitter> fitter;
-    fit::FitOptions options;
-    options.jaw = fit::JawMode::kContour;
     int fitted = 0;
     for (std::size_t f = 0; f < evaluation.faces.size() && f < images.size(); ++f) {
         if (evaluation.faces[f].yaw_deg) continue;
@@ -315,11 +313,11 @@ int add_fitted_yaws(const std::vector<LabelledImage>& images, Evaluation& evalua
             fitter = std::make_unique<fit::Fitter>(*model);
         }
         try {
-            evaluation.faces[f].yaw_deg = fitter->fit(morph::read_pts(images[f].pts), options).pose.angles.yaw;
-            ++fitted;
+            evaluation.faces[f].yaw_deg = fit::annotated_yaw(*fitter, morph::read_pts(images[f].pts));
         } catch (const core::Error&) {
             // an unreadable .pts is already counted among the warnings; the face stays out of the bins
         }
+        fitted += evaluation.faces[f].yaw_deg.has_value();
     }
     return fitted;
 }

@@ -209,3 +209,18 @@ TEST(Fit, BadInputsThrowClearErrors) {
 
 }  // namespace
 }  // namespace facesynth::fit
+
+namespace facesynth::fit {
+namespace {
+
+TEST(AnnotatedYaw, IsNothingForPointsThatCannotBeFitted) {
+    const morph::MorphableModel model = testkit::make_toy_model();
+    const Fitter fitter(model);
+    Eigen::Matrix2Xd points = Eigen::Matrix2Xd::Constant(2, 68, std::numeric_limits<double>::quiet_NaN());
+    EXPECT_FALSE(annotated_yaw(fitter, points).has_value());
+    points.setZero();  // every point in one place: degenerate
+    EXPECT_FALSE(annotated_yaw(fitter, points).has_value());
+}
+
+}  // namespace
+}  // namespace facesynth::fit
