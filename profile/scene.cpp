@@ -271,6 +271,9 @@ PhotoScene Profiler::prepare(const cv::Mat& photo_in, const Eigen::Matrix2Xd& la
     // Fit, in working pixels.
     scene.fit = frontaliser_.fitter().fit(scene.annotated, options.fit);
     scene.vertices = fit::fitted_shape(model, scene.fit);
+    scene.face.vertices = scene.vertices;
+    scene.face.triangles = model.triangles;
+    scene.face.uv = model.uv;
     scene.camera = scene.fit.pose;
     scene.camera.rotation = morph::rotation_from_euler(scene.camera.angles);  // exactly the views' rotation at the source pose
     scene.fit_error_iod = scene.fit.reprojection_rms_px / std::max(1e-9, morph::inter_ocular_distance(scene.annotated));
@@ -304,10 +307,7 @@ ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose
     render::Renderer& renderer = frontaliser_.renderer();
 
     // The face.
-    morph::Mesh face;
-    face.vertices = scene.vertices;
-    face.triangles = model.triangles;
-    face.uv = model.uv;
+    const morph::Mesh& face = scene.face;
     render::RenderSettings face_settings;
     face_settings.antialiasing = render::Antialiasing::edges();
     face_settings.normals = false;

@@ -57,6 +57,7 @@ struct PhotoScene {
     fit::FitResult fit;                 // in working pixels
     fit::ScaledOrthographic camera;     // the fit's scaled orthographic camera (working pixels)
     Eigen::Matrix3Xf vertices;          // fitted shape (identity and expression), model space
+    morph::Mesh face;                   // the fitted mesh with the model's triangles and uv, as every view draws it
     double fit_error_iod = 0;           // landmark RMS of the fit over the inter-ocular distance
 
     cv::Mat face_texture;               // the renderer's RGB texture for the model's uv
