@@ -75,7 +75,7 @@ void BM_SdmFeaturesAllStages(benchmark::State& state) {
     for (auto _ : state)
         for (const auto& stage : m.stages) {
             features.resize(m.feature_dims(stage.settings));
-            sdm_features(face.crop, m.mean_shape, m.hog_cells, stage.settings,
+            sdm_features(face.crop, m.mean_shape, m.hog_cells, stage.settings, m.unit,
                          {features.data(), static_cast<std::size_t>(features.size())});
         }
 }

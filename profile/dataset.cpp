@@ -6,18 +6,20 @@
 #include "core/random.h"
 #include "morph/landmarks.h"
 #include "synth/dataset_layout.h"
+#include "synth/config.h"
 #include "synth/png.h"
+#include "synth/scene.h"
+#include "synth/tar.h"
 #include "train/photo_landmarks.h"
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -26,14 +28,10 @@ namespace fs = std::filesystem;
 namespace facesynth::profile {
 namespace {
 
+using synth::sample_key;
+
 constexpr const char* kSettingsFile = "profile.json";
 constexpr const char* kPhotoFolder = "photos";  // one record per finished photograph: marks it complete
-
-std::string sample_key(std::int64_t index) {
-    char key[32];
-    std::snprintf(key, sizeof key, "s%08lld", static_cast<long long>(index));
-    return key;
-}
 
 std::string photo_key(std::size_t index) {
     char key[32];
@@ -77,13 +75,17 @@ nlohmann::json photo_record(const fs::path& photo, const FoundLandmarks& found, 
             {"residual_px", points_json(scene.residual_px)}};
 }
 
-std::string encode_image(const cv::Mat& rgb, const ProfileRunOptions& options, synth::PngEncoder& png, const std::string& context) {
-    if (options.image_format != "jpg") return png.encode(rgb, context);
-    cv::Mat bgr;
-    cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
-    std::vector<unsigned char> bytes;
-    if (!cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, options.jpeg_quality})) throw core::Error(context + ": image encoding failed");
-    return {bytes.begin(), bytes.end()};
+// The folders a run writes into, each created if missing.
+constexpr std::array<const char*, 4> kFolders = {"images", "landmarks", "meta", kPhotoFolder};
+
+// The keys of photograph p's views that are on disk, in index order.
+std::vector<std::int64_t> views_on_disk(const fs::path& out, std::size_t p, int views) {
+    std::vector<std::int64_t> indices;
+    for (int v = 0; v < views; ++v) {
+        const std::int64_t index = static_cast<std::int64_t>(p) * views + v;
+        if (fs::exists(out / "meta" / (sample_key(index) + ".json"))) indices.push_back(index);
+    }
+    return indices;
 }
 
 }  // namespace
@@ -133,7 +135,7 @@ std::optional<ViewPose> plan_view(const ViewPlan& plan, const ViewPose& source, 
     if (views <= 0) throw core::Error("profile: no views per photograph");
     core::Rng rng = core::make_rng(seed, static_cast<std::uint64_t>(index), core::RandomStream::kPose);
     ViewPose pose = source;
-    if (!plan.yaws.empty()) {
+    if (!plan.random_yaws()) {
         pose.yaw = plan.yaws[static_cast<std::size_t>(index % views)];
         if (std::abs(pose.yaw - source.yaw) > plan.max_turn + 1e-9) return std::nullopt;
     } else {
@@ -154,21 +156,127 @@ std::optional<ViewPose> plan_view(const ViewPlan& plan, const ViewPose& source, 
     return pose;
 }
 
+void apply_config_file(ProfileRunOptions& options, const fs::path& path) {
+    std::string yaws;
+    int views_per_photo = 0;
+    ViewPlan& plan = options.plan;
+    ProfileOptions& scene = options.profile;
+    ProfileOutput& output = options.output;
+    const std::vector<synth::ConfigField> fields = {
+        {"seed", &options.seed, "seed of the random yaws and pitches"},
+        {"jaw", &options.jaw, "jaw landmarks in the .pts: contour or fixed"},
+        {"views.yaws", &yaws, "the views' yaws, first:last:step or a,b,c (degrees)"},
+        {"views.per_photo", &views_per_photo, "instead of yaws: this many views per photograph at random yaws"},
+        {"views.yaw_limit", &plan.yaw_limit, "random yaws lie in [-limit, limit]"},
+        {"views.toward_profile", &plan.toward_profile, "random yaws only further toward profile than the photograph's"},
+        {"views.max_turn", &plan.max_turn, "no view turns the face more than this from its yaw in the photograph"},
+        {"views.pitch_jitter", &plan.pitch_jitter, "standard deviation of a random change of pitch per view (degrees)"},
+        {"views.relight", &plan.relight, "largest strength of a directional light added per view (0: the photograph's light)"},
+        {"scene.size", &scene.size, "view side, px"},
+        {"scene.crop_margin", &scene.crop_margin, "the view shows this many times the landmarks' box"},
+        {"scene.isomap_size", &scene.isomap_size, "face texture side, texels"},
+        {"scene.grid_step_px", &scene.grid_step_px, "spacing of the picture's grid mesh, px"},
+        {"scene.falloff_mm", &scene.falloff_mm, "outside the head, depth and motion fade to the far plane over this distance"},
+        {"scene.far_plane_mm", &scene.far_plane_mm, "the far plane, behind the head's centre"},
+        {"scene.grid_behind_mm", &scene.grid_behind_mm, "the grid lies this far behind the fitted surface"},
+        {"scene.smoothing_px", &scene.smoothing_px, "Gaussian smoothing of the grid's depth and motion"},
+        {"scene.apply_residual", &scene.apply_residual, "add the annotation's residual to the fit to every view's landmarks"},
+        {"fit.lambda", &scene.fit.lambda, "shape regularisation of the fit"},
+        {"fit.expression_lambda", &scene.fit.expression_lambda, "expression regularisation of the fit"},
+        {"fit.iterations", &scene.fit.iterations, "fit rounds"},
+        {"output.formats", &output.formats, "folder, wds, coco (the folder is always written)"},
+        {"output.image_format", &output.image_format, "png or jpg"},
+        {"output.jpeg_quality", &output.jpeg_quality, "JPEG quality"},
+        {"output.png_compression", &output.png_compression, "PNG deflate level 0-9"},
+        {"output.wds_shard_size", &output.wds_shard_size, "views per WebDataset tar (whole photographs)"},
+        {"output.wds_prefix", &output.wds_prefix, "WebDataset tar name prefix"}};
+    synth::apply_toml_fields(fields, path);
+    if (!yaws.empty() && views_per_photo > 0) throw core::file_error(path.string(), "give views.yaws or views.per_photo, not both");
+    if (!yaws.empty()) {
+        try {
+            plan.yaws = parse_yaws(yaws);
+        } catch (const core::Error& e) {
+            throw core::file_error(path.string(), std::string("views.yaws: ") + e.what());
+        }
+        plan.views_per_photo = 0;
+    } else if (views_per_photo != 0) {
+        if (views_per_photo < 1 || views_per_photo > 1000) throw core::file_error(path.string(), "views.per_photo must lie in [1, 1000]");
+        plan.views_per_photo = views_per_photo;
+    }
+}
+
+void validate(const ProfileRunOptions& options) {
+    const auto in_range = [](const char* key, double value, double low, double high) {
+        if (!(value >= low && value <= high))
+            throw core::Error("profile: " + std::string(key) + " = " + std::to_string(value) + " lies outside [" + std::to_string(low) + ", " +
+                              std::to_string(high) + "]");
+    };
+    if (options.jaw != "contour" && options.jaw != "fixed") throw core::Error("profile: jaw must be 'contour' or 'fixed', not '" + options.jaw + "'");
+    const ProfileOutput& output = options.output;
+    if (output.image_format != "png" && output.image_format != "jpg")
+        throw core::Error("profile: output.image_format must be 'png' or 'jpg', not '" + output.image_format + "'");
+    (void)synth::parse_formats(output.formats);
+    if (output.wds_prefix.empty() || output.wds_prefix.find_first_of("/.") != std::string::npos)
+        throw core::Error("profile: output.wds_prefix must be a non-empty name without '/' or '.'");
+    in_range("output.jpeg_quality", output.jpeg_quality, 1, 100);
+    in_range("output.png_compression", output.png_compression, 0, 9);
+    in_range("output.wds_shard_size", output.wds_shard_size, 1, 1e7);
+    const ViewPlan& plan = options.plan;
+    if (plan.views() <= 0) throw core::Error("profile: give the views' yaws or a number of views per photograph");
+    in_range("views.per_photo", plan.views(), 1, 1000);
+    in_range("views.yaw_limit", plan.yaw_limit, 0, 180);
+    in_range("views.max_turn", plan.max_turn, 0, 360);
+    in_range("views.pitch_jitter", plan.pitch_jitter, 0, 45);
+    in_range("views.relight", plan.relight, 0, 0.9);
+    const ProfileOptions& scene = options.profile;
+    in_range("scene.size", scene.size, 16, 4096);
+    in_range("scene.crop_margin", scene.crop_margin, 1, 8);
+    in_range("scene.isomap_size", scene.isomap_size, 64, 4096);
+    in_range("scene.grid_step_px", scene.grid_step_px, 1, 64);
+    in_range("scene.falloff_mm", scene.falloff_mm, 1, 1000);
+    in_range("scene.far_plane_mm", scene.far_plane_mm, 1, 10000);
+    in_range("scene.grid_behind_mm", scene.grid_behind_mm, 0, 100);
+    in_range("scene.smoothing_px", scene.smoothing_px, 0, 100);
+    in_range("fit.lambda", scene.fit.lambda, 0, 1e9);
+    in_range("fit.expression_lambda", scene.fit.expression_lambda, 0, 1e9);
+    in_range("fit.iterations", scene.fit.iterations, 1, 100);
+    if (options.threads < 1) throw core::Error("profile: threads must be at least 1");
+}
+
+std::size_t photos_per_tar(const ProfileRunOptions& options) {
+    if (!synth::parse_formats(options.output.formats).wds) return 1;
+    return static_cast<std::size_t>(std::max(1, options.output.wds_shard_size / std::max(1, options.plan.views())));
+}
+
+ViewLight plan_light(const ViewPlan& plan, std::uint64_t seed, std::int64_t index) {
+    if (!(plan.relight > 0)) return {};
+    core::Rng rng = core::make_rng(seed, static_cast<std::uint64_t>(index), core::RandomStream::kLighting);
+    ViewLight light;
+    light.strength = rng.uniform(0, plan.relight);
+    light.azimuth = rng.uniform(-75, 75);
+    light.elevation = rng.uniform(-20, 50);
+    return light;
+}
+
 nlohmann::json profile_settings(const ProfileRunOptions& options, const morph::MorphableModel& model) {
     const ProfileOptions& p = options.profile;
     return {{"tool", "facesynth profile"},
             {"model", model.name},
             {"model_checksum", model.checksum()},
             {"seed", options.seed},
-            {"yaws", options.plan.yaws},
+            {"yaws", options.plan.random_yaws() ? std::vector<double>{} : options.plan.yaws},
             {"views_per_photo", options.plan.views()},
             {"yaw_limit", options.plan.yaw_limit},
             {"toward_profile", options.plan.toward_profile},
             {"max_turn", options.plan.max_turn},
             {"pitch_jitter", options.plan.pitch_jitter},
+            {"relight", options.plan.relight},
             {"jaw", options.jaw},
-            {"image_format", options.image_format},
-            {"jpeg_quality", options.jpeg_quality},
+            {"image_format", options.output.image_format},
+            {"jpeg_quality", options.output.jpeg_quality},
+            {"png_compression", options.output.png_compression},
+            {"wds_shard_size", options.output.wds_shard_size},
+            {"wds_prefix", options.output.wds_prefix},
             {"size", p.size},
             {"crop_margin", p.crop_margin},
             {"isomap_size", p.isomap_size},
@@ -184,11 +292,7 @@ nlohmann::json profile_settings(const ProfileRunOptions& options, const morph::M
 }
 
 ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::MorphableModel& model) {
-    if (options.jaw != "contour" && options.jaw != "fixed") throw core::Error("profile: jaw must be 'contour' or 'fixed', not '" + options.jaw + "'");
-    if (options.image_format != "png" && options.image_format != "jpg")
-        throw core::Error("profile: image format must be 'png' or 'jpg', not '" + options.image_format + "'");
-    if (options.plan.views() <= 0) throw core::Error("profile: give the views' yaws or a number of views per photograph");
-    if (options.threads < 1) throw core::Error("profile: threads must be at least 1");
+    validate(options);
     const auto start = std::chrono::steady_clock::now();
     const std::vector<fs::path> photos = train::list_photos(options.photos);
     ProfileRunResult result;
@@ -209,19 +313,21 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
             if (!options.overwrite)
                 throw core::file_error(out.string(), "holds a profiled dataset made with other settings (" + key +
                                                          " differs); use another folder or --overwrite");
-            for (const char* folder : {"images", "landmarks", "meta", kPhotoFolder}) fs::remove_all(out / folder);
+            for (const char* folder : kFolders) fs::remove_all(out / folder);
         }
     }
-    for (const char* folder : {"images", "landmarks", "meta", kPhotoFolder}) {
+    for (const char* folder : kFolders) {
         std::error_code error;
         fs::create_directories(out / folder, error);
         if (error) throw core::file_error((out / folder).string(), "cannot create the folder: " + error.message());
     }
     core::write_file_atomically(settings_path, settings.dump(2) + "\n");
 
+    const std::size_t unit = photos_per_tar(options);
+    const auto in_shard = [&](std::size_t p) { return static_cast<int>((p / unit) % static_cast<std::size_t>(options.shard.count)) == options.shard.index; };
     std::vector<std::size_t> todo;
     for (std::size_t p = 0; p < photos.size(); ++p) {
-        if (static_cast<int>(p % static_cast<std::size_t>(options.shard.count)) != options.shard.index) continue;
+        if (!in_shard(p)) continue;
         ++result.photos_in_shard;
         if (fs::exists(out / kPhotoFolder / (photo_key(p) + ".json")))
             ++result.photos_done_before;
@@ -231,7 +337,7 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
     if (options.on_start) options.on_start(todo.size());
 
     const int views = options.plan.views();
-    const std::string extension = options.image_format == "jpg" ? ".jpg" : ".png";
+    const std::string extension = options.output.image_format == "jpg" ? ".jpg" : ".png";
     std::mutex mutex;  // result, on_photo and the landmark finder
     std::atomic<std::size_t> next{0};
     std::exception_ptr fatal;
@@ -240,7 +346,7 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
             render::RendererOptions renderer_options = options.renderer;
             renderer_options.software_display = worker;
             Profiler profiler(model, renderer_options);
-            synth::PngEncoder png(1);
+            synth::PngEncoder png(options.output.png_compression);
             for (std::size_t n = next++; n < todo.size(); n = next++) {
                 const std::size_t p = todo[n];
                 const fs::path& photo = photos[p];
@@ -270,6 +376,7 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
                     }
                     prepare_s = seconds_since(t0);
                     const nlohmann::json record = photo_record(photo, found, scene);
+                    const std::string record_file = std::string(kPhotoFolder) + "/" + photo_key(p) + ".json";
                     const ViewPose source = Profiler::source_pose(scene);
                     for (int v = 0; v < views; ++v) {
                         const std::int64_t index = static_cast<std::int64_t>(p) * views + v;
@@ -281,12 +388,14 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
                         const std::string key = sample_key(index);
                         if (fs::exists(out / "meta" / (key + ".json"))) continue;  // an earlier, interrupted run's
                         t0 = std::chrono::steady_clock::now();
-                        const ProfiledView view = profiler.render_view(scene, *pose, options.profile);
+                        const ViewLight light = plan_light(options.plan, options.seed, index);
+                        const ProfiledView view = profiler.render_view(scene, *pose, options.profile, light);
                         render_s += seconds_since(t0);
                         t0 = std::chrono::steady_clock::now();
                         const bool contour = options.jaw == "contour";
                         const Eigen::Matrix2Xd& labels = contour ? view.landmarks_contour : view.landmarks_fixed;
                         const auto& visible = contour ? view.visible_contour : view.visible_fixed;
+                        const auto box = synth::landmark_box(labels, view.image.cols, view.image.rows);
                         nlohmann::json meta = {{"key", key},
                                                {"index", index},
                                                {"yaw", pose->yaw},
@@ -294,6 +403,7 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
                                                {"roll", pose->roll},
                                                {"jaw", options.jaw},
                                                {"landmarks", points_json(labels)},
+                                               {"light", {{"strength", light.strength}, {"azimuth", light.azimuth}, {"elevation", light.elevation}}},
                                                {"visibility", flags_json(visible)},
                                                {"occluded", std::vector<int>(68, 0)},
                                                {"landmarks_fixed", points_json(view.landmarks_fixed)},
@@ -304,10 +414,14 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
                                                {"filled_share", view.filled_share},
                                                {"stretched_share", view.stretched_share},
                                                {"face_share", view.face_share},
+                                               {"image_width", view.image.cols},
+                                               {"image_height", view.image.rows},
+                                               {"bbox", box},
+                                               {"photo", photo.string()},
                                                {"photo_index", p},
-                                               {"view", v},
-                                               {"source", record}};
-                        core::write_file_atomically(out / "images" / (key + extension), encode_image(view.image, options, png, key));
+                                               {"photo_record", record_file},
+                                               {"view", v}};
+                        core::write_file_atomically(out / "images" / (key + extension), synth::encode_image(view.image, options.output.image_format, options.output.jpeg_quality, png, key));
                         core::write_file_atomically(out / "landmarks" / (key + ".pts"), morph::format_pts(labels));
                         core::write_file_atomically(out / "meta" / (key + ".json"), meta.dump() + "\n");
                         write_s += seconds_since(t0);
@@ -317,7 +431,7 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
                     done["index"] = p;
                     done["views_written"] = written;
                     done["views_skipped"] = skipped;
-                    core::write_file_atomically(out / kPhotoFolder / (photo_key(p) + ".json"), done.dump(2) + "\n");
+                    core::write_file_atomically(out / record_file, done.dump(2) + "\n");
                     const std::lock_guard lock(mutex);
                     if (found.source != "pts") ++result.detected;
                 } catch (const core::Error& e) {
@@ -345,6 +459,43 @@ ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::Morp
     for (auto& t : workers) t.join();
     if (fatal) std::rethrow_exception(fatal);
     std::sort(result.failures.begin(), result.failures.end(), [](const PhotoFailure& a, const PhotoFailure& b) { return a.photo < b.photo; });
+
+    const synth::OutputFormats formats = synth::parse_formats(options.output.formats);
+    const std::set<std::size_t> processed(todo.begin(), todo.end());
+    const auto finished_views = [&](std::size_t first, std::size_t end) {
+        std::vector<std::int64_t> indices;
+        for (std::size_t p = first; p < end; ++p)
+            if (fs::exists(out / kPhotoFolder / (photo_key(p) + ".json")))
+                for (const std::int64_t index : views_on_disk(out, p, views)) indices.push_back(index);
+        return indices;
+    };
+    if (formats.wds) {
+        for (std::size_t first = 0; first < photos.size(); first += unit) {
+            if (!in_shard(first)) continue;
+            const std::size_t end = std::min(photos.size(), first + unit);
+            const fs::path tar = out / synth::wds_tar_name(options.output.wds_prefix, static_cast<std::int64_t>(first / unit));
+            bool stale = !fs::exists(tar);
+            for (std::size_t p = first; p < end && !stale; ++p) stale = processed.count(p) > 0;
+            if (!stale) continue;
+            std::vector<synth::TarMember> members;
+            for (const std::int64_t index : finished_views(first, end)) {
+                const std::string key = sample_key(index);
+                members.push_back({key + extension, out / "images" / (key + extension)});
+                members.push_back({key + ".pts", out / "landmarks" / (key + ".pts")});
+                members.push_back({key + ".json", out / "meta" / (key + ".json")});
+            }
+            synth::write_tar_file(tar, members);
+            ++result.tars_written;
+        }
+    }
+    if (formats.coco) {
+        std::vector<std::int64_t> indices;
+        for (std::size_t p = 0; p < photos.size(); ++p)
+            if (in_shard(p))
+                for (const std::int64_t index : finished_views(p, p + 1)) indices.push_back(index);
+        core::write_file_atomically(out / synth::coco_name(options.shard),
+                                    synth::coco_from_meta(out, indices, extension, "facesynth profiled photographs").dump() + "\n");
+    }
     result.seconds = seconds_since(start);
     return result;
 }

@@ -27,7 +27,9 @@ struct FoundLandmarks {
 using LandmarkFinder = std::function<FoundLandmarks(const std::filesystem::path& image_path, const cv::Mat& image)>;
 
 struct ViewPlan {
-    std::vector<double> yaws;  // the views' yaws (degrees); empty: views_per_photo random yaws
+    // The views' yaws (degrees; default -90 to 90 in steps of 15), unless views_per_photo > 0: that
+    // many views at random yaws.
+    std::vector<double> yaws = {-90, -75, -60, -45, -30, -15, 0, 15, 30, 45, 60, 75, 90};
     int views_per_photo = 0;
     double yaw_limit = 90;     // random yaws: uniform in [-yaw_limit, yaw_limit]
     // Random yaws turn the face further toward profile only: uniform between its yaw in the
@@ -39,7 +41,11 @@ struct ViewPlan {
     // yaws: skipped and counted; random yaws: drawn within reach).
     double max_turn = 90;
     double pitch_jitter = 0;   // standard deviation (degrees) of a normal change of the photograph's pitch per view
-    [[nodiscard]] int views() const { return yaws.empty() ? views_per_photo : static_cast<int>(yaws.size()); }
+    // A lighting change per view (ViewLight): strength uniform in [0, relight], the light's azimuth
+    // uniform in [-75°, 75°] and elevation in [-20°, 50°]; 0 keeps the photograph's light.
+    double relight = 0;
+    [[nodiscard]] bool random_yaws() const { return views_per_photo > 0; }
+    [[nodiscard]] int views() const { return random_yaws() ? views_per_photo : static_cast<int>(yaws.size()); }
 };
 
 // "-90:90:15" (first:last:step, both ends included) or "a,b,c"; throws core::Error naming the text.
@@ -48,6 +54,22 @@ struct ViewPlan {
 // The pose of view v of a photograph whose fitted pose is `source`; nullopt when the plan skips it.
 [[nodiscard]] std::optional<ViewPose> plan_view(const ViewPlan& plan, const ViewPose& source, std::uint64_t seed, std::int64_t index);
 
+// What a run writes besides the folder layout (images/, landmarks/, meta/, photos/), which is always
+// written: resume and the tars are made from it.
+struct ProfileOutput {
+    std::string formats = "folder";  // comma-separated: folder, wds, coco (synth::parse_formats)
+    std::string image_format = "png";  // or "jpg"
+    int jpeg_quality = 95;
+    int png_compression = 1;
+    // Views per WebDataset tar, rounded down to whole photographs (at least one): tar t holds every view
+    // of photographs [t·P, (t+1)·P), P = max(1, wds_shard_size / views per photograph).
+    int wds_shard_size = 1000;
+    std::string wds_prefix = "shard";
+};
+
+// View `index`'s light (strength 0 unless plan.relight > 0); depends only on (seed, index).
+[[nodiscard]] ViewLight plan_light(const ViewPlan& plan, std::uint64_t seed, std::int64_t index);
+
 struct ProfileRunOptions {
     std::filesystem::path photos;  // folder of photographs (core::is_image_file)
     std::filesystem::path out;
@@ -55,8 +77,7 @@ struct ProfileRunOptions {
     ViewPlan plan;
     std::uint64_t seed = 1;
     std::string jaw = "contour";   // which landmarks the .pts hold: "contour" (annotators' convention) or "fixed"
-    std::string image_format = "png";  // or "jpg"
-    int jpeg_quality = 95;
+    ProfileOutput output;
     int threads = 1;
     synth::Shard shard;
     bool overwrite = false;        // replace a dataset made with other settings
@@ -65,6 +86,17 @@ struct ProfileRunOptions {
     std::function<void(std::size_t todo)> on_start;  // photographs to process in this run
     std::function<void()> on_photo;                  // after each, from worker threads (serialised)
 };
+
+// Applies a TOML file's keys to `options` (docs/profile.md lists them: seed, jaw, [views], [scene],
+// [fit], [output]); unknown keys, wrong types and bad yaws throw core::Error naming the file and key.
+void apply_config_file(ProfileRunOptions& options, const std::filesystem::path& path);
+
+// Throws core::Error naming the first setting out of range (as its config key).
+void validate(const ProfileRunOptions& options);
+
+// Photographs per WebDataset tar (1 without wds). Photographs are shared among shards in these units:
+// photograph p belongs to shard (p / unit) % N, so each tar is written by one process.
+[[nodiscard]] std::size_t photos_per_tar(const ProfileRunOptions& options);
 
 struct PhotoFailure {
     std::string photo;
@@ -78,6 +110,7 @@ struct ProfileRunResult {
     std::size_t views_written = 0;
     std::size_t views_skipped = 0;     // beyond plan.max_turn
     std::size_t detected = 0;          // photographs without a .pts, landmarked by the finder
+    std::size_t tars_written = 0;
     std::vector<PhotoFailure> failures;
     double seconds = 0;
     double prepare_seconds = 0;        // fit, textures and grid, summed over threads
@@ -85,9 +118,11 @@ struct ProfileRunResult {
     double write_seconds = 0;          // encoded and written
 };
 
-// Throws core::Error for what stops the whole run (no photographs, an output folder made with other
-// settings, an unwritable folder); a photograph that fails (unreadable, no face, broken .pts, failed
-// fit) is listed in failures, its views are not written, and the others go on.
+// Throws core::Error for what stops the whole run (bad options, no photographs, an output folder made
+// with other settings, an unwritable folder); a photograph that fails (unreadable, no face, broken .pts,
+// failed fit) is listed in failures, its views are not written, and the others go on. With wds, the
+// shard's tars that are missing or hold a photograph processed in this run are (re)written when all its
+// photographs are done; with coco, coco.json (coco-K-of-N.json for a shard) lists the shard's views.
 ProfileRunResult run_profile(const ProfileRunOptions& options, const morph::MorphableModel& model);
 
 // The settings that define a profiled dataset (written to profile.json; a second run into the same

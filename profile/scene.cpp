@@ -1,6 +1,7 @@
 #include "profile/scene.h"
 
 #include "core/error.h"
+#include "core/srgb.h"
 #include "frontal/isomap.h"
 #include "frontal/photo_texture.h"
 #include "morph/jaw_contour.h"
@@ -12,7 +13,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 namespace facesynth::profile {
@@ -297,7 +300,9 @@ PhotoScene Profiler::prepare(const cv::Mat& photo_in, const Eigen::Matrix2Xd& la
     return scene;
 }
 
-ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose, const ProfileOptions& options) {
+ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose, const ProfileOptions& options, const ViewLight& light) {
+    if (!(light.strength >= 0 && light.strength <= 0.9) || !std::isfinite(light.azimuth) || !std::isfinite(light.elevation))
+        throw core::Error("profile: a view's light strength must lie in [0, 0.9] and its angles be finite");
     const morph::MorphableModel& model = frontaliser_.model();
     const render::Camera camera = view_camera(scene, pose, options.size);
     const Eigen::Matrix3d& rotation = camera.pose.rotation;
@@ -310,7 +315,7 @@ ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose
     const morph::Mesh& face = scene.face;
     render::RenderSettings face_settings;
     face_settings.antialiasing = render::Antialiasing::edges();
-    face_settings.normals = false;
+    face_settings.normals = light.changes();
     face_settings.lighting = frontal::unlit();
     render::MeshExtras face_extras;
     face_extras.texture = &scene.face_texture;
@@ -336,7 +341,7 @@ ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose
     }
     render::RenderSettings grid_settings;
     grid_settings.antialiasing = render::Antialiasing::none();
-    grid_settings.normals = false;
+    grid_settings.normals = light.changes();
     grid_settings.cull_back_faces = false;
     grid_settings.lighting = frontal::unlit();
     render::MeshExtras grid_extras;
@@ -344,8 +349,13 @@ ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose
     renderer.render(grid, camera, grid_settings, grid_frame_, grid_extras);
 
     std::vector<char> stretched(scene.grid_triangles.size(), 0);
+    std::vector<float> grid_weight(light.changes() ? scene.grid_triangles.size() : 0);
     for (std::size_t k = 0; k < scene.grid_triangles.size(); ++k) {
         const auto& tri = scene.grid_triangles[k];
+        if (light.changes()) {
+            const auto motion = [&](int corner) { return scene.grid_motion[static_cast<std::size_t>(tri[static_cast<std::size_t>(corner)])]; };
+            grid_weight[k] = (motion(0) + motion(1) + motion(2)) / 3;
+        }
         const double area = triangle_area(grid_pixels.col(tri[0]), grid_pixels.col(tri[1]), grid_pixels.col(tri[2]));
         stretched[k] = area > kStretchedArea * scene.grid_source_area[k] + 1e-9 ? 1 : 0;
     }
@@ -360,6 +370,12 @@ ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose
     view.face_mask = cv::Mat::zeros(options.size, options.size, CV_8UC1);
     const int size = options.size;
     std::int64_t face_pixels = 0, filled_pixels = 0, stretched_pixels = 0;
+    // Camera axes: x right, y down, z forward; a surface facing the camera has normal (0, 0, −1).
+    const double azimuth = light.azimuth * std::numbers::pi / 180, elevation = light.elevation * std::numbers::pi / 180;
+    const Eigen::Vector3d toward_light(std::sin(azimuth) * std::cos(elevation), -std::sin(elevation), -std::cos(azimuth) * std::cos(elevation));
+    const double camera_facing_shading = (1 - light.strength) + light.strength * std::max(0.0, -toward_light.z());
+    std::array<double, 256> decoded{};
+    for (int v = 0; v < 256; ++v) decoded[static_cast<std::size_t>(v)] = core::srgb_decode(v / 255.0);
     const auto face_at = [&](int x, int y) {
         if (x < 0 || y < 0 || x >= size || y >= size) return false;
         const int id = face_frame_.triangle_ids.at<int>(y, x);
@@ -389,6 +405,18 @@ ProfiledView Profiler::render_view(const PhotoScene& scene, const ViewPose& pose
                 }
             } else if (grid_ids[x] >= 0 && stretched[static_cast<std::size_t>(grid_ids[x])]) {
                 ++stretched_pixels;
+            }
+            const bool face_surface = use_face && id >= 0;
+            if (light.changes() && (face_surface || grid_ids[x] >= 0)) {
+                const cv::Vec3f& n = face_surface ? face_frame_.normals.at<cv::Vec3f>(y, x) : grid_frame_.normals.at<cv::Vec3f>(y, x);
+                // The grid is drawn from both sides: its normal is the one facing the camera.
+                const double facing = n[2] > 0 ? -1.0 : 1.0;
+                const double lit = std::max(0.0, facing * (n[0] * toward_light.x() + n[1] * toward_light.y() + n[2] * toward_light.z()));
+                const double change = ((1 - light.strength) + light.strength * lit) / camera_facing_shading - 1;
+                // The picture's depth is a guess away from the head: the light fades with the head's motion.
+                const double factor = 1 + (face_surface ? 1.0 : grid_weight[static_cast<std::size_t>(grid_ids[x])]) * change;
+                for (int c = 0; c < 3; ++c)
+                    out[x][c] = cv::saturate_cast<std::uint8_t>(255 * core::srgb_encode(factor * decoded[out[x][c]]));
             }
         }
     }

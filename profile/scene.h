@@ -81,6 +81,18 @@ struct ViewPose {
     double yaw = 0, pitch = 0, roll = 0;  // degrees, the face's pose in the view (morph/pose.h)
 };
 
+// A directional light added to a view, changing the photograph's shading: each surface's colour (in
+// linear light) is multiplied by ((1 − k) + k · max(0, n · l)) / ((1 − k) + k · max(0, c · l)), where
+// n is its normal, c the normal of a surface facing the camera and l the direction toward the light.
+// Surfaces facing the camera (the flat background, the middle of the face) keep their brightness; those
+// turned toward the light brighten, those turned away darken. Strength 0 leaves the view as it was.
+struct ViewLight {
+    double strength = 0;   // k in [0, 0.9]
+    double azimuth = 0;    // degrees, positive toward the view's right (+x)
+    double elevation = 0;  // degrees, positive above the view's centre
+    [[nodiscard]] bool changes() const { return strength > 0; }
+};
+
 struct ProfiledView {
     cv::Mat image;                        // CV_8UC3, R G B
     cv::Mat face_mask;                    // CV_8UC1: the fitted face's coverage where it is shown, else 0
@@ -106,7 +118,8 @@ public:
 
     // The photograph at the source pose: the fit's angles.
     [[nodiscard]] static ViewPose source_pose(const PhotoScene& scene);
-    [[nodiscard]] ProfiledView render_view(const PhotoScene& scene, const ViewPose& pose, const ProfileOptions& options = {});
+    [[nodiscard]] ProfiledView render_view(const PhotoScene& scene, const ViewPose& pose, const ProfileOptions& options = {},
+                                           const ViewLight& light = {});
 
     // The view's camera (orthographic, view pixels) for the fitted face at `pose`.
     [[nodiscard]] static render::Camera view_camera(const PhotoScene& scene, const ViewPose& pose, int size);

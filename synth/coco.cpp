@@ -9,7 +9,8 @@
 namespace facesynth::synth {
 namespace fs = std::filesystem;
 
-nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::int64_t>& indices, const SynthConfig& config) {
+nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::int64_t>& indices, const std::string& image_extension,
+                              const std::string& description) {
     nlohmann::json names = nlohmann::json::array();
     for (int i = 1; i <= morph::kNumIbugLandmarks; ++i) names.push_back("ibug_" + std::to_string(i));
     // 1-based COCO skeleton along the iBUG contours: jaw, brows, nose bridge and base, eyes, lips.
@@ -28,7 +29,6 @@ nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::in
     chain(49, 60, true);
     chain(61, 68, true);
     nlohmann::json images = nlohmann::json::array(), annotations = nlohmann::json::array();
-    const std::string extension = image_extension(config);
     for (const auto index : indices) {
         const std::string key = sample_key(index);
         const fs::path meta_path = dataset / "meta" / (key + ".json");
@@ -42,7 +42,7 @@ nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::in
                 return static_cast<int>(v);
             };
             const int width = side("image_width"), height = side("image_height");
-            images.push_back({{"id", index + 1}, {"file_name", "images/" + key + extension}, {"width", width}, {"height", height}});
+            images.push_back({{"id", index + 1}, {"file_name", "images/" + key + image_extension}, {"width", width}, {"height", height}});
             nlohmann::json keypoints = nlohmann::json::array();
             int labelled = 0;
             const auto& points = meta.at("landmarks");
@@ -66,7 +66,7 @@ nlohmann::json coco_from_meta(const fs::path& dataset, const std::vector<std::in
             throw core::file_error(meta_path.string(), std::string("not a facesynth meta file: ") + e.what());
         }
     }
-    return {{"info", {{"description", "facesynth synthetic faces"}, {"version", "1"}}},
+    return {{"info", {{"description", description}, {"version", "1"}}},
             {"images", images},
             {"annotations", annotations},
             {"categories", nlohmann::json::array({{{"id", 1}, {"name", "face"}, {"supercategory", "face"}, {"keypoints", names}, {"skeleton", skeleton}}})}};

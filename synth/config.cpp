@@ -250,11 +250,13 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     return f;
 }
 
-void apply_toml_file(SynthConfig& config, const std::filesystem::path& path) {
+void apply_toml_fields(const std::vector<ConfigField>& fields, const std::filesystem::path& path) {
     const toml::value root = core::read_toml_file(path);
     if (!root.is_table()) throw core::file_error(path.string(), "not a TOML table");
-    apply_toml_table(config_fields(config), root.as_table(), "", path.string() + ": ");
+    apply_toml_table(fields, root.as_table(), "", path.string() + ": ");
 }
+
+void apply_toml_file(SynthConfig& config, const std::filesystem::path& path) { apply_toml_fields(config_fields(config), path); }
 
 void apply_override(SynthConfig& config, std::string_view assignment) {
     const auto eq = assignment.find('=');

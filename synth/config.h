@@ -192,6 +192,10 @@ struct ConfigField {
 // Every key of `config`, in documentation order. The pointers refer into `config`.
 [[nodiscard]] std::vector<ConfigField> config_fields(SynthConfig& config);
 
+// Applies a TOML file's keys (dotted names as tables: [a] b = 1 sets "a.b") to the fields they name;
+// unknown keys and wrong types throw core::Error naming the file and the key.
+void apply_toml_fields(const std::vector<ConfigField>& fields, const std::filesystem::path& path);
+
 // Applies a TOML file's keys to `config`; unknown keys and wrong types throw core::Error naming
 // the file and the key.
 void apply_toml_file(SynthConfig& config, const std::filesystem::path& path);

@@ -41,15 +41,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-std::string encode_image(const cv::Mat& rgb, const SynthConfig& config, PngEncoder& png, const std::string& context) {
-    if (config.output.image_format != "jpg") return png.encode(rgb, context);
-    cv::Mat bgr;
-    cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
-    std::vector<uchar> bytes;
-    if (!cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, config.output.jpeg_quality})) throw core::Error(context + ": image encoding failed");
-    return {bytes.begin(), bytes.end()};
-}
-
 // Unit normals n as 8-bit RGB (n + 1) / 2; background (zero normal) stays black.
 std::string encode_normals(const cv::Mat& normals, PngEncoder& png, const std::string& context) {
     cv::Mat rgb(normals.size(), CV_8UC3, cv::Scalar(0, 0, 0));
@@ -201,7 +192,7 @@ ResumeScan scan_for_resume(const fs::path& out, const fs::path& root, const Synt
     };
     scan.tar_done.assign(static_cast<std::size_t>(formats.wds ? tars.tars() : 0), 0);
     for (std::int64_t t = 0; t < static_cast<std::int64_t>(scan.tar_done.size()); ++t)
-        scan.tar_done[static_cast<std::size_t>(t)] = in_shard(tars.first(t), shard, unit) && tar_is_complete(out / wds_tar_name(config, t), t);
+        scan.tar_done[static_cast<std::size_t>(t)] = in_shard(tars.first(t), shard, unit) && tar_is_complete(out / wds_tar_name(config.output.wds_prefix, t), t);
     for (std::int64_t i = 0; i < config.count; ++i) {
         if (!in_shard(i, shard, unit)) continue;
         const bool in_finished_tar = formats.wds && scan.tar_done[static_cast<std::size_t>(tars.tar_of(i))];
@@ -242,7 +233,7 @@ std::vector<std::string> encode_sample(const Sample& sample, const std::vector<S
     std::vector<std::string> contents;
     contents.reserve(files.size());
     for (const auto& file : files) {
-        if (file.folder == "images") contents.push_back(encode_image(sample.image, config, png, key));
+        if (file.folder == "images") contents.push_back(encode_image(sample.image, config.output.image_format, config.output.jpeg_quality, png, key));
         else if (file.folder == "landmarks") contents.push_back(morph::format_pts(chosen_landmarks(sample.labels, config.landmarks.mode)));
         else if (file.folder == "depth") contents.push_back(encode_depth_exr(sample.depth, key));
         else if (file.folder == "mask") contents.push_back(png.encode(sample.mask, key));
@@ -307,7 +298,7 @@ public:
         for (std::int64_t i = 0; i < config_.count; ++i)
             if (in_shard(i, options_.shard, unit)) all.push_back(i);
         core::write_file_atomically(manifest_path_, manifest_text(all, config_));
-        if (formats_.coco) core::write_file_atomically(options_.out / coco_name(options_.shard), coco_from_meta(options_.out, all, config_).dump() + "\n");
+        if (formats_.coco) core::write_file_atomically(options_.out / coco_name(options_.shard), coco_from_meta(options_.out, all, image_extension(config_), kSynthCocoDescription).dump() + "\n");
         if (!formats_.folder && !formats_.coco) {
             std::error_code ignored;
             fs::remove_all(options_.out / kStagingFolder, ignored);  // succeeds only when other shards left nothing there either
@@ -323,7 +314,7 @@ private:
         for (std::int64_t i = tars_.first(t); i < tars_.end(t); ++i)
             for (const auto& file : files_)
                 members.push_back({sample_key(i) + file.wds_extension, root_ / file.folder / (sample_key(i) + file.suffix)});
-        write_tar_file(options_.out / wds_tar_name(config_, t), members);
+        write_tar_file(options_.out / wds_tar_name(config_.output.wds_prefix, t), members);
         if (!formats_.folder && !formats_.coco)
             for (const auto& member : members) fs::remove(member.source);
     }

@@ -38,7 +38,7 @@ struct Shard {
 [[nodiscard]] std::string manifest_name(const Shard& shard);
 [[nodiscard]] std::string coco_name(const Shard& shard);
 // "{prefix}-000012.tar"
-[[nodiscard]] std::string wds_tar_name(const SynthConfig& config, std::int64_t tar_index);
+[[nodiscard]] std::string wds_tar_name(const std::string& prefix, std::int64_t tar_index);
 
 struct RunOptions {
     SynthConfig config;
@@ -82,9 +82,11 @@ struct MergeResult {
 // hard-linked (or copied) into `out`.
 MergeResult merge_datasets(const std::vector<std::filesystem::path>& inputs, const std::filesystem::path& out);
 
-// Builds a COCO keypoints JSON from the meta files of the listed samples.
+// Builds a COCO keypoints JSON from the meta files of the listed samples (their keys image_width,
+// image_height, bbox, landmarks, visibility, occluded); images are "images/KEY{image_extension}".
+inline constexpr const char* kSynthCocoDescription = "facesynth synthetic faces";
 [[nodiscard]] nlohmann::json coco_from_meta(const std::filesystem::path& dataset, const std::vector<std::int64_t>& indices,
-                                            const SynthConfig& config);
+                                            const std::string& image_extension, const std::string& description);
 
 // Parses a JSON file of a dataset folder (a meta file); throws core::Error
 // "<path>: invalid JSON: …" when it is not JSON.

@@ -18,7 +18,7 @@ nlohmann::json manifest_entry(std::int64_t index, const SynthConfig& config) {
     nlohmann::json line = {{"index", index}, {"key", key}};
     if (formats.folder || formats.coco)
         for (const auto& file : sample_files(config)) line[file.folder == "images" ? "image" : file.folder] = file.folder + "/" + key + file.suffix;
-    if (formats.wds) line["tar"] = wds_tar_name(config, tar_layout(config).tar_of(index));
+    if (formats.wds) line["tar"] = wds_tar_name(config.output.wds_prefix, tar_layout(config).tar_of(index));
     return line;
 }
 
@@ -121,10 +121,18 @@ std::string coco_name(const Shard& shard) {
     return "coco-" + std::to_string(shard.index) + "-of-" + std::to_string(shard.count) + ".json";
 }
 
-std::string wds_tar_name(const SynthConfig& config, std::int64_t tar_index) {
+std::string wds_tar_name(const std::string& prefix, std::int64_t tar_index) {
     char number[32];
     std::snprintf(number, sizeof number, "%06lld", static_cast<long long>(tar_index));
-    return config.output.wds_prefix + "-" + number + ".tar";
+    return prefix + "-" + number + ".tar";
+}
+
+std::array<double, 4> landmark_box(const Eigen::Matrix2Xd& points, int width, int height) {
+    const auto clamp_x = [&](double v) { return std::clamp(v, 0.0, width - 1.0); };
+    const auto clamp_y = [&](double v) { return std::clamp(v, 0.0, height - 1.0); };
+    const double x0 = clamp_x(points.row(0).minCoeff()), x1 = clamp_x(points.row(0).maxCoeff());
+    const double y0 = clamp_y(points.row(1).minCoeff()), y1 = clamp_y(points.row(1).maxCoeff());
+    return {x0, y0, x1 - x0, y1 - y0};
 }
 
 nlohmann::json read_json_file(const fs::path& path) {

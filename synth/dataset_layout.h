@@ -4,9 +4,11 @@
 // agree for two runs to share a folder.
 #include "synth/config.h"
 
+#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -44,6 +46,9 @@ struct TarLayout {
     [[nodiscard]] std::int64_t end(std::int64_t tar) const { return std::min(count, (tar + 1) * size); }  // one past its last sample
 };
 [[nodiscard]] inline TarLayout tar_layout(const SynthConfig& config) { return {config.count, config.output.wds_shard_size}; }
+
+// The landmarks' box [x, y, width, height] clamped to the image (meta's and COCO's bbox).
+[[nodiscard]] std::array<double, 4> landmark_box(const Eigen::Matrix2Xd& points, int width, int height);
 
 // The index of a file name starting with a sample key ("s00000012..."), or nullopt.
 [[nodiscard]] std::optional<std::int64_t> index_of_key(std::string_view name);

@@ -83,7 +83,7 @@ MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& 
         if (formats.folder || formats.coco)
             for (const auto& file : files) links.emplace_back(source / file.folder / (sample_key(index) + file.suffix), out / file.folder / (sample_key(index) + file.suffix));
         if (formats.wds && tars.first(tars.tar_of(index)) == index) {
-            const auto tar = wds_tar_name(config, tars.tar_of(index));
+            const auto tar = wds_tar_name(config.output.wds_prefix, tars.tar_of(index));
             links.emplace_back(source / tar, out / tar);
         }
     }
@@ -106,7 +106,7 @@ MergeResult merge_datasets(const std::vector<fs::path>& inputs, const fs::path& 
     result.samples = indices.size();
     // The COCO file is built (reading every meta file) before anything is written, so that a
     // damaged meta file leaves no manifest behind.
-    const std::string coco = formats.coco ? coco_from_meta(out, indices, config).dump() + "\n" : "";
+    const std::string coco = formats.coco ? coco_from_meta(out, indices, image_extension(config), kSynthCocoDescription).dump() + "\n" : "";
     if (!fs::exists(out / "dataset.json") || !fs::equivalent(inputs.front(), out)) core::write_file_atomically(out / "dataset.json", core::read_file(first_info));
     core::write_file_atomically(out / "manifest.jsonl", manifest_text(indices, config));
     if (formats.coco) core::write_file_atomically(out / "coco.json", coco);

@@ -3,6 +3,8 @@
 #include "core/error.h"
 
 #include <libdeflate.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cstdint>
@@ -89,6 +91,15 @@ std::string PngEncoder::encode(const cv::Mat& image, const std::string& context)
         append_chunk(png, "IDAT", deflated_.data() + start, std::min(kMaxChunk, deflated_size - start));
     append_chunk(png, "IEND", nullptr, 0);
     return png;
+}
+
+std::string encode_image(const cv::Mat& rgb, std::string_view format, int jpeg_quality, PngEncoder& png, const std::string& context) {
+    if (format != "jpg") return png.encode(rgb, context);
+    cv::Mat bgr;
+    cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+    std::vector<uchar> bytes;
+    if (!cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality})) throw core::Error(context + ": image encoding failed");
+    return {bytes.begin(), bytes.end()};
 }
 
 }  // namespace facesynth::synth

@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 struct libdeflate_compressor;
@@ -38,5 +39,10 @@ private:
     std::vector<unsigned char> filtered_;  // the rows with their filter bytes
     std::vector<unsigned char> deflated_;  // the zlib stream
 };
+
+// A dataset image (CV_8UC3, R G B) as the bytes of a file of `format`: "png" through `png`, or "jpg"
+// at `jpeg_quality`. Throws core::Error starting with `context` when encoding fails.
+[[nodiscard]] std::string encode_image(const cv::Mat& rgb, std::string_view format, int jpeg_quality, PngEncoder& png,
+                                       const std::string& context);
 
 }  // namespace facesynth::synth

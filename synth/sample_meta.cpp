@@ -2,6 +2,7 @@
 #include "synth/dataset.h"
 
 #include "morph/landmarks.h"
+#include "synth/dataset_layout.h"
 
 #include <algorithm>
 #include <array>
@@ -103,11 +104,6 @@ private:
 };
 
 // [x, y, width, height] of the points, clipped to the image.
-std::array<double, 4> bounding_box(const Eigen::Matrix2Xd& p, int width, int height) {
-    const double x0 = std::clamp(p.row(0).minCoeff(), 0.0, width - 1.0), x1 = std::clamp(p.row(0).maxCoeff(), 0.0, width - 1.0);
-    const double y0 = std::clamp(p.row(1).minCoeff(), 0.0, height - 1.0), y1 = std::clamp(p.row(1).maxCoeff(), 0.0, height - 1.0);
-    return {x0, y0, x1 - x0, y1 - y0};
-}
 
 }  // namespace
 
@@ -124,7 +120,7 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const m
     lighting["white_balance_gain"] = s.lighting.white_balance_gain;
     const auto& b = s.background;
     const auto& d = s.degradation;
-    const auto box = bounding_box(chosen_landmarks(labels, mode), k.width, k.height);
+    const auto box = landmark_box(chosen_landmarks(labels, mode), k.width, k.height);
     // Keys in sorted order, as nlohmann's std::map objects wrote them.
     CompactJson j;
     j.begin_object();

@@ -21,22 +21,27 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The command line's values; each overrides the library's default or --config's value only when given.
 struct ProfileArgs {
+    const CLI::App* command = nullptr;
     std::string photos;
     std::string out;
+    std::string config;
     std::string model = "builtin";
     std::string yaws;
     int views_per_photo = 0;
-    double yaw_limit = 90;
-    double max_turn = 90;
+    double yaw_limit = 0;
+    double max_turn = 0;
     double pitch_jitter = 0;
+    double relight = 0;
     bool both_ways = false;
-    std::uint64_t seed = 1;
-    int size = 256;
-    double crop_margin = 2.0;
-    int isomap_size = 256;
-    std::string jaw = "contour";
-    std::string image_format = "png";
+    std::uint64_t seed = 0;
+    int size = 0;
+    double crop_margin = 0;
+    int isomap_size = 0;
+    std::string jaw;
+    std::string image_format;
+    std::string formats;
     bool no_residual = false;
     int threads = 0;
     std::string shard = "0/1";
@@ -46,38 +51,42 @@ struct ProfileArgs {
     std::string detector = "auto";
     std::string json;
     bool quiet = false;
+    [[nodiscard]] bool given(const char* option) const { return command->count(option) > 0; }
 };
 
 profile::ProfileRunOptions run_options(const ProfileArgs& a) {
     profile::ProfileRunOptions o;
     o.photos = a.photos;
     o.out = a.out;
-    if (!a.yaws.empty() && a.views_per_photo > 0) throw CLI::ValidationError("--yaws and --views-per-photo", "give one of them, not both");
-    if (!a.yaws.empty()) {
+    if (!a.config.empty()) profile::apply_config_file(o, a.config);
+    if (a.given("--yaws") && a.given("--views-per-photo")) throw CLI::ValidationError("--yaws and --views-per-photo", "give one of them, not both");
+    if (a.given("--yaws")) {
         try {
             o.plan.yaws = profile::parse_yaws(a.yaws);
         } catch (const core::Error& e) {
             throw CLI::ValidationError(e.what());
         }
-    } else if (a.views_per_photo > 0) {
+        o.plan.views_per_photo = 0;
+    } else if (a.given("--views-per-photo")) {
         o.plan.views_per_photo = a.views_per_photo;
-    } else {
-        o.plan.yaws = profile::parse_yaws("-90:90:15");
     }
-    o.plan.yaw_limit = a.yaw_limit;
-    o.plan.max_turn = a.max_turn;
-    o.plan.pitch_jitter = a.pitch_jitter;
-    o.plan.toward_profile = !a.both_ways;
-    o.seed = a.seed;
-    o.profile.size = a.size;
-    o.profile.crop_margin = a.crop_margin;
-    o.profile.isomap_size = a.isomap_size;
-    o.profile.apply_residual = !a.no_residual;
-    o.jaw = a.jaw;
-    o.image_format = a.image_format;
+    if (a.given("--yaw-limit")) o.plan.yaw_limit = a.yaw_limit;
+    if (a.given("--max-turn")) o.plan.max_turn = a.max_turn;
+    if (a.given("--pitch-jitter")) o.plan.pitch_jitter = a.pitch_jitter;
+    if (a.given("--relight")) o.plan.relight = a.relight;
+    if (a.given("--both-ways")) o.plan.toward_profile = false;
+    if (a.given("--seed")) o.seed = a.seed;
+    if (a.given("--size")) o.profile.size = a.size;
+    if (a.given("--crop-margin")) o.profile.crop_margin = a.crop_margin;
+    if (a.given("--isomap-size")) o.profile.isomap_size = a.isomap_size;
+    if (a.given("--no-residual")) o.profile.apply_residual = false;
+    if (a.given("--jaw")) o.jaw = a.jaw;
+    if (a.given("--image-format")) o.output.image_format = a.image_format;
+    if (a.given("--formats")) o.output.formats = a.formats;
     o.threads = a.threads > 0 ? a.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     o.shard = synth::parse_shard(a.shard, a.shard_count);
     o.overwrite = a.overwrite;
+    profile::validate(o);
     return o;
 }
 
@@ -112,6 +121,7 @@ void run_profile_command(const ProfileArgs& a) {
         j["photos_detected"] = r.detected;
         j["views_written"] = r.views_written;
         j["views_skipped"] = r.views_skipped;
+        j["tars_written"] = r.tars_written;
         j["seconds"] = r.seconds;
         j["views_per_s"] = r.views_written / std::max(r.seconds, 1e-9);
         j["prepare_ms_per_photo"] = 1e3 * r.prepare_seconds / static_cast<double>(std::max<std::size_t>(r.photos_in_shard - r.photos_done_before, 1));
@@ -187,6 +197,8 @@ void register_profile_commands(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand("profile", "Re-render annotated photographs at new head poses with exact landmarks (face profiling, 300W-LP style)");
     cmd->add_option("--photos", a->photos, "folder of photographs, each with its 68-point .pts (photographs without one are detected)")->required();
     cmd->add_option("--out,-o", a->out, "output dataset folder (synth's folder layout)")->required();
+    cmd->add_option("--config,-c", a->config, "TOML file of settings (docs/profile.md lists the keys); options given here override it")
+        ->check(CLI::ExistingFile);
     cmd->add_option("--model,-m", a->model, "model: builtin, a model file or a model folder");
     cmd->add_option("--yaws", a->yaws, "the views' yaws, first:last:step or a,b,c (degrees; default -90:90:15)");
     cmd->add_option("--views-per-photo", a->views_per_photo, "instead of --yaws: this many views per photograph at random yaws")->check(CLI::Range(1, 1000));
@@ -194,12 +206,15 @@ void register_profile_commands(CLI::App& app) {
     cmd->add_flag("--both-ways", a->both_ways, "random yaws on both sides of the photograph's (default: only further toward profile, as 300W-LP)");
     cmd->add_option("--max-turn", a->max_turn, "no view turns the face more than this from its yaw in the photograph (degrees)")->check(finite_range(0, 360));
     cmd->add_option("--pitch-jitter", a->pitch_jitter, "standard deviation of a random change of pitch per view (degrees)")->check(finite_range(0, 45));
+    cmd->add_option("--relight", a->relight, "a lighting change per view: a directional light of strength up to this (0-0.9; 0 keeps the photograph's)")
+        ->check(finite_range(0, 0.9));
     cmd->add_option("--seed", a->seed, "seed of the random yaws and pitches (view i depends on seed and i only)");
     cmd->add_option("--size", a->size, "view side, px")->check(CLI::Range(16, 4096));
     cmd->add_option("--crop-margin", a->crop_margin, "the view shows this many times the landmarks' box")->check(finite_range(1, 8));
     cmd->add_option("--isomap-size", a->isomap_size, "face texture side, texels")->check(CLI::Range(64, 4096));
     cmd->add_option("--jaw", a->jaw, "jaw landmarks in the .pts: contour (on the silhouette, as annotated) or fixed")->check(CLI::IsMember({"contour", "fixed"}));
     cmd->add_option("--image-format", a->image_format, "png or jpg")->check(CLI::IsMember({"png", "jpg"}));
+    cmd->add_option("--formats", a->formats, "also write: wds (WebDataset tars of whole photographs' views), coco (coco.json); the folder is always written");
     cmd->add_flag("--no-residual", a->no_residual, "landmarks of the fitted model only, without the annotation's residual to the fit");
     cmd->add_option("--threads,-j", a->threads, "worker threads (default: all cores)")->check(CLI::Range(1, 256));
     cmd->add_option("--shard", a->shard, "K/N (0-based; photographs are shared out whole) or auto");
@@ -209,6 +224,7 @@ void register_profile_commands(CLI::App& app) {
     add_detector_option(*cmd, a->detector);
     cmd->add_option("--json", a->json, "write the run's figures as flat JSON to this file");
     cmd->add_flag("--quiet,-q", a->quiet, "no progress or summary");
+    a->command = cmd;
     cmd->callback([a] { run_profile_command(*a); });
 
     auto b = std::make_shared<ProfileBenchArgs>();

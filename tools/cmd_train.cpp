@@ -56,6 +56,7 @@ struct TrainArgs {
     double validation_share = SdmTrainOptions{}.validation_share;
     std::vector<int> ranks = SdmTrainOptions{}.ranks;
     int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
+    std::string shape_unit = "eyes";
     int feature_pca = SdmTrainOptions{}.feature_components;
     std::string detector = "dlib";
     std::string cascades = "auto";  // auto, views or single
@@ -102,6 +103,7 @@ void run_train(const TrainArgs& args) {
     sdm.validation_share = args.validation_share;
     sdm.ranks = args.ranks;
     sdm.jaw_features_from = args.jaw_features_from;
+    sdm.unit = args.shape_unit == "box" ? ShapeUnitKind::kFixed : ShapeUnitKind::kInterEyeCentres;
     sdm.feature_components = args.feature_pca;
     request.ert.threads = args.threads;
     request.ert.oversampling = args.augment;
@@ -441,6 +443,11 @@ void register_train_commands(CLI::App& app) {
         cmd->add_option("--jaw-features-from", args->jaw_features_from,
                         "SDM: first stage (1-based) whose features include the 17 jaw points' HOG")
             ->check(CLI::Range(1, 9))
+            ->capture_default_str();
+        cmd->add_option("--shape-unit", args->shape_unit,
+                        "SDM: the length patches and updates are measured in: eyes (the current shape's inter-eye-centre "
+                        "distance, which shrinks with yaw) or box (fixed in the detector's box)")
+            ->check(CLI::IsMember({"eyes", "box"}))
             ->capture_default_str();
         cmd->add_option("--feature-pca", args->feature_pca,
                         "SDM: regress each stage on this many leading principal components of its features (folded "

@@ -116,6 +116,8 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
         write_doubles(payload, profile.mean_shape.data(), static_cast<std::size_t>(profile.mean_shape.size()));
         for (const auto& stage : profile.stages) write_stage(payload, model, stage, path);
     }
+    payload.write(static_cast<std::uint32_t>(model.unit.kind));
+    payload.write(model.unit.fixed_length);
 
     core::ByteWriter file;
     file.write_bytes(kSdmMagic, sizeof(kSdmMagic));
@@ -227,6 +229,14 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
                 profile.stages.push_back(read_stage(r, model, version, "profile stage " + std::to_string(k + 1)));
             model.profile = std::move(profile);
         }
+    }
+    if (version >= 5) {
+        const auto unit = r.read<std::uint32_t>("shape unit");
+        if (unit > static_cast<std::uint32_t>(ShapeUnitKind::kFixed)) throw r.error("unknown shape unit " + std::to_string(unit));
+        model.unit.kind = static_cast<ShapeUnitKind>(unit);
+        model.unit.fixed_length = r.read<double>("shape unit length");
+        if (model.unit.kind == ShapeUnitKind::kFixed && !(model.unit.fixed_length > 0 && model.unit.fixed_length < 1e4))
+            throw r.error("implausible shape unit length " + std::to_string(model.unit.fixed_length));
     }
     if (!r.at_end()) throw r.error("unexpected bytes after the last stage");
     return model;

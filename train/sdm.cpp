@@ -61,11 +61,11 @@ double standard_deviation(const std::vector<double>& values) {
     return std::sqrt(sum / static_cast<double>(values.size() - 1));
 }
 
-void apply_update(Eigen::Matrix2Xd& shape, const float* delta) {
-    const double ied = morph::inter_eye_centre_distance(shape);
+void apply_update(Eigen::Matrix2Xd& shape, const float* delta, const ShapeUnit& unit) {
+    const double length = unit.of(shape);
     for (Eigen::Index i = 0; i < shape.cols(); ++i) {
-        shape(0, i) += ied * delta[2 * i];
-        shape(1, i) += ied * delta[2 * i + 1];
+        shape(0, i) += length * delta[2 * i];
+        shape(1, i) += length * delta[2 * i + 1];
     }
 }
 
@@ -100,6 +100,10 @@ int feature_landmark_count(const SdmStageSettings& stage) {
     return stage.jaw_features ? morph::kNumIbugLandmarks : morph::kNumIbugLandmarks - morph::kNumJawLandmarks;
 }
 
+double ShapeUnit::of(const Eigen::Matrix2Xd& shape) const {
+    return kind == ShapeUnitKind::kFixed ? fixed_length : morph::inter_eye_centre_distance(shape);
+}
+
 int SdmModel::feature_dims(const SdmStageSettings& stage) const {
     return feature_landmark_count(stage) * hog_dims(hog_cells);
 }
@@ -110,12 +114,12 @@ const Eigen::Matrix2Xd& SdmModel::initial_shape(FaceView view) const {
 }
 
 void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
-                  std::span<float> out) {
+                  const ShapeUnit& unit, std::span<float> out) {
     const int per_landmark = hog_dims(hog_cells);
     const Eigen::Index first = stage.jaw_features ? 0 : morph::kNumJawLandmarks;  // the jaw points are iBUG 1-17
     if (out.size() != static_cast<std::size_t>((shape.cols() - first) * per_landmark))
         throw core::Error("sdm_features: output size mismatch");
-    const double side = stage.patch_relative * morph::inter_eye_centre_distance(shape);
+    const double side = stage.patch_relative * unit.of(shape);
     cv::Mat patch;
     for (Eigen::Index i = first; i < shape.cols(); ++i) {
         extract_patch(crop, shape.col(i), side, hog_cells, stage.cell_size, patch);
@@ -124,16 +128,16 @@ void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_ce
     }
 }
 
-Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, const cv::Mat& crop, Eigen::Matrix2Xd shape,
+Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, const ShapeUnit& unit, const cv::Mat& crop, Eigen::Matrix2Xd shape,
                             std::vector<Eigen::Matrix2Xd>* after_each_stage) {
     Eigen::VectorXf features, reduced, delta;
     for (const auto& stage : stages) {
         features.resize(feature_landmark_count(stage.settings) * hog_dims(hog_cells));
-        sdm_features(crop, shape, hog_cells, stage.settings, {features.data(), static_cast<std::size_t>(features.size())});
+        sdm_features(crop, shape, hog_cells, stage.settings, unit, {features.data(), static_cast<std::size_t>(features.size())});
         reduced.noalias() = stage.weights * features;
         delta.noalias() = stage.basis * reduced;
         delta += stage.bias;
-        apply_update(shape, delta.data());
+        apply_update(shape, delta.data(), unit);
         if (after_each_stage) after_each_stage->push_back(shape);
     }
     return shape;
@@ -141,16 +145,16 @@ Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, con
 
 Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
                             std::vector<Eigen::Matrix2Xd>* after_each_stage) {
-    return sdm_refine(model.stages, model.hog_cells, crop, std::move(shape), after_each_stage);
+    return sdm_refine(model.stages, model.hog_cells, model.unit, crop, std::move(shape), after_each_stage);
 }
 
 Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view) {
     if (!model.profile || view == FaceView::kFrontal) return sdm_refine(model, crop, model.initial_shape(view));
     const ProfileCascade& profile = *model.profile;
-    if (view == FaceView::kNoseLeft) return sdm_refine(profile.stages, model.hog_cells, crop, profile.mean_shape);
+    if (view == FaceView::kNoseLeft) return sdm_refine(profile.stages, model.hog_cells, model.unit, crop, profile.mean_shape);
     cv::Mat mirrored;
     cv::flip(crop, mirrored, 1);
-    return mirror_canonical_shape(sdm_refine(profile.stages, model.hog_cells, mirrored, profile.mean_shape));
+    return mirror_canonical_shape(sdm_refine(profile.stages, model.hog_cells, model.unit, mirrored, profile.mean_shape));
 }
 
 Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box) {
@@ -372,19 +376,19 @@ private:
     void extract_rows(std::size_t first, std::size_t count, const SdmStageSettings& stage, RowMatrixXf& out) {
         out.resize(static_cast<Eigen::Index>(count), dims_);
         parallel_for(0, count, options_.threads, [&](std::size_t i) {
-            sdm_features(face_of(first + i).crop, shapes_[first + i], model_.hog_cells, stage,
+            sdm_features(face_of(first + i).crop, shapes_[first + i], model_.hog_cells, stage, model_.unit,
                          {out.row(static_cast<Eigen::Index>(i)).data(), static_cast<std::size_t>(dims_)});
         });
         feature_rows_done_ += count;
         if (options_.on_progress) options_.on_progress(feature_rows_done_, total_feature_rows_);
     }
 
-    // Normalised shape updates (truth − start) / inter-ocular distance of rows [first, first + count).
+    // Normalised shape updates (truth − start) / the shape unit of rows [first, first + count).
     [[nodiscard]] Eigen::MatrixXd targets(std::size_t first, std::size_t count) const {
         Eigen::MatrixXd y(static_cast<Eigen::Index>(count), kOutputs);
         for (std::size_t i = 0; i < count; ++i) {
             const auto& shape = shapes_[first + i];
-            const Eigen::Matrix2Xd delta = (face_of(first + i).truth - shape) / morph::inter_eye_centre_distance(shape);
+            const Eigen::Matrix2Xd delta = (face_of(first + i).truth - shape) / model_.unit.of(shape);
             y.row(static_cast<Eigen::Index>(i)) = Eigen::Map<const Eigen::RowVectorXd>(delta.data(), kOutputs);
         }
         return y;
@@ -393,7 +397,7 @@ private:
     // Applies a stage to rows [first, first + features.rows()).
     void update_rows(std::size_t first, const RowMatrixXf& features, const SdmStage& stage) {
         const RowMatrixXf delta = ((features * stage.weights.transpose()) * stage.basis.transpose()).rowwise() + stage.bias.transpose();
-        for (Eigen::Index i = 0; i < delta.rows(); ++i) apply_update(shapes_[first + static_cast<std::size_t>(i)], delta.row(i).data());
+        for (Eigen::Index i = 0; i < delta.rows(); ++i) apply_update(shapes_[first + static_cast<std::size_t>(i)], delta.row(i).data(), model_.unit);
     }
 
     // Held-out NME after applying the (centred, projected) predictions to the validation starts.
@@ -401,7 +405,7 @@ private:
         double sum = 0;
         for (std::size_t i = 0; i < validation_rows_; ++i) {
             Eigen::Matrix2Xd shape = shapes_[train_rows_ + i];
-            apply_update(shape, delta.row(static_cast<Eigen::Index>(i)).data());
+            apply_update(shape, delta.row(static_cast<Eigen::Index>(i)).data(), model_.unit);
             sum += landmark_nme(shape, face_of(train_rows_ + i).truth);
         }
         return sum / static_cast<double>(validation_rows_);
@@ -589,6 +593,9 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& box
     model.training_faces = static_cast<std::uint32_t>(faces.size());
     model.augment = static_cast<std::uint32_t>(options.augment);
     learn_starts(faces, split.train, boxes, model);
+    model.unit.kind = options.unit;
+    if (options.unit == ShapeUnitKind::kFixed)
+        model.unit.fixed_length = options.fixed_unit_length > 0 ? options.fixed_unit_length : morph::inter_eye_centre_distance(model.mean_shape);
 
     CascadeTrainer trainer(faces, split, options, model, settings);
     for (std::size_t k = 0; k < settings.size(); ++k) trainer.train_stage(k, settings[k]);

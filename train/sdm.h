@@ -36,6 +36,17 @@ struct SdmStageSettings {
 // jaw features from stage `jaw_features_from` (1-based) on.
 [[nodiscard]] std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_features_from = 1);
 
+// The length a cascade measures shapes in: patch sides and updates are multiples of it. The
+// inter-eye-centre distance of the current shape (the SDM papers' choice) shrinks with |yaw| and
+// vanishes in profile, which makes the targets of turned faces huge; a fixed length in the canonical
+// crop (whose box is the detector's, so the face's size is fixed there) does not depend on pose.
+enum class ShapeUnitKind : std::uint32_t { kInterEyeCentres = 0, kFixed = 1 };
+struct ShapeUnit {
+    ShapeUnitKind kind = ShapeUnitKind::kInterEyeCentres;
+    double fixed_length = 0;  // kFixed: canonical crop pixels
+    [[nodiscard]] double of(const Eigen::Matrix2Xd& shape) const;
+};
+
 // One linear stage of reduced rank r: update = basis · (weights · φ) + bias. The basis columns are the
 // leading principal directions of the training targets (orthonormal), so updates stay in the span of
 // the displacements seen in training and the cost per face is r·(D + 2L) instead of 2L·D.
@@ -83,6 +94,7 @@ struct SdmModel {
     std::array<int, kFaceViews> view_faces{};  // training faces (all boxes) per view
     std::vector<SdmStage> stages;  // with a profile cascade: the frontal view's cascade
     std::optional<ProfileCascade> profile;
+    ShapeUnit unit;                // of every cascade (format version 5; earlier files: inter-eye centres)
     BoxStatistics boxes;
     std::uint64_t training_checksum = 0;  // of the training keys and landmarks
     std::uint32_t training_faces = 0;
@@ -98,11 +110,11 @@ inline constexpr int kMinViewFaces = 10;
 
 // Features of one shape for one stage: feature_landmark_count(stage) · hog_dims(hog_cells) floats.
 void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
-                  std::span<float> out);
+                  const ShapeUnit& unit, std::span<float> out);
 
 // Runs `stages` from `shape` on a canonical crop; `after_each_stage` (optional) receives the shape
 // after every stage.
-[[nodiscard]] Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, const cv::Mat& crop,
+[[nodiscard]] Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, const ShapeUnit& unit, const cv::Mat& crop,
                                           Eigen::Matrix2Xd shape, std::vector<Eigen::Matrix2Xd>* after_each_stage = nullptr);
 // The same with the model's main (single or frontal) cascade.
 [[nodiscard]] Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
@@ -170,6 +182,10 @@ struct SdmTrainOptions {
     // training rows) and folds the projection into its weights; 0: off (plain ridge on all D features).
     int feature_components = 0;
     int jaw_features_from = 3;  // first stage (1-based) whose features include the jaw points
+    ShapeUnitKind unit = ShapeUnitKind::kInterEyeCentres;
+    // kFixed: the unit's length in canonical crop pixels; 0: the inter-eye-centre distance of the
+    // training faces' mean shape (view cascades give the profile cascade the frontal one's).
+    double fixed_unit_length = 0;
     std::vector<SdmStageSettings> stage_settings;  // empty: default_stage_settings(stages, jaw_features_from)
     std::function<void(const SdmStageReport&)> on_stage;
     std::function<void(std::size_t rows_done, std::size_t rows_total)> on_progress;  // feature extraction

@@ -66,8 +66,9 @@ SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStati
     const ViewCascadeCounts& c = sets.counts;
     if (counts) *counts = c;
 
-    const auto train_one = [&](const char* name, const std::vector<TrainingFace>& set) {
+    const auto train_one = [&](const char* name, const std::vector<TrainingFace>& set, double fixed_unit_length = 0) {
         SdmTrainOptions o = options;
+        if (fixed_unit_length > 0) o.fixed_unit_length = fixed_unit_length;
         if (on_stage) o.on_stage = [&](const SdmStageReport& r) { on_stage(name, r); };
         try {
             return train_sdm(set, boxes, o);
@@ -77,7 +78,8 @@ SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStati
         }
     };
     SdmModel model = train_one("frontal", sets.frontal);
-    const SdmModel profile_model = train_one("profile", sets.profile);
+    // Both cascades measure shapes in the same unit (with a fixed one, the frontal faces').
+    const SdmModel profile_model = train_one("profile", sets.profile, model.unit.fixed_length);
 
     ProfileCascade cascade;
     cascade.mean_shape = profile_model.mean_shape;

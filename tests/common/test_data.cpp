@@ -69,4 +69,20 @@ std::string error_message_of(const std::function<void()>& call) {
     return "";
 }
 
+std::filesystem::path photo_folder_from_renders(const std::filesystem::path& dir, const std::string& synth_arguments) {
+    namespace fs = std::filesystem;
+    const fs::path renders = dir / "renders";
+    std::string output;
+    if (run_command(cli_path().string() + " synth --out " + renders.string() + " " + synth_arguments + " --quiet", &output) != 0)
+        throw std::runtime_error("facesynth synth failed: " + output);
+    const fs::path photos = dir / "photos";
+    fs::create_directories(photos);
+    for (const auto& entry : fs::directory_iterator(renders / "images")) {
+        const std::string stem = entry.path().stem().string();
+        fs::copy_file(entry.path(), photos / entry.path().filename());
+        fs::copy_file(renders / "landmarks" / (stem + ".pts"), photos / (stem + ".pts"));
+    }
+    return photos;
+}
+
 }  // namespace facesynth::testkit

@@ -33,6 +33,10 @@ nlohmann::json read_json(const std::filesystem::path& path);
 std::string error_message_of(const std::function<void()>& call);
 // How often `what` occurs in `text` (overlapping matches counted).
 std::size_t count_occurrences(const std::string& text, const std::string& what);
+// Renders made by `facesynth synth --out DIR/renders SYNTH_ARGUMENTS --quiet`, copied with their .pts
+// into DIR/photos (IMAGE.png beside IMAGE.pts), as stand-ins for annotated photographs; returns
+// DIR/photos. Throws std::runtime_error with the CLI's output when synth fails.
+std::filesystem::path photo_folder_from_renders(const std::filesystem::path& dir, const std::string& synth_arguments);
 
 }  // namespace facesynth::testkit
 

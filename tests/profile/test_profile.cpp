@@ -7,6 +7,7 @@
 #include "morph/landmarks.h"
 #include "profile/dataset.h"
 #include "profile/scene.h"
+#include "synth/tar.h"
 #include "render/landmarks.h"
 #include "common/test_data.h"
 
@@ -174,6 +175,68 @@ TEST_F(ProfileTest, TurnedViewsShowLessOfThePhotographAndSayHowMuchWasFilled) {
     EXPECT_GT(side.stretched_share, 0.3);
 }
 
+TEST_F(ProfileTest, ALightFromOneSideBrightensThatSideOfTheFaceAndLeavesTheBackground) {
+    const frontal::SyntheticView p = photo(0);
+    ProfileOptions options;
+    const PhotoScene scene = profiler_->prepare(p.image, p.landmarks, options);
+    const ViewPose pose = Profiler::source_pose(scene);
+    const ProfiledView plain = profiler_->render_view(scene, pose, options);
+    ViewLight from_right;
+    from_right.strength = 0.8;
+    from_right.azimuth = 60;
+    const ProfiledView lit = profiler_->render_view(scene, pose, options, from_right);
+    // Mean grey of the face's pixels left and right of the nose tip (landmark 31), as the view shows them.
+    const double nose_x = plain.landmarks_contour(0, 30);
+    const auto side_means = [&](const ProfiledView& view) {
+        cv::Mat grey;
+        cv::cvtColor(view.image, grey, cv::COLOR_RGB2GRAY);
+        double sums[2] = {0, 0}, counts[2] = {0, 0};
+        for (int y = 0; y < grey.rows; ++y)
+            for (int x = 0; x < grey.cols; ++x)
+                if (plain.face_mask.at<std::uint8_t>(y, x) == 255) {
+                    const int side = x > nose_x ? 1 : 0;
+                    sums[side] += grey.at<std::uint8_t>(y, x);
+                    counts[side] += 1;
+                }
+        return std::pair{sums[0] / counts[0], sums[1] / counts[1]};
+    };
+    const auto [plain_left, plain_right] = side_means(plain);
+    const auto [lit_left, lit_right] = side_means(lit);
+    // Measured: left 80.8 -> 54.4, right 80.8 -> 94.4; the corner 70 -> 67.
+    EXPECT_GT(lit_right - plain_right, 5) << plain_right << " -> " << lit_right;
+    EXPECT_LT(lit_left - plain_left, lit_right - plain_right - 5) << plain_left << " -> " << lit_left;
+    // The picture away from the head (whose depth is a guess) changes far less; the landmarks do not move.
+    const cv::Vec3b corner_plain = plain.image.at<cv::Vec3b>(2, 2), corner_lit = lit.image.at<cv::Vec3b>(2, 2);
+    for (int c = 0; c < 3; ++c) EXPECT_LT(std::abs(corner_lit[c] - corner_plain[c]), 0.25 * (plain_left - lit_left)) << c;
+    EXPECT_TRUE(lit.landmarks_contour.isApprox(plain.landmarks_contour));
+    // Strength 0 is the plain view; out of range is an error.
+    EXPECT_EQ(cv::norm(profiler_->render_view(scene, pose, options, ViewLight{}).image, plain.image, cv::NORM_INF), 0);
+    ViewLight too_strong;
+    too_strong.strength = 1.5;
+    EXPECT_NE(testkit::error_message_of([&] { (void)profiler_->render_view(scene, pose, options, too_strong); }).find("strength"), std::string::npos);
+}
+
+TEST(ProfileLights, PlannedLightsStayInRangeAndDependOnSeedAndIndexOnly) {
+    ViewPlan plan;
+    EXPECT_FALSE(plan_light(plan, 1, 0).changes());
+    plan.relight = 0.5;
+    bool some_left = false, some_right = false;
+    for (int i = 0; i < 100; ++i) {
+        const ViewLight light = plan_light(plan, 3, i);
+        EXPECT_GE(light.strength, 0);
+        EXPECT_LE(light.strength, 0.5);
+        EXPECT_GE(light.azimuth, -75);
+        EXPECT_LE(light.azimuth, 75);
+        EXPECT_GE(light.elevation, -20);
+        EXPECT_LE(light.elevation, 50);
+        some_left |= light.azimuth < -30;
+        some_right |= light.azimuth > 30;
+        EXPECT_EQ(plan_light(plan, 3, i).azimuth, light.azimuth);
+    }
+    EXPECT_TRUE(some_left && some_right);
+    EXPECT_NE(plan_light(plan, 4, 0).azimuth, plan_light(plan, 3, 0).azimuth);
+}
+
 TEST(ProfileYaws, ParsesRangesAndListsAndRefusesNonsense) {
     EXPECT_EQ(parse_yaws("-90:90:45"), (std::vector<double>{-90, -45, 0, 45, 90}));
     EXPECT_EQ(parse_yaws("10,-20"), (std::vector<double>{10, -20}));
@@ -325,6 +388,104 @@ TEST_F(ProfileRunTest, ResumesAndGivesTheSameBytesWhateverThreadsAndShards) {
     other.overwrite = true;
     EXPECT_EQ(run_profile(other, *model_).views_written, 9u);
     EXPECT_EQ(cv::imread((dir / "whole" / "images" / "s00000000.png").string()).cols, 96);
+}
+
+TEST_F(ProfileRunTest, WritesWebDatasetTarsOfWholePhotographsAndCocoKeypoints) {
+    const fs::path dir = testkit::fresh_temp_dir("profile_wds");
+    const fs::path photos = dir / "photos";
+    fs::create_directories(photos);
+    write_photo(photos, "a", -20);
+    write_photo(photos, "b", 30);
+    write_photo(photos, "c", 5);
+    ProfileRunOptions o = options_for(photos, dir / "out");
+    o.output.formats = "folder,wds,coco";
+    o.output.wds_shard_size = 7;  // 3 views per photograph: two photographs per tar
+    EXPECT_EQ(photos_per_tar(o), 2u);
+    const ProfileRunResult r = run_profile(o, *model_);
+    EXPECT_EQ(r.tars_written, 2u);
+    const auto first = synth::list_tar(dir / "out" / "shard-000000.tar");
+    const auto second = synth::list_tar(dir / "out" / "shard-000001.tar");
+    ASSERT_EQ(first.size(), 18u);
+    ASSERT_EQ(second.size(), 9u);
+    EXPECT_EQ(first[0].name, "s00000000.png");
+    EXPECT_EQ(first[1].name, "s00000000.pts");
+    EXPECT_EQ(first[2].name, "s00000000.json");
+    EXPECT_EQ(second[0].name, "s00000006.png");
+
+    const nlohmann::json coco = testkit::read_json(dir / "out" / "coco.json");
+    ASSERT_EQ(coco["images"].size(), 9u);
+    EXPECT_EQ(coco["images"][4]["file_name"], "images/s00000004.png");
+    EXPECT_EQ(coco["images"][4]["width"], 128);
+    const nlohmann::json meta = testkit::read_json(dir / "out" / "meta" / "s00000004.json");
+    EXPECT_EQ(meta["photo_record"], "photos/p00000001.json");
+    EXPECT_TRUE(fs::exists(dir / "out" / meta["photo_record"].get<std::string>()));
+    const auto& keypoints = coco["annotations"][4]["keypoints"];
+    ASSERT_EQ(keypoints.size(), 3u * 68u);
+    EXPECT_DOUBLE_EQ(keypoints[0].get<double>(), meta["landmarks"][0][0].get<double>());
+    EXPECT_EQ(coco["annotations"][4]["bbox"], meta["bbox"]);
+
+    // Nothing new: no tar rewritten. A lost tar is made again, byte for byte.
+    EXPECT_EQ(run_profile(o, *model_).tars_written, 0u);
+    const std::string bytes = core::read_file(dir / "out" / "shard-000001.tar");
+    fs::remove(dir / "out" / "shard-000001.tar");
+    EXPECT_EQ(run_profile(o, *model_).tars_written, 1u);
+    EXPECT_EQ(core::read_file(dir / "out" / "shard-000001.tar"), bytes);
+
+    // Shards take whole tars' photographs, and each writes its own COCO file.
+    ProfileRunOptions sharded = o;
+    sharded.out = dir / "sharded";
+    for (int k = 0; k < 2; ++k) {
+        sharded.shard = {k, 2};
+        EXPECT_EQ(run_profile(sharded, *model_).tars_written, 1u);
+    }
+    EXPECT_EQ(core::read_file(dir / "sharded" / "shard-000000.tar"), core::read_file(dir / "out" / "shard-000000.tar"));
+    EXPECT_EQ(core::read_file(dir / "sharded" / "shard-000001.tar"), bytes);
+    EXPECT_EQ(testkit::read_json(dir / "sharded" / "coco-0-of-2.json")["images"].size(), 6u);
+    EXPECT_EQ(testkit::read_json(dir / "sharded" / "coco-1-of-2.json")["images"].size(), 3u);
+}
+
+TEST(ProfileConfig, ConfigFileSetsTheRunsSettingsAndNamesBadKeys) {
+    const fs::path dir = testkit::fresh_temp_dir("profile_config");
+    const auto write = [&](const std::string& name, const std::string& text) {
+        std::ofstream(dir / name) << text;
+        return dir / name;
+    };
+    ProfileRunOptions o;
+    apply_config_file(o, write("good.toml", "seed = 9\njaw = \"fixed\"\n[views]\nper_photo = 6\npitch_jitter = 3.5\n"
+                                            "[scene]\nsize = 192\napply_residual = false\n[fit]\nlambda = 12\n"
+                                            "[output]\nformats = \"folder,coco\"\nimage_format = \"jpg\"\n"));
+    EXPECT_EQ(o.seed, 9u);
+    EXPECT_EQ(o.jaw, "fixed");
+    EXPECT_TRUE(o.plan.random_yaws());
+    EXPECT_EQ(o.plan.views(), 6);
+    EXPECT_DOUBLE_EQ(o.plan.pitch_jitter, 3.5);
+    EXPECT_EQ(o.profile.size, 192);
+    EXPECT_FALSE(o.profile.apply_residual);
+    EXPECT_DOUBLE_EQ(o.profile.fit.lambda, 12);
+    EXPECT_EQ(o.output.formats, "folder,coco");
+    EXPECT_EQ(o.output.image_format, "jpg");
+    EXPECT_NO_THROW(validate(o));
+
+    ProfileRunOptions listed;
+    apply_config_file(listed, write("yaws.toml", "[views]\nyaws = \"-30:30:30\"\n"));
+    EXPECT_EQ(listed.plan.yaws, (std::vector<double>{-30, 0, 30}));
+
+    for (const auto& [text, expected] : std::vector<std::pair<std::string, std::string>>{
+             {"[scene]\nsise = 3\n", "scene.sise"},
+             {"[scene]\nsize = \"big\"\n", "scene.size"},
+             {"[views]\nyaws = \"0:10:0\"\nper_photo = 2\n", "not both"},
+             {"[views]\nyaws = \"0:10:0\"\n", "step"}}) {
+        ProfileRunOptions bad;
+        const std::string message = testkit::error_message_of([&] { apply_config_file(bad, write("bad.toml", text)); });
+        EXPECT_NE(message.find("bad.toml"), std::string::npos) << message;
+        EXPECT_NE(message.find(expected), std::string::npos) << message;
+    }
+    ProfileRunOptions out_of_range;
+    out_of_range.profile.size = 8;
+    EXPECT_NE(testkit::error_message_of([&] { validate(out_of_range); }).find("scene.size"), std::string::npos);
+    out_of_range = {};
+    out_of_range.output.formats = "folder,tiff";
+    EXPECT_NE(testkit::error_message_of([&] { validate(out_of_range); }).find("tiff"), std::string::npos);
 }
 
 }  // namespace

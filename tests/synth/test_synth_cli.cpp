@@ -489,7 +489,7 @@ TEST(SynthCli, CocoExportNamesADamagedMetaFile) {
                                    R"({"image_width": 64, "image_height": 64, "landmarks": "x", "visibility": [], "occluded": [], "bbox": []})"}) {
         core::write_file_atomically(dir / "meta" / "s00000000.json", text);
         try {
-            (void)coco_from_meta(dir, {0}, SynthConfig{});
+            (void)coco_from_meta(dir, {0}, ".png", kSynthCocoDescription);
             ADD_FAILURE() << "accepted " << text;
         } catch (const core::Error& e) {
             EXPECT_NE(std::string(e.what()).find("s00000000.json"), std::string::npos) << e.what();

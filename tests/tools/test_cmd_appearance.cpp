@@ -29,20 +29,10 @@ std::string read_file_bytes(const fs::path& path) {
 
 // Near-frontal renders as "photographs": IMAGE.png with IMAGE.pts beside it.
 fs::path make_photo_folder(const fs::path& dir, int count) {
-    const fs::path data = dir / "renders";
-    std::string out;
-    const std::string cmd = appearance_cli() + " synth --out " + data.string() + " -n " + std::to_string(count) +
-                            " --seed 3 --set pose.yaw.min=-20 --set pose.yaw.max=20 --set pose.pitch.min=-5 --set pose.pitch.max=5"
-                            " --set camera.face_scale_min=0.3 --set camera.face_scale_max=0.35 --quiet";
-    EXPECT_EQ(run_command(cmd, &out), 0) << out;
-    const fs::path photos = dir / "photos";
-    fs::create_directories(photos);
-    for (const auto& entry : fs::directory_iterator(data / "images")) {
-        const std::string stem = entry.path().stem().string();
-        fs::copy_file(entry.path(), photos / entry.path().filename());
-        fs::copy_file(data / "landmarks" / (stem + ".pts"), photos / (stem + ".pts"));
-    }
-    return photos;
+    return facesynth::testkit::photo_folder_from_renders(
+        dir, "-n " + std::to_string(count) +
+                 " --seed 3 --set pose.yaw.min=-20 --set pose.yaw.max=20 --set pose.pitch.min=-5 --set pose.pitch.max=5"
+                 " --set camera.face_scale_min=0.3 --set camera.face_scale_max=0.35");
 }
 
 // Each test in its own folder: ctest runs them as separate processes, in parallel.

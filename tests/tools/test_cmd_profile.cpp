@@ -19,15 +19,7 @@ int run_profile_cli(const std::string& arguments, std::string* output) { return 
 
 // Renders with their .pts as "photographs", and one file that only looks like an image.
 fs::path profile_photo_folder(const fs::path& dir) {
-    std::string out;
-    EXPECT_EQ(run_profile_cli("synth --out " + (dir / "renders").string() + " -n 3 --seed 5 --quiet", &out), 0) << out;
-    const fs::path photos = dir / "photos";
-    fs::create_directories(photos);
-    for (const auto& entry : fs::directory_iterator(dir / "renders" / "images")) {
-        const std::string stem = entry.path().stem().string();
-        fs::copy_file(entry.path(), photos / entry.path().filename());
-        fs::copy_file(dir / "renders" / "landmarks" / (stem + ".pts"), photos / (stem + ".pts"));
-    }
+    const fs::path photos = facesynth::testkit::photo_folder_from_renders(dir, "-n 3 --seed 5");
     std::ofstream(photos / "zz_corrupt.png") << "not an image";
     fs::copy_file(photos / "s00000000.pts", photos / "zz_corrupt.pts");
     return photos;
@@ -55,6 +47,32 @@ TEST(CmdProfile, ProfilesAFolderReportsTheBadPhotographAndExitsOne) {
     EXPECT_EQ(run_profile_cli(command, &out), 1) << out;
     EXPECT_EQ(read_json(dir / "run.json")["photos_done_before"], 3);
     EXPECT_EQ(read_json(dir / "run.json")["views_written"], 0);
+}
+
+TEST(CmdProfile, ConfigFileSetsWhatTheCommandLineDoesNotAndFormatsAddTarsAndCoco) {
+    const fs::path dir = fresh_temp_dir("cmd_profile_config");
+    const fs::path photos = profile_photo_folder(dir);
+    fs::remove(photos / "zz_corrupt.png");
+    std::ofstream(dir / "profile.toml") << "seed = 4\n[views]\nper_photo = 2\n[scene]\nsize = 96\n[output]\nformats = \"folder,wds,coco\"\n";
+    std::string out;
+    ASSERT_EQ(run_profile_cli("profile --photos " + photos.string() + " --out " + (dir / "out").string() + " --config " + (dir / "profile.toml").string() +
+                                  " --size 80 --quiet --json " + (dir / "run.json").string(),
+                              &out),
+              0)
+        << out;
+    const nlohmann::json run = read_json(dir / "run.json");
+    EXPECT_EQ(run["views_written"], 6);  // views.per_photo from the file
+    EXPECT_EQ(run["tars_written"], 1);
+    EXPECT_EQ(read_json(dir / "out" / "meta" / "s00000000.json")["image_width"], 80);  // --size wins over the file
+    EXPECT_EQ(read_json(dir / "out" / "coco.json")["images"].size(), 6u);
+    EXPECT_TRUE(fs::exists(dir / "out" / "shard-000000.tar"));
+    // A bad key: exit 1, the file and the key named, nothing written.
+    std::ofstream(dir / "bad.toml") << "[scene]\nsise = 96\n";
+    EXPECT_EQ(run_profile_cli("profile --photos " + photos.string() + " --out " + (dir / "bad_out").string() + " --config " + (dir / "bad.toml").string(), &out), 1)
+        << out;
+    EXPECT_NE(out.find("bad.toml"), std::string::npos) << out;
+    EXPECT_NE(out.find("scene.sise"), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(dir / "bad_out"));
 }
 
 TEST(CmdProfile, UsageErrorsExitTwoAndEveryCommandHasHelp) {

@@ -11,6 +11,7 @@
 #include "sdm_file_testing.h"
 #include "core/error.h"
 #include "core/random.h"
+#include "morph/landmarks.h"
 
 #include <gtest/gtest.h>
 
@@ -440,8 +441,9 @@ TEST(SdmModelFile, ReadsVersion2FilesAsFrontalDetectorModels) {
     const std::size_t view_block_at = kPayload + 68 * 2 * 8 + 2 * 4 + 9 * 8;  // after mean shape and box statistics
     std::size_t view_block = 8;
     for (const auto& shape : model.view_mean_shapes) view_block += 12 + static_cast<std::size_t>(shape.size()) * 8;
-    // (the file is version 4: its last 4 bytes are the profile cascade flag, 0, which version 2 lacks)
-    std::string v2 = v3.substr(0, view_block_at) + v3.substr(view_block_at + view_block, v3.size() - 4 - view_block_at - view_block);
+    // (the file is version 5: its last 16 bytes are the profile cascade flag, 0, and the shape unit,
+    // which version 2 lacks)
+    std::string v2 = v3.substr(0, view_block_at) + v3.substr(view_block_at + view_block, v3.size() - 16 - view_block_at - view_block);
     rewrite_sdm_header(v2, 2);
     write_all(dir / "v2.sdm", v2);
 
@@ -450,6 +452,43 @@ TEST(SdmModelFile, ReadsVersion2FilesAsFrontalDetectorModels) {
     for (std::size_t v = 0; v < kFaceViews; ++v) EXPECT_EQ(back.view_mean_shapes[v].size(), 0) << v;
     EXPECT_TRUE(back.initial_shape(FaceView::kNoseLeft) == model.mean_shape);
     EXPECT_TRUE(back.stages[0].weights == model.stages[0].weights);
+}
+
+TEST(Sdm, AFixedShapeUnitIsTheMeanShapesEyeDistanceRoundTripsAndOldFilesUseEyeUnits) {
+    const auto train = cartoon_training_faces(1, 60);
+    const auto test = cartoon_training_faces(2, 20);
+    SdmTrainOptions options;
+    options.augment = 4;
+    options.threads = 2;
+    options.unit = ShapeUnitKind::kFixed;
+    const SdmModel model = train_sdm(train, BoxStatistics{}, options);
+    EXPECT_EQ(model.unit.kind, ShapeUnitKind::kFixed);
+    EXPECT_DOUBLE_EQ(model.unit.fixed_length, morph::inter_eye_centre_distance(model.mean_shape));
+    // The unit does not follow the shape: a shape twice as large has the same unit.
+    EXPECT_DOUBLE_EQ(model.unit.of(2 * model.mean_shape), model.unit.fixed_length);
+    const HeldOutErrors e = held_out_errors(model, test);
+    EXPECT_LT(e.after_stage.back(), 0.6 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+
+    const auto dir = testkit::fresh_temp_dir("sdm_model_unit");
+    write_sdm_model(dir / "v5.sdm", model);
+    const SdmModel back = read_sdm_model(dir / "v5.sdm");
+    EXPECT_EQ(back.unit.kind, ShapeUnitKind::kFixed);
+    EXPECT_EQ(back.unit.fixed_length, model.unit.fixed_length);
+    // Without the unit (the last 12 bytes) and as version 4: read as measured in eye distances.
+    std::string v4 = read_all(dir / "v5.sdm");
+    v4.resize(v4.size() - 12);
+    rewrite_sdm_header(v4, 4);
+    write_all(dir / "v4.sdm", v4);
+    EXPECT_EQ(read_sdm_model(dir / "v4.sdm").unit.kind, ShapeUnitKind::kInterEyeCentres);
+    // A damaged unit is named.
+    std::string bad = read_all(dir / "v5.sdm");
+    const double zero = 0;
+    std::memcpy(bad.data() + bad.size() - 8, &zero, 8);
+    rewrite_sdm_header(bad, kSdmModelVersion);
+    write_all(dir / "bad.sdm", bad);
+    const std::string message = testkit::error_message_of([&] { (void)read_sdm_model(dir / "bad.sdm"); });
+    EXPECT_NE(message.find("shape unit"), std::string::npos) << message;
+    EXPECT_NE(message.find("bad.sdm"), std::string::npos) << message;
 }
 
 TEST(SdmModelFile, HugeStageDimensionsAreRefusedBeforeAllocation) {
