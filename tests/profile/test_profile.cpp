@@ -483,9 +483,9 @@ TEST(ProfileConfig, ConfigFileSetsTheRunsSettingsAndNamesBadKeys) {
     ProfileRunOptions out_of_range;
     out_of_range.profile.size = 8;
     EXPECT_NE(testkit::error_message_of([&] { validate(out_of_range); }).find("scene.size"), std::string::npos);
-    out_of_range = {};
-    out_of_range.output.formats = "folder,tiff";
-    EXPECT_NE(testkit::error_message_of([&] { validate(out_of_range); }).find("tiff"), std::string::npos);
+    ProfileRunOptions unknown_format;
+    unknown_format.output.formats = "folder,tiff";
+    EXPECT_NE(testkit::error_message_of([&] { validate(unknown_format); }).find("tiff"), std::string::npos);
 }
 
 }  // namespace
