@@ -39,7 +39,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const auto bytes = fuzz::as_bytes(data, size);
     const auto dataset = dataset_with_image();
     (void)fuzz::write_input(bytes, "dataset/meta/" + synth::sample_key(0) + ".json");
-    fuzz::expect_success_or_error([&] { (void)synth::coco_from_meta(dataset, {0}, synth::SynthConfig{}); });
+    fuzz::expect_success_or_error([&] { (void)synth::coco_from_meta(dataset, {0}, ".png", synth::kSynthCocoDescription); });
     fuzz::expect_success_or_error([&] { (void)synth::contact_sheet(dataset, {.count = 1, .columns = 1, .tile = 32}); });
 
     const auto manifest = fuzz::write_input(bytes, "dataset/manifest.jsonl");
