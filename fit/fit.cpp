@@ -12,6 +12,12 @@
 #include <string>
 
 namespace facesynth::fit {
+
+JawMode parse_jaw_mode(const std::string& text) {
+    if (text == "fixed") return JawMode::kFixed;
+    if (text == "contour") return JawMode::kContour;
+    throw core::Error("jaw '" + text + "': expected fixed or contour");
+}
 namespace {
 
 // Weighted Gram blocks of a basis restricted to landmark points, G_ab = Σ_i w_i B_i[a]ᵀ B_i[b] for the

@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace facesynth::fit {
@@ -18,6 +19,8 @@ enum class JawMode {
     kFixed,    // the 17 jaw landmarks are the model's fixed landmark vertices
     kContour,  // they follow the silhouette: correspondences re-chosen every iteration
 };
+// "fixed" or "contour"; throws core::Error naming the text otherwise.
+[[nodiscard]] JawMode parse_jaw_mode(const std::string& text);
 
 struct FitOptions {
     int iterations = 5;              // camera → contour → identity → expression rounds (at most)

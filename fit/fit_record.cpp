@@ -4,6 +4,26 @@
 
 namespace facesynth::fit {
 
+LandmarkFitOptions landmark_fit_options(const FaceFitChoices& c) {
+    LandmarkFitOptions options;
+    options.fit.subset = c.subset;
+    options.fit.jaw = c.jaw;
+    options.fit.lambda = options.fit.expression_lambda = c.lambda;
+    options.fit.iterations = c.iterations;
+    options.fit.shape_components = c.shape_components;
+    options.fit.fit_expression = c.fit_expression;
+    options.refine = c.refine;
+    options.refine_options.landmark_sigma_px = c.landmark_sigma_px;
+    if (c.image_width > 0 && c.image_height > 0) {
+        options.refine_options.intrinsics.width = c.image_width;
+        options.refine_options.intrinsics.height = c.image_height;
+        options.refine_options.intrinsics.cx = 0.5 * (c.image_width - 1);
+        options.refine_options.intrinsics.cy = 0.5 * (c.image_height - 1);
+    }
+    options.refine_options.intrinsics.fx = options.refine_options.intrinsics.fy = c.focal_px;
+    return options;
+}
+
 LandmarkFit fit_face(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, const LandmarkFitOptions& options) {
     LandmarkFit f;
     f.linear = fitter.fit(landmarks, options.fit);

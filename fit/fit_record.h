@@ -36,6 +36,21 @@ struct LandmarkFit {
     [[nodiscard]] const Eigen::Matrix2Xd& projected() const { return refined ? refined->projected : linear.projected; }  // the 68 landmarks
 };
 
+// What a caller of the `fit` command chooses (its options and defaults; docs/cli.md).
+struct FaceFitChoices {
+    JawMode jaw = JawMode::kContour;
+    std::vector<int> subset;            // 0-based iBUG indices (empty: all 68)
+    double lambda = FitOptions{}.lambda;  // identity and expression prior weight
+    int iterations = FitOptions{}.iterations;
+    int shape_components = 0;           // 0: all
+    bool fit_expression = true;
+    bool refine = false;
+    double landmark_sigma_px = 3.0;     // annotation noise on photographs (docs/fit.md)
+    double focal_px = 0;                // with refine: a known focal length (0: estimated)
+    int image_width = 0, image_height = 0;  // with refine: the image size, when known (0: unknown)
+};
+[[nodiscard]] LandmarkFitOptions landmark_fit_options(const FaceFitChoices& choices);
+
 // Throws core::Error (as Fitter::fit and refine) on unusable landmarks or a failed solve.
 [[nodiscard]] LandmarkFit fit_face(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks, const LandmarkFitOptions& options);
 

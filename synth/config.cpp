@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <sstream>
 
 namespace facesynth::synth {
@@ -257,6 +258,36 @@ void apply_toml_fields(const std::vector<ConfigField>& fields, const std::filesy
 }
 
 void apply_toml_file(SynthConfig& config, const std::filesystem::path& path) { apply_toml_fields(config_fields(config), path); }
+
+namespace {
+
+// The same value as TOML holds it, so that settings follow a TOML file's type rules.
+toml::value toml_from_json(const nlohmann::json& value, const std::string& key, const std::string& context) {
+    if (value.is_boolean()) return toml::value(value.get<bool>());
+    if (value.is_number_integer()) {
+        if (value.is_number_unsigned() && value.get<std::uint64_t>() > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max()))
+            throw core::Error(context + "config key '" + key + "': integer out of range");
+        return toml::value(value.get<std::int64_t>());
+    }
+    if (value.is_number_float()) return toml::value(value.get<double>());
+    if (value.is_string()) return toml::value(value.get<std::string>());
+    if (value.is_object()) {
+        toml::table table;
+        for (const auto& item : value.items())
+            table.emplace(item.key(), toml_from_json(item.value(), key.empty() ? item.key() : key + "." + item.key(), context));
+        return toml::value(table);
+    }
+    throw core::Error(context + "config key '" + key + "' must be a number, boolean or string, got " + std::string(value.type_name()));
+}
+
+}  // namespace
+
+void apply_settings(SynthConfig& config, const nlohmann::json& settings, const std::string& origin) {
+    const std::string context = origin + ": ";
+    if (!settings.is_object()) throw core::Error(context + "settings must be a mapping of config keys to values");
+    const toml::value root = toml_from_json(settings, "", context);
+    apply_toml_table(config_fields(config), root.as_table(), "", context);
+}
 
 void apply_override(SynthConfig& config, std::string_view assignment) {
     const auto eq = assignment.find('=');

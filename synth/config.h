@@ -199,6 +199,10 @@ void apply_toml_fields(const std::vector<ConfigField>& fields, const std::filesy
 // Applies a TOML file's keys to `config`; unknown keys and wrong types throw core::Error naming
 // the file and the key.
 void apply_toml_file(SynthConfig& config, const std::filesystem::path& path);
+// Applies keys given by a program as a JSON object (nested objects or dotted names, as TOML's
+// tables; numbers, booleans and strings with TOML's types); unknown keys and wrong types throw
+// core::Error "`origin`: config key '…' …".
+void apply_settings(SynthConfig& config, const nlohmann::json& settings, const std::string& origin);
 // Applies one `key.sub=value` override; throws core::Error naming the key.
 void apply_override(SynthConfig& config, std::string_view assignment);
 // Throws core::Error naming the first key whose value is out of range.

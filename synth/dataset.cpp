@@ -6,9 +6,8 @@
 #include "morph/landmarks.h"
 #include "synth/exr.h"
 #include "synth/png.h"
+#include "synth/stream.h"
 #include "synth/tar.h"
-#include "synth/texture_bank.h"
-#include "synth/wallpapers.h"
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -146,20 +145,6 @@ void remove_stale_temporaries(const fs::path& out, const fs::path& root, const S
     }
 }
 
-// While it lives, OpenCV runs its functions (the background blur, resizes) on the calling thread.
-// Synth's workers already keep the cores busy; OpenCV's own thread pool only added hand-offs to
-// pool threads (and CPU time outside the worker's stage clocks). The results are the same.
-class OpenCvOnCallingThread {
-public:
-    OpenCvOnCallingThread() : previous_(cv::getNumThreads()) { cv::setNumThreads(1); }
-    ~OpenCvOnCallingThread() { cv::setNumThreads(previous_); }
-    OpenCvOnCallingThread(const OpenCvOnCallingThread&) = delete;
-    OpenCvOnCallingThread& operator=(const OpenCvOnCallingThread&) = delete;
-
-private:
-    int previous_;
-};
-
 struct ResumeScan {
     std::set<std::int64_t> done;  // this shard's samples complete on disk (their meta file or tar exists)
     std::vector<char> tar_done;   // per tar (with wds): complete on disk
@@ -205,25 +190,6 @@ ResumeScan scan_for_resume(const fs::path& out, const fs::path& root, const Synt
         if (formats.wds) ++scan.tar_remaining[tars.tar_of(i)];
     }
     return scan;
-}
-
-struct Appearance {
-    ImageLibrary backgrounds;  // background.type images or wallpapers
-    ImageLibrary textures;     // albedo.texture_folder or albedo.texture_bank
-};
-
-Appearance load_appearance(const SynthConfig& config, const morph::MorphableModel& model) {
-    Appearance a;
-    if (config.background.type == "images") a.backgrounds = ImageLibrary(config.background.folder, "background");
-    if (config.background.type == "wallpapers") a.backgrounds = load_wallpaper_photos();
-    if (!config.albedo.texture_folder.empty() || !config.albedo.texture_bank.empty()) {
-        const std::string key = config.albedo.texture_bank.empty() ? "albedo.texture_folder" : "albedo.texture_bank";
-        if (model.uv.cols() != model.num_vertices())
-            throw core::Error(key + ": model '" + model.name + "' has no uv coordinates to map a texture with");
-        a.textures = config.albedo.texture_bank.empty() ? ImageLibrary(config.albedo.texture_folder, "texture")
-                                                        : load_texture_bank(config.albedo.texture_bank, model);
-    }
-    return a;
 }
 
 // The contents of a sample's files, in the order of `files`.
@@ -355,18 +321,6 @@ void run_workers(int count, std::atomic<bool>& failed, const std::function<void(
     guarded(0);
     for (auto& thread : threads) thread.join();
     if (first_error) std::rethrow_exception(first_error);
-}
-
-// Each distinct renderer description once, joined by " + ".
-std::string distinct_renderers(const std::vector<std::string>& descriptions) {
-    std::vector<std::string> distinct;
-    std::string joined;
-    for (const auto& name : descriptions)
-        if (std::find(distinct.begin(), distinct.end(), name) == distinct.end()) {
-            joined += (distinct.empty() ? "" : " + ") + name;
-            distinct.push_back(name);
-        }
-    return joined;
 }
 
 }  // namespace

@@ -39,19 +39,13 @@ struct FitArgs {
     std::string jaw = "contour";
     bool refine = false;
     bool no_expression = false;
-    double lambda = fit::FitOptions{}.lambda;
-    int iterations = fit::FitOptions{}.iterations;
+    double lambda = fit::FaceFitChoices{}.lambda;
+    int iterations = fit::FaceFitChoices{}.iterations;
     int components = 0;
     double focal = 0;
-    double sigma = 3.0;  // annotation noise on photographs (docs/fit.md)
+    double sigma = fit::FaceFitChoices{}.landmark_sigma_px;
     bool quiet = false;
 };
-
-fit::JawMode parse_jaw(const std::string& s) {
-    if (s == "fixed") return fit::JawMode::kFixed;
-    if (s == "contour") return fit::JawMode::kContour;
-    throw core::Error("--jaw '" + s + "': expected fixed or contour");
-}
 
 void run_fit(const FitArgs& a) {
     const auto start = std::chrono::steady_clock::now();
@@ -66,23 +60,20 @@ void run_fit(const FitArgs& a) {
         if (image.empty()) throw core::file_error(a.image, "cannot read the image");
     }
 
-    fit::LandmarkFitOptions options;
+    fit::FaceFitChoices choices;
     const auto subset = morph::landmark_subset(morph::parse_landmark_subset(a.landmark_set));
-    options.fit.subset.assign(subset.begin(), subset.end());
-    options.fit.jaw = parse_jaw(a.jaw);
-    options.fit.lambda = options.fit.expression_lambda = a.lambda;
-    options.fit.iterations = a.iterations;
-    options.fit.shape_components = a.components;
-    options.fit.fit_expression = !a.no_expression;
-    options.refine = a.refine;
-    options.refine_options.landmark_sigma_px = a.sigma;
-    if (!image.empty()) {
-        options.refine_options.intrinsics.width = image.cols;
-        options.refine_options.intrinsics.height = image.rows;
-        options.refine_options.intrinsics.cx = 0.5 * (image.cols - 1);
-        options.refine_options.intrinsics.cy = 0.5 * (image.rows - 1);
-    }
-    options.refine_options.intrinsics.fx = options.refine_options.intrinsics.fy = a.focal;
+    choices.subset.assign(subset.begin(), subset.end());
+    choices.jaw = fit::parse_jaw_mode(a.jaw);
+    choices.lambda = a.lambda;
+    choices.iterations = a.iterations;
+    choices.shape_components = a.components;
+    choices.fit_expression = !a.no_expression;
+    choices.refine = a.refine;
+    choices.landmark_sigma_px = a.sigma;
+    choices.focal_px = a.focal;
+    choices.image_width = image.cols;
+    choices.image_height = image.rows;
+    const fit::LandmarkFitOptions options = fit::landmark_fit_options(choices);
 
     const fit::Fitter fitter(model);
     fit::LandmarkFit fitted;

@@ -13,6 +13,7 @@ packages=(
   libcli11-dev nlohmann-json3-dev libtoml11-dev libspdlog-dev libfmt-dev
   libarchive-dev libdeflate-dev libhdf5-dev libpng-dev
   libdlib-dev libdlib-data
+  pybind11-dev python3-dev python3-numpy python3-pytest
   mate-backgrounds plasma-workspace-wallpapers lomiri-wallpapers-16.04
 )
 

@@ -1,0 +1,464 @@
+// The compiled part of the `facesynth` Python package (python/facesynth/__init__.py wraps it): a
+// generator that renders synthetic samples on C++ threads, with the GIL released, straight into
+// numpy arrays.
+#include "core/error.h"
+#include "fit/fit_record.h"
+#include "frontal/frontalise.h"
+#include "morph/camera.h"
+#include "morph/landmarks.h"
+#include "morph/model_io.h"
+#include "morph/pose.h"
+#include "synth/config.h"
+#include "synth/stream.h"
+#include "train/face_box.h"
+#include "train/regressor.h"
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstring>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+namespace py = pybind11;
+
+namespace facesynth::python {
+namespace {
+
+// Config errors are the caller's values: ValueError, with synth's message (it names the key).
+synth::SynthConfig resolve_config(const std::string& config_file, const std::string& settings_json, const std::optional<std::string>& model,
+                                  const std::optional<std::int64_t>& seed, const std::optional<std::pair<int, int>>& size) {
+    synth::SynthConfig config;
+    try {
+        if (!config_file.empty()) synth::apply_toml_file(config, config_file);
+        if (!settings_json.empty()) synth::apply_settings(config, nlohmann::json::parse(settings_json), "config");
+        if (model) config.model = *model;
+        if (seed) {
+            if (*seed < 0) throw core::Error("seed must not be negative (got " + std::to_string(*seed) + ")");
+            config.seed = static_cast<std::uint64_t>(*seed);
+        }
+        if (size) {
+            config.camera.width = size->first;
+            config.camera.height = size->second;
+        }
+        synth::validate(config);
+    } catch (const core::Error& e) {
+        throw py::value_error(e.what());
+    }
+    return config;
+}
+
+// Where one sample's values go in the arrays of a batch: row `slot` of each.
+struct BatchArrays {
+    py::array_t<std::uint8_t> image;
+    py::array_t<float> landmarks, landmarks_3d;
+    py::array_t<bool> visible;
+    py::array_t<float> pose, alpha, expression;
+    py::array_t<double> camera;
+    py::array_t<float> fov;
+    std::optional<py::array_t<std::uint8_t>> mask, labels;
+    std::optional<py::array_t<float>> depth, normals;
+};
+
+template <typename T>
+T* row(py::array_t<T>& array, std::int64_t slot) {
+    return array.mutable_data() + slot * (array.size() / array.shape(0));
+}
+
+// Copies a CV_8UC3 / CV_8UC1 / CV_32FC1 / CV_32FC3 image, row by row (its rows may be padded).
+template <typename T>
+void copy_image(const cv::Mat& image, T* out, const std::string& what) {
+    if (image.empty()) throw core::Error(what + " is missing");
+    const std::size_t row_bytes = static_cast<std::size_t>(image.cols) * image.elemSize();
+    auto* bytes = reinterpret_cast<std::uint8_t*>(out);
+    for (int y = 0; y < image.rows; ++y) std::memcpy(bytes + static_cast<std::size_t>(y) * row_bytes, image.ptr(y), row_bytes);
+}
+
+// An empty vector (a neutral face's expression) is all zeros.
+void copy_coefficients(const std::vector<float>& values, float* out, py::ssize_t width, const char* what) {
+    if (values.empty()) {
+        std::fill(out, out + width, 0.0f);
+        return;
+    }
+    if (static_cast<py::ssize_t>(values.size()) != width)
+        throw core::Error(std::string(what) + " has " + std::to_string(values.size()) + " coefficients, expected " + std::to_string(width));
+    std::copy(values.begin(), values.end(), out);
+}
+
+class Generator {
+public:
+    Generator(const std::string& config_file, const std::string& settings_json, const std::optional<std::string>& model,
+              const std::optional<std::int64_t>& seed, const std::optional<std::pair<int, int>>& size, int workers)
+        : stream_(resolve_config(config_file, settings_json, model, seed, size), workers) {}
+
+    py::dict batch(std::int64_t start, std::int64_t count) {
+        if (start < 0) throw py::value_error("start must not be negative (got " + std::to_string(start) + ")");
+        if (count < 1) throw py::value_error("count must be at least 1 (got " + std::to_string(count) + ")");
+        const synth::SynthConfig& config = stream_.config();
+        const morph::MorphableModel& model = stream_.model();
+        const py::ssize_t n = count, h = config.camera.height, w = config.camera.width;
+        const py::ssize_t landmarks = static_cast<py::ssize_t>(model.landmarks.size());
+        BatchArrays a{py::array_t<std::uint8_t>({n, h, w, py::ssize_t{3}}),
+                      py::array_t<float>({n, landmarks, py::ssize_t{2}}),
+                      py::array_t<float>({n, landmarks, py::ssize_t{3}}),
+                      py::array_t<bool>({n, landmarks}),
+                      py::array_t<float>({n, py::ssize_t{3}}),
+                      py::array_t<float>({n, py::ssize_t{model.num_shape_components()}}),
+                      py::array_t<float>({n, py::ssize_t{model.num_expression_components()}}),
+                      py::array_t<double>({n, py::ssize_t{3}, py::ssize_t{4}}),
+                      py::array_t<float>({n}),
+                      {}, {}, {}, {}};
+        if (config.output.mask) a.mask = py::array_t<std::uint8_t>({n, h, w});
+        if (config.output.labels) a.labels = py::array_t<std::uint8_t>({n, h, w});
+        if (config.output.depth) a.depth = py::array_t<float>({n, h, w});
+        if (config.output.normals) a.normals = py::array_t<float>({n, h, w, py::ssize_t{3}});
+        // Raw pointers are taken while the GIL is held; the workers write rows through them.
+        const auto consume = [&](std::int64_t slot, synth::Sample& s) {
+            copy_image(s.image, row(a.image, slot), "image");
+            const Eigen::Matrix2Xd& points = synth::chosen_landmarks(s.labels, config.landmarks.mode);
+            const Eigen::Matrix3Xd& points_3d = config.landmarks.mode == "contour" ? s.labels.landmarks_3d_contour : s.labels.landmarks_3d_fixed;
+            const std::vector<int>& visible = synth::chosen_visibility(s.labels, config.landmarks.mode);
+            if (points.cols() != landmarks) throw core::Error("sample has " + std::to_string(points.cols()) + " landmarks, expected " + std::to_string(landmarks));
+            float* p = row(a.landmarks, slot);
+            float* p3 = row(a.landmarks_3d, slot);
+            bool* v = row(a.visible, slot);
+            for (py::ssize_t i = 0; i < landmarks; ++i) {
+                p[2 * i] = static_cast<float>(points(0, i));
+                p[2 * i + 1] = static_cast<float>(points(1, i));
+                for (int c = 0; c < 3; ++c) p3[3 * i + c] = static_cast<float>(points_3d(c, i));
+                v[i] = visible[static_cast<std::size_t>(i)] != 0;
+            }
+            float* pose = row(a.pose, slot);
+            pose[0] = static_cast<float>(s.spec.angles.yaw);
+            pose[1] = static_cast<float>(s.spec.angles.pitch);
+            pose[2] = static_cast<float>(s.spec.angles.roll);
+            copy_coefficients(s.spec.alpha, row(a.alpha, slot), a.alpha.shape(1), "alpha");
+            copy_coefficients(s.spec.psi, row(a.expression, slot), a.expression.shape(1), "expression");
+            // Model space to homogeneous pixels: K [flip R | t] (morph/camera.h).
+            const morph::Intrinsics& k = s.spec.intrinsics;
+            Eigen::Matrix3d intrinsics;
+            intrinsics << k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1;
+            Eigen::Matrix<double, 3, 4> extrinsics;
+            extrinsics << morph::model_to_camera_flip() * s.spec.pose.rotation, s.spec.pose.translation;
+            const Eigen::Matrix<double, 3, 4, Eigen::RowMajor> projection = intrinsics * extrinsics;
+            std::copy(projection.data(), projection.data() + 12, row(a.camera, slot));
+            *row(a.fov, slot) = static_cast<float>(s.spec.fov);
+            if (a.mask) copy_image(s.mask, row(*a.mask, slot), "mask");
+            if (a.labels) copy_image(s.regions, row(*a.labels, slot), "labels");
+            if (a.depth) copy_image(s.depth, row(*a.depth, slot), "depth");
+            if (a.normals) copy_image(s.normals, row(*a.normals, slot), "normals");
+        };
+        {
+            const py::gil_scoped_release released;
+            stream_.generate(start, count, consume);
+        }
+        py::dict out;
+        out["image"] = a.image;
+        out["landmarks"] = a.landmarks;
+        out["landmarks_3d"] = a.landmarks_3d;
+        out["visible"] = a.visible;
+        out["pose"] = a.pose;
+        out["alpha"] = a.alpha;
+        out["expression"] = a.expression;
+        out["camera"] = a.camera;
+        out["fov"] = a.fov;
+        if (a.mask) out["mask"] = *a.mask;
+        if (a.labels) out["labels"] = *a.labels;
+        if (a.depth) out["depth"] = *a.depth;
+        if (a.normals) out["normals"] = *a.normals;
+        return out;
+    }
+
+    [[nodiscard]] std::string config_json() const { return synth::to_json(stream_.config()).dump(); }
+    [[nodiscard]] std::string config_toml() const { return synth::to_commented_toml(stream_.config()); }
+    [[nodiscard]] const synth::SampleStream& stream() const { return stream_; }
+
+private:
+    synth::SampleStream stream_;
+};
+
+// ---- arrays in and out ----
+
+std::string shape_text(const py::array& a) {
+    std::string text = "(";
+    for (py::ssize_t d = 0; d < a.ndim(); ++d) text += (d ? ", " : "") + std::to_string(a.shape(d));
+    return text + (a.ndim() == 1 ? ",)" : ")") + " " + std::string(py::str(a.dtype()));
+}
+
+// A (68, 2) array of pixel positions (any real dtype) as 2 x 68.
+Eigen::Matrix2Xd landmarks_from(const py::array& array, const char* name) {
+    if (array.ndim() != 2 || array.shape(0) != morph::kNumIbugLandmarks || array.shape(1) != 2 || array.dtype().kind() != 'f')
+        throw py::value_error(std::string(name) + " must be a (68, 2) float array of 0-based pixels, got " + shape_text(array));
+    const auto values = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(array);
+    Eigen::Matrix2Xd points(2, morph::kNumIbugLandmarks);
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) points.col(i) = Eigen::Vector2d(values.at(i, 0), values.at(i, 1));
+    return points;
+}
+
+// An RGB (H, W, 3) or grey (H, W) uint8 array as an 8-bit B G R image (a copy).
+cv::Mat bgr_from(const py::array& array, const char* name) {
+    const bool rgb = array.ndim() == 3 && array.shape(2) == 3, grey = array.ndim() == 2;
+    if (!(rgb || grey) || !py::isinstance<py::array_t<std::uint8_t>>(array) || array.shape(0) < 1 || array.shape(1) < 1)
+        throw py::value_error(std::string(name) + " must be an (H, W, 3) RGB or (H, W) grey uint8 array, got " + shape_text(array));
+    const auto pixels = py::array_t<std::uint8_t, py::array::c_style>::ensure(array);
+    const cv::Mat view(static_cast<int>(array.shape(0)), static_cast<int>(array.shape(1)), rgb ? CV_8UC3 : CV_8UC1,
+                       const_cast<std::uint8_t*>(pixels.data()));
+    cv::Mat bgr;
+    cv::cvtColor(view, bgr, rgb ? cv::COLOR_RGB2BGR : cv::COLOR_GRAY2BGR);
+    return bgr;
+}
+
+// An 8-bit image (B G R, B G R A or grey) as a numpy array, channels in R G B (A) order.
+py::array_t<std::uint8_t> array_from(const cv::Mat& image) {
+    cv::Mat converted;
+    if (image.channels() == 3) cv::cvtColor(image, converted, cv::COLOR_BGR2RGB);
+    else if (image.channels() == 4) cv::cvtColor(image, converted, cv::COLOR_BGRA2RGBA);
+    else converted = image.isContinuous() ? image : image.clone();
+    std::vector<py::ssize_t> shape{converted.rows, converted.cols};
+    if (converted.channels() > 1) shape.push_back(converted.channels());
+    py::array_t<std::uint8_t> out(shape);
+    std::memcpy(out.mutable_data(), converted.data, converted.total() * converted.elemSize());
+    return out;
+}
+
+py::array_t<float> array_from(const std::vector<float>& values) {
+    py::array_t<float> out(static_cast<py::ssize_t>(values.size()));
+    std::copy(values.begin(), values.end(), out.mutable_data());
+    return out;
+}
+
+// A 2 x N or 3 x N matrix as an (N, 2) / (N, 3) array.
+template <typename Matrix>
+py::array_t<double> points_array(const Matrix& m) {
+    py::array_t<double> out({static_cast<py::ssize_t>(m.cols()), static_cast<py::ssize_t>(m.rows())});
+    for (Eigen::Index i = 0; i < m.cols(); ++i)
+        for (Eigen::Index r = 0; r < m.rows(); ++r) out.mutable_at(i, r) = static_cast<double>(m(r, i));
+    return out;
+}
+
+std::vector<float> coefficients_from(const std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>>& values,
+                                     int available, const char* name) {
+    if (!values) return {};
+    if (values->ndim() != 1 || values->shape(0) > available)
+        throw py::value_error(std::string(name) + " must be a 1-d array of at most " + std::to_string(available) + " coefficients, got " +
+                              shape_text(*values));
+    return {values->data(), values->data() + values->shape(0)};
+}
+
+// ---- models ----
+
+class Model {
+public:
+    explicit Model(const std::string& spec) : model_(std::make_shared<const morph::MorphableModel>(morph::load_model(spec))) {}
+    [[nodiscard]] const morph::MorphableModel& get() const { return *model_; }
+    [[nodiscard]] std::shared_ptr<const morph::MorphableModel> shared() const { return model_; }
+
+    [[nodiscard]] py::array_t<float> vertices(const std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>>& alpha,
+                                              const std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>>& expression) const {
+        const std::vector<float> a = coefficients_from(alpha, model_->num_shape_components(), "alpha");
+        const std::vector<float> e = coefficients_from(expression, model_->num_expression_components(), "expression");
+        const Eigen::Matrix3Xf v = model_->shape_instance(a, e);
+        py::array_t<float> out({static_cast<py::ssize_t>(v.cols()), py::ssize_t{3}});
+        std::memcpy(out.mutable_data(), v.data(), sizeof(float) * static_cast<std::size_t>(v.size()));  // column-major 3 x V = row-major V x 3
+        return out;
+    }
+
+    [[nodiscard]] py::array_t<std::int32_t> triangles() const {
+        py::array_t<std::int32_t> out({static_cast<py::ssize_t>(model_->triangles.size()), py::ssize_t{3}});
+        for (std::size_t t = 0; t < model_->triangles.size(); ++t)
+            for (int c = 0; c < 3; ++c) out.mutable_at(static_cast<py::ssize_t>(t), c) = model_->triangles[t][static_cast<std::size_t>(c)];
+        return out;
+    }
+
+    [[nodiscard]] py::array_t<double> landmarks(const py::array_t<float, py::array::c_style | py::array::forcecast>& vertices) const {
+        if (vertices.ndim() != 2 || vertices.shape(0) != model_->num_vertices() || vertices.shape(1) != 3)
+            throw py::value_error("vertices must be a (" + std::to_string(model_->num_vertices()) + ", 3) array, got " + shape_text(vertices));
+        const Eigen::Map<const Eigen::Matrix3Xf> v(vertices.data(), 3, model_->num_vertices());
+        return points_array(model_->landmark_positions(v));
+    }
+
+private:
+    std::shared_ptr<const morph::MorphableModel> model_;
+};
+
+// ---- fitting ----
+
+py::dict fit_landmarks(const py::array& landmarks, const Model& model, const std::optional<std::pair<int, int>>& image_size,
+                       const std::string& jaw, double lambda, bool refine, double focal, double sigma, bool fit_expression) {
+    fit::FaceFitChoices choices;
+    try {
+        choices.jaw = fit::parse_jaw_mode(jaw);
+    } catch (const core::Error& e) {
+        throw py::value_error(e.what());
+    }
+    if (!(lambda >= 0)) throw py::value_error("lambda must be a non-negative number");
+    choices.lambda = lambda;
+    choices.refine = refine;
+    choices.focal_px = focal;
+    choices.landmark_sigma_px = sigma;
+    choices.fit_expression = fit_expression;
+    if (image_size) {
+        if (image_size->first < 1 || image_size->second < 1) throw py::value_error("image_size must be (width, height) in pixels");
+        choices.image_width = image_size->first;
+        choices.image_height = image_size->second;
+    }
+    const Eigen::Matrix2Xd points = landmarks_from(landmarks, "landmarks");
+    fit::LandmarkFit fitted;
+    {
+        const py::gil_scoped_release released;
+        const fit::Fitter fitter(model.get());
+        try {
+            fitted = fit::fit_face(fitter, points, fit::landmark_fit_options(choices));
+        } catch (const core::Error& e) {
+            throw py::value_error(std::string("landmarks: ") + e.what());
+        }
+    }
+    nlohmann::json record;
+    fit::write_json(record, fitted);
+    py::dict out = py::module_::import("json").attr("loads")(record.dump());
+    out["alpha"] = array_from(fitted.alpha());
+    out["expression"] = array_from(fitted.psi());
+    out["projected"] = points_array(fitted.projected());
+    out["vertices_px"] = points_array(fitted.vertices_px);
+    return out;
+}
+
+// ---- detection and frontalisation ----
+
+class Detector {
+public:
+    Detector(const std::string& regressor, const std::string& detector) : regressor_(train::open_regressor(regressor)) {
+        const train::LandmarkRegressor* const regressors[] = {regressor_.get()};
+        try {
+            detector_ = std::make_unique<train::FaceDetector>(train::choose_detector(detector, regressors));
+        } catch (const core::Error& e) {
+            throw py::value_error(e.what());
+        }
+    }
+
+    // Every face found, largest first: its box and 68 landmarks.
+    py::list detect(const py::array& image) {
+        const cv::Mat bgr = bgr_from(image, "image");
+        std::vector<train::FaceBox> boxes;
+        std::vector<Eigen::Matrix2Xd> faces;
+        {
+            const py::gil_scoped_release released;
+            const std::lock_guard lock(mutex_);
+            const cv::Mat gray = train::to_gray8(bgr);
+            boxes = detector_->detect(gray);
+            for (const auto& box : boxes) faces.push_back(regressor_->predict(gray, box));
+        }
+        py::list out;
+        for (std::size_t f = 0; f < boxes.size(); ++f) {
+            py::dict face;
+            const auto& b = boxes[f];
+            face["box"] = py::make_tuple(b.centre.x() - 0.5 * b.width, b.centre.y() - 0.5 * b.width, b.width, b.width);
+            face["landmarks"] = points_array(faces[f]);
+            face["view"] = std::string(train::view_name(b.view));
+            out.append(face);
+        }
+        return out;
+    }
+    [[nodiscard]] const std::string& label() const { return regressor_->label(); }
+
+private:
+    std::unique_ptr<train::LandmarkRegressor> regressor_;
+    std::unique_ptr<train::FaceDetector> detector_;
+    std::mutex mutex_;  // the detector's cascades are used by one thread at a time
+};
+
+class Frontaliser {
+public:
+    Frontaliser(const Model& model, int size, bool mirror_fill) : model_(model.shared()), frontaliser_(*model_) {
+        if (size < 16) throw py::value_error("size must be at least 16 pixels, got " + std::to_string(size));
+        options_.frontal.size = size;
+        options_.mirror_fill = mirror_fill;
+    }
+
+    py::dict frontalise(const py::array& image, const py::array& landmarks) {
+        const cv::Mat bgr = bgr_from(image, "image");
+        const Eigen::Matrix2Xd points = landmarks_from(landmarks, "landmarks");
+        frontal::Frontalisation r;
+        {
+            const py::gil_scoped_release released;
+            const std::lock_guard lock(mutex_);
+            try {
+                r = frontaliser_.frontalise(bgr, points, options_);
+            } catch (const core::Error& e) {
+                throw py::value_error(std::string("landmarks: ") + e.what());
+            }
+        }
+        nlohmann::json record;
+        fit::write_json(record, r.fit);
+        py::dict out;
+        out["frontal"] = array_from(r.frontal.image);
+        out["mask"] = array_from(r.frontal.mask);
+        out["isomap"] = array_from(r.isomap);
+        out["fit"] = py::module_::import("json").attr("loads")(record.dump());
+        return out;
+    }
+
+private:
+    std::shared_ptr<const morph::MorphableModel> model_;  // outlives frontaliser_
+    frontal::Frontaliser frontaliser_;
+    frontal::FrontaliseOptions options_;
+    std::mutex mutex_;  // one renderer
+};
+
+}  // namespace
+}  // namespace facesynth::python
+
+PYBIND11_MODULE(_facesynth, m) {
+    using facesynth::python::Detector;
+    using facesynth::python::Frontaliser;
+    using facesynth::python::Generator;
+    using facesynth::python::Model;
+    m.doc() = "facesynth's compiled core; use the facesynth package (docs/python.md)";
+    // Every other facesynth failure (a file, the renderer, a sample) keeps its message as RuntimeError.
+    // pybind11's translator type takes the exception_ptr by value.
+    py::register_exception_translator([](std::exception_ptr error) {  // NOLINT(performance-unnecessary-value-param)
+        try {
+            if (error) std::rethrow_exception(error);
+        } catch (const facesynth::core::Error& e) {
+            PyErr_SetString(PyExc_RuntimeError, e.what());
+        }
+    });
+    py::class_<Generator>(m, "Generator")
+        .def(py::init<const std::string&, const std::string&, const std::optional<std::string>&, const std::optional<std::int64_t>&,
+                      const std::optional<std::pair<int, int>>&, int>(),
+             py::arg("config_file"), py::arg("settings_json"), py::arg("model"), py::arg("seed"), py::arg("size"), py::arg("workers"),
+             py::call_guard<py::gil_scoped_release>())
+        .def("batch", &Generator::batch, py::arg("start"), py::arg("count"))
+        .def_property_readonly("config_json", &Generator::config_json)
+        .def_property_readonly("config_toml", &Generator::config_toml)
+        .def_property_readonly("count", [](const Generator& g) { return g.stream().config().count; })
+        .def_property_readonly("seed", [](const Generator& g) { return g.stream().config().seed; })
+        .def_property_readonly("size", [](const Generator& g) { return std::make_pair(g.stream().config().camera.width, g.stream().config().camera.height); })
+        .def_property_readonly("workers", [](const Generator& g) { return g.stream().workers(); })
+        .def_property_readonly("model_name", [](const Generator& g) { return g.stream().model().name; })
+        .def_property_readonly("renderer", [](const Generator& g) { return g.stream().renderer_description(); });
+    py::class_<Model>(m, "Model")
+        .def(py::init<const std::string&>(), py::arg("spec"))
+        .def("vertices", &Model::vertices, py::arg("alpha") = std::nullopt, py::arg("expression") = std::nullopt)
+        .def("landmarks", &Model::landmarks, py::arg("vertices"))
+        .def_property_readonly("triangles", &Model::triangles)
+        .def_property_readonly("name", [](const Model& model) { return model.get().name; })
+        .def_property_readonly("checksum", [](const Model& model) { return model.get().checksum(); })
+        .def_property_readonly("num_vertices", [](const Model& model) { return model.get().num_vertices(); })
+        .def_property_readonly("num_shape_components", [](const Model& model) { return model.get().num_shape_components(); })
+        .def_property_readonly("num_expression_components", [](const Model& model) { return model.get().num_expression_components(); });
+    m.def("fit", &facesynth::python::fit_landmarks, py::arg("landmarks"), py::arg("model"), py::arg("image_size"), py::arg("jaw"), py::arg("lambda_"),
+          py::arg("refine"), py::arg("focal"), py::arg("sigma"), py::arg("fit_expression"));
+    py::class_<Detector>(m, "Detector")
+        .def(py::init<const std::string&, const std::string&>(), py::arg("regressor"), py::arg("detector"))
+        .def("detect", &Detector::detect, py::arg("image"))
+        .def_property_readonly("label", &Detector::label);
+    py::class_<Frontaliser>(m, "Frontaliser")
+        .def(py::init<const Model&, int, bool>(), py::arg("model"), py::arg("size"), py::arg("mirror_fill"))
+        .def("frontalise", &Frontaliser::frontalise, py::arg("image"), py::arg("landmarks"));
+}

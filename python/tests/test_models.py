@@ -1,0 +1,99 @@
+"""Models, fitting, detection and frontalisation from Python: the same figures as the CLI, arrays
+of the documented shapes, ValueError for bad arrays."""
+
+import json
+import os
+import subprocess
+import tempfile
+
+import numpy as np
+import pytest
+
+import facesynth
+
+FRONTAL = {"pose": {"yaw": {"min": -10, "max": 10}, "pitch": {"min": -5, "max": 5}, "roll": {"min": -5, "max": 5}},
+           "occluders.probability": 0, "landmarks.mode": "contour"}
+
+
+@pytest.fixture(scope="module")
+def model():
+    return facesynth.Model("builtin")
+
+
+@pytest.fixture(scope="module")
+def faces():
+    return facesynth.Generator(config=FRONTAL, seed=3, size=256, workers=2).batch(0, 3)
+
+
+def test_model_geometry(model):
+    mean = model.vertices()
+    assert mean.shape == (model.num_vertices, 3) and mean.dtype == np.float32
+    assert np.array_equal(model.vertices(alpha=np.zeros(model.num_shape_components)), mean)
+    other = model.vertices(alpha=[1.0, -0.5], expression=np.full(2, 0.3))
+    assert other.shape == mean.shape and not np.array_equal(other, mean)
+    triangles = model.triangles
+    assert triangles.dtype == np.int32 and triangles.shape[1] == 3 and triangles.min() == 0 and triangles.max() < model.num_vertices
+    assert model.landmarks(mean).shape == (68, 3)
+    assert len(model.checksum) == 16 and model.name
+    with pytest.raises(ValueError, match="alpha"):
+        model.vertices(alpha=np.zeros(model.num_shape_components + 1))
+    with pytest.raises(ValueError, match="vertices"):
+        model.landmarks(mean[:10])
+    with pytest.raises(RuntimeError, match="missing-model"):
+        facesynth.Model("/nonexistent/missing-model.fsm")
+
+
+def test_fit_gives_the_cli_figures(model, faces, tmp_path):
+    landmarks = faces["landmarks"][0]
+    fitted = facesynth.fit(landmarks, model)
+    assert abs(fitted["yaw_deg"] - faces["pose"][0][0]) < 6
+    assert fitted["alpha"].shape == (model.num_shape_components,) and fitted["projected"].shape == (68, 2)
+    assert fitted["vertices_px"].shape == (model.num_vertices, 2)
+    pts = tmp_path / "face.pts"
+    pts.write_text("version: 1\nn_points: 68\n{\n" + "".join(f"{x!r} {y!r}\n" for x, y in landmarks.astype(float)) + "}\n")
+    out = tmp_path / "fit"
+    subprocess.run([os.environ["FACESYNTH_CLI"], "fit", "--landmarks", str(pts), "--out", str(out), "--quiet"], check=True)
+    cli = json.load(open(out / "fit.json"))
+    for key in ("yaw_deg", "pitch_deg", "roll_deg", "reprojection_rms_px"):
+        assert fitted[key] == pytest.approx(cli[key], abs=1e-6), key
+    assert np.allclose(fitted["alpha"], cli["alpha"], atol=1e-6)
+
+
+def test_fit_refuses_bad_landmarks(model, faces):
+    with pytest.raises(ValueError, match=r"\(68, 2\)"):
+        facesynth.fit(faces["landmarks"][0][:60], model)
+    with pytest.raises(ValueError, match=r"\(68, 2\)"):
+        facesynth.fit(faces["landmarks"][0].astype(np.int32), model)
+    broken = faces["landmarks"][0].copy()
+    broken[30] = np.nan
+    with pytest.raises(ValueError, match="landmarks"):
+        facesynth.fit(broken, model)
+    with pytest.raises(ValueError, match="jaw"):
+        facesynth.fit(faces["landmarks"][0], model, jaw="round")
+
+
+def test_detector_finds_and_landmarks_a_rendered_face(faces):
+    detector = facesynth.Detector("dlib")
+    found = detector.detect(faces["image"][0])
+    assert found, "no face found in a frontal render"
+    face = found[0]
+    assert face["landmarks"].shape == (68, 2) and len(face["box"]) == 4
+    truth = faces["landmarks"][0]
+    inter_ocular = np.linalg.norm(truth[36:42].mean(0) - truth[42:48].mean(0))
+    assert np.linalg.norm(face["landmarks"] - truth, axis=1).mean() / inter_ocular < 0.2
+    assert detector.detect(np.zeros((64, 64), np.uint8)) == []
+    with pytest.raises(ValueError, match="uint8"):
+        detector.detect(faces["image"][0].astype(np.float32))
+    with pytest.raises(RuntimeError, match="nowhere.sdm"):
+        facesynth.Detector("/nonexistent/nowhere.sdm")
+
+
+def test_frontaliser_renders_the_face_frontal(model, faces):
+    frontaliser = facesynth.Frontaliser(model, size=128)
+    result = frontaliser.frontalise(faces["image"][1], faces["landmarks"][1])
+    assert result["frontal"].shape == (128, 128, 3) and result["frontal"].dtype == np.uint8
+    assert result["mask"].shape == (128, 128) and (result["mask"] == 255).mean() > 0.2
+    assert result["isomap"].ndim == 3 and result["isomap"].shape[2] == 4
+    assert abs(result["fit"]["yaw_deg"] - faces["pose"][1][0]) < 6
+    with pytest.raises(ValueError, match="landmarks"):
+        frontaliser.frontalise(faces["image"][1], np.zeros((68, 2)))
