@@ -5,13 +5,19 @@
 #include "fit/fit_record.h"
 #include "frontal/frontalise.h"
 #include "morph/camera.h"
+#include "morph/jaw_contour.h"
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
 #include "morph/pose.h"
+#include "render/framing.h"
+#include "render/landmarks.h"
+#include "render/renderer.h"
 #include "synth/config.h"
 #include "synth/stream.h"
 #include "train/face_box.h"
+#include "train/metrics.h"
 #include "train/regressor.h"
+#include "train/sdm.h"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
@@ -19,6 +25,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <cstring>
 #include <memory>
 #include <mutex>
@@ -90,6 +97,18 @@ void copy_coefficients(const std::vector<float>& values, float* out, py::ssize_t
     std::copy(values.begin(), values.end(), out);
 }
 
+// Model space to homogeneous pixels: [u v w]^T = P [X Y Z 1]^T, pixel = (u / w, v / w) (w = 1 for
+// an orthographic camera).
+Eigen::Matrix<double, 3, 4, Eigen::RowMajor> projection_matrix(const morph::Intrinsics& k, const morph::CameraPose& pose, bool orthographic) {
+    Eigen::Matrix<double, 4, 4> extrinsics = Eigen::Matrix4d::Identity();
+    extrinsics.topLeftCorner<3, 3>() = morph::model_to_camera_flip() * pose.rotation;
+    extrinsics.topRightCorner<3, 1>() = pose.translation;
+    Eigen::Matrix<double, 3, 4> intrinsics;
+    if (orthographic) intrinsics << k.fx, 0, 0, k.cx, 0, k.fy, 0, k.cy, 0, 0, 0, 1;
+    else intrinsics << k.fx, 0, k.cx, 0, 0, k.fy, k.cy, 0, 0, 0, 1, 0;
+    return intrinsics * extrinsics;
+}
+
 class Generator {
 public:
     Generator(const std::string& config_file, const std::string& settings_json, const std::optional<std::string>& model,
@@ -139,13 +158,7 @@ public:
             pose[2] = static_cast<float>(s.spec.angles.roll);
             copy_coefficients(s.spec.alpha, row(a.alpha, slot), a.alpha.shape(1), "alpha");
             copy_coefficients(s.spec.psi, row(a.expression, slot), a.expression.shape(1), "expression");
-            // Model space to homogeneous pixels: K [flip R | t] (morph/camera.h).
-            const morph::Intrinsics& k = s.spec.intrinsics;
-            Eigen::Matrix3d intrinsics;
-            intrinsics << k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1;
-            Eigen::Matrix<double, 3, 4> extrinsics;
-            extrinsics << morph::model_to_camera_flip() * s.spec.pose.rotation, s.spec.pose.translation;
-            const Eigen::Matrix<double, 3, 4, Eigen::RowMajor> projection = intrinsics * extrinsics;
+            const Eigen::Matrix<double, 3, 4, Eigen::RowMajor> projection = projection_matrix(s.spec.intrinsics, s.spec.pose, false);
             std::copy(projection.data(), projection.data() + 12, row(a.camera, slot));
             *row(a.fov, slot) = static_cast<float>(s.spec.fov);
             if (a.mask) copy_image(s.mask, row(*a.mask, slot), "mask");
@@ -286,6 +299,86 @@ private:
     std::shared_ptr<const morph::MorphableModel> model_;
 };
 
+py::array_t<double> matrix_array(const Eigen::Matrix<double, 3, 4, Eigen::RowMajor>& m) {
+    py::array_t<double> out({py::ssize_t{3}, py::ssize_t{4}});
+    std::copy(m.data(), m.data() + 12, out.mutable_data());
+    return out;
+}
+
+template <typename T>
+py::array_t<T> map_array(const cv::Mat& image, int channels) {
+    std::vector<py::ssize_t> shape{image.rows, image.cols};
+    if (channels > 1) shape.push_back(channels);
+    py::array_t<T> out(shape);
+    copy_image(image, out.mutable_data(), "map");
+    return out;
+}
+
+py::array_t<bool> flags_array(const std::vector<std::uint8_t>& flags) {
+    py::array_t<bool> out(static_cast<py::ssize_t>(flags.size()));
+    for (std::size_t i = 0; i < flags.size(); ++i) out.mutable_at(static_cast<py::ssize_t>(i)) = flags[i] != 0;
+    return out;
+}
+
+// One instance of a model rendered as `facesynth render` renders it: framed by render::frame_mesh,
+// the renderer's default lighting. One GL context, used by one thread at a time.
+class Renderer {
+public:
+    Renderer(const Model& model, const std::string& antialiasing, int samples)
+        : model_(model.shared()), contour_region_(morph::jaw_contour_region(*model_)), renderer_(render::RendererOptions{}) {
+        try {
+            settings_.antialiasing = render::antialiasing_from(antialiasing, samples);
+        } catch (const core::Error& e) {
+            throw py::value_error(e.what());
+        }
+        settings_.barycentrics = false;
+        extras_.vertex_labels = model_->vertex_labels;
+    }
+
+    py::dict render(const std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>>& alpha,
+                    const std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>>& expression,
+                    const std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>>& colour, const render::Framing& framing) {
+        const morph::MorphableModel& m = *model_;
+        const std::vector<float> a = coefficients_from(alpha, m.num_shape_components(), "alpha");
+        const std::vector<float> e = coefficients_from(expression, m.num_expression_components(), "expression");
+        const std::vector<float> b = coefficients_from(colour, m.num_albedo_components(), "colour");
+        if (framing.width < 1 || framing.height < 1 || framing.width > 16384 || framing.height > 16384)
+            throw py::value_error("size must be 1 to 16384 pixels per side");
+        if (!(framing.fov >= 1 && framing.fov <= 170)) throw py::value_error("fov must be 1 to 170 degrees");
+        render::Frame frame;
+        render::Camera camera;
+        render::ProjectedLandmarks landmarks;
+        {
+            const py::gil_scoped_release released;
+            const std::lock_guard lock(mutex_);
+            const morph::Mesh mesh = m.instance(a, e, b);
+            camera = render::frame_mesh(mesh, framing);
+            renderer_.render(mesh, camera, settings_, frame, extras_);
+            landmarks = render::project_landmarks(m.landmarks, mesh, camera, frame, {}, &contour_region_);
+        }
+        py::dict out;
+        out["image"] = map_array<std::uint8_t>(frame.rgb, 3);
+        out["mask"] = map_array<std::uint8_t>(frame.mask, 1);
+        out["depth"] = map_array<float>(frame.depth, 1);
+        out["normals"] = map_array<float>(frame.normals, 3);
+        out["labels"] = map_array<std::uint8_t>(frame.labels, 1);
+        out["landmarks_fixed"] = points_array(landmarks.pixels);
+        out["landmarks_contour"] = points_array(landmarks.contour_pixels);
+        out["visible_fixed"] = flags_array(landmarks.visible);
+        out["visible_contour"] = flags_array(landmarks.contour_visible);
+        out["camera"] = matrix_array(projection_matrix(camera.intrinsics, camera.pose, framing.orthographic));
+        return out;
+    }
+
+private:
+    std::shared_ptr<const morph::MorphableModel> model_;
+    morph::JawContourRegion contour_region_;
+    render::Renderer renderer_;
+    render::RenderSettings settings_;
+    render::MeshExtras extras_;
+    std::mutex mutex_;
+};
+
 // ---- fitting ----
 
 py::dict fit_landmarks(const py::array& landmarks, const Model& model, const std::optional<std::pair<int, int>>& image_size,
@@ -325,6 +418,28 @@ py::dict fit_landmarks(const py::array& landmarks, const Model& model, const std
     out["expression"] = array_from(fitted.psi());
     out["projected"] = points_array(fitted.projected());
     out["vertices_px"] = points_array(fitted.vertices_px);
+    return out;
+}
+
+// ---- landmark accuracy, as `facesynth eval landmarks` reports it ----
+
+double landmark_nme(const py::array& predicted, const py::array& truth) {
+    return train::landmark_nme(landmarks_from(predicted, "predicted"), landmarks_from(truth, "truth"));
+}
+
+py::dict nme_summary(const py::array_t<double, py::array::c_style | py::array::forcecast>& nmes, double threshold) {
+    if (nmes.ndim() != 1) throw py::value_error("nmes must be a 1-d array of per-face NMEs (inf for a missed face), got " + shape_text(nmes));
+    if (!(threshold > 0)) throw py::value_error("threshold must be positive");
+    for (py::ssize_t i = 0; i < nmes.shape(0); ++i)
+        if (std::isnan(nmes.at(i)) || nmes.at(i) < 0)
+            throw py::value_error("nmes[" + std::to_string(i) + "] is " + std::to_string(nmes.at(i)) + ": NMEs are non-negative (inf for a missed face)");
+    const train::NmeSummary s = train::summarise_nme(std::span<const double>(nmes.data(), static_cast<std::size_t>(nmes.shape(0))), threshold);
+    py::dict out;
+    out["count"] = s.count;
+    out["nme_mean"] = s.mean;
+    out["nme_median"] = s.median;
+    out["auc_008"] = s.auc_008;
+    out["failure_rate_008"] = s.failure_rate_008;
     return out;
 }
 
@@ -418,6 +533,8 @@ PYBIND11_MODULE(_facesynth, m) {
     using facesynth::python::Frontaliser;
     using facesynth::python::Generator;
     using facesynth::python::Model;
+    using facesynth::python::Renderer;
+    using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
     m.doc() = "facesynth's compiled core; use the facesynth package (docs/python.md)";
     // Every other facesynth failure (a file, the renderer, a sample) keeps its message as RuntimeError.
     // pybind11's translator type takes the exception_ptr by value.
@@ -454,6 +571,18 @@ PYBIND11_MODULE(_facesynth, m) {
         .def_property_readonly("num_expression_components", [](const Model& model) { return model.get().num_expression_components(); });
     m.def("fit", &facesynth::python::fit_landmarks, py::arg("landmarks"), py::arg("model"), py::arg("image_size"), py::arg("jaw"), py::arg("lambda_"),
           py::arg("refine"), py::arg("focal"), py::arg("sigma"), py::arg("fit_expression"));
+    py::class_<Renderer>(m, "Renderer")
+        .def(py::init<const Model&, const std::string&, int>(), py::arg("model"), py::arg("antialiasing"), py::arg("samples"))
+        .def(
+            "render",
+            [](Renderer& r, const std::optional<FloatArray>& alpha, const std::optional<FloatArray>& expression, const std::optional<FloatArray>& colour,
+               double yaw, double pitch, double roll, std::pair<int, int> size, double fov, double distance, bool orthographic) {
+                return r.render(alpha, expression, colour, {yaw, pitch, roll, size.first, size.second, fov, distance, orthographic});
+            },
+            py::arg("alpha"), py::arg("expression"), py::arg("colour"), py::arg("yaw"), py::arg("pitch"), py::arg("roll"), py::arg("size"),
+            py::arg("fov"), py::arg("distance"), py::arg("orthographic"));
+    m.def("nme", &facesynth::python::landmark_nme, py::arg("predicted"), py::arg("truth"));
+    m.def("nme_summary", &facesynth::python::nme_summary, py::arg("nmes"), py::arg("threshold") = 0.08);
     py::class_<Detector>(m, "Detector")
         .def(py::init<const std::string&, const std::string&>(), py::arg("regressor"), py::arg("detector"))
         .def("detect", &Detector::detect, py::arg("image"))

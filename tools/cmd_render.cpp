@@ -11,6 +11,7 @@
 #include "morph/regions.h"
 #include "morph/sampling.h"
 #include "render/bare_renderer.h"
+#include "render/framing.h"
 #include "render/landmarks.h"
 #include "render/renderer.h"
 #include "synth/exr.h"
@@ -137,27 +138,9 @@ void warn_if_shadows_have_no_light(const render::RenderSettings& settings, bool 
         std::fprintf(stderr, "facesynth: warning: shadows have no effect without directional lights (add \"lights\" to --lighting)\n");
 }
 
-// A camera looking at the centre of the mesh's bounding box with the requested pose.
 render::Camera frame_camera(const ViewArgs& v, const morph::Mesh& mesh) {
-    const int width = v.width > 0 ? v.width : v.size, height = v.height > 0 ? v.height : v.size;
-    const Eigen::Vector3f low = mesh.vertices.rowwise().minCoeff(), high = mesh.vertices.rowwise().maxCoeff();
-    const Eigen::Vector3d centre = (0.5f * (low + high)).cast<double>();
-    const double extent = std::max(high.x() - low.x(), high.y() - low.y());
-    render::Camera camera;
-    camera.pose.rotation = morph::rotation_from_euler({v.yaw, v.pitch, v.roll});
-    const double fill = 0.8 * std::min(width, height);
-    if (v.orthographic) {
-        camera.projection = render::Projection::kOrthographic;
-        camera.intrinsics = morph::intrinsics_from_fov(v.fov, width, height);
-        camera.intrinsics.fx = camera.intrinsics.fy = fill / extent;
-    } else {
-        camera.intrinsics = morph::intrinsics_from_fov(v.fov, width, height);
-    }
-    const double distance = v.distance > 0 ? v.distance
-                                           : 0.5 * extent * camera.intrinsics.fy / (0.5 * fill) +
-                                                 0.5 * static_cast<double>(high.z() - low.z());
-    camera.pose.translation = -(morph::model_to_camera_flip() * camera.pose.rotation * centre) + Eigen::Vector3d(0, 0, distance);
-    return camera;
+    return render::frame_mesh(mesh, {v.yaw, v.pitch, v.roll, v.width > 0 ? v.width : v.size, v.height > 0 ? v.height : v.size, v.fov,
+                                     v.distance, v.orthographic});
 }
 
 cv::Mat to_bgr(const cv::Mat& rgb) {

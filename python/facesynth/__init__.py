@@ -11,7 +11,7 @@ import os
 
 from . import _facesynth
 
-__all__ = ["Generator", "worker_shard", "Model", "fit", "Detector", "Frontaliser"]
+__all__ = ["Generator", "worker_shard", "Model", "Renderer", "fit", "Detector", "Frontaliser", "nme", "nme_summary"]
 
 
 
@@ -138,6 +138,29 @@ class Model(_facesynth.Model):
         super().__init__(os.fspath(spec))
 
 
+class Renderer:
+    """Renders given instances of a model as `facesynth render` does (the mesh framed in the image,
+    the renderer's default lighting), on one GL context:
+
+        r = facesynth.Renderer("builtin")
+        out = r.render(alpha=a, expression=e, yaw=30, size=256)
+
+    render(alpha=None, expression=None, colour=None, yaw=0, pitch=0, roll=0, size=256, fov=30,
+    distance=0, orthographic=False) returns image (H,W,3) uint8 RGB, mask (H,W) uint8, depth (H,W)
+    float32 mm, normals (H,W,3) float32, labels (H,W) uint8 region ids, landmarks_fixed and
+    landmarks_contour (68,2) float64, visible_fixed and visible_contour (68,) bool, and camera
+    (3,4) float64 (model space to homogeneous pixels). distance=0 fits the face in 80 % of the image."""
+
+    def __init__(self, model="builtin", antialiasing="msaa", samples=0):
+        self._core = _facesynth.Renderer(_model(model), antialiasing, int(samples))
+
+    def render(self, alpha=None, expression=None, colour=None, yaw=0.0, pitch=0.0, roll=0.0, size=256, fov=30.0, distance=0.0,
+               orthographic=False):
+        size = (size, size) if isinstance(size, int) else tuple(size)
+        return self._core.render(alpha, expression, colour, float(yaw), float(pitch), float(roll), size, float(fov), float(distance),
+                                 bool(orthographic))
+
+
 def _model(model):
     return model if isinstance(model, _facesynth.Model) else Model(model)
 
@@ -171,6 +194,19 @@ class Frontaliser(_facesynth.Frontaliser):
 
     def __init__(self, model="builtin", size=256, mirror_fill=False):
         super().__init__(_model(model), int(size), bool(mirror_fill))
+
+
+def nme(predicted, truth):
+    """Mean point-to-point error of 68 landmarks ((68, 2) float arrays) over the inter-ocular
+    distance (outer eye corners), as `facesynth eval landmarks` computes it per face."""
+    return _facesynth.nme(predicted, truth)
+
+
+def nme_summary(nmes, threshold=0.08):
+    """The summary `facesynth eval landmarks --json` reports for per-face NMEs (inf for a face the
+    detector missed): count, nme_mean (misses left out), nme_median (misses as inf), auc_008 and
+    failure_rate_008 (misses as failures); the threshold replaces 0.08 in the last two."""
+    return _facesynth.nme_summary(nmes, float(threshold))
 
 
 def _index(value, name):

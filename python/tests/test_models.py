@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import facesynth
+from png_files import read_png
 
 FRONTAL = {"pose": {"yaw": {"min": -10, "max": 10}, "pitch": {"min": -5, "max": 5}, "roll": {"min": -5, "max": 5}},
            "occluders.probability": 0, "landmarks.mode": "contour"}
@@ -97,3 +98,54 @@ def test_frontaliser_renders_the_face_frontal(model, faces):
     assert abs(result["fit"]["yaw_deg"] - faces["pose"][1][0]) < 6
     with pytest.raises(ValueError, match="landmarks"):
         frontaliser.frontalise(faces["image"][1], np.zeros((68, 2)))
+
+
+def test_accuracy_helpers_give_the_cli_figures(tmp_path):
+    flat = {"pose.yaw.min": -10, "pose.yaw.max": 10, "pose.pitch.min": -5, "pose.pitch.max": 5, "occluders.probability": 0}
+    data, report, csv = tmp_path / "faces", tmp_path / "eval.json", tmp_path / "nme.csv"
+    cli = os.environ["FACESYNTH_CLI"]
+    subprocess.run([cli, "synth", "--out", str(data), "--count", "6", "--seed", "11", "--size", "256", "--quiet"]
+                   + [a for k, v in flat.items() for a in ("--set", f"{k}={v}")], check=True)
+    subprocess.run([cli, "eval", "landmarks", "--regressor", "dlib", "--data", str(data), "--json", str(report), "--nme-csv", str(csv),
+                    "--quiet"], check=True)
+    rows = [line.split(",") for line in csv.read_text().splitlines()[1:]]
+    cli_nmes = np.array([float(r[4]) for r in rows])
+    faces = facesynth.Generator(config=flat, seed=11, size=256, workers=2).batch(0, 6)
+    detector = facesynth.Detector("dlib")
+    for i, row in enumerate(rows):
+        assert row[0].endswith(f"s{i:08d}")
+        found = detector.detect(faces["image"][i])
+        assert bool(found) == (row[2] == "1"), row[0]
+        if found:
+            ours = min(facesynth.nme(f["landmarks"], faces["landmarks"][i]) for f in found)
+            assert ours == pytest.approx(cli_nmes[i], rel=1e-4, abs=1e-6), row[0]
+    summary, expected = facesynth.nme_summary(cli_nmes), json.load(open(report))
+    assert summary["count"] == 6
+    for key in ("nme_mean", "nme_median", "auc_008", "failure_rate_008"):
+        assert summary[key] == pytest.approx(expected[key], abs=1e-5), key
+    with pytest.raises(ValueError, match="non-negative"):
+        facesynth.nme_summary([0.1, float("nan")])
+    with pytest.raises(ValueError, match="predicted"):
+        facesynth.nme(np.zeros((5, 2)), faces["landmarks"][0])
+
+
+def test_renderer_renders_an_instance_like_the_cli(model, tmp_path):
+    renderer = facesynth.Renderer(model)
+    alpha = np.linspace(-1, 1, model.num_shape_components).astype(np.float32)
+    out = renderer.render(alpha=alpha, yaw=25, size=(160, 128))
+    assert out["image"].shape == (128, 160, 3) and out["image"].dtype == np.uint8
+    assert out["mask"].shape == (128, 160) and out["depth"].dtype == np.float32 and out["normals"].shape == (128, 160, 3)
+    assert out["landmarks_contour"].shape == (68, 2) and out["visible_fixed"].dtype == np.bool_
+    points = np.c_[model.landmarks(model.vertices(alpha)), np.ones(68)] @ out["camera"].T
+    assert np.abs(points[:, :2] / points[:, 2:] - out["landmarks_fixed"]).max() < 1e-3
+    # `facesynth render --yaw 25` of the mean face draws the same pixels.
+    mean = renderer.render(yaw=25, size=128)
+    subprocess.run([os.environ["FACESYNTH_CLI"], "render", "--yaw", "25", "--size", "128", "--out", str(tmp_path / "r"), "--quiet"], check=True)
+    cli = json.load(open(tmp_path / "r" / "render.json"))
+    assert np.allclose(np.array(cli["landmarks_contour"]), mean["landmarks_contour"], atol=1e-9)
+    assert np.array_equal(read_png(tmp_path / "r" / "image.png"), mean["image"])
+    assert np.array_equal(read_png(tmp_path / "r" / "mask.png"), mean["mask"])
+    with pytest.raises(ValueError, match="anti-aliasing"):
+        facesynth.Renderer(model, antialiasing="fuzzy")
+    with pytest.raises(ValueError, match="fov"):
+        renderer.render(fov=0)
