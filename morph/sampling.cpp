@@ -9,4 +9,11 @@ std::vector<float> sample_coefficients(core::Rng& rng, int count, double truncat
     return coefficients;
 }
 
+FaceCoefficients sample_face(const MorphableModel& model, std::uint64_t seed, double truncation) {
+    core::Rng identity = core::make_rng(seed, 0, core::RandomStream::kIdentity);
+    core::Rng albedo = core::make_rng(seed, 0, core::RandomStream::kAlbedo);
+    return {sample_coefficients(identity, model.num_shape_components(), truncation),
+            sample_coefficients(albedo, model.num_albedo_components(), truncation)};
+}
+
 }  // namespace facesynth::morph

@@ -9,6 +9,7 @@
 #include "morph/landmarks.h"
 #include "morph/model_io.h"
 #include "morph/pose.h"
+#include "morph/sampling.h"
 #include "render/framing.h"
 #include "render/landmarks.h"
 #include "render/renderer.h"
@@ -563,6 +564,16 @@ PYBIND11_MODULE(_facesynth, m) {
         .def(py::init<const std::string&>(), py::arg("spec"))
         .def("vertices", &Model::vertices, py::arg("alpha") = std::nullopt, py::arg("expression") = std::nullopt)
         .def("landmarks", &Model::landmarks, py::arg("vertices"))
+        .def(
+            "sample",
+            [](const Model& model, std::uint64_t seed, double truncation) {
+                const facesynth::morph::FaceCoefficients face = facesynth::morph::sample_face(model.get(), seed, truncation);
+                py::dict out;
+                out["alpha"] = facesynth::python::array_from(face.alpha);
+                out["colour"] = facesynth::python::array_from(face.beta);
+                return out;
+            },
+            py::arg("seed"), py::arg("truncation") = 3.0)
         .def_property_readonly("triangles", &Model::triangles)
         .def_property_readonly("name", [](const Model& model) { return model.get().name; })
         .def_property_readonly("checksum", [](const Model& model) { return model.get().checksum(); })

@@ -208,11 +208,9 @@ void run_render(const RenderArgs& a) {
     const morph::MorphableModel model = morph::load_model(a.view.model);
     std::vector<float> alpha, psi, beta;
     if (a.seed) {
-        const auto seed = static_cast<std::uint64_t>(*a.seed);
-        core::Rng identity = core::make_rng(seed, 0, core::RandomStream::kIdentity);
-        alpha = morph::sample_coefficients(identity, model.num_shape_components(), a.truncation);
-        core::Rng albedo = core::make_rng(seed, 0, core::RandomStream::kAlbedo);
-        beta = morph::sample_coefficients(albedo, model.num_albedo_components(), a.truncation);
+        morph::FaceCoefficients face = morph::sample_face(model, static_cast<std::uint64_t>(*a.seed), a.truncation);
+        alpha = std::move(face.alpha);
+        beta = std::move(face.beta);
     }
     const morph::Mesh mesh = model.instance(alpha, psi, beta);
     const render::Camera camera = frame_camera(a.view, mesh);

@@ -132,6 +132,7 @@ class Model(_facesynth.Model):
     model.vertices(alpha=None, expression=None) -> (V, 3) float32, model space, mm (coefficients in
     σ units or blendshape weights; fewer than the model has leaves the rest at 0);
     model.landmarks(vertices) -> (68, 3) float64; model.triangles -> (T, 3) int32;
+    model.sample(seed, truncation=3) -> {"alpha", "colour"}: the random face of `facesynth render --seed`;
     name, checksum, num_vertices, num_shape_components, num_expression_components."""
 
     def __init__(self, spec="builtin"):

@@ -145,6 +145,15 @@ def test_renderer_renders_an_instance_like_the_cli(model, tmp_path):
     assert np.allclose(np.array(cli["landmarks_contour"]), mean["landmarks_contour"], atol=1e-9)
     assert np.array_equal(read_png(tmp_path / "r" / "image.png"), mean["image"])
     assert np.array_equal(read_png(tmp_path / "r" / "mask.png"), mean["mask"])
+    # A random face drawn as `render --seed` draws it.
+    face = model.sample(seed=5)
+    assert face["alpha"].shape == (model.num_shape_components,) and face["alpha"].dtype == np.float32
+    assert np.abs(face["alpha"]).max() <= 3
+    drawn = renderer.render(alpha=face["alpha"], colour=face["colour"], yaw=10, size=96)
+    subprocess.run([os.environ["FACESYNTH_CLI"], "render", "--seed", "5", "--yaw", "10", "--size", "96", "--out", str(tmp_path / "s"), "--quiet"],
+                   check=True)
+    assert np.array_equal(read_png(tmp_path / "s" / "image.png"), drawn["image"])
+    assert not np.array_equal(model.sample(seed=6)["alpha"], face["alpha"])
     with pytest.raises(ValueError, match="anti-aliasing"):
         facesynth.Renderer(model, antialiasing="fuzzy")
     with pytest.raises(ValueError, match="fov"):
