@@ -73,10 +73,16 @@ struct BatchArrays {
     std::optional<py::array_t<float>> depth, normals;
 };
 
+// The rows of an array whose first dimension is the sample, as a raw pointer taken while the GIL is
+// held, so that worker threads write through it without touching Python objects.
 template <typename T>
-T* row(py::array_t<T>& array, std::int64_t slot) {
-    return array.mutable_data() + slot * (array.size() / array.shape(0));
-}
+struct Rows {
+    T* data = nullptr;
+    std::size_t per_row = 0;
+    Rows() = default;
+    explicit Rows(py::array_t<T>& array) : data(array.mutable_data()), per_row(static_cast<std::size_t>(array.size() / array.shape(0))) {}
+    [[nodiscard]] T* at(std::int64_t slot) const { return data + static_cast<std::size_t>(slot) * per_row; }
+};
 
 // Copies a CV_8UC3 / CV_8UC1 / CV_32FC1 / CV_32FC3 image, row by row (its rows may be padded).
 template <typename T>
@@ -137,35 +143,44 @@ public:
         if (config.output.labels) a.labels = py::array_t<std::uint8_t>({n, h, w});
         if (config.output.depth) a.depth = py::array_t<float>({n, h, w});
         if (config.output.normals) a.normals = py::array_t<float>({n, h, w, py::ssize_t{3}});
-        // Raw pointers are taken while the GIL is held; the workers write rows through them.
+        const Rows<std::uint8_t> image(a.image), mask = a.mask ? Rows<std::uint8_t>(*a.mask) : Rows<std::uint8_t>(),
+                                                 labels = a.labels ? Rows<std::uint8_t>(*a.labels) : Rows<std::uint8_t>();
+        const Rows<float> points_2d(a.landmarks), points_3d_rows(a.landmarks_3d), pose_rows(a.pose), alpha(a.alpha), expression(a.expression),
+            fov(a.fov), depth = a.depth ? Rows<float>(*a.depth) : Rows<float>(), normals = a.normals ? Rows<float>(*a.normals) : Rows<float>();
+        const Rows<bool> visible_rows(a.visible);
+        const Rows<double> camera(a.camera);
+        const auto alpha_width = static_cast<py::ssize_t>(alpha.per_row), expression_width = static_cast<py::ssize_t>(expression.per_row);
         const auto consume = [&](std::int64_t slot, synth::Sample& s) {
-            copy_image(s.image, row(a.image, slot), "image");
+            if (s.image.rows != h || s.image.cols != w)
+                throw core::Error("image is " + std::to_string(s.image.cols) + "x" + std::to_string(s.image.rows) + ", expected " + std::to_string(w) + "x" +
+                                  std::to_string(h));
+            copy_image(s.image, image.at(slot), "image");
             const Eigen::Matrix2Xd& points = synth::chosen_landmarks(s.labels, config.landmarks.mode);
             const Eigen::Matrix3Xd& points_3d = config.landmarks.mode == "contour" ? s.labels.landmarks_3d_contour : s.labels.landmarks_3d_fixed;
             const std::vector<int>& visible = synth::chosen_visibility(s.labels, config.landmarks.mode);
             if (points.cols() != landmarks) throw core::Error("sample has " + std::to_string(points.cols()) + " landmarks, expected " + std::to_string(landmarks));
-            float* p = row(a.landmarks, slot);
-            float* p3 = row(a.landmarks_3d, slot);
-            bool* v = row(a.visible, slot);
+            float* p = points_2d.at(slot);
+            float* p3 = points_3d_rows.at(slot);
+            bool* v = visible_rows.at(slot);
             for (py::ssize_t i = 0; i < landmarks; ++i) {
                 p[2 * i] = static_cast<float>(points(0, i));
                 p[2 * i + 1] = static_cast<float>(points(1, i));
                 for (int c = 0; c < 3; ++c) p3[3 * i + c] = static_cast<float>(points_3d(c, i));
                 v[i] = visible[static_cast<std::size_t>(i)] != 0;
             }
-            float* pose = row(a.pose, slot);
+            float* pose = pose_rows.at(slot);
             pose[0] = static_cast<float>(s.spec.angles.yaw);
             pose[1] = static_cast<float>(s.spec.angles.pitch);
             pose[2] = static_cast<float>(s.spec.angles.roll);
-            copy_coefficients(s.spec.alpha, row(a.alpha, slot), a.alpha.shape(1), "alpha");
-            copy_coefficients(s.spec.psi, row(a.expression, slot), a.expression.shape(1), "expression");
+            copy_coefficients(s.spec.alpha, alpha.at(slot), alpha_width, "alpha");
+            copy_coefficients(s.spec.psi, expression.at(slot), expression_width, "expression");
             const Eigen::Matrix<double, 3, 4, Eigen::RowMajor> projection = projection_matrix(s.spec.intrinsics, s.spec.pose, false);
-            std::copy(projection.data(), projection.data() + 12, row(a.camera, slot));
-            *row(a.fov, slot) = static_cast<float>(s.spec.fov);
-            if (a.mask) copy_image(s.mask, row(*a.mask, slot), "mask");
-            if (a.labels) copy_image(s.regions, row(*a.labels, slot), "labels");
-            if (a.depth) copy_image(s.depth, row(*a.depth, slot), "depth");
-            if (a.normals) copy_image(s.normals, row(*a.normals, slot), "normals");
+            std::copy(projection.data(), projection.data() + 12, camera.at(slot));
+            *fov.at(slot) = static_cast<float>(s.spec.fov);
+            if (mask.data) copy_image(s.mask, mask.at(slot), "mask");
+            if (labels.data) copy_image(s.regions, labels.at(slot), "labels");
+            if (depth.data) copy_image(s.depth, depth.at(slot), "depth");
+            if (normals.data) copy_image(s.normals, normals.at(slot), "normals");
         };
         {
             const py::gil_scoped_release released;
