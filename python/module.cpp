@@ -150,7 +150,7 @@ public:
         const Rows<bool> visible_rows(a.visible);
         const Rows<double> camera(a.camera);
         const auto alpha_width = static_cast<py::ssize_t>(alpha.per_row), expression_width = static_cast<py::ssize_t>(expression.per_row);
-        const auto consume = [&](std::int64_t slot, synth::Sample& s) {
+        const auto consume = [&](int /*worker*/, std::int64_t slot, synth::Sample& s) {
             if (s.image.rows != h || s.image.cols != w)
                 throw core::Error("image is " + std::to_string(s.image.cols) + "x" + std::to_string(s.image.rows) + ", expected " + std::to_string(w) + "x" +
                                   std::to_string(h));

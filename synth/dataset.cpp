@@ -14,7 +14,6 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
-#include <atomic>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -31,7 +30,6 @@
 #include <memory>
 #include <mutex>
 #include <set>
-#include <thread>
 
 
 namespace facesynth::synth {
@@ -302,27 +300,6 @@ private:
     std::size_t generated_ = 0, tars_written_ = 0;
 };
 
-// Runs worker(0) on the calling thread and worker(1 .. count - 1) on their own; the first exception
-// any of them throws is rethrown here after all have stopped, and `failed` tells the others to stop.
-void run_workers(int count, std::atomic<bool>& failed, const std::function<void(int)>& worker) {
-    std::mutex mutex;
-    std::exception_ptr first_error;
-    const auto guarded = [&](int index) {
-        try {
-            worker(index);
-        } catch (...) {
-            failed = true;
-            const std::lock_guard lock(mutex);
-            if (!first_error) first_error = std::current_exception();
-        }
-    };
-    std::vector<std::thread> threads;
-    for (int t = 1; t < count; ++t) threads.emplace_back(guarded, t);
-    guarded(0);
-    for (auto& thread : threads) thread.join();
-    if (first_error) std::rethrow_exception(first_error);
-}
-
 }  // namespace
 
 RunResult run_synth(const RunOptions& options, const morph::MorphableModel& model) {
@@ -349,48 +326,30 @@ RunResult run_synth(const RunOptions& options, const morph::MorphableModel& mode
     result.already_done = scan.already_done;
     result.tars_written = outputs.write_unfinished_tars(scan);
 
-    const Appearance appearance = load_appearance(config, model);
-    std::atomic<std::size_t> next{0};
-    std::atomic<bool> failed{false};
-    std::mutex times_mutex;
     const int thread_count = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(options.threads), std::max<std::size_t>(todo.size(), 1)));
-    std::vector<std::string> worker_renderers(static_cast<std::size_t>(thread_count));
-    const OpenCvOnCallingThread opencv_threads;
     const auto start = Clock::now();
-    run_workers(thread_count, failed, [&](int worker_index) {
-        // Workers alternate between Mesa's two software displays: llvmpipe rasterises one scene
-        // at a time per display, and two workers on one display waited for each other.
-        render::RendererOptions renderer_options = options.renderer;
-        renderer_options.software_display = options.renderer.software_display + worker_index;
-        SampleGenerator generator(config, model, appearance.backgrounds, appearance.textures, renderer_options);
-        worker_renderers[static_cast<std::size_t>(worker_index)] = generator.renderer_description();
-        PngEncoder png(config.output.png_compression);
-        StageTimes times;
-        for (;;) {
-            const std::size_t slot = next.fetch_add(1);
-            if (slot >= todo.size() || failed) break;
-            const std::int64_t index = todo[slot];
-            const std::string key = sample_key(index);
-            try {
-                Sample sample = generator.generate(index, &times);
-                StageClock clock;
-                const std::vector<std::string> contents = encode_sample(sample, files, config, model, checksum, png, key);
-                clock.lap(times.encode);
-                for (std::size_t f = 0; f < files.size(); ++f)
-                    core::write_file_atomically(root / files[f].folder / (key + files[f].suffix), contents[f]);
-                outputs.sample_done(index);
-                clock.lap(times.write);
-            } catch (const std::exception& e) {
-                throw core::Error("sample " + key + ": " + e.what());
-            }
-        }
-        const std::lock_guard lock(times_mutex);
-        result.times += times;
+    SampleStream stream(config, model, thread_count, options.renderer);
+    std::vector<PngEncoder> pngs;
+    pngs.reserve(static_cast<std::size_t>(thread_count));
+    for (int w = 0; w < thread_count; ++w) pngs.emplace_back(config.output.png_compression);
+    std::vector<StageTimes> output_times(static_cast<std::size_t>(thread_count));  // encode and write, per worker
+    stream.generate(todo, [&](int worker, std::int64_t slot, Sample& sample) {
+        const std::int64_t index = todo[static_cast<std::size_t>(slot)];
+        const std::string key = sample_key(index);
+        StageTimes& times = output_times[static_cast<std::size_t>(worker)];
+        StageClock clock;
+        const std::vector<std::string> contents = encode_sample(sample, files, config, model, checksum, pngs[static_cast<std::size_t>(worker)], key);
+        clock.lap(times.encode);
+        for (std::size_t f = 0; f < files.size(); ++f) core::write_file_atomically(root / files[f].folder / (key + files[f].suffix), contents[f]);
+        outputs.sample_done(index);
+        clock.lap(times.write);
     });
+    result.times = stream.times();
+    for (const auto& times : output_times) result.times += times;
     result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     result.generated = outputs.generated();
     result.tars_written += outputs.tars_written();
-    result.renderer = distinct_renderers(worker_renderers);
+    result.renderer = stream.renderer_description();
     outputs.finish();
     return result;
 }

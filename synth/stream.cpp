@@ -49,12 +49,24 @@ SynthConfig validated(SynthConfig config) {
 }  // namespace
 
 SampleStream::SampleStream(SynthConfig config, int workers, const render::RendererOptions& renderer)
-    : config_(validated(std::move(config))), model_(morph::load_model(config_.model)), appearance_(load_appearance(config_, model_)) {
+    : config_(validated(std::move(config))), owned_model_(morph::load_model(config_.model)), model_(*owned_model_),
+      appearance_(load_appearance(config_, model_)) {
+    start(workers, renderer);
+}
+
+SampleStream::SampleStream(SynthConfig config, const morph::MorphableModel& model, int workers, const render::RendererOptions& renderer)
+    : config_(std::move(config)), model_(model), appearance_(load_appearance(config_, model_)) {
+    start(workers, renderer);
+}
+
+void SampleStream::start(int workers, const render::RendererOptions& renderer) {
     if (workers < 1) throw core::Error("workers must be at least 1 (got " + std::to_string(workers) + ")");
     renderers_.resize(static_cast<std::size_t>(workers));
+    times_.resize(static_cast<std::size_t>(workers));
     starting_ = workers;
     for (int w = 0; w < workers; ++w) {
-        // Workers alternate between Mesa's two software displays, as run_synth's do.
+        // Workers alternate between Mesa's two software displays: llvmpipe rasterises one scene at a
+        // time per display, and two workers on one display waited for each other.
         render::RendererOptions options = renderer;
         options.software_display = renderer.software_display + w;
         threads_.emplace_back([this, w, options] { work(w, options); });
@@ -81,13 +93,21 @@ SampleStream::~SampleStream() {
 
 std::string SampleStream::renderer_description() const { return distinct_renderers(renderers_); }
 
+StageTimes SampleStream::times() const {
+    const std::lock_guard lock(mutex_);
+    StageTimes sum;
+    for (const auto& t : times_) sum += t;
+    return sum;
+}
+
 void SampleStream::work(int worker_index, render::RendererOptions renderer) {
+    const auto worker = static_cast<std::size_t>(worker_index);
     std::unique_ptr<SampleGenerator> generator;
     {
         std::exception_ptr error;
         try {
             generator = std::make_unique<SampleGenerator>(config_, model_, appearance_.backgrounds, appearance_.textures, renderer);
-            renderers_[static_cast<std::size_t>(worker_index)] = generator->renderer_description();
+            renderers_[worker] = generator->renderer_description();
         } catch (...) {
             error = std::current_exception();
         }
@@ -104,12 +124,13 @@ void SampleStream::work(int worker_index, render::RendererOptions renderer) {
             if (stopping_) return;
             served = generation_;
         }
-        std::int64_t slot = 0;
+        std::size_t slot = 0;
+        StageTimes times;
         while (take_slot(slot)) {
-            const std::int64_t index = request_.start + slot;
+            const std::int64_t index = request_.indices[slot];
             try {
-                Sample sample = generator->generate(index);
-                (*request_.consume)(slot, sample);
+                Sample sample = generator->generate(index, &times);
+                (*request_.consume)(worker_index, static_cast<std::int64_t>(slot), sample);
             } catch (const std::exception& e) {
                 fail(std::make_exception_ptr(core::Error("sample " + sample_key(index) + ": " + e.what())));
             } catch (...) {
@@ -118,15 +139,16 @@ void SampleStream::work(int worker_index, render::RendererOptions renderer) {
         }
         {
             const std::lock_guard lock(mutex_);
+            times_[worker] += times;
             --request_.running;
         }
         wake_caller_.notify_all();
     }
 }
 
-bool SampleStream::take_slot(std::int64_t& slot) {
+bool SampleStream::take_slot(std::size_t& slot) {
     const std::lock_guard lock(mutex_);
-    if (request_.failed || request_.next >= request_.count) return false;
+    if (request_.failed || request_.next >= request_.indices.size()) return false;
     slot = request_.next++;
     return true;
 }
@@ -137,20 +159,28 @@ void SampleStream::fail(std::exception_ptr error) {
     if (!request_.first_error) request_.first_error = std::move(error);
 }
 
-void SampleStream::generate(std::int64_t start, std::int64_t count, const Consumer& consume) {
-    if (start < 0 || count < 0)
-        throw core::Error("samples " + std::to_string(start) + " + " + std::to_string(count) + ": start and count must not be negative");
-    if (count == 0) return;
+void SampleStream::generate(std::span<const std::int64_t> indices, const Consumer& consume) {
+    for (const std::int64_t index : indices)
+        if (index < 0) throw core::Error("sample " + std::to_string(index) + ": indices must not be negative");
+    if (indices.empty()) return;
     const std::lock_guard one_request(request_mutex_);
     const OpenCvOnCallingThread opencv_threads;
     std::unique_lock lock(mutex_);
-    request_ = Request{start, count, &consume, 0, workers(), false, nullptr};
+    request_ = Request{indices, &consume, 0, workers(), false, nullptr};
     ++generation_;
     lock.unlock();
     wake_workers_.notify_all();
     lock.lock();
     wake_caller_.wait(lock, [this] { return request_.running == 0; });
     if (request_.first_error) std::rethrow_exception(request_.first_error);
+}
+
+void SampleStream::generate(std::int64_t start, std::int64_t count, const Consumer& consume) {
+    if (start < 0 || count < 0)
+        throw core::Error("samples " + std::to_string(start) + " + " + std::to_string(count) + ": start and count must not be negative");
+    std::vector<std::int64_t> indices(static_cast<std::size_t>(count));
+    for (std::size_t i = 0; i < indices.size(); ++i) indices[i] = start + static_cast<std::int64_t>(i);
+    generate(indices, consume);
 }
 
 }  // namespace facesynth::synth

@@ -12,6 +12,8 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -48,25 +50,32 @@ private:
 };
 
 // A pool of worker threads, each with its own SampleGenerator (and so its own GL context, created
-// once on that thread and used only there), that makes ranges of samples on request.
+// once on that thread and used only there), that makes lists of samples on request: run_synth's
+// workers, and the Python module's.
 class SampleStream {
 public:
-    // Called from the worker threads, concurrently for different slots (0 .. count - 1 of the
-    // request); the sample may be moved from.
-    using Consumer = std::function<void(std::int64_t slot, Sample& sample)>;
+    // Called from the worker threads, concurrently for different slots (positions in the request's
+    // list of samples): `worker` (0 .. workers() - 1) tells which thread, for per-worker state; the
+    // sample may be moved from.
+    using Consumer = std::function<void(int worker, std::int64_t slot, Sample& sample)>;
 
     // Validates the config, loads config.model and the appearance folders, and starts `workers`
     // threads. Throws core::Error (the config key, file or renderer that failed) when any of that fails.
     SampleStream(SynthConfig config, int workers, const render::RendererOptions& renderer = {});
+    // The same with a model the caller keeps alive (and has validated the config for).
+    SampleStream(SynthConfig config, const morph::MorphableModel& model, int workers, const render::RendererOptions& renderer = {});
     ~SampleStream();
     SampleStream(const SampleStream&) = delete;
     SampleStream& operator=(const SampleStream&) = delete;
     SampleStream(SampleStream&&) = delete;
     SampleStream& operator=(SampleStream&&) = delete;
 
-    // Makes samples start .. start + count - 1 (start >= 0) and hands each to `consume`. Requests
-    // from several threads are served one after another. The first failure (a sample's, or one
-    // thrown by `consume`) is rethrown after every worker has stopped, naming the sample.
+    // Makes the samples `indices` names (each >= 0), and hands each to `consume` with its position in
+    // the list. Requests from several threads are served one after another. The first failure (a
+    // sample's, or one thrown by `consume`) stops the workers and is rethrown as core::Error
+    // "sample sNNNNNNNN: …" after all have stopped.
+    void generate(std::span<const std::int64_t> indices, const Consumer& consume);
+    // Samples start .. start + count - 1 (slot = index - start).
     void generate(std::int64_t start, std::int64_t count, const Consumer& consume);
 
     [[nodiscard]] const SynthConfig& config() const { return config_; }
@@ -74,30 +83,34 @@ public:
     [[nodiscard]] int workers() const { return static_cast<int>(threads_.size()); }
     // Each distinct renderer the workers use, joined by " + ".
     [[nodiscard]] std::string renderer_description() const;
+    // The generators' stage times (sampling, render, composite), summed over workers and requests.
+    [[nodiscard]] StageTimes times() const;
 
 private:
     struct Request {
-        std::int64_t start = 0;
-        std::int64_t count = 0;
+        std::span<const std::int64_t> indices;
         const Consumer* consume = nullptr;
-        std::int64_t next = 0;     // the next slot to take (guarded by mutex_)
+        std::size_t next = 0;      // the next slot to take (guarded by mutex_)
         int running = 0;           // workers still on this request
         bool failed = false;
         std::exception_ptr first_error;
     };
 
+    void start(int workers, const render::RendererOptions& renderer);
     void work(int worker_index, render::RendererOptions renderer);
     // Takes the next slot of the current request, or returns false when it has none left.
-    bool take_slot(std::int64_t& slot);
+    bool take_slot(std::size_t& slot);
     void fail(std::exception_ptr error);
 
     const SynthConfig config_;
-    const morph::MorphableModel model_;
+    std::optional<morph::MorphableModel> owned_model_;
+    const morph::MorphableModel& model_;
     const Appearance appearance_;
     std::vector<std::string> renderers_;  // per worker, set when it has started
+    std::vector<StageTimes> times_;       // per worker, written by that worker only while it works
 
     std::mutex request_mutex_;  // one request at a time
-    std::mutex mutex_;          // everything below
+    mutable std::mutex mutex_;  // everything below
     std::condition_variable wake_workers_, wake_caller_;
     std::uint64_t generation_ = 0;  // bumped for each request
     Request request_;

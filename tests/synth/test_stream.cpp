@@ -33,7 +33,7 @@ bool identical_pixels(const cv::Mat& a, const cv::Mat& b) {
 // Samples start .. start + count - 1 of `stream`, by slot.
 std::vector<Sample> stream_samples(SampleStream& stream, std::int64_t start, std::int64_t count) {
     std::vector<Sample> samples(static_cast<std::size_t>(count));
-    stream.generate(start, count, [&](std::int64_t slot, Sample& s) { samples[static_cast<std::size_t>(slot)] = std::move(s); });
+    stream.generate(start, count, [&](int, std::int64_t slot, Sample& s) { samples[static_cast<std::size_t>(slot)] = std::move(s); });
     return samples;
 }
 
@@ -59,20 +59,46 @@ TEST(SampleStream, MakesTheGeneratorsSamplesWithAnyNumberOfWorkers) {
     const auto again = stream_samples(three, 4, 1);
     EXPECT_TRUE(identical_pixels(again[0].image, a[2].image));
     int calls = 0;
-    three.generate(7, 0, [&](std::int64_t, Sample&) { ++calls; });
+    three.generate(7, 0, [&](int, std::int64_t, Sample&) { ++calls; });
     EXPECT_EQ(calls, 0);
+}
+
+TEST(SampleStream, MakesAListOfSamplesInAnyOrderAndCountsItsTime) {
+    const SynthConfig config = small_stream_config();
+    SampleStream stream(config, 2, kStreamRenderer);
+    const std::vector<std::int64_t> indices{9, 2, 5};
+    std::vector<Sample> samples(indices.size());
+    std::mutex mutex;
+    std::vector<int> workers_seen;
+    stream.generate(indices, [&](int worker, std::int64_t slot, Sample& s) {
+        samples[static_cast<std::size_t>(slot)] = std::move(s);
+        const std::lock_guard lock(mutex);
+        workers_seen.push_back(worker);
+    });
+    const auto in_order = stream_samples(stream, 2, 8);
+    for (std::size_t i = 0; i < indices.size(); ++i) {
+        EXPECT_EQ(samples[i].spec.index, indices[i]);
+        EXPECT_TRUE(identical_pixels(samples[i].image, in_order[static_cast<std::size_t>(indices[i] - 2)].image));
+    }
+    for (const int worker : workers_seen) EXPECT_TRUE(worker == 0 || worker == 1) << worker;
+    EXPECT_GT(stream.times().render.wall, 0);
+    EXPECT_NE(testkit::error_message_of([&] {
+                  const std::vector<std::int64_t> negative{3, -2};
+                  stream.generate(negative, [](int, std::int64_t, Sample&) {});
+              }).find("must not be negative"),
+              std::string::npos);
 }
 
 TEST(SampleStream, AFailureNamesTheSampleAndTheStreamKeepsWorking) {
     SampleStream stream(small_stream_config(), 2, kStreamRenderer);
     const std::string message = testkit::error_message_of([&] {
-        stream.generate(10, 4, [](std::int64_t slot, Sample&) {
+        stream.generate(10, 4, [](int, std::int64_t slot, Sample&) {
             if (slot == 2) throw core::Error("no room for it");
         });
     });
     EXPECT_NE(message.find("sample s00000012: no room for it"), std::string::npos) << message;
     EXPECT_EQ(stream_samples(stream, 10, 3).size(), 3U);
-    EXPECT_NE(testkit::error_message_of([&] { stream.generate(-1, 2, [](std::int64_t, Sample&) {}); }).find("must not be negative"),
+    EXPECT_NE(testkit::error_message_of([&] { stream.generate(-1, 2, [](int, std::int64_t, Sample&) {}); }).find("must not be negative"),
               std::string::npos);
 }
 
