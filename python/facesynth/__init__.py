@@ -11,7 +11,7 @@ import os
 
 from . import _facesynth
 
-__all__ = ["Generator", "worker_shard", "Model", "Renderer", "fit", "Detector", "Frontaliser", "nme", "nme_summary"]
+__all__ = ["Generator", "worker_shard", "Model", "Renderer", "fit", "Detector", "Frontaliser", "frontalise", "nme", "nme_summary"]
 
 
 
@@ -195,6 +195,12 @@ class Frontaliser(_facesynth.Frontaliser):
 
     def __init__(self, model="builtin", size=256, mirror_fill=False):
         super().__init__(_model(model), int(size), bool(mirror_fill))
+
+
+def frontalise(image, landmarks, model="builtin", size=256, mirror_fill=False):
+    """One face frontalised: Frontaliser(model, size, mirror_fill).frontalise(image, landmarks). For
+    many faces keep a Frontaliser, which holds the model's precomputed maps and a renderer."""
+    return Frontaliser(model, size, mirror_fill).frontalise(image, landmarks)
 
 
 def nme(predicted, truth):

@@ -98,6 +98,8 @@ def test_frontaliser_renders_the_face_frontal(model, faces):
     assert abs(result["fit"]["yaw_deg"] - faces["pose"][1][0]) < 6
     with pytest.raises(ValueError, match="landmarks"):
         frontaliser.frontalise(faces["image"][1], np.zeros((68, 2)))
+    once = facesynth.frontalise(faces["image"][1], faces["landmarks"][1], model=model, size=128)
+    assert np.array_equal(once["frontal"], result["frontal"]) and np.array_equal(once["isomap"], result["isomap"])
 
 
 def test_accuracy_helpers_give_the_cli_figures(tmp_path):
