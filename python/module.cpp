@@ -279,6 +279,9 @@ std::vector<float> coefficients_from(const std::optional<py::array_t<float, py::
     return {values->data(), values->data() + values->shape(0)};
 }
 
+// A JSON record (fit.json's keys) as the Python values json.loads makes of it.
+py::dict dict_from_json(const nlohmann::json& record) { return py::module_::import("json").attr("loads")(record.dump()); }
+
 // ---- models ----
 
 class Model {
@@ -286,6 +289,12 @@ public:
     explicit Model(const std::string& spec) : model_(std::make_shared<const morph::MorphableModel>(morph::load_model(spec))) {}
     [[nodiscard]] const morph::MorphableModel& get() const { return *model_; }
     [[nodiscard]] std::shared_ptr<const morph::MorphableModel> shared() const { return model_; }
+    // Built on the first fit and kept: its precomputed bases are most of a single fit's time.
+    // Fitter::fit is const and may run on several threads at once.
+    [[nodiscard]] const fit::Fitter& fitter() const {
+        std::call_once(fitter_once_, [this] { fitter_ = std::make_unique<const fit::Fitter>(*model_); });
+        return *fitter_;
+    }
 
     [[nodiscard]] py::array_t<float> vertices(const std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>>& alpha,
                                               const std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>>& expression) const {
@@ -313,6 +322,8 @@ public:
 
 private:
     std::shared_ptr<const morph::MorphableModel> model_;
+    mutable std::once_flag fitter_once_;
+    mutable std::unique_ptr<const fit::Fitter> fitter_;
 };
 
 py::array_t<double> matrix_array(const Eigen::Matrix<double, 3, 4, Eigen::RowMajor>& m) {
@@ -420,16 +431,15 @@ py::dict fit_landmarks(const py::array& landmarks, const Model& model, const std
     fit::LandmarkFit fitted;
     {
         const py::gil_scoped_release released;
-        const fit::Fitter fitter(model.get());
         try {
-            fitted = fit::fit_face(fitter, points, fit::landmark_fit_options(choices));
+            fitted = fit::fit_face(model.fitter(), points, fit::landmark_fit_options(choices));
         } catch (const core::Error& e) {
             throw py::value_error(std::string("landmarks: ") + e.what());
         }
     }
     nlohmann::json record;
     fit::write_json(record, fitted);
-    py::dict out = py::module_::import("json").attr("loads")(record.dump());
+    py::dict out = dict_from_json(record);
     out["alpha"] = array_from(fitted.alpha());
     out["expression"] = array_from(fitted.psi());
     out["projected"] = points_array(fitted.projected());
@@ -530,7 +540,7 @@ public:
         out["frontal"] = array_from(r.frontal.image);
         out["mask"] = array_from(r.frontal.mask);
         out["isomap"] = array_from(r.isomap);
-        out["fit"] = py::module_::import("json").attr("loads")(record.dump());
+        out["fit"] = dict_from_json(record);
         return out;
     }
 
