@@ -249,4 +249,122 @@ void YawBinnedSummary::write(nlohmann::json& j) const {
     for (std::size_t b = 0; b < bins.size(); ++b) bins[b].write(j, prefix(b));
 }
 
+namespace {
+
+EvalOptions eval_options(const FitSetEvalSettings& s, JawMode jaw) {
+    EvalOptions o;
+    const auto subset = morph::landmark_subset(morph::parse_landmark_subset(s.landmark_set));
+    o.fit.subset.assign(subset.begin(), subset.end());
+    o.fit.jaw = jaw;
+    o.fit.lambda = o.fit.expression_lambda = s.lambda;
+    o.refine = s.refine;
+    o.refine_options.landmark_sigma_px = s.sigma_px;
+    return o;
+}
+
+void write_settings(nlohmann::json& j, const FitSetEvalSettings& s, const morph::MorphableModel& model, const std::string& mode) {
+    j["model"] = model.name;
+    j["model_checksum"] = model.checksum();
+    j["noise_px"] = s.noise_px;
+    j["landmarks"] = s.landmark_set;
+    j["refine"] = s.refine;
+    j["lambda"] = s.lambda;
+    j["sigma_px"] = s.sigma_px;
+    j["seed"] = s.seed;
+    j["data"] = s.data;
+    j["mode"] = mode;
+}
+
+}  // namespace
+
+void check_fit_set_settings(const FitSetEvalSettings& s) {
+    const auto positive = [](double v) { return std::isfinite(v) && v > 0; };
+    if (s.mode != "fixed" && s.mode != "contour") throw core::Error("eval fit: mode must be 'fixed' or 'contour', got '" + s.mode + "'");
+    if (s.data.empty() && s.count <= 0) throw core::Error("eval fit: count must be positive, got " + std::to_string(s.count));
+    if (!std::isfinite(s.noise_px) || s.noise_px < 0) throw core::Error("eval fit: noise must be a non-negative number of pixels");
+    if (!std::isfinite(s.lambda) || s.lambda < 0) throw core::Error("eval fit: lambda must be a non-negative number");
+    if (!positive(s.sigma_px)) throw core::Error("eval fit: sigma must be a positive number of pixels");
+    if (s.max_yaw_deg && !(*s.max_yaw_deg >= 1 && *s.max_yaw_deg <= 90)) throw core::Error("eval fit: max_yaw must be in [1, 90] degrees");
+}
+
+namespace {
+
+// Cases generated in code: landmarks projected from random faces and poses with fixed jaw
+// correspondences, plus noise (docs/fit.md).
+FitSetEvaluation evaluate_generated(const Fitter& fitter, const FitSetEvalSettings& s, const std::function<void()>& on_case) {
+    const morph::MorphableModel& model = fitter.model();
+    EvalOptions o = eval_options(s, JawMode::kFixed);
+    SyntheticOptions synthetic;
+    synthetic.noise_px = s.noise_px;
+    synthetic.max_yaw_deg = s.max_yaw_deg.value_or(60.0);
+    FitSetEvaluation e{YawBinnedSummary(synthetic.max_yaw_deg), static_cast<std::size_t>(s.count), {}, {}};
+    for (int i = 0; i < s.count; ++i) {
+        const SyntheticCase c = make_synthetic_case(model, static_cast<std::uint64_t>(s.seed), static_cast<std::uint64_t>(i), synthetic);
+        o.refine_options.intrinsics = c.intrinsics;
+        e.summary.add(evaluate_fit(fitter, c.landmarks, c.truth, o));
+        if (on_case) on_case();
+    }
+    write_settings(e.json, s, model, "fixed");
+    e.json["visible_only"] = false;
+    return e;
+}
+
+FitSetEvaluation evaluate_dataset(const Fitter& fitter, const std::string& model_label, const FitSetEvalSettings& s,
+                                  const std::function<void()>& on_case) {
+    const morph::MorphableModel& model = fitter.model();
+    const std::string checksum = model.checksum();
+    const fs::path dir(s.data);
+    const std::vector<DatasetEntry> entries = read_dataset_manifest(dir);
+    if (entries.empty()) throw core::file_error((dir / "manifest.jsonl").string(), "lists no samples");
+    auto mismatch = [&](const std::string& theirs) {
+        return core::Error("dataset " + dir.string() + " was made with model checksum " + theirs + ", but --model " + model_label + " (" +
+                           model.name + ") has checksum " + checksum + ": evaluate with the dataset's model");
+    };
+    if (const std::string theirs = dataset_model_checksum(dir); !theirs.empty() && theirs != checksum) throw mismatch(theirs);
+
+    DatasetEvalOptions o;
+    o.eval = eval_options(s, s.mode == "fixed" ? JawMode::kFixed : JawMode::kContour);
+    o.noise_px = s.noise_px;
+    o.noise_seed = static_cast<std::uint64_t>(s.seed);
+    o.visible_only = s.visible_only;
+    FitSetEvaluation e{YawBinnedSummary(s.max_yaw_deg.value_or(90.0)), entries.size(), {}, {}};
+    for (const auto& entry : entries) {
+        DatasetSample sample;
+        try {
+            sample = read_sample_meta(entry.meta);
+        } catch (const core::Error& error) {
+            e.errors.push_back("sample " + entry.key + ": " + error.what());
+            if (on_case) on_case();
+            continue;
+        }
+        if (sample.model_checksum != checksum) throw mismatch(sample.model_checksum + " (" + entry.meta.string() + ")");
+        try {
+            e.summary.add(evaluate_dataset_sample(fitter, sample, o));
+        } catch (const core::Error& error) {
+            e.errors.push_back("sample " + entry.key + " (" + entry.meta.string() + "): fit failed: " + error.what());
+        }
+        if (on_case) on_case();
+    }
+    write_settings(e.json, s, model, s.mode);
+    e.json["visible_only"] = s.visible_only;
+    return e;
+}
+
+}  // namespace
+
+FitSetEvaluation evaluate_fit_set(const Fitter& fitter, const std::string& model_label, const FitSetEvalSettings& settings,
+                                  const std::function<void()>& on_case) {
+    check_fit_set_settings(settings);
+    FitSetEvaluation e = settings.data.empty() ? evaluate_generated(fitter, settings, on_case) : evaluate_dataset(fitter, model_label, settings, on_case);
+    e.json["failed"] = e.errors.size();
+    e.summary.write(e.json);
+    return e;
+}
+
+std::string fit_set_failure(const FitSetEvalSettings& settings, const FitSetEvaluation& evaluation) {
+    if (evaluation.errors.empty()) return {};
+    return "eval fit: " + std::to_string(evaluation.errors.size()) + " of " + std::to_string(evaluation.samples) + " samples of " + settings.data +
+           " failed; the metrics cover the other " + std::to_string(evaluation.summary.all.count);
+}
+
 }  // namespace facesynth::fit

@@ -11,6 +11,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -90,5 +92,36 @@ struct YawBinnedSummary {
     MetricsSummary all;
     std::vector<MetricsSummary> bins;
 };
+
+// `facesynth eval fit` as a function (the CLI and the Python package call it): the settings, and a
+// summary whose `json` holds the flat keys of `--json`.
+struct FitSetEvalSettings {
+    std::string data;              // a `facesynth synth` dataset folder; empty: `count` cases generated in code
+    std::string mode = "contour";  // with data: "contour" or "fixed" labels (generated cases are always fixed)
+    int count = 300;
+    std::int64_t seed = 424242;    // the generated set, and the noise draws with data
+    double noise_px = 0;
+    std::string landmark_set = "68";
+    bool refine = false;
+    bool visible_only = false;
+    double lambda = FitOptions{}.lambda;
+    double sigma_px = RefineOptions{}.landmark_sigma_px;
+    std::optional<double> max_yaw_deg;  // generated: the ±range (60 when unset); with data: the bins' range (90)
+};
+struct FitSetEvaluation {
+    YawBinnedSummary summary{60};
+    std::size_t samples = 0;          // cases generated, or samples the manifest lists
+    std::vector<std::string> errors;  // one line per skipped sample: unreadable meta or failed fit
+    nlohmann::json json;
+};
+// Throws core::Error naming the first setting out of range.
+void check_fit_set_settings(const FitSetEvalSettings& settings);
+// Throws core::Error for a setting out of range, a missing or empty manifest, and a dataset made with
+// another model (`model_label` names the model in that message); a sample that cannot be read or
+// fitted is skipped and listed in `errors`. `on_case` runs after every case.
+[[nodiscard]] FitSetEvaluation evaluate_fit_set(const Fitter& fitter, const std::string& model_label,
+                                                const FitSetEvalSettings& settings, const std::function<void()>& on_case = {});
+// The error `facesynth eval fit` ends with when samples were skipped (empty when none were).
+[[nodiscard]] std::string fit_set_failure(const FitSetEvalSettings& settings, const FitSetEvaluation& evaluation);
 
 }  // namespace facesynth::fit

@@ -2,7 +2,9 @@
 // generator that renders synthetic samples on C++ threads, with the GIL released, straight into
 // numpy arrays.
 #include "core/error.h"
+#include "fit/dataset_eval.h"
 #include "fit/fit_record.h"
+#include "frontal/benchmark.h"
 #include "frontal/frontalise.h"
 #include "morph/camera.h"
 #include "morph/jaw_contour.h"
@@ -17,6 +19,7 @@
 #include "synth/stream.h"
 #include "train/face_box.h"
 #include "train/metrics.h"
+#include "train/realism.h"
 #include "train/regressor.h"
 #include "train/sdm.h"
 
@@ -469,6 +472,98 @@ py::dict nme_summary(const py::array_t<double, py::array::c_style | py::array::f
     return out;
 }
 
+// `facesynth eval fit`: the same figures under the same keys as its --json.
+py::dict eval_fit(const Model& model, const std::string& data, const std::string& mode, int count, std::int64_t seed, double noise,
+                  const std::string& landmarks, bool refine, bool visible_only, double lambda, double sigma, std::optional<double> max_yaw) {
+    fit::FitSetEvalSettings s;
+    s.data = data;
+    s.mode = mode;
+    s.count = count;
+    s.seed = seed;
+    s.noise_px = noise;
+    s.landmark_set = landmarks;
+    s.refine = refine;
+    s.visible_only = visible_only;
+    s.lambda = lambda;
+    s.sigma_px = sigma;
+    s.max_yaw_deg = max_yaw;
+    try {
+        fit::check_fit_set_settings(s);
+        (void)morph::parse_landmark_subset(landmarks);
+    } catch (const core::Error& e) {
+        throw py::value_error(e.what());
+    }
+    fit::FitSetEvaluation evaluation;
+    {
+        const py::gil_scoped_release released;
+        evaluation = fit::evaluate_fit_set(model.fitter(), model.get().name, s);
+    }
+    if (const std::string failure = fit::fit_set_failure(s, evaluation); !failure.empty()) {
+        std::string message = failure;
+        for (const std::string& error : evaluation.errors) message += "\n" + error;
+        throw core::Error(message);
+    }
+    return dict_from_json(evaluation.json);
+}
+
+// `facesynth eval realism`: the same figures under the same keys as its --json; unreadable images
+// are Python warnings (the CLI's warning lines) and count as misses.
+py::dict eval_realism(const std::string& data, const std::string& photos, const std::string& regressor_spec, const std::string& detector_option,
+                      double max_yaw) {
+    if (!(max_yaw >= 0 && max_yaw <= 90)) throw py::value_error("max_yaw must be in [0, 90] degrees, got " + std::to_string(max_yaw));
+    const auto regressor = train::open_regressor(regressor_spec);
+    const train::LandmarkRegressor* const regressors[] = {regressor.get()};
+    train::DetectorKind detector{};
+    try {
+        detector = train::choose_detector(detector_option, regressors);
+    } catch (const core::Error& e) {
+        throw py::value_error(e.what());
+    }
+    train::RealismReport report;
+    {
+        const py::gil_scoped_release released;
+        std::optional<fit::Fitter> fitter;
+        std::shared_ptr<const morph::MorphableModel> builtin;
+        if (!photos.empty()) {
+            builtin = std::make_shared<const morph::MorphableModel>(morph::load_model("builtin"));
+            fitter.emplace(*builtin);
+        }
+        const train::AnnotationYaw photo_yaw = [&](const Eigen::Matrix2Xd& annotation) { return fit::annotated_yaw(*fitter, annotation); };
+        report = train::evaluate_realism({data, photos, max_yaw}, *regressor, detector, photo_yaw);
+    }
+    const py::object warn = py::module_::import("warnings").attr("warn");
+    for (const train::RealismSide* side : {&report.renders, &report.photos})
+        for (const auto& w : side->warnings) warn(w);
+    return dict_from_json(report.json);
+}
+
+// `facesynth eval frontalise` from true landmarks (the CLI's --regressor is not bound): the same
+// figures under the same keys as its --json.
+py::dict eval_frontalise(const Model& model, int count, std::int64_t seed, int isomap_size, int size, int image_size, double fov, double framing,
+                         const std::string& lighting) {
+    if (count < 1) throw py::value_error("count must be positive, got " + std::to_string(count));
+    if (isomap_size < 16 || size < 16 || image_size < 64) throw py::value_error("isomap_size and size must be at least 16, image_size at least 64 pixels");
+    if (!(fov >= 1 && fov <= 90)) throw py::value_error("fov must be in [1, 90] degrees");
+    if (!(framing > 0)) throw py::value_error("framing must be positive");
+    if (lighting != "unlit" && lighting != "sky") throw py::value_error("lighting must be 'unlit' or 'sky', got '" + lighting + "'");
+    frontal::BenchmarkOptions options;
+    options.count = count;
+    options.seed = static_cast<std::uint64_t>(seed);
+    options.isomap_size = isomap_size;
+    options.size = size;
+    options.view.size = image_size;
+    options.view.fov_deg = fov;
+    options.view.framing = framing;
+    if (lighting == "sky") options.view.lighting = render::Lighting{};
+    nlohmann::json j;
+    {
+        const py::gil_scoped_release released;
+        j = frontal::to_json(frontal::run_benchmark(model.get(), options), options, model.get());
+    }
+    j["lighting"] = lighting;
+    return dict_from_json(j);
+}
+
 // ---- detection and frontalisation ----
 
 class Detector {
@@ -619,6 +714,12 @@ PYBIND11_MODULE(_facesynth, m) {
             py::arg("fov"), py::arg("distance"), py::arg("orthographic"));
     m.def("nme", &facesynth::python::landmark_nme, py::arg("predicted"), py::arg("truth"));
     m.def("nme_summary", &facesynth::python::nme_summary, py::arg("nmes"), py::arg("threshold") = 0.08);
+    m.def("eval_fit", &facesynth::python::eval_fit, py::arg("model"), py::arg("data"), py::arg("mode"), py::arg("count"), py::arg("seed"),
+          py::arg("noise"), py::arg("landmarks"), py::arg("refine"), py::arg("visible_only"), py::arg("lambda_"), py::arg("sigma"), py::arg("max_yaw"));
+    m.def("eval_frontalise", &facesynth::python::eval_frontalise, py::arg("model"), py::arg("count"), py::arg("seed"), py::arg("isomap_size"),
+          py::arg("size"), py::arg("image_size"), py::arg("fov"), py::arg("framing"), py::arg("lighting"));
+    m.def("eval_realism", &facesynth::python::eval_realism, py::arg("data"), py::arg("photos"), py::arg("regressor"), py::arg("detector"),
+          py::arg("max_yaw"));
     py::class_<Detector>(m, "Detector")
         .def(py::init<const std::string&, const std::string&>(), py::arg("regressor"), py::arg("detector"))
         .def("detect", &Detector::detect, py::arg("image"))

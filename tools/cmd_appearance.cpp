@@ -225,96 +225,43 @@ struct RealismArgs {
     bool quiet = false;
 };
 
-// Near-frontal images: renders by their true yaw (meta), photographs by the yaw of the built-in model
-// fitted to their annotation.
-std::vector<train::LabelledImage> near_frontal(const std::vector<train::LabelledImage>& images, double max_yaw, bool renders,
-                                               const fit::Fitter* fitter) {
-    std::vector<train::LabelledImage> out;
-    for (const auto& image : images) {
-        std::optional<double> yaw;
-        if (renders) {
-            yaw = train::read_meta_yaw(image);
-        } else {
-            try {
-                yaw = fit::annotated_yaw(*fitter, morph::read_pts(image.pts));
-            } catch (const core::Error&) {
-                yaw.reset();  // unreadable: measure_realism reports it when kept
-            }
-        }
-        if (yaw && std::abs(*yaw) <= max_yaw) out.push_back(image);
-    }
-    return out;
-}
-
-void add_side(nlohmann::json& j, const std::string& prefix, const train::RealismSide& side) {
-    j[prefix + "_faces"] = side.faces;
-    j[prefix + "_detected"] = side.detected;
-    j[prefix + "_nme_mean"] = side.nme.mean;
-    j[prefix + "_nme_median"] = side.nme.median;
-    j[prefix + "_failure_rate_008"] = side.nme.failure_rate_008;
-    j[prefix + "_auc_008"] = side.nme.auc_008;
-    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
-        char key[48];
-        std::snprintf(key, sizeof key, "%s_bias_x_%02d", prefix.c_str(), i + 1);
-        j[key] = side.bias(0, i);
-        std::snprintf(key, sizeof key, "%s_bias_y_%02d", prefix.c_str(), i + 1);
-        j[key] = side.bias(1, i);
-    }
-}
-
 void run_realism(const RealismArgs& a) {
-    const auto renders_all = train::list_labelled_images({fs::path(a.data)});
-    const auto renders = near_frontal(renders_all, a.max_yaw, true, nullptr);
-    if (renders.empty())
-        throw core::file_error(a.data, "no render with |yaw| <= " + std::to_string(a.max_yaw) + "° (needs a facesynth synth dataset with meta/)");
-    std::vector<train::LabelledImage> photos;
-    std::optional<morph::MorphableModel> model;
-    if (!a.photos.empty()) {
-        model = morph::load_model("builtin");
-        const fit::Fitter fitter(*model);
-        photos = near_frontal(train::list_labelled_images({fs::path(a.photos)}), a.max_yaw, false, &fitter);
-        if (photos.empty()) throw core::file_error(a.photos, "no photograph with |yaw| <= " + std::to_string(a.max_yaw) + "° by its fitted annotation");
-    }
     const auto regressor = train::open_regressor(a.regressor);
     const train::LandmarkRegressor* const regressors[] = {regressor.get()};
     const train::DetectorKind detector = train::choose_detector(a.detector, regressors);
-    Progress progress("realism", renders.size() + photos.size(), a.quiet);
-    const auto tick = [&] { progress.advance(); };
-    const train::RealismSide render_side = train::measure_realism(renders, *regressor, detector, tick);
-    train::RealismSide photo_side;
-    if (!photos.empty()) photo_side = train::measure_realism(photos, *regressor, detector, tick);
-    progress.finish();
-    for (const train::RealismSide* side : std::initializer_list<const train::RealismSide*>{&render_side, &photo_side})
+    std::optional<morph::MorphableModel> model;  // outlives the fitter, which keeps a reference
+    std::optional<fit::Fitter> fitter;
+    if (!a.photos.empty()) fitter.emplace(model.emplace(morph::load_model("builtin")));
+    const train::AnnotationYaw photo_yaw = [&](const Eigen::Matrix2Xd& annotation) { return fit::annotated_yaw(*fitter, annotation); };
+    std::optional<Progress> progress;
+    const train::RealismReport report = train::evaluate_realism(
+        {a.data, a.photos, a.max_yaw}, *regressor, detector, photo_yaw, [&](std::size_t total) { progress.emplace("realism", total, a.quiet); },
+        [&] { progress->advance(); });
+    progress->finish();
+    for (const train::RealismSide* side : {&report.renders, &report.photos})
         for (const auto& w : side->warnings) std::fprintf(stderr, "facesynth: warning: %s\n", w.c_str());
-    const double ratio = photos.empty() || !(photo_side.nme.mean > 0) ? 0 : render_side.nme.mean / photo_side.nme.mean;
+    const bool with_photos = !a.photos.empty();
     if (!a.quiet) {
         std::printf("%s on near-frontal faces (|yaw| <= %.0f°), detector %s\n", regressor->label().c_str(), a.max_yaw, train::detector_name(detector));
-        std::printf("  renders      %4d faces, %4d found: NME mean %.4f, median %.4f, failure@0.08 %.3f\n", render_side.faces, render_side.detected,
-                    render_side.nme.mean, render_side.nme.median, render_side.nme.failure_rate_008);
-        if (!photos.empty()) {
-            std::printf("  photographs  %4d faces, %4d found: NME mean %.4f, median %.4f, failure@0.08 %.3f\n", photo_side.faces, photo_side.detected,
-                        photo_side.nme.mean, photo_side.nme.median, photo_side.nme.failure_rate_008);
-            std::printf("  NME ratio renders / photographs: %.2f\n", ratio);
+        const auto side_line = [](const char* name, const train::RealismSide& side) {
+            std::printf("  %-12s %4d faces, %4d found: NME mean %.4f, median %.4f, failure@0.08 %.3f\n", name, side.faces, side.detected,
+                        side.nme.mean, side.nme.median, side.nme.failure_rate_008);
+        };
+        side_line("renders", report.renders);
+        if (with_photos) {
+            side_line("photographs", report.photos);
+            std::printf("  NME ratio renders / photographs: %.2f\n", report.nme_ratio);
         }
         // The landmarks the predictor places most differently on renders than on photographs.
-        const Eigen::Matrix2Xd gap = photos.empty() ? render_side.bias : Eigen::Matrix2Xd(render_side.bias - photo_side.bias);
-        std::vector<int> order(morph::kNumIbugLandmarks);
-        for (int i = 0; i < morph::kNumIbugLandmarks; ++i) order[static_cast<std::size_t>(i)] = i;
-        std::sort(order.begin(), order.end(), [&](int x, int y) { return gap.col(x).norm() > gap.col(y).norm(); });
-        std::printf("  largest bias gaps (renders%s, face frame, IOD):", photos.empty() ? "" : " - photographs");
-        for (int k = 0; k < 6; ++k) std::printf(" %d (%+.3f, %+.3f)", order[static_cast<std::size_t>(k)] + 1, gap(0, order[static_cast<std::size_t>(k)]), gap(1, order[static_cast<std::size_t>(k)]));
+        const Eigen::Matrix2Xd gap = with_photos ? Eigen::Matrix2Xd(report.renders.bias - report.photos.bias) : report.renders.bias;
+        std::printf("  largest bias gaps (renders%s, face frame, IOD):", with_photos ? " - photographs" : "");
+        for (int k = 0; k < 6; ++k) {
+            const int i = report.largest_gaps[static_cast<std::size_t>(k)];
+            std::printf(" %d (%+.3f, %+.3f)", i + 1, gap(0, i), gap(1, i));
+        }
         std::printf("\n");
     }
-    if (!a.json.empty()) {
-        nlohmann::json j;
-        j["regressor"] = regressor->label();
-        j["detector"] = train::detector_name(detector);
-        j["max_yaw_deg"] = a.max_yaw;
-        j["nme_ratio"] = ratio;
-        add_side(j, "renders", render_side);
-        if (!photos.empty()) add_side(j, "photos", photo_side);
-        write_json_file(a.json, j);
-    }
+    if (!a.json.empty()) write_json_file(a.json, report.json);
 }
 
 }  // namespace

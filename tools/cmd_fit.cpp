@@ -185,119 +185,32 @@ void print_summary(const fit::YawBinnedSummary& summary, bool skip_empty) {
     print_summary_row("all", summary.all);
 }
 
-fit::EvalOptions eval_options(const FitEvalArgs& a, fit::JawMode jaw) {
-    fit::EvalOptions o;
-    const auto subset = morph::landmark_subset(morph::parse_landmark_subset(a.landmark_set));
-    o.fit.subset.assign(subset.begin(), subset.end());
-    o.fit.jaw = jaw;
-    o.fit.lambda = o.fit.expression_lambda = a.lambda;
-    o.refine = a.refine;
-    o.refine_options.landmark_sigma_px = a.sigma;
-    return o;
-}
-
-void write_eval_header(nlohmann::json& j, const FitEvalArgs& a, const morph::MorphableModel& model) {
-    j["model"] = model.name;
-    j["model_checksum"] = model.checksum();
-    j["noise_px"] = a.noise;
-    j["landmarks"] = a.landmark_set;
-    j["refine"] = a.refine;
-    j["lambda"] = a.lambda;
-    j["sigma_px"] = a.sigma;
-    j["seed"] = a.seed;
-}
-
-// Ground-truth evaluation on a synthetic test set generated in code (landmarks projected from random
-// faces and poses with fixed jaw correspondences, plus noise); see docs/fit.md.
-void run_eval_generated(const FitEvalArgs& a) {
-    const morph::MorphableModel model = morph::load_model(a.model);
-    const fit::Fitter fitter(model);
-    fit::EvalOptions o = eval_options(a, fit::JawMode::kFixed);
-    fit::SyntheticOptions s;
-    s.noise_px = a.noise;
-    s.max_yaw_deg = a.max_yaw;
-    fit::YawBinnedSummary summary(a.max_yaw);
-    Progress progress("eval fit", static_cast<std::size_t>(a.count), a.quiet);
-    for (int i = 0; i < a.count; ++i) {
-        const fit::SyntheticCase c = fit::make_synthetic_case(model, static_cast<std::uint64_t>(a.seed), static_cast<std::uint64_t>(i), s);
-        o.refine_options.intrinsics = c.intrinsics;
-        summary.add(fit::evaluate_fit(fitter, c.landmarks, c.truth, o));
-        progress.advance();
-    }
-    progress.finish();
-    nlohmann::json j;
-    write_eval_header(j, a, model);
-    j["data"] = "";
-    j["mode"] = "fixed";
-    j["visible_only"] = false;
-    j["failed"] = 0;
-    summary.write(j);
-    if (!a.quiet) print_summary(summary, false);
-    if (!a.json.empty()) write_json_file(a.json, j);
-}
-
-// Ground-truth evaluation on a rendered `facesynth synth` dataset: every sample of DIR/manifest.jsonl,
-// fitted from its true 2D landmarks (docs/fit.md, "eval fit on a dataset"). A sample whose meta file is
-// missing or corrupt, or whose fit fails, is reported on one line and skipped; the command then exits 1
-// saying how many failed. A dataset made with another model is refused at once.
-void run_eval_dataset(const FitEvalArgs& a) {
-    const morph::MorphableModel model = morph::load_model(a.model);
-    const std::string checksum = model.checksum();
-    const std::filesystem::path dir(a.data);
-    const std::vector<fit::DatasetEntry> entries = fit::read_dataset_manifest(dir);
-    if (entries.empty()) throw core::file_error((dir / "manifest.jsonl").string(), "lists no samples");
-    auto mismatch = [&](const std::string& theirs) {
-        return core::Error("dataset " + dir.string() + " was made with model checksum " + theirs + ", but --model " + a.model + " (" + model.name +
-                     ") has checksum " + checksum + ": evaluate with the dataset's model");
-    };
-    if (const std::string theirs = fit::dataset_model_checksum(dir); !theirs.empty() && theirs != checksum) throw mismatch(theirs);
-
-    const fit::Fitter fitter(model);
-    fit::DatasetEvalOptions o;
-    o.eval = eval_options(a, a.mode == "fixed" ? fit::JawMode::kFixed : fit::JawMode::kContour);
-    o.noise_px = a.noise;
-    o.noise_seed = static_cast<std::uint64_t>(a.seed);
-    o.visible_only = a.visible_only;
-    fit::YawBinnedSummary summary(a.max_yaw_given ? a.max_yaw : 90.0);
-    int failed = 0;
-    Progress progress("eval fit", entries.size(), a.quiet);
-    for (const auto& entry : entries) {
-        fit::DatasetSample sample;
-        try {
-            sample = fit::read_sample_meta(entry.meta);
-        } catch (const core::Error& e) {
-            std::fprintf(stderr, "facesynth: error: sample %s: %s\n", entry.key.c_str(), e.what());
-            ++failed;
-            progress.advance();
-            continue;
-        }
-        if (sample.model_checksum != checksum) throw mismatch(sample.model_checksum + " (" + entry.meta.string() + ")");
-        try {
-            summary.add(fit::evaluate_dataset_sample(fitter, sample, o));
-        } catch (const core::Error& e) {
-            std::fprintf(stderr, "facesynth: error: sample %s (%s): fit failed: %s\n", entry.key.c_str(), entry.meta.string().c_str(), e.what());
-            ++failed;
-        }
-        progress.advance();
-    }
-    progress.finish();
-    nlohmann::json j;
-    write_eval_header(j, a, model);
-    j["data"] = dir.string();
-    j["mode"] = a.mode;
-    j["visible_only"] = a.visible_only;
-    j["failed"] = failed;
-    summary.write(j);
-    if (!a.quiet) print_summary(summary, true);
-    if (!a.json.empty()) write_json_file(a.json, j);
-    if (failed > 0)
-        throw core::Error("eval fit: " + std::to_string(failed) + " of " + std::to_string(entries.size()) + " samples of " + dir.string() +
-                    " failed (see the lines above); the metrics cover the other " + std::to_string(summary.all.count));
-}
-
+// `eval fit`: generated cases, or a synth dataset (--data); the loop is fit::evaluate_fit_set. A
+// sample whose meta file is missing or corrupt, or whose fit fails, is reported on one line and
+// skipped; the command then exits 1 saying how many failed.
 void run_eval(const FitEvalArgs& a) {
-    if (a.data.empty()) run_eval_generated(a);
-    else run_eval_dataset(a);
+    fit::FitSetEvalSettings s;
+    s.data = a.data;
+    s.mode = a.mode;
+    s.count = a.count;
+    s.seed = a.seed;
+    s.noise_px = a.noise;
+    s.landmark_set = a.landmark_set;
+    s.refine = a.refine;
+    s.visible_only = a.visible_only;
+    s.lambda = a.lambda;
+    s.sigma_px = a.sigma;
+    if (a.data.empty() || a.max_yaw_given) s.max_yaw_deg = a.max_yaw;
+    const morph::MorphableModel model = morph::load_model(a.model);
+    const fit::Fitter fitter(model);
+    const std::size_t total = a.data.empty() ? static_cast<std::size_t>(a.count) : fit::read_dataset_manifest(a.data).size();
+    Progress progress("eval fit", total, a.quiet);
+    const fit::FitSetEvaluation evaluation = fit::evaluate_fit_set(fitter, a.model, s, [&] { progress.advance(); });
+    progress.finish();
+    for (const std::string& error : evaluation.errors) std::fprintf(stderr, "facesynth: error: %s\n", error.c_str());
+    if (!a.quiet) print_summary(evaluation.summary, !a.data.empty());
+    if (!a.json.empty()) write_json_file(a.json, evaluation.json);
+    if (const std::string failure = fit::fit_set_failure(s, evaluation); !failure.empty()) throw core::Error(failure);
 }
 
 namespace fs = std::filesystem;

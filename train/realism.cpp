@@ -4,7 +4,11 @@
 #include "morph/landmarks.h"
 #include "train/sdm.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <limits>
+#include <numeric>
 
 namespace facesynth::train {
 
@@ -35,4 +39,79 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
     return side;
 }
 
+namespace {
+
+// Near-frontal images: renders by their true yaw (meta), photographs by `photo_yaw` of their annotation.
+std::vector<LabelledImage> near_frontal(const std::vector<LabelledImage>& images, double max_yaw, const AnnotationYaw* photo_yaw) {
+    std::vector<LabelledImage> out;
+    for (const auto& image : images) {
+        std::optional<double> yaw;
+        if (!photo_yaw) {
+            yaw = read_meta_yaw(image);
+        } else {
+            try {
+                yaw = (*photo_yaw)(morph::read_pts(image.pts));
+            } catch (const core::Error&) {
+                yaw.reset();  // unreadable: measure_realism reports it when kept
+            }
+        }
+        if (yaw && std::abs(*yaw) <= max_yaw) out.push_back(image);
+    }
+    return out;
+}
+
+void add_side(nlohmann::json& j, const std::string& prefix, const RealismSide& side) {
+    j[prefix + "_faces"] = side.faces;
+    j[prefix + "_detected"] = side.detected;
+    j[prefix + "_nme_mean"] = side.nme.mean;
+    j[prefix + "_nme_median"] = side.nme.median;
+    j[prefix + "_failure_rate_008"] = side.nme.failure_rate_008;
+    j[prefix + "_auc_008"] = side.nme.auc_008;
+    for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
+        char key[48];
+        std::snprintf(key, sizeof key, "%s_bias_x_%02d", prefix.c_str(), i + 1);
+        j[key] = side.bias(0, i);
+        std::snprintf(key, sizeof key, "%s_bias_y_%02d", prefix.c_str(), i + 1);
+        j[key] = side.bias(1, i);
+    }
+}
+
+}  // namespace
+
+RealismReport evaluate_realism(const RealismSettings& settings, const LandmarkRegressor& regressor, DetectorKind detector,
+                               const AnnotationYaw& photo_yaw, const std::function<void(std::size_t total)>& on_start,
+                               const std::function<void()>& on_image) {
+    if (!(settings.max_yaw_deg >= 0 && settings.max_yaw_deg <= 90)) throw core::Error("eval realism: max_yaw must be in [0, 90] degrees");
+    const auto renders = near_frontal(list_labelled_images({settings.data}), settings.max_yaw_deg, nullptr);
+    if (renders.empty())
+        throw core::file_error(settings.data, "no render with |yaw| <= " + std::to_string(settings.max_yaw_deg) +
+                                                  "° (needs a facesynth synth dataset with meta/)");
+    std::vector<LabelledImage> photos;
+    if (!settings.photos.empty()) {
+        photos = near_frontal(list_labelled_images({settings.photos}), settings.max_yaw_deg, &photo_yaw);
+        if (photos.empty())
+            throw core::file_error(settings.photos, "no photograph with |yaw| <= " + std::to_string(settings.max_yaw_deg) + "° by its fitted annotation");
+    }
+    if (on_start) on_start(renders.size() + photos.size());
+    RealismReport report;
+    report.renders = measure_realism(renders, regressor, detector, on_image);
+    if (!photos.empty()) report.photos = measure_realism(photos, regressor, detector, on_image);
+    report.nme_ratio = photos.empty() || !(report.photos.nme.mean > 0) ? 0 : report.renders.nme.mean / report.photos.nme.mean;
+
+    const Eigen::Matrix2Xd gap = photos.empty() ? report.renders.bias : Eigen::Matrix2Xd(report.renders.bias - report.photos.bias);
+    report.largest_gaps.resize(morph::kNumIbugLandmarks);
+    std::iota(report.largest_gaps.begin(), report.largest_gaps.end(), 0);
+    std::stable_sort(report.largest_gaps.begin(), report.largest_gaps.end(), [&](int x, int y) { return gap.col(x).norm() > gap.col(y).norm(); });
+
+    nlohmann::json& j = report.json;
+    j["regressor"] = regressor.label();
+    j["detector"] = detector_name(detector);
+    j["max_yaw_deg"] = settings.max_yaw_deg;
+    j["nme_ratio"] = report.nme_ratio;
+    add_side(j, "renders", report.renders);
+    if (!photos.empty()) add_side(j, "photos", report.photos);
+    return report;
+}
+
 }  // namespace facesynth::train
+

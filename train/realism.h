@@ -9,8 +9,10 @@
 #include "train/regressor.h"
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,5 +32,25 @@ struct RealismSide {
 // Runs `regressor` on the faces `detector` finds in `images` (the detection matching each label).
 [[nodiscard]] RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor,
                                           DetectorKind detector, const std::function<void()>& on_image = {});
+
+// `facesynth eval realism` as a function (the CLI and the Python package call it).
+struct RealismSettings {
+    std::string data;     // a `facesynth synth` dataset (its meta/ gives each render's yaw)
+    std::string photos;   // optional: photographs with .pts
+    double max_yaw_deg = 20;  // near-frontal: |yaw| at most this
+};
+// A photograph's yaw from its 68-point annotation (the built-in model fitted to it: fit::annotated_yaw,
+// passed in because train does not depend on fit); nullopt when it cannot be estimated.
+using AnnotationYaw = std::function<std::optional<double>(const Eigen::Matrix2Xd& annotation)>;
+struct RealismReport {
+    RealismSide renders, photos;  // photos empty without settings.photos
+    double nme_ratio = 0;         // renders' NME mean / photographs' (0 without photographs)
+    std::vector<int> largest_gaps;  // landmarks (0-based) by decreasing |render bias - photo bias|
+    nlohmann::json json;          // the flat keys of `eval realism --json`
+};
+// Throws core::Error naming the folder when it has no near-frontal render or photograph.
+[[nodiscard]] RealismReport evaluate_realism(const RealismSettings& settings, const LandmarkRegressor& regressor, DetectorKind detector,
+                                             const AnnotationYaw& photo_yaw, const std::function<void(std::size_t total)>& on_start = {},
+                                             const std::function<void()>& on_image = {});
 
 }  // namespace facesynth::train

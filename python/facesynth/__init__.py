@@ -11,7 +11,7 @@ import os
 
 from . import _facesynth
 
-__all__ = ["Generator", "worker_shard", "Model", "Renderer", "fit", "Detector", "Frontaliser", "frontalise", "nme", "nme_summary"]
+__all__ = ["Generator", "worker_shard", "Model", "Renderer", "fit", "Detector", "Frontaliser", "frontalise", "nme", "nme_summary", "eval_fit", "eval_frontalise", "eval_realism"]
 
 
 
@@ -215,6 +215,38 @@ def nme_summary(nmes, threshold=0.08):
     detector missed): count, nme_mean (misses left out), nme_median (misses as inf), auc_008 and
     failure_rate_008 (misses as failures); the threshold replaces 0.08 in the last two."""
     return _facesynth.nme_summary(nmes, float(threshold))
+
+
+def eval_fit(model="builtin", data=None, mode="contour", count=300, seed=424242, noise=0.0, landmarks="68", refine=False,
+             visible_only=False, lambda_=30.0, sigma=1.0, max_yaw=None):
+    """`facesynth eval fit` with the same options: fit accuracy against ground truth on `count` cases
+    generated in code (data=None), or on a `facesynth synth` dataset folder fitted from its true
+    landmarks (mode "contour" or "fixed" labels). Returns the keys of its --json (vertex_rmse_mm,
+    yaw_mae_deg, ... overall and per yaw bin); the timing keys (ms_per_fit, cpu_ms_per_fit) vary run
+    to run. A bad option raises ValueError; a dataset sample that cannot be read or fitted raises
+    RuntimeError naming every such sample, as the CLI exits 1."""
+    return _facesynth.eval_fit(_model(model), "" if data is None else os.fspath(data), mode, int(count), int(seed), float(noise),
+                               str(landmarks), bool(refine), bool(visible_only), float(lambda_), float(sigma),
+                               None if max_yaw is None else float(max_yaw))
+
+
+def eval_frontalise(model="builtin", count=10, seed=20261122, isomap_size=512, size=256, image_size=384, fov=8.0, framing=1.5,
+                    lighting="unlit"):
+    """`facesynth eval frontalise` with the same options, from true landmarks: posed renders of known
+    textured faces (each identity once per 10° yaw bin) frontalised and compared with their true
+    frontal render. Returns the keys of its --json (psnr, ssim, isomap coverage ... overall and per
+    yaw bin, with and without mirror fill). The CLI's --regressor (detected landmarks) is CLI only."""
+    return _facesynth.eval_frontalise(_model(model), int(count), int(seed), int(isomap_size), int(size), int(image_size), float(fov),
+                                      float(framing), lighting)
+
+
+def eval_realism(data, photos=None, regressor="dlib", detector="dlib", max_yaw=20.0):
+    """`facesynth eval realism` with the same options: a real-trained predictor (regressor) on the
+    near-frontal renders of a synth dataset and, with photos, on near-frontal annotated photographs.
+    Returns the keys of its --json (nme_ratio, renders_nme_mean, photos_nme_mean, per-landmark
+    bias ...); unreadable images become warnings and count as misses."""
+    return _facesynth.eval_realism(os.fspath(data), "" if photos is None else os.fspath(photos), os.fspath(regressor), detector,
+                                   float(max_yaw))
 
 
 def _index(value, name):

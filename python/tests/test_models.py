@@ -160,3 +160,59 @@ def test_renderer_renders_an_instance_like_the_cli(model, tmp_path):
         facesynth.Renderer(model, antialiasing="fuzzy")
     with pytest.raises(ValueError, match="fov"):
         renderer.render(fov=0)
+
+
+def test_eval_helpers_give_the_cli_figures(model, tmp_path):
+    cli = os.environ["FACESYNTH_CLI"]
+    timing = ("ms_per_fit", "cpu_ms_per_fit", "cpu_ms_per_face")
+
+    def same_figures(ours, path):
+        theirs = json.load(open(path))
+        assert set(ours) == set(theirs)
+        for key, value in theirs.items():
+            if not key.endswith(timing):
+                assert ours[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+
+    # eval fit on cases generated in code, and on a rendered dataset.
+    generated = facesynth.eval_fit(model, count=12, seed=5, noise=1.0)
+    subprocess.run([cli, "eval", "fit", "--count", "12", "--seed", "5", "--noise", "1", "--json", str(tmp_path / "g.json"), "--quiet"], check=True)
+    same_figures(generated, tmp_path / "g.json")
+    assert generated["count"] == 12 and generated["vertex_rmse_mm"] < generated["vertex_rmse_mm_meanshape"]
+    data = tmp_path / "faces"
+    subprocess.run([cli, "synth", "--out", str(data), "--count", "5", "--seed", "11", "--size", "256", "--quiet",
+                    "--set", "pose.yaw.min=-10", "--set", "pose.yaw.max=10", "--set", "occluders.probability=0"], check=True)
+    on_data = facesynth.eval_fit(data=data, mode="fixed", refine=True)
+    subprocess.run([cli, "eval", "fit", "--data", str(data), "--mode", "fixed", "--refine", "--json", str(tmp_path / "d.json"), "--quiet"],
+                   check=True)
+    same_figures(on_data, tmp_path / "d.json")
+    assert on_data["count"] == 5 and on_data["failed"] == 0
+    # eval realism, the dataset standing in for the photographs too.
+    realism = facesynth.eval_realism(data, photos=data)
+    subprocess.run([cli, "eval", "realism", "--data", str(data), "--photos", str(data), "--json", str(tmp_path / "r.json"), "--quiet"], check=True)
+    same_figures(realism, tmp_path / "r.json")
+    assert realism["renders_faces"] == 5 and realism["nme_ratio"] == pytest.approx(1.0)
+
+    # eval frontalise from true landmarks.
+    frontalised = facesynth.eval_frontalise(model, count=1, isomap_size=128, size=96, image_size=160, lighting="sky")
+    subprocess.run([cli, "eval", "frontalise", "--count", "1", "--isomap-size", "128", "--size", "96", "--image-size", "160", "--lighting", "sky",
+                    "--json", str(tmp_path / "f.json"), "--quiet"], check=True)
+    same_figures(frontalised, tmp_path / "f.json")
+    assert frontalised["count"] == 1 and frontalised["lighting"] == "sky"
+
+    with pytest.raises(ValueError, match="lighting"):
+        facesynth.eval_frontalise(model, count=1, lighting="noon")
+    with pytest.raises(ValueError, match="mode"):
+        facesynth.eval_fit(model, data=data, mode="wobbly")
+    with pytest.raises(ValueError, match="max_yaw"):
+        facesynth.eval_fit(model, max_yaw=120)
+    with pytest.raises(ValueError, match="landmark"):
+        facesynth.eval_fit(model, count=2, landmarks="12")
+    with pytest.raises(RuntimeError, match="manifest.jsonl"):
+        facesynth.eval_fit(model, data=tmp_path / "missing")
+    (data / "meta" / "s00000002.json").write_text("{not json")
+    with pytest.raises(RuntimeError, match="1 of 5 samples.*\n.*s00000002"):
+        facesynth.eval_fit(model, data=data)
+    with pytest.raises(RuntimeError, match="no render"):
+        facesynth.eval_realism(data, max_yaw=0)
+    with pytest.raises(ValueError, match="max_yaw"):
+        facesynth.eval_realism(data, max_yaw=-1)
