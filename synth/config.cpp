@@ -248,6 +248,12 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"output.labels", &c.output.labels, "write labels/ (PNG, 8-bit region ids: 0 background, 1 skin, 2 brows, 3 eyes, 4 lips, 5 nose, 6 mouth interior, 7 hair, 8 ears, 9 neck, 10 clothing)"});
     f.push_back({"output.wds_shard_size", &c.output.wds_shard_size, "samples per WebDataset tar"});
     f.push_back({"output.wds_prefix", &c.output.wds_prefix, "WebDataset tar name prefix ({prefix}-000000.tar)"});
+    f.push_back({"sequence.frames", &c.sequence.frames, "frames per clip (0: still samples); sample i is frame i % frames of clip i / frames"});
+    f.push_back({"sequence.fps", &c.sequence.fps, "frame rate of the clips"});
+    f.push_back({"sequence.key_seconds", &c.sequence.key_seconds, "seconds between the keys of the pose, expression and drift trajectories"});
+    f.push_back({"sequence.hold_share", &c.sequence.hold_share, "share of key intervals in which head and face hold still"});
+    f.push_back({"sequence.max_turn_deg", &c.sequence.max_turn_deg, "largest yaw change between keys, degrees (pitch and roll: half)"});
+    f.push_back({"sequence.drift", &c.sequence.drift, "the face centre moves within +- this share of the image side"});
     return f;
 }
 
@@ -362,6 +368,12 @@ void validate(const SynthConfig& c) {
     require(d.colour_jitter >= 0 && d.colour_jitter < 1, "degrade.colour_jitter", "must be in [0, 1)");
     require(d.downscale_min > 0 && d.downscale_min <= 1, "degrade.downscale_min", "must be in (0, 1]");
     require(c.occluders.max_count >= 1, "occluders.max_count", "must be at least 1");
+    require(c.sequence.frames >= 0, "sequence.frames", "must not be negative");
+    require(std::isfinite(c.sequence.fps) && c.sequence.fps > 0 && c.sequence.fps <= 1000, "sequence.fps", "must be in (0, 1000]");
+    require(std::isfinite(c.sequence.key_seconds) && c.sequence.key_seconds > 0, "sequence.key_seconds", "must be positive");
+    validate_share(c.sequence.hold_share, "sequence.hold_share");
+    require(c.sequence.max_turn_deg >= 0 && c.sequence.max_turn_deg <= 180, "sequence.max_turn_deg", "must be in [0, 180]");
+    require(c.sequence.drift >= 0 && c.sequence.drift <= 0.5, "sequence.drift", "must be in [0, 0.5]");
     require(c.occluders.max_size > 0 && c.occluders.max_size <= 1, "occluders.max_size", "must be in (0, 1]");
     require(c.landmarks.mode == "contour" || c.landmarks.mode == "fixed", "landmarks.mode", "must be \"contour\" or \"fixed\"");
     // The method first (with its default count), then the count, so that the error names the key at fault.

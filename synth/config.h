@@ -163,6 +163,18 @@ struct OutputConfig {
     std::string wds_prefix = "shard";
 };
 
+// Clips instead of still samples (docs/synth.md, "Sequences"): sample i is frame i % frames of clip
+// i / frames. Identity, appearance, camera, light, background and head parts are drawn once per clip;
+// pose, expression and the face's place in the image follow smooth trajectories through keys.
+struct SequenceConfig {
+    int frames = 0;             // frames per clip; 0 = independent still samples
+    double fps = 30;            // frame rate: frame f is at time f / fps
+    double key_seconds = 0.8;   // time between the trajectory's keys
+    double hold_share = 0.3;    // share of key intervals in which head and face hold still
+    double max_turn_deg = 35;   // largest yaw change between keys (pitch and roll: half of it)
+    double drift = 0.03;        // face centre within ± this share of the image side of its clip's place
+};
+
 struct SynthConfig {
     std::string model = "builtin";
     std::uint64_t seed = 1;
@@ -180,6 +192,7 @@ struct SynthConfig {
     LandmarkConfig landmarks;
     RenderConfig render;
     OutputConfig output;
+    SequenceConfig sequence;
 };
 
 // One configuration key: its dotted name, where it lives, and what it means.

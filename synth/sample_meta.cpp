@@ -198,6 +198,16 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const m
     for (int r = 0; r < 3; ++r) j.point(Eigen::Vector3d(s.pose.rotation.row(r).transpose()));
     j.end_array();
     j.key("seed").integer(s.seed);
+    j.key("sequence");
+    if (!s.sequence) {
+        j.null();
+    } else {
+        j.begin_object();
+        j.key("clip").integer(s.sequence->clip);
+        j.key("frame").integer(s.sequence->frame);
+        j.key("time_s").number(s.sequence->time_s);
+        j.end_object();
+    }
     j.key("skin_tone");
     if (s.skin_tone) j.point(*s.skin_tone);
     else j.null();

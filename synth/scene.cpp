@@ -32,8 +32,7 @@ double sample_angle(core::Rng& rng, const AngleDistribution& a) {
 
 bool chance(core::Rng& rng, double probability) { return rng.uniform() < probability; }
 
-std::vector<float> sample_expression(const SynthConfig& config, const morph::MorphableModel& model, std::int64_t index) {
-    core::Rng rng = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kExpression);
+std::vector<float> sample_expression(const SynthConfig& config, const morph::MorphableModel& model, core::Rng& rng) {
     const int n = model.num_expression_components();
     if (n == 0 || !model.expression) return {};
     if (chance(rng, config.expression.neutral_share)) return {};
@@ -191,6 +190,63 @@ std::vector<OccluderSpec> sample_occluders(const SynthConfig& config, std::int64
     return out;
 }
 
+
+// A key of a clip's trajectories (synth/config.h SequenceConfig): pose, expression and the face
+// centre's offset from the clip's place (shares of the image side).
+struct TrajectoryKey {
+    morph::EulerAngles angles;
+    std::vector<float> psi;
+    Eigen::Vector2d drift = Eigen::Vector2d::Zero();
+};
+
+// Key k >= 1 of clip `clip`, from key k - 1: held, or a step toward a fresh draw from the pose
+// distribution (so that every key stays inside it) with a fresh expression and drift.
+TrajectoryKey next_key(const SynthConfig& config, const morph::MorphableModel& model, std::uint64_t clip, int k, const TrajectoryKey& previous) {
+    const SequenceConfig& q = config.sequence;
+    core::Rng clip_rng = core::make_rng(config.seed, clip, core::RandomStream::kSequence);
+    core::Rng rng(clip_rng.next_u64(), static_cast<std::uint64_t>(k), 0);
+    if (rng.uniform() < q.hold_share) return previous;
+    const auto step = [&](double from, const AngleDistribution& distribution, double limit) {
+        return from + std::clamp(sample_angle(rng, distribution) - from, -limit, limit);
+    };
+    TrajectoryKey key;
+    key.angles.yaw = step(previous.angles.yaw, config.pose.yaw, q.max_turn_deg);
+    key.angles.pitch = step(previous.angles.pitch, config.pose.pitch, 0.5 * q.max_turn_deg);
+    key.angles.roll = step(previous.angles.roll, config.pose.roll, 0.5 * q.max_turn_deg);
+    key.psi = config.expression.source == "texture" ? previous.psi : sample_expression(config, model, rng);
+    key.drift = Eigen::Vector2d(rng.uniform(-q.drift, q.drift), rng.uniform(-q.drift, q.drift));
+    return key;
+}
+
+std::vector<float> blend(const std::vector<float>& a, const std::vector<float>& b, double w) {
+    std::vector<float> out(std::max(a.size(), b.size()), 0.0f);  // empty = neutral = zeros
+    for (std::size_t c = 0; c < out.size(); ++c) {
+        const double from = c < a.size() ? a[c] : 0.0;
+        const double to = c < b.size() ? b[c] : 0.0;
+        out[c] = static_cast<float>(from + w * (to - from));
+    }
+    return out;
+}
+
+// The state at `frame`: keys every key_seconds, eased between them (zero velocity at a key, so a
+// held interval is exactly still).
+TrajectoryKey trajectory_at(const SynthConfig& config, const morph::MorphableModel& model, std::uint64_t clip, int frame, const TrajectoryKey& first) {
+    const double position = frame / config.sequence.fps / config.sequence.key_seconds;
+    const int segment = static_cast<int>(std::floor(position));
+    TrajectoryKey from = first;
+    for (int k = 1; k <= segment; ++k) from = next_key(config, model, clip, k, from);
+    const double u = position - segment;
+    if (u <= 0) return from;
+    const TrajectoryKey to = next_key(config, model, clip, segment + 1, from);
+    const double w = u * u * (3 - 2 * u);
+    TrajectoryKey state;
+    state.angles.yaw = from.angles.yaw + w * (to.angles.yaw - from.angles.yaw);
+    state.angles.pitch = from.angles.pitch + w * (to.angles.pitch - from.angles.pitch);
+    state.angles.roll = from.angles.roll + w * (to.angles.roll - from.angles.roll);
+    state.psi = blend(from.psi, to.psi, w);
+    state.drift = from.drift + w * (to.drift - from.drift);
+    return state;
+}
 }  // namespace
 
 std::string sample_key(std::int64_t index) {
@@ -279,7 +335,10 @@ HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, c
 
 SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& model, std::int64_t index, const morph::SkinColourCheck* albedo_check,
                         Eigen::Matrix3Xf* shape, std::span<const TextureFit> texture_fits) {
-    const auto i = static_cast<std::uint64_t>(index);
+    const int frames = config.sequence.frames;
+    // What is drawn once per clip is drawn with the clip's number (the sample's index without clips).
+    const std::int64_t draw = frames > 0 ? index / frames : index;
+    const auto i = static_cast<std::uint64_t>(draw);
     SampleSpec s;
     s.seed = config.seed;
     s.index = index;
@@ -288,14 +347,17 @@ SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& 
         core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kIdentity);
         s.alpha = scaled(morph::sample_coefficients(rng, model.num_shape_components(), config.identity.truncation), config.identity.scale);
     }
-    if (config.expression.source != "texture") s.psi = sample_expression(config, model, index);  // else the texture's, below
+    if (config.expression.source != "texture") {  // else the texture's, below
+        core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kExpression);
+        s.psi = sample_expression(config, model, rng);
+    }
     if (model.num_albedo_components() > 0) {
         std::optional<morph::SkinColourCheck> local_check;
         if (albedo_check == nullptr && config.albedo.reject_implausible) {
             local_check = make_albedo_check(config, model);
             albedo_check = &*local_check;
         }
-        morph::AlbedoDraw albedo = sample_albedo(config, model, index, config.albedo.reject_implausible ? albedo_check : nullptr);
+        morph::AlbedoDraw albedo = sample_albedo(config, model, draw, config.albedo.reject_implausible ? albedo_check : nullptr);
         s.beta = std::move(albedo.beta);
         s.albedo_redraws = albedo.redraws;
         s.albedo_shrink = albedo.shrink;
@@ -379,11 +441,25 @@ SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& 
         const double achieved = (projected.rowwise().maxCoeff() - projected.rowwise().minCoeff()).norm();
         if (pass == 0 && achieved > 0) distance *= achieved / target_size;
     }
-    s.lighting = sample_lighting(config, index);
-    s.background = sample_background(config, index);
-    s.degradation = sample_degradation(config, index);
-    s.occluders = sample_occluders(config, index, projected);
-    if (config.head.body) s.head_parts = sample_head_parts(config, index, s.angles);
+    s.lighting = sample_lighting(config, draw);
+    s.background = sample_background(config, draw);
+    s.degradation = sample_degradation(config, draw);
+    s.occluders = sample_occluders(config, draw, projected);  // in a clip: still objects in front of the camera
+    if (frames > 0) {
+        // The clip was placed at its first key; the frame turns the head about the model's origin,
+        // changes its expression and moves it in the image plane at the placed depth.
+        const int frame = static_cast<int>(index % frames);
+        const TrajectoryKey state = trajectory_at(config, model, i, frame, {s.angles, s.psi, Eigen::Vector2d::Zero()});
+        s.angles = state.angles;
+        s.pose.rotation = morph::rotation_from_euler(s.angles);
+        s.psi = state.psi;
+        const double depth = s.pose.translation.z();
+        s.pose.translation.x() += state.drift.x() * cam.width * depth / s.intrinsics.fx;
+        s.pose.translation.y() += state.drift.y() * cam.height * depth / s.intrinsics.fy;
+        s.sequence = SequencePosition{draw, frame, frame / config.sequence.fps};
+        if (shape) vertices = model.shape_instance(s.alpha, s.psi);
+    }
+    if (config.head.body) s.head_parts = sample_head_parts(config, draw, s.angles);
     if (shape) *shape = std::move(vertices);
     return s;
 }

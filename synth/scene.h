@@ -64,6 +64,13 @@ struct TextureFit {
     std::optional<std::vector<float>> expression;
 };
 
+// Where a sample sits in its clip (sequence.frames > 0).
+struct SequencePosition {
+    std::int64_t clip = 0;
+    int frame = 0;
+    double time_s = 0;  // frame / sequence.fps
+};
+
 struct SampleSpec {
     std::uint64_t seed = 0;
     std::int64_t index = 0;
@@ -86,12 +93,14 @@ struct SampleSpec {
     DegradationSpec degradation;
     std::vector<OccluderSpec> occluders;
     std::optional<HeadPartsSpec> head_parts;  // with head.body
+    std::optional<SequencePosition> sequence;  // with sequence.frames
 };
 
 // "s" + the index in 8 digits (keys without dots, as WebDataset wants).
 [[nodiscard]] std::string sample_key(std::int64_t index);
 
-// Draws the scene of sample `index`. The camera distance and translation are chosen so that the
+// Draws the scene of sample `index` (with sequence.frames: frame index % frames of clip index / frames,
+// whose clip-level quantities are drawn with the clip's number as the index). The camera distance and translation are chosen so that the
 // sampled face (its 68 landmarks) has the sampled size and position in the image. `albedo_check` is
 // make_albedo_check's result, made once per model; without it, it is made here when needed. With
 // `shape`, the sampled shape (identity and expression, model space) that placed the face is moved

@@ -31,6 +31,7 @@ struct SynthArgs {
     std::string size;
     std::string model;
     std::string formats;
+    int sequence = -1;
     int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     std::string shard = "0/1";
     int shard_count = 0;
@@ -48,6 +49,7 @@ synth::SynthConfig resolve_config(const SynthArgs& a) {
     if (a.seed >= 0) config.seed = static_cast<std::uint64_t>(a.seed);
     if (!a.model.empty()) config.model = a.model;
     if (!a.formats.empty()) config.output.formats = a.formats;
+    if (a.sequence >= 0) config.sequence.frames = a.sequence;
     if (!a.size.empty()) {
         int width = 0, height = 0;
         char rest = 0;
@@ -190,13 +192,15 @@ void register_synth_commands(CLI::App& app) {
     synth_cmd->add_option("--config,-c", args->config_file, "TOML config file (keys in docs/synth.md)")->check(CLI::ExistingFile);
     synth_cmd->add_option("--count,-n", args->count, "number of samples (config key count)")->check(CLI::NonNegativeNumber);
     synth_cmd->add_option("--seed", args->seed, "dataset seed (config key seed)")->check(CLI::NonNegativeNumber);
+    synth_cmd->add_option("--sequence", args->sequence, "clips of this many frames: sample i is frame i % F of clip i / F (config key sequence.frames; 0: still samples)")
+        ->check(CLI::NonNegativeNumber);
     synth_cmd->add_option("--format", args->formats, "output formats, comma-separated: folder, wds, coco (config key output.formats)");
     synth_cmd->add_option("--shard", args->shard, "K/N (0-based) or auto (JOB_COMPLETION_INDEX or SLURM_ARRAY_TASK_ID)");
     synth_cmd->add_option("--shard-count", args->shard_count, "total shards for --shard auto (else FACESYNTH_SHARD_COUNT / SLURM_ARRAY_TASK_COUNT)");
     synth_cmd->add_flag("--overwrite", args->overwrite, "replace a dataset made with a different config in --out");
     add_run_options(synth_cmd, *args);
     // A later flag wins over an earlier one (scripts append overrides).
-    for (const char* name : {"--count", "--seed", "--format", "--model", "--size", "--threads", "--shard", "--backend"})
+    for (const char* name : {"--count", "--seed", "--sequence", "--format", "--model", "--size", "--threads", "--shard", "--backend"})
         synth_cmd->get_option(name)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
     synth_cmd->require_subcommand(0, 1);
 

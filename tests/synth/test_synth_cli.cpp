@@ -197,7 +197,18 @@ TEST(SynthCli, MetaFilesAreNlohmannsCompactDumpOfTheirContent) {
         const auto meta = nlohmann::json::parse(text);
         EXPECT_EQ(meta.dump() + "\n", text) << sample_key(i);
         EXPECT_FALSE(meta["occluders"].empty()) << sample_key(i);
-        EXPECT_EQ(meta.size(), 38u) << sample_key(i);  // the keys listed in docs/synth.md (head_parts the newest)
+        EXPECT_EQ(meta.size(), 39u) << sample_key(i);  // the keys listed in docs/synth.md (sequence the newest)
+        EXPECT_TRUE(meta["sequence"].is_null());
+    }
+    // In clips, `sequence` is an object.
+    const auto clips = testkit::fresh_temp_dir("synth_meta_text_clips");
+    ASSERT_EQ(synth(" -o " + clips.string() + base_args(4) + " --threads 1 --sequence 3", &log), 0) << log;
+    for (int i = 0; i < 4; ++i) {
+        const std::string text = core::read_file(clips / "meta" / (sample_key(i) + ".json"));
+        const auto meta = nlohmann::json::parse(text);
+        EXPECT_EQ(meta.dump() + "\n", text) << sample_key(i);
+        EXPECT_EQ(meta["sequence"]["clip"], i / 3);
+        EXPECT_EQ(meta["sequence"]["frame"], i % 3);
     }
 }
 
