@@ -82,20 +82,17 @@ Eigen::VectorXd nonnegative_solve(Eigen::MatrixXd h, const Eigen::VectorXd& g, c
 // listed in `outside_gram`, which are added directly.
 // Scalar: the precision of the factorisation; float in the alternation (twice the SIMD width; the
 // system is regularised), double where exactness matters (fit_identity_for_camera).
-template <class Scalar>
-Eigen::VectorXd solve_coefficients(const Eigen::Matrix<double, 2, 3>& m, const Eigen::Vector2d& a,
-                                   const Eigen::Matrix3Xd& fixed_part, const Eigen::MatrixXd& rows, const BasisGram& gram,
-                                   std::span<const Eigen::Index> outside_gram, const Eigen::Matrix2Xd& observed,
-                                   const Eigen::VectorXd& weights, double sigma, double lambda, bool non_negative,
-                                   const Eigen::VectorXd& start) {
+// The normal equations of that problem without the prior: H (lower triangle) and g.
+IdentityEvidence normal_equations(const Eigen::Matrix<double, 2, 3>& m, const Eigen::Vector2d& a, const Eigen::Matrix3Xd& fixed_part,
+                                  const Eigen::MatrixXd& rows, const BasisGram& gram, std::span<const Eigen::Index> outside_gram,
+                                  const Eigen::Matrix2Xd& observed, const Eigen::VectorXd& weights, double sigma) {
     const Eigen::Index n = observed.cols(), k = rows.cols();
     const double inv_var = 1.0 / (sigma * sigma);
     // u_i = w_i Mᵀ (x_i − a − M f_i) / σ², stacked; the gradient is Bᵀu.
     Eigen::VectorXd u(3 * n);
     for (Eigen::Index i = 0; i < n; ++i)
         u.segment<3>(3 * i) = (weights(i) * inv_var) * (m.transpose() * (observed.col(i) - a - m * fixed_part.col(i)));
-    const Eigen::VectorXd g = rows.transpose() * u;
-    Eigen::MatrixXd h = gram.quadratic(inv_var * (m.transpose() * m), k);
+    IdentityEvidence e{gram.quadratic(inv_var * (m.transpose() * m), k), rows.transpose() * u};
     if (!outside_gram.empty()) {  // points whose correspondences move (contour mode): a rank update
         Eigen::MatrixXd jt(k, 2 * static_cast<Eigen::Index>(outside_gram.size()));
         for (std::size_t j = 0; j < outside_gram.size(); ++j) {
@@ -103,8 +100,13 @@ Eigen::VectorXd solve_coefficients(const Eigen::Matrix<double, 2, 3>& m, const E
             jt.middleCols<2>(2 * static_cast<Eigen::Index>(j)) =
                 (std::sqrt(weights(i) * inv_var) * (m * rows.middleRows<3>(3 * i))).transpose();
         }
-        h.selfadjointView<Eigen::Lower>().rankUpdate(jt);
+        e.h.selfadjointView<Eigen::Lower>().rankUpdate(jt);
     }
+    return e;
+}
+
+template <class Scalar>
+Eigen::VectorXd solve_normal_equations(Eigen::MatrixXd h, const Eigen::VectorXd& g, double lambda, bool non_negative, const Eigen::VectorXd& start) {
     h.diagonal().array() += lambda;
     if (non_negative) return nonnegative_solve(std::move(h), g, start);
     using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
@@ -112,6 +114,16 @@ Eigen::VectorXd solve_coefficients(const Eigen::Matrix<double, 2, 3>& m, const E
     // λ > 0 makes the matrix positive definite: Cholesky, about half the work of LDLT.
     if (lambda > 0) return hs.template selfadjointView<Eigen::Lower>().llt().solve(g.cast<Scalar>()).template cast<double>();
     return hs.template selfadjointView<Eigen::Lower>().ldlt().solve(g.cast<Scalar>()).template cast<double>();
+}
+
+template <class Scalar>
+Eigen::VectorXd solve_coefficients(const Eigen::Matrix<double, 2, 3>& m, const Eigen::Vector2d& a,
+                                   const Eigen::Matrix3Xd& fixed_part, const Eigen::MatrixXd& rows, const BasisGram& gram,
+                                   std::span<const Eigen::Index> outside_gram, const Eigen::Matrix2Xd& observed,
+                                   const Eigen::VectorXd& weights, double sigma, double lambda, bool non_negative,
+                                   const Eigen::VectorXd& start) {
+    IdentityEvidence e = normal_equations(m, a, fixed_part, rows, gram, outside_gram, observed, weights, sigma);
+    return solve_normal_equations<Scalar>(std::move(e.h), e.g, lambda, non_negative, start);
 }
 
 Eigen::VectorXd nonnegative_solve(Eigen::MatrixXd h, const Eigen::VectorXd& g, const Eigen::VectorXd& start) {
@@ -169,9 +181,8 @@ std::vector<int> select_points(const morph::MorphableModel& model, const Eigen::
 
 }  // namespace
 
-std::vector<float> fit_identity_for_camera(const morph::MorphableModel& model, const AffineCamera& camera,
-                                           const Eigen::Matrix2Xd& landmarks, const FitOptions& options,
-                                           std::span<const float> psi) {
+IdentityEvidence identity_evidence(const morph::MorphableModel& model, const AffineCamera& camera, const Eigen::Matrix2Xd& landmarks,
+                                   const FitOptions& options, std::span<const float> psi) {
     const std::vector<int> used = select_points(model, landmarks, options, false, nullptr);
     const auto n = static_cast<Eigen::Index>(used.size());
     const int k_all = model.num_shape_components();
@@ -196,11 +207,34 @@ std::vector<float> fit_identity_for_camera(const morph::MorphableModel& model, c
     const double sigma = options.landmark_sigma_px > 0 ? options.landmark_sigma_px : decompose(camera).scale;
     BasisGram gram(k);
     gram.add(lin.rows().identity, weights);
-    const Eigen::VectorXd alpha = solve_coefficients<double>(camera.matrix.topLeftCorner<2, 3>(), camera.matrix.block<2, 1>(0, 3), fixed,
-                                                             lin.rows().identity, gram, {}, observed, weights, sigma, options.lambda, false, {});
-    std::vector<float> out(static_cast<std::size_t>(k_all), 0.0f);
-    for (int c = 0; c < k; ++c) out[static_cast<std::size_t>(c)] = static_cast<float>(alpha(c));
+    IdentityEvidence e = normal_equations(camera.matrix.topLeftCorner<2, 3>(), camera.matrix.block<2, 1>(0, 3), fixed, lin.rows().identity, gram, {},
+                                          observed, weights, sigma);
+    e.h.triangularView<Eigen::StrictlyUpper>() = e.h.transpose();
+    return e;
+}
+
+std::vector<float> solve_identity(const IdentityEvidence& evidence, double lambda, int num_components) {
+    const Eigen::Index k = evidence.g.size();
+    if (evidence.h.rows() != k || evidence.h.cols() != k || k > num_components)
+        throw core::Error("identity evidence of " + std::to_string(k) + " components does not fit a model of " + std::to_string(num_components));
+    const Eigen::VectorXd alpha = solve_normal_equations<double>(evidence.h, evidence.g, lambda, false, {});
+    std::vector<float> out(static_cast<std::size_t>(num_components), 0.0f);
+    for (Eigen::Index c = 0; c < k; ++c) out[static_cast<std::size_t>(c)] = static_cast<float>(alpha(c));
     return out;
+}
+
+IdentityEvidence& IdentityEvidence::operator+=(const IdentityEvidence& other) {
+    if (g.size() == 0) return *this = other;
+    if (other.g.size() != g.size()) throw core::Error("identity evidence of different component counts cannot be added");
+    h += other.h;
+    g += other.g;
+    return *this;
+}
+
+std::vector<float> fit_identity_for_camera(const morph::MorphableModel& model, const AffineCamera& camera,
+                                           const Eigen::Matrix2Xd& landmarks, const FitOptions& options,
+                                           std::span<const float> psi) {
+    return solve_identity(identity_evidence(model, camera, landmarks, options, psi), options.lambda, model.num_shape_components());
 }
 
 // The model's 68 fixed landmark correspondences with all identity components, and the unit-weight

@@ -82,6 +82,23 @@ private:
                                                          const Eigen::Matrix2Xd& landmarks, const FitOptions& options = {},
                                                          std::span<const float> psi = {});
 
+// What one view of a face says about its identity: the linear identity step's normal equations for
+// a fixed affine camera and expression, without the prior (H = Σ Bᵢᵀ Mᵀ M Bᵢ wᵢ / σ², g the matching
+// gradient; σ = 1 mm at the camera's scale unless options.landmark_sigma_px). Views of one face add
+// up, and α = (Σ H + λ I)⁻¹ Σ g is their joint estimate: the prior's weight stays λ while the evidence
+// grows, so the fused identity converges as views accumulate (track/ fuses a video's frames so).
+struct IdentityEvidence {
+    Eigen::MatrixXd h;  // k x k, symmetric (k: the components used)
+    Eigen::VectorXd g;  // k
+    IdentityEvidence& operator+=(const IdentityEvidence& other);  // empty += e gives e
+};
+// The model's fixed landmark correspondences (options.subset/weights/shape_components apply).
+[[nodiscard]] IdentityEvidence identity_evidence(const morph::MorphableModel& model, const AffineCamera& camera,
+                                                 const Eigen::Matrix2Xd& landmarks, const FitOptions& options = {},
+                                                 std::span<const float> psi = {});
+// α (σ units, `num_components` long: the model's count, unused ones 0) from summed evidence and λ.
+[[nodiscard]] std::vector<float> solve_identity(const IdentityEvidence& evidence, double lambda, int num_components);
+
 // The yaw (degrees) of the model fitted to a face's 68 annotated points with the jaw on the silhouette,
 // as photographs are annotated: the pose estimate per photograph that reports bin faces by. nullopt
 // when the points cannot be fitted (non-finite, degenerate).

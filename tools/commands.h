@@ -16,5 +16,6 @@ void register_frontal_commands(CLI::App& app);  // cmd_frontal.cpp: frontalise, 
 void register_recognition_commands(CLI::App& app);  // cmd_recognition.cpp: eval recognition
 void register_appearance_commands(CLI::App& app);  // cmd_appearance.cpp: textures, backgrounds
 void register_profile_commands(CLI::App& app);  // cmd_profile.cpp: profile
+void register_track_commands(CLI::App& app);  // cmd_track.cpp: track, eval track
 
 }  // namespace facesynth::cli

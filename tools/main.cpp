@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
     facesynth::cli::register_recognition_commands(app);
     facesynth::cli::register_appearance_commands(app);
     facesynth::cli::register_profile_commands(app);
+    facesynth::cli::register_track_commands(app);
     facesynth::cli::refuse_non_finite_numbers(app);
     try {
         app.parse(argc, argv);

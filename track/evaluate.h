@@ -1,0 +1,55 @@
+#pragma once
+// `facesynth eval track` (docs/track.md): the tracker and the per-frame baseline (the detector every
+// frame, landmarks from its box, no smoothing) run over the same frames of a synth dataset made with
+// clips (synth --sequence), measured against every frame's ground truth.
+#include "fit/fit.h"
+#include "track/tracker.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace facesynth::track {
+
+struct TrackEvalSettings {
+    std::filesystem::path data;  // a synth dataset with clips (meta `sequence`)
+    TrackerSettings tracker;     // the tracked variant's settings (the baseline: the same with track = false)
+    double failure_threshold = 0.08;  // a frame fails when its face is missed or its NME exceeds this
+};
+
+// One variant's figures over every frame of every clip.
+struct VariantFigures {
+    std::int64_t frames = 0, found = 0, failed = 0;
+    double nme_sum = 0;            // over found frames
+    std::vector<double> nmes;      // per frame, +inf when missed (dataset order within clips)
+    double jitter_sum = 0;         // over static frames with the face found in both
+    std::int64_t jitter_frames = 0;
+    std::int64_t reacquisitions = 0, reacquisition_frames = 0;  // failure runs after a success that ended in a success
+    double yaw_error_sum = 0;      // |fitted - true yaw| over found frames, degrees
+    int detector_runs = 0, losses = 0;
+    double seconds = 0;            // tracking and fitting, decoding excluded
+};
+
+struct TrackEvaluation {
+    int clips = 0;
+    std::int64_t frames = 0, static_frames = 0;
+    VariantFigures tracked, per_frame;
+    std::vector<std::string> keys;  // the sample of each frame, in the order of `nmes`
+    std::vector<double> yaws;       // its true yaw, degrees
+    // clips, frames, static_frames, and per variant (tracked_, per_frame_): nme_mean, nme_median,
+    // failure_rate, found_rate, jitter_static, reacquire_frames_mean, reacquisitions, yaw_error_deg,
+    // detector_runs, losses, fps, ms_per_frame.
+    [[nodiscard]] nlohmann::json json(double failure_threshold) const;
+};
+
+// Throws core::Error naming the dataset, the file or the sample (a dataset without clips, an
+// unreadable image or meta file). `on_frame(done, total)` after every frame.
+[[nodiscard]] TrackEvaluation evaluate_tracking(const train::LandmarkRegressor& regressor, train::DetectorKind detector, const fit::Fitter& fitter,
+                                                const TrackEvalSettings& settings,
+                                                const std::function<void(std::int64_t, std::int64_t)>& on_frame = {});
+
+}  // namespace facesynth::track
