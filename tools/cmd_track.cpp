@@ -16,6 +16,10 @@
 namespace facesynth::cli {
 namespace {
 
+constexpr const char* kTrackDetectorHelp =
+    "Face detector: frontal, multiview, dlib or dlib+profile (as `detect` has them), or auto: the one the regressor was trained with "
+    "(.sdm), else dlib's (the boxes dlib's predictor was trained on)";
+
 void add_smoothing_options(CLI::App& cmd, track::SmoothingSettings& smoothing) {
     cmd.add_option("--smooth-cutoff", smoothing.min_cutoff_hz, "1-euro filter: cutoff at rest, Hz (lower: less jitter)")->capture_default_str()->check(CLI::Range(0.01, 1000.0));
     cmd.add_option("--smooth-speed", smoothing.speed_coefficient, "1-euro filter: cutoff rise per face width per second of speed (higher: less lag)")
@@ -65,8 +69,7 @@ void run_eval_track(TrackEvalArgs& a) {
     const morph::MorphableModel model = morph::load_model(a.model);
     const fit::Fitter fitter(model);
     const auto regressor = train::open_regressor(a.regressor);
-    const train::LandmarkRegressor* const regressors[] = {regressor.get()};
-    const train::DetectorKind detector = train::choose_detector(a.detector, regressors);
+    const train::DetectorKind detector = track::tracking_detector(a.detector, *regressor);
     std::optional<Progress> progress;
     const track::TrackEvaluation e = track::evaluate_tracking(*regressor, detector, fitter, a.settings, [&](std::int64_t, std::int64_t total) {
         if (!progress) progress.emplace("eval track", static_cast<std::size_t>(total), a.quiet);
@@ -111,7 +114,7 @@ void register_track_commands(CLI::App& app) {
     cmd->add_option("--out,-o", a->job.out, "Output folder (must not exist): faces.jsonl, summary.json, overlay.avi")->required();
     cmd->add_option("--model", a->job.model, "Model fitted per frame: builtin, a model file or folder")->capture_default_str();
     cmd->add_option("--regressor", a->job.regressor, "Landmark regressor: dlib or a .sdm from `facesynth train`")->capture_default_str();
-    add_detector_option(*cmd, a->job.detector);
+    add_detector_option(*cmd, a->job.detector)->description(kTrackDetectorHelp);
     cmd->add_option("--outputs", a->outputs, "Comma-separated: landmarks (always), pose (pose, expression, fused identity), overlay (overlay.avi)")
         ->capture_default_str();
     cmd->add_option("--max-faces", a->job.tracker.max_faces, "Faces followed at once")->capture_default_str()->check(CLI::Range(1, 64));
@@ -135,7 +138,7 @@ void register_track_commands(CLI::App& app) {
     ev->add_option("--data", e->settings.data, "A `facesynth synth --sequence F` dataset")->required()->check(CLI::ExistingDirectory);
     ev->add_option("--model", e->model, "Model fitted per frame")->capture_default_str();
     ev->add_option("--regressor", e->regressor, "Landmark regressor: dlib or a .sdm")->capture_default_str();
-    add_detector_option(*ev, e->detector);
+    add_detector_option(*ev, e->detector)->description(kTrackDetectorHelp);
     ev->add_option("--detect-every", e->settings.tracker.detect_every, "Frames between detector runs while tracking")->capture_default_str()->check(CLI::Range(1, 100000));
     ev->add_option("--max-fit-error", e->settings.tracker.max_fit_error, "Fit RMS / inter-ocular distance above which a face is lost")
         ->capture_default_str()

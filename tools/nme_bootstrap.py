@@ -7,7 +7,10 @@ difference (other - reference), its 95 % interval and on how many faces the refe
 With yaw in the CSV the paired differences are also given per |yaw| bin (0-15, 15-30, 30-45, 45-60)
 and per detector view. Standard library only.
 
-    tools/nme_bootstrap.py F.csv [--reference 1] [--names ours,dlib,...] [--resamples 5000] [--seed 1]
+With --cluster-size N the rows come in clusters of N consecutive rows that are not independent (the
+frames of one clip from `facesynth eval track --nme-csv`), and whole clusters are resampled.
+
+    tools/nme_bootstrap.py F.csv [--reference 1] [--names ours,dlib,...] [--resamples 5000] [--seed 1] [--cluster-size N]
 """
 import argparse
 import csv
@@ -23,9 +26,24 @@ def percentile(sorted_values, q):
     return sorted_values[low] + (sorted_values[high] - sorted_values[low]) * (position - low)
 
 
-def bootstrap_mean(values, resamples, rng):
-    n = len(values)
-    means = sorted(sum(values[rng.randrange(n)] for _ in range(n)) / n for _ in range(resamples))
+def bootstrap_mean(values, resamples, rng, clusters=None):
+    """95 % percentile interval of the mean; with `clusters` (one id per value) whole clusters are drawn."""
+    if clusters is None:
+        n = len(values)
+        means = sorted(sum(values[rng.randrange(n)] for _ in range(n)) / n for _ in range(resamples))
+        return percentile(means, 0.025), percentile(means, 0.975)
+    groups = {}
+    for cluster, value in zip(clusters, values):
+        groups.setdefault(cluster, []).append(value)
+    sums = [(sum(g), len(g)) for g in groups.values()]
+    means = []
+    for _ in range(resamples):
+        total, count = 0.0, 0
+        for _ in range(len(sums)):
+            s, c = sums[rng.randrange(len(sums))]
+            total, count = total + s, count + c
+        means.append(total / count)
+    means.sort()
     return percentile(means, 0.025), percentile(means, 0.975)
 
 
@@ -36,7 +54,10 @@ def main():
     parser.add_argument("--names", default="", help="comma-separated names of the regressor columns")
     parser.add_argument("--resamples", type=int, default=5000)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--cluster-size", type=int, default=0, help="resample clusters of this many consecutive rows (clips)")
     args = parser.parse_args()
+    if args.cluster_size < 0:
+        sys.exit("--cluster-size must not be negative")
 
     with open(args.csv, newline="") as f:
         rows = list(csv.DictReader(f))
@@ -44,13 +65,19 @@ def main():
     names = args.names.split(",") if args.names else columns
     if len(names) != len(columns):
         sys.exit(f"{args.csv}: {len(columns)} regressor columns, {len(names)} names")
+    for position, row in enumerate(rows):
+        row["_cluster"] = position // args.cluster_size if args.cluster_size else position
     found = [r for r in rows if r["detected"] == "1"]
+
+    def clusters_of(subset):
+        return [r["_cluster"] for r in subset] if args.cluster_size else None
     ref = columns[args.reference - 1]
     rng = random.Random(args.seed)
-    print(f"{args.csv}: {len(rows)} faces, {len(found)} detected; {args.resamples} resamples")
+    unit = f"; clusters of {args.cluster_size} rows resampled" if args.cluster_size else ""
+    print(f"{args.csv}: {len(rows)} faces, {len(found)} detected; {args.resamples} resamples{unit}")
     for column, name in zip(columns, names):
         values = [float(r[column]) for r in found]
-        low, high = bootstrap_mean(values, args.resamples, rng)
+        low, high = bootstrap_mean(values, args.resamples, rng, clusters_of(found))
         print(f"  {name:>14}: mean {sum(values) / len(values):.4f} [{low:.4f}, {high:.4f}]")
 
     def paired(subset, label):
@@ -60,7 +87,7 @@ def main():
             if column == ref:
                 continue
             diffs = [float(r[column]) - float(r[ref]) for r in subset]
-            low, high = bootstrap_mean(diffs, args.resamples, rng)
+            low, high = bootstrap_mean(diffs, args.resamples, rng, clusters_of(subset))
             better = sum(d > 0 for d in diffs)
             print(f"  {label:>12} {name:>14} - {names[args.reference - 1]}: {sum(diffs) / len(diffs):+.4f} "
                   f"[{low:+.4f}, {high:+.4f}], reference better on {better} of {len(diffs)}; "

@@ -40,6 +40,12 @@ void draw_faces(cv::Mat& image, const std::vector<FaceState>& faces) {
 
 }  // namespace
 
+train::DetectorKind tracking_detector(const std::string& option, const train::LandmarkRegressor& regressor) {
+    if (option == "auto" && !regressor.trained_detector()) return train::DetectorKind::kDlib;
+    const train::LandmarkRegressor* const regressors[] = {&regressor};
+    return train::choose_detector(option, regressors);
+}
+
 TrackOutputs parse_track_outputs(const std::string& list) {
     TrackOutputs outputs;
     outputs.pose = false;
@@ -100,8 +106,7 @@ TrackSummary run_track(const TrackJob& job, const std::function<void(std::int64_
     const morph::MorphableModel model = morph::load_model(job.model);
     const fit::Fitter fitter(model);
     const auto regressor = train::open_regressor(job.regressor);
-    const train::LandmarkRegressor* const regressors[] = {regressor.get()};
-    Tracker tracker(*regressor, train::choose_detector(job.detector, regressors), fitter, job.tracker);
+    Tracker tracker(*regressor, tracking_detector(job.detector, *regressor), fitter, job.tracker);
 
     const fs::path temporary = core::temporary_path_for(job.out);
     std::error_code ignored;
