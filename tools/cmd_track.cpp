@@ -36,7 +36,10 @@ struct TrackArgs {
 };
 
 void run_track_command(TrackArgs& a) {
+    const track::TrackOutputs sizes = a.job.outputs;
     a.job.outputs = track::parse_track_outputs(a.outputs);
+    a.job.outputs.isomap_size = sizes.isomap_size;
+    a.job.outputs.frontal_size = sizes.frontal_size;
     a.job.tracker.smooth = !a.no_smoothing;
     std::optional<Progress> progress;
     const track::TrackSummary summary = track::run_track(a.job, [&](std::int64_t, std::optional<std::int64_t> total) {
@@ -115,8 +118,12 @@ void register_track_commands(CLI::App& app) {
     cmd->add_option("--model", a->job.model, "Model fitted per frame: builtin, a model file or folder")->capture_default_str();
     cmd->add_option("--regressor", a->job.regressor, "Landmark regressor: dlib or a .sdm from `facesynth train`")->capture_default_str();
     add_detector_option(*cmd, a->job.detector)->description(kTrackDetectorHelp);
-    cmd->add_option("--outputs", a->outputs, "Comma-separated: landmarks (always), pose (pose, expression, fused identity), overlay (overlay.avi)")
+    cmd->add_option("--outputs", a->outputs,
+                    "Comma-separated: landmarks (always), pose (pose, expression, fused identity), overlay (overlay.avi), isomap (isomap.avi: the first "
+                    "face's texture fused over the frames), frontal (frontal.avi: that face rendered frontally with it)")
         ->capture_default_str();
+    cmd->add_option("--isomap-size", a->job.outputs.isomap_size, "Isomap side in texels")->capture_default_str()->check(CLI::Range(16, 4096));
+    cmd->add_option("--frontal-size", a->job.outputs.frontal_size, "Frontal render side in pixels")->capture_default_str()->check(CLI::Range(16, 4096));
     cmd->add_option("--max-faces", a->job.tracker.max_faces, "Faces followed at once")->capture_default_str()->check(CLI::Range(1, 64));
     cmd->add_option("--detect-every", a->job.tracker.detect_every, "Frames between face detector runs while faces are tracked")
         ->capture_default_str()

@@ -29,7 +29,9 @@ bool is_image_file(const fs::path& path) {
 
 FrameSource::FrameSource(const std::string& input, double folder_fps) : input_(input), fps_(folder_fps) {
     if (is_camera_index(input) && !fs::exists(input)) {
-        capture_.emplace(std::stoi(input), cv::CAP_ANY);
+        // Video4Linux only: the other backends OpenCV would probe for a missing camera (GStreamer,
+        // libgphoto2 through libusb) print noise and keep allocations they never free.
+        capture_.emplace(std::stoi(input), cv::CAP_V4L2);
         if (!capture_->isOpened()) throw core::Error("camera " + input + ": no camera answers to this index");
         const double reported = capture_->get(cv::CAP_PROP_FPS);
         if (std::isfinite(reported) && reported > 0) fps_ = reported;

@@ -2,14 +2,17 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "frontal/frontalise.h"
 #include "morph/model_io.h"
 #include "track/frame_source.h"
+#include "track/isomap_fusion.h"
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
 #include <chrono>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -38,6 +41,39 @@ void draw_faces(cv::Mat& image, const std::vector<FaceState>& faces) {
     }
 }
 
+// An MJPEG video in the temporary folder, opened at its first frame.
+class VideoOut {
+public:
+    VideoOut(std::filesystem::path temporary, std::filesystem::path final_name, double fps)
+        : temporary_(std::move(temporary)), final_(std::move(final_name)), fps_(fps) {}
+    void write(const cv::Mat& frame) {
+        if (!writer_) {
+            writer_.emplace(temporary_.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps_, frame.size());
+            if (!writer_->isOpened()) throw core::file_error(final_.string(), "the video writer cannot be opened");
+        }
+        writer_->write(frame);
+    }
+    void close() {
+        if (writer_) writer_->release();
+    }
+
+private:
+    std::filesystem::path temporary_, final_;
+    double fps_;
+    std::optional<cv::VideoWriter> writer_;
+};
+
+// The fused isomap as a picture: its colours where some frame saw the texel, black elsewhere.
+cv::Mat isomap_picture(const cv::Mat& bgra) {
+    cv::Mat picture(bgra.size(), CV_8UC3, cv::Scalar::all(0));
+    for (int y = 0; y < bgra.rows; ++y)
+        for (int x = 0; x < bgra.cols; ++x) {
+            const cv::Vec4b& t = bgra.at<cv::Vec4b>(y, x);
+            if (t[3] > 0) picture.at<cv::Vec3b>(y, x) = cv::Vec3b(t[0], t[1], t[2]);
+        }
+    return picture;
+}
+
 }  // namespace
 
 train::DetectorKind tracking_detector(const std::string& option, const train::LandmarkRegressor& regressor) {
@@ -55,7 +91,9 @@ TrackOutputs parse_track_outputs(const std::string& list) {
         if (item == "landmarks") continue;  // always written
         if (item == "pose") outputs.pose = true;
         else if (item == "overlay") outputs.overlay = true;
-        else throw core::Error("--outputs: unknown output '" + item + "' (expected landmarks, pose, overlay)");
+        else if (item == "isomap") outputs.isomap = true;
+        else if (item == "frontal") outputs.frontal = true;
+        else throw core::Error("--outputs: unknown output '" + item + "' (expected landmarks, pose, overlay, isomap, frontal)");
     }
     return outputs;
 }
@@ -96,6 +134,8 @@ nlohmann::json TrackSummary::json() const {
     j["fps"] = track_seconds > 0 ? static_cast<double>(frames) / track_seconds : 0.0;
     j["ms_per_frame"] = frames > 0 ? 1000.0 * track_seconds / static_cast<double>(frames) : 0.0;
     j["decode_ms_per_frame"] = frames > 0 ? 1000.0 * decode_seconds / static_cast<double>(frames) : 0.0;
+    j["texture_ms_per_frame"] = frames > 0 ? 1000.0 * texture_seconds / static_cast<double>(frames) : 0.0;
+    j["isomap_coverage"] = isomap_coverage;
     return j;
 }
 
@@ -114,7 +154,17 @@ TrackSummary run_track(const TrackJob& job, const std::function<void(std::int64_
         fs::create_directories(temporary);
         std::ofstream lines(temporary / "faces.jsonl", std::ios::binary);
         if (!lines) throw core::file_error((temporary / "faces.jsonl").string(), "cannot be written");
-        std::optional<cv::VideoWriter> overlay;
+        VideoOut overlay(temporary / "overlay.avi", job.out / "overlay.avi", source.fps());
+        VideoOut isomap_video(temporary / "isomap.avi", job.out / "isomap.avi", source.fps());
+        VideoOut frontal_video(temporary / "frontal.avi", job.out / "frontal.avi", source.fps());
+        const bool textures = job.outputs.isomap || job.outputs.frontal;
+        std::optional<frontal::Frontaliser> frontaliser;  // a renderer: only when textures are asked for
+        if (textures) frontaliser.emplace(model);
+        frontal::IsomapOptions isomap_options;
+        isomap_options.size = job.outputs.isomap_size;
+        frontal::FrontalRenderOptions frontal_options;
+        frontal_options.size = job.outputs.frontal_size;
+        std::map<int, IsomapFusion> fusions;  // per face id
         TrackSummary summary;
         std::set<int> ids;
         std::optional<std::int64_t> total = source.expected_frames();
@@ -126,14 +176,30 @@ TrackSummary run_track(const TrackJob& job, const std::function<void(std::int64_
             const std::vector<FaceState>& faces = tracker.process(frame, time_s);
             lines << frame_record(summary.frames, time_s, faces, job.outputs.pose) << '\n';
             if (job.outputs.overlay) {
-                if (!overlay) {
-                    overlay.emplace((temporary / "overlay.avi").string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), source.fps(), frame.size());
-                    if (!overlay->isOpened()) throw core::file_error((job.out / "overlay.avi").string(), "the video writer cannot be opened");
-                }
                 cv::Mat drawn = frame.channels() == 3 ? frame.clone() : cv::Mat();
                 if (drawn.empty()) cv::cvtColor(frame, drawn, cv::COLOR_GRAY2BGR);
                 draw_faces(drawn, faces);
-                overlay->write(drawn);
+                overlay.write(drawn);
+            }
+            if (textures) {
+                // The first face: its isomap from this frame joins the ones before, and the fused
+                // texture is shown, and rendered frontally with the fused identity and this frame's
+                // expression.
+                const auto texture_start = std::chrono::steady_clock::now();
+                cv::Mat isomap_frame(job.outputs.isomap_size, job.outputs.isomap_size, CV_8UC3, cv::Scalar::all(0));
+                cv::Mat frontal_frame(job.outputs.frontal_size, job.outputs.frontal_size, CV_8UC3, cv::Scalar::all(0));
+                if (!faces.empty()) {
+                    const FaceState& face = faces.front();
+                    const Eigen::Matrix3Xf seen = fit::fitted_shape(model, face.fit);
+                    IsomapFusion& fusion = fusions[face.id];
+                    fusion.add(frontaliser->extract_isomap(frame, seen, {face.fit.camera, face.fit.pose}, isomap_options));
+                    isomap_frame = isomap_picture(fusion.fused());
+                    if (job.outputs.frontal)
+                        frontal_frame = frontaliser->render_frontal(model.shape_instance(face.identity, face.fit.psi), fusion.fused(), frontal_options).image;
+                }
+                if (job.outputs.isomap) isomap_video.write(isomap_frame);
+                if (job.outputs.frontal) frontal_video.write(frontal_frame);
+                summary.texture_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - texture_start).count();
             }
             for (const FaceState& face : faces) ids.insert(face.id);
             if (!faces.empty()) ++summary.frames_with_face;
@@ -141,7 +207,13 @@ TrackSummary run_track(const TrackJob& job, const std::function<void(std::int64_
             summary.track_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             if (on_frame) on_frame(summary.frames, total);
         }
-        if (overlay) overlay->release();
+        overlay.close();
+        isomap_video.close();
+        frontal_video.close();
+        if (textures && !fusions.empty()) {
+            const auto longest = std::max_element(fusions.begin(), fusions.end(), [](const auto& a, const auto& b) { return a.second.frames() < b.second.frames(); });
+            summary.isomap_coverage = longest->second.coverage(frontal::layout_mask(frontaliser->uv_raster(job.outputs.isomap_size)));
+        }
         lines.flush();
         if (!lines) throw core::file_error((job.out / "faces.jsonl").string(), "write failed (disk full?)");
         lines.close();

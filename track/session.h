@@ -16,8 +16,12 @@ namespace facesynth::track {
 struct TrackOutputs {
     bool pose = true;      // pose, expression and fused identity in faces.jsonl (landmarks always)
     bool overlay = false;  // overlay.avi: the frames with landmarks, boxes and ids drawn (MJPEG)
+    bool isomap = false;   // isomap.avi: the first face's texture fused over the frames so far
+    bool frontal = false;  // frontal.avi: the first face rendered frontally with that texture
+    int isomap_size = 256;
+    int frontal_size = 256;
 };
-// "landmarks,pose,overlay" -> TrackOutputs; throws core::Error naming an unknown entry.
+// "landmarks,pose,overlay,isomap,frontal" -> TrackOutputs; throws core::Error naming an unknown entry.
 [[nodiscard]] TrackOutputs parse_track_outputs(const std::string& list);
 
 struct TrackJob {
@@ -37,7 +41,10 @@ struct TrackSummary {
     int detector_runs = 0, losses = 0, reacquired = 0, faces = 0;  // faces: distinct ids
     double track_seconds = 0;   // tracking, fitting and writing, decoding excluded
     double decode_seconds = 0;
-    [[nodiscard]] nlohmann::json json() const;  // frames, frames_with_face, detector_runs, fps, ms_per_frame, decode_ms_per_frame, ...
+    double texture_seconds = 0;   // isomap extraction, fusion and the frontal render (within track_seconds)
+    double isomap_coverage = 0;   // share of the uv layout the longest-followed face's fused isomap covers
+    // frames, frames_with_face, detector_runs, fps, ms_per_frame, decode_ms_per_frame, texture_ms_per_frame, isomap_coverage, ...
+    [[nodiscard]] nlohmann::json json() const;
 };
 
 // Throws core::Error (naming the input, the file or the setting) and leaves no output folder behind.

@@ -88,7 +88,8 @@ bool Tracker::update(Track& track, double time_s, const cv::Size& image) {
         return false;  // degenerate landmarks: no face there
     }
     s.fit_error = s.fit.reprojection_rms_px / std::max(inter_ocular(s.landmarks), 1e-9);
-    if (!(s.fit_error <= settings_.max_fit_error)) return false;
+    // A face the detector has just found stays; the check catches landmarks that have left the face.
+    if (!s.from_detector && !(s.fit_error <= settings_.max_fit_error)) return false;
     track.last_good = s.landmarks;
 
     track.evidence += fit::identity_evidence(fitter_.model(), s.fit.camera, s.landmarks, identity_options_, s.fit.psi);
@@ -137,8 +138,7 @@ const std::vector<FaceState>& Tracker::process(const cv::Mat& frame, double time
                         ++losses_;
                         lost_.push_back({std::move(track), frame_});
                     } else {
-                        track.missed = true;
-                        frames_since_detection_ = settings_.detect_every;  // look again in the next frame
+                        track.missed = true;  // looked for again in the next frame (below)
                         kept.push_back(std::move(track));
                     }
                     continue;
@@ -174,7 +174,8 @@ const std::vector<FaceState>& Tracker::process(const cv::Mat& frame, double time
     } else {
         ++frames_since_detection_;
     }
-    if (std::any_of(tracks_.begin(), tracks_.end(), [](const Track& t) { return t.missed; })) frames_since_detection_ = settings_.detect_every;
+    if (std::any_of(tracks_.begin(), tracks_.end(), [](const Track& t) { return t.missed; }))
+        frames_since_detection_ = settings_.detect_every;  // the detector looks again in the next frame
     // Two tracks on one face: the younger goes.
     std::sort(tracks_.begin(), tracks_.end(), [](const Track& a, const Track& b) { return a.state.id < b.state.id; });
     for (std::size_t a = 0; a < tracks_.size(); ++a)

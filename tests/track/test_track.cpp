@@ -8,6 +8,7 @@
 #include "morph/model_io.h"
 #include "morph/pose.h"
 #include "track/frame_source.h"
+#include "track/isomap_fusion.h"
 #include "track/smoothing.h"
 
 #include <gtest/gtest.h>
@@ -71,6 +72,16 @@ TEST(FrameSource, ReadsFoldersAndVideosAndRefusesBadInputsByName) {
     });
     EXPECT_NE(cut.find("cut.avi"), std::string::npos) << cut;
 
+    // A video without frames: refused when opened or at its first frame, naming the file.
+    {
+        cv::VideoWriter empty((dir / "empty.avi").string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25, cv::Size(64, 48));
+    }
+    const std::string zero = error_of([&] {
+        FrameSource source((dir / "empty.avi").string());
+        while (source.next(frame)) {
+        }
+    });
+    EXPECT_NE(zero.find("empty.avi"), std::string::npos) << zero;
     std::ofstream(dir / "garbage.mp4") << "not a video at all";
     EXPECT_NE(error_of([&] { FrameSource source((dir / "garbage.mp4").string()); }).find("garbage.mp4"), std::string::npos);
     fs::create_directories(dir / "empty");
@@ -112,6 +123,24 @@ TEST(LandmarkSmoother, RemovesJitterOnStillFacesAndFollowsMotion) {
         const Eigen::Matrix2Xd out = smoother.filter(moving, 1.0 / 30, 100);
         if (f > 10) EXPECT_LT((out - moving).cwiseAbs().maxCoeff(), 2.0) << "frame " << f;
     }
+}
+
+TEST(IsomapFusion, TheMostFrontalViewOfATexelWins) {
+    IsomapFusion fusion;
+    cv::Mat left(4, 4, CV_8UC4, cv::Scalar(10, 10, 10, 0)), right(4, 4, CV_8UC4, cv::Scalar(20, 20, 20, 0));
+    left.colRange(0, 2).setTo(cv::Scalar(10, 10, 10, 200));
+    left.colRange(2, 4).setTo(cv::Scalar(11, 11, 11, 40));
+    right.colRange(1, 4).setTo(cv::Scalar(20, 20, 20, 150));
+    fusion.add(left);
+    fusion.add(right);
+    EXPECT_EQ(fusion.frames(), 2);
+    EXPECT_EQ(fusion.fused().at<cv::Vec4b>(0, 0), cv::Vec4b(10, 10, 10, 200));  // seen by the first only
+    EXPECT_EQ(fusion.fused().at<cv::Vec4b>(0, 1), cv::Vec4b(10, 10, 10, 200));  // both: the first more frontally
+    EXPECT_EQ(fusion.fused().at<cv::Vec4b>(0, 3), cv::Vec4b(20, 20, 20, 150));  // both: the second more frontally
+    cv::Mat layout(4, 4, CV_8UC1, cv::Scalar(255));
+    EXPECT_DOUBLE_EQ(fusion.coverage(layout), 1.0);
+    EXPECT_THROW(fusion.add(cv::Mat(8, 8, CV_8UC4, cv::Scalar::all(0))), core::Error);
+    EXPECT_THROW(fusion.add(cv::Mat(4, 4, CV_8UC3, cv::Scalar::all(0))), core::Error);
 }
 
 // The identity evidence of several views of one face: the fused estimate gets closer to the true
@@ -160,7 +189,8 @@ TEST(TrackCli, FollowsARenderedClipWithOneFaceAndScheduledDetection) {
               0)
         << log;
     ASSERT_EQ(testkit::run_command(cli + " track -q " + (dir / "clip" / "images").string() + " -o " + (dir / "out").string() +
-                                       " --detector dlib --detect-every 10 --json " + (dir / "summary.json").string(),
+                                       " --detector dlib --detect-every 10 --outputs landmarks,pose,isomap,frontal --isomap-size 128 --frontal-size 96 --json " +
+                                       (dir / "summary.json").string(),
                                    &log),
               0)
         << log;
@@ -170,7 +200,14 @@ TEST(TrackCli, FollowsARenderedClipWithOneFaceAndScheduledDetection) {
     EXPECT_EQ(summary["faces"], 1);
     EXPECT_EQ(summary["losses"], 0);
     EXPECT_EQ(summary["detector_runs"], 4);
-    for (const char* key : {"fps", "ms_per_frame", "decode_ms_per_frame"}) EXPECT_GT(summary[key].get<double>(), 0) << key;
+    for (const char* key : {"fps", "ms_per_frame", "decode_ms_per_frame", "texture_ms_per_frame"}) EXPECT_GT(summary[key].get<double>(), 0) << key;
+    EXPECT_GT(summary["isomap_coverage"].get<double>(), 0.3);
+    for (const auto& [video, side] : {std::pair{"isomap.avi", 128}, std::pair{"frontal.avi", 96}}) {
+        cv::VideoCapture capture((dir / "out" / video).string());
+        ASSERT_TRUE(capture.isOpened()) << video;
+        EXPECT_EQ(capture.get(cv::CAP_PROP_FRAME_COUNT), 40) << video;
+        EXPECT_EQ(capture.get(cv::CAP_PROP_FRAME_WIDTH), side) << video;
+    }
     std::ifstream lines(dir / "out" / "faces.jsonl");
     std::string line;
     int frames = 0;
@@ -195,8 +232,8 @@ TEST(TrackCli, FollowsARenderedClipWithOneFaceAndScheduledDetection) {
     }
     EXPECT_EQ(testkit::run_command(cli + " track -q " + (dir / "clip" / "images").string() + " -o " + (dir / "out").string(), &log), 1);
     EXPECT_NE(log.find("exists already"), std::string::npos) << log;
-    EXPECT_EQ(testkit::run_command(cli + " track " + (dir / "clip" / "images").string() + " -o " + (dir / "o2").string() + " --outputs landmarks,isomap", &log), 1);
-    EXPECT_NE(log.find("isomap"), std::string::npos) << log;
+    EXPECT_EQ(testkit::run_command(cli + " track " + (dir / "clip" / "images").string() + " -o " + (dir / "o2").string() + " --outputs landmarks,depth", &log), 1);
+    EXPECT_NE(log.find("depth"), std::string::npos) << log;
     for (const auto& entry : fs::directory_iterator(dir)) EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos) << entry.path();
 }
 
