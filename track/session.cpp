@@ -128,6 +128,7 @@ nlohmann::json TrackSummary::json() const {
     j["frames"] = frames;
     j["frames_with_face"] = frames_with_face;
     j["detector_runs"] = detector_runs;
+    j["fallback_detector_runs"] = fallback_runs;
     j["losses"] = losses;
     j["reacquired"] = reacquired;
     j["faces"] = faces;
@@ -219,6 +220,7 @@ TrackSummary run_track(const TrackJob& job, const std::function<void(std::int64_
         lines.close();
         summary.decode_seconds = source.decode_seconds();
         summary.detector_runs = tracker.detector_runs();
+        summary.fallback_runs = tracker.fallback_runs();
         summary.losses = tracker.losses();
         summary.reacquired = tracker.reacquired();
         summary.faces = static_cast<int>(ids.size());

@@ -38,7 +38,7 @@ struct TrackJob {
 
 struct TrackSummary {
     std::int64_t frames = 0, frames_with_face = 0;
-    int detector_runs = 0, losses = 0, reacquired = 0, faces = 0;  // faces: distinct ids
+    int detector_runs = 0, fallback_runs = 0, losses = 0, reacquired = 0, faces = 0;  // faces: distinct ids
     double track_seconds = 0;   // tracking, fitting and writing, decoding excluded
     double decode_seconds = 0;
     double texture_seconds = 0;   // isomap extraction, fusion and the frontal render (within track_seconds)

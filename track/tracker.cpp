@@ -40,6 +40,7 @@ Tracker::Tracker(const train::LandmarkRegressor& regressor, train::DetectorKind 
     fit_options_.lambda = fit_options_.expression_lambda = settings_.lambda;
     identity_options_.subset = fixed_correspondence_points();
     identity_options_.lambda = settings_.lambda;
+    if (settings_.multiview_fallback && detector == train::DetectorKind::kDlib) fallback_.emplace(train::DetectorKind::kMultiView);
 }
 
 void Tracker::place_on_detection(Track& track, const cv::Mat& gray, const train::FaceBox& detection) const {
@@ -122,8 +123,18 @@ const std::vector<FaceState>& Tracker::process(const cv::Mat& frame, double time
     }
     const bool detect = !settings_.track || tracks_.empty() || drifted || frames_since_detection_ + 1 >= settings_.detect_every;
     if (detect) {
-        const std::vector<train::FaceBox> detections = detector_.detect(gray);
+        std::vector<train::FaceBox> detections = detector_.detect(gray);
         ++detector_runs_;
+        const auto unmatched = [&](const Track& t) { return !train::match_detection(detections, t.state.raw_landmarks); };
+        if (fallback_ && (tracks_.empty() ? detections.empty() : std::any_of(tracks_.begin(), tracks_.end(), unmatched))) {
+            ++fallback_runs_;
+            for (const train::FaceBox& extra : fallback_->detect(gray)) {
+                const bool known = std::any_of(detections.begin(), detections.end(), [&](const train::FaceBox& d) {
+                    return (d.centre - extra.centre).norm() < 0.5 * std::max(d.width, extra.width);
+                });
+                if (!known) detections.push_back(extra);
+            }
+        }
         frames_since_detection_ = 0;
         std::vector<bool> used(detections.size(), false);
         if (settings_.track) {

@@ -38,6 +38,9 @@ struct TrackerSettings {
     double box_dead_zone = 0.04;
 
     double lambda = fit::FitOptions{}.lambda;  // prior weight of the per-frame fits and the fused identity
+    // With dlib's detector: where it finds no face at all, or misses a followed one, the multi-view
+    // cascades look too (dlib's HOG detector does not find faces much under 40 pixels).
+    bool multiview_fallback = true;
 };
 
 struct FaceState {
@@ -62,6 +65,7 @@ public:
     const std::vector<FaceState>& process(const cv::Mat& frame, double time_s);
 
     [[nodiscard]] int detector_runs() const { return detector_runs_; }
+    [[nodiscard]] int fallback_runs() const { return fallback_runs_; }  // runs of the multi-view fallback
     [[nodiscard]] int losses() const { return losses_; }       // faces dropped by the fit check
     [[nodiscard]] int reacquired() const { return reacquired_; }  // losses found again with their id
 
@@ -96,6 +100,7 @@ private:
 
     const train::LandmarkRegressor& regressor_;
     train::FaceDetector detector_;
+    std::optional<train::FaceDetector> fallback_;
     const fit::Fitter& fitter_;
     TrackerSettings settings_;
     fit::FitOptions fit_options_, identity_options_;
@@ -105,7 +110,7 @@ private:
     int frame_ = -1;
     int frames_since_detection_ = 0;
     int next_id_ = 0;
-    int detector_runs_ = 0, losses_ = 0, reacquired_ = 0;
+    int detector_runs_ = 0, fallback_runs_ = 0, losses_ = 0, reacquired_ = 0;
 };
 
 }  // namespace facesynth::track

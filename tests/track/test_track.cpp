@@ -200,6 +200,7 @@ TEST(TrackCli, FollowsARenderedClipWithOneFaceAndScheduledDetection) {
     EXPECT_EQ(summary["faces"], 1);
     EXPECT_EQ(summary["losses"], 0);
     EXPECT_EQ(summary["detector_runs"], 4);
+    EXPECT_EQ(summary["fallback_detector_runs"], 0);  // dlib finds the face every time: no multi-view fallback
     for (const char* key : {"fps", "ms_per_frame", "decode_ms_per_frame", "texture_ms_per_frame"}) EXPECT_GT(summary[key].get<double>(), 0) << key;
     EXPECT_GT(summary["isomap_coverage"].get<double>(), 0.3);
     for (const auto& [video, side] : {std::pair{"isomap.avi", 128}, std::pair{"frontal.avi", 96}}) {
