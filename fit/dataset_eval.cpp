@@ -291,7 +291,7 @@ namespace {
 
 // Cases generated in code: landmarks projected from random faces and poses with fixed jaw
 // correspondences, plus noise (docs/fit.md).
-FitSetEvaluation evaluate_generated(const Fitter& fitter, const FitSetEvalSettings& s, const std::function<void()>& on_case) {
+FitSetEvaluation evaluate_generated(const Fitter& fitter, const FitSetEvalSettings& s, const std::function<void(std::size_t)>& on_case) {
     const morph::MorphableModel& model = fitter.model();
     EvalOptions o = eval_options(s, JawMode::kFixed);
     SyntheticOptions synthetic;
@@ -302,7 +302,7 @@ FitSetEvaluation evaluate_generated(const Fitter& fitter, const FitSetEvalSettin
         const SyntheticCase c = make_synthetic_case(model, static_cast<std::uint64_t>(s.seed), static_cast<std::uint64_t>(i), synthetic);
         o.refine_options.intrinsics = c.intrinsics;
         e.summary.add(evaluate_fit(fitter, c.landmarks, c.truth, o));
-        if (on_case) on_case();
+        if (on_case) on_case(e.samples);
     }
     write_settings(e.json, s, model, "fixed");
     e.json["visible_only"] = false;
@@ -310,7 +310,7 @@ FitSetEvaluation evaluate_generated(const Fitter& fitter, const FitSetEvalSettin
 }
 
 FitSetEvaluation evaluate_dataset(const Fitter& fitter, const std::string& model_label, const FitSetEvalSettings& s,
-                                  const std::function<void()>& on_case) {
+                                  const std::function<void(std::size_t)>& on_case) {
     const morph::MorphableModel& model = fitter.model();
     const std::string checksum = model.checksum();
     const fs::path dir(s.data);
@@ -334,7 +334,7 @@ FitSetEvaluation evaluate_dataset(const Fitter& fitter, const std::string& model
             sample = read_sample_meta(entry.meta);
         } catch (const core::Error& error) {
             e.errors.push_back("sample " + entry.key + ": " + error.what());
-            if (on_case) on_case();
+            if (on_case) on_case(e.samples);
             continue;
         }
         if (sample.model_checksum != checksum) throw mismatch(sample.model_checksum + " (" + entry.meta.string() + ")");
@@ -343,7 +343,7 @@ FitSetEvaluation evaluate_dataset(const Fitter& fitter, const std::string& model
         } catch (const core::Error& error) {
             e.errors.push_back("sample " + entry.key + " (" + entry.meta.string() + "): fit failed: " + error.what());
         }
-        if (on_case) on_case();
+        if (on_case) on_case(e.samples);
     }
     write_settings(e.json, s, model, s.mode);
     e.json["visible_only"] = s.visible_only;
@@ -353,7 +353,7 @@ FitSetEvaluation evaluate_dataset(const Fitter& fitter, const std::string& model
 }  // namespace
 
 FitSetEvaluation evaluate_fit_set(const Fitter& fitter, const std::string& model_label, const FitSetEvalSettings& settings,
-                                  const std::function<void()>& on_case) {
+                                  const std::function<void(std::size_t)>& on_case) {
     check_fit_set_settings(settings);
     FitSetEvaluation e = settings.data.empty() ? evaluate_generated(fitter, settings, on_case) : evaluate_dataset(fitter, model_label, settings, on_case);
     e.json["failed"] = e.errors.size();

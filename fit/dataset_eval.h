@@ -118,9 +118,9 @@ struct FitSetEvaluation {
 void check_fit_set_settings(const FitSetEvalSettings& settings);
 // Throws core::Error for a setting out of range, a missing or empty manifest, and a dataset made with
 // another model (`model_label` names the model in that message); a sample that cannot be read or
-// fitted is skipped and listed in `errors`. `on_case` runs after every case.
+// fitted is skipped and listed in `errors`. `on_case(total)` runs after every case.
 [[nodiscard]] FitSetEvaluation evaluate_fit_set(const Fitter& fitter, const std::string& model_label,
-                                                const FitSetEvalSettings& settings, const std::function<void()>& on_case = {});
+                                                const FitSetEvalSettings& settings, const std::function<void(std::size_t total)>& on_case = {});
 // The error `facesynth eval fit` ends with when samples were skipped (empty when none were).
 [[nodiscard]] std::string fit_set_failure(const FitSetEvalSettings& settings, const FitSetEvaluation& evaluation);
 

@@ -24,6 +24,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 
 namespace facesynth::cli {
@@ -203,10 +204,12 @@ void run_eval(const FitEvalArgs& a) {
     if (a.data.empty() || a.max_yaw_given) s.max_yaw_deg = a.max_yaw;
     const morph::MorphableModel model = morph::load_model(a.model);
     const fit::Fitter fitter(model);
-    const std::size_t total = a.data.empty() ? static_cast<std::size_t>(a.count) : fit::read_dataset_manifest(a.data).size();
-    Progress progress("eval fit", total, a.quiet);
-    const fit::FitSetEvaluation evaluation = fit::evaluate_fit_set(fitter, a.model, s, [&] { progress.advance(); });
-    progress.finish();
+    std::optional<Progress> progress;
+    const fit::FitSetEvaluation evaluation = fit::evaluate_fit_set(fitter, a.model, s, [&](std::size_t total) {
+        if (!progress) progress.emplace("eval fit", total, a.quiet);
+        progress->advance();
+    });
+    if (progress) progress->finish();
     for (const std::string& error : evaluation.errors) std::fprintf(stderr, "facesynth: error: %s\n", error.c_str());
     if (!a.quiet) print_summary(evaluation.summary, !a.data.empty());
     if (!a.json.empty()) write_json_file(a.json, evaluation.json);

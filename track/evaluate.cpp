@@ -84,7 +84,7 @@ struct VariantRun {
     VariantFigures& figures;
     Tracker tracker;
     std::optional<Eigen::Matrix2Xd> previous;  // the previous frame's prediction (found)
-    bool was_ok = false, had_success = false;
+    bool had_success = false;
     std::int64_t failure_run = 0;
 
     void frame(const cv::Mat& image, const Frame& f, const Frame* before, double failure_threshold, double fps) {
@@ -122,11 +122,10 @@ struct VariantRun {
             failure_run = 0;
             had_success = true;
         }
-        was_ok = ok;
     }
 };
 
-void write_variant(nlohmann::json& j, const std::string& prefix, const VariantFigures& v, double failure_threshold) {
+void write_variant(nlohmann::json& j, const std::string& prefix, const VariantFigures& v) {
     const auto share = [](double part, std::int64_t whole) { return whole > 0 ? part / static_cast<double>(whole) : 0.0; };
     std::vector<double> sorted = v.nmes;
     std::sort(sorted.begin(), sorted.end());
@@ -143,7 +142,6 @@ void write_variant(nlohmann::json& j, const std::string& prefix, const VariantFi
     j[prefix + "losses"] = v.losses;
     j[prefix + "fps"] = v.seconds > 0 ? static_cast<double>(v.frames) / v.seconds : 0.0;
     j[prefix + "ms_per_frame"] = share(1000.0 * v.seconds, v.frames);
-    (void)failure_threshold;
 }
 
 }  // namespace
@@ -154,8 +152,8 @@ nlohmann::json TrackEvaluation::json(double failure_threshold) const {
     j["frames"] = frames;
     j["static_frames"] = static_frames;
     j["failure_threshold"] = failure_threshold;
-    write_variant(j, "tracked_", tracked, failure_threshold);
-    write_variant(j, "per_frame_", per_frame, failure_threshold);
+    write_variant(j, "tracked_", tracked);
+    write_variant(j, "per_frame_", per_frame);
     return j;
 }
 

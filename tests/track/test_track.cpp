@@ -25,15 +25,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string error_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const core::Error& e) {
-        return e.what();
-    }
-    return "";
-}
-
 void write_frames_video(const fs::path& path, int frames) {
     cv::VideoWriter writer(path.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25, cv::Size(64, 48));
     ASSERT_TRUE(writer.isOpened());
@@ -65,7 +56,7 @@ TEST(FrameSource, ReadsFoldersAndVideosAndRefusesBadInputsByName) {
     const auto size = fs::file_size(dir / "clip.avi");
     fs::copy_file(dir / "clip.avi", dir / "cut.avi");
     fs::resize_file(dir / "cut.avi", size / 2);
-    const std::string cut = error_of([&] {
+    const std::string cut = testkit::error_message_of([&] {
         FrameSource source((dir / "cut.avi").string());
         while (source.next(frame)) {
         }
@@ -76,21 +67,21 @@ TEST(FrameSource, ReadsFoldersAndVideosAndRefusesBadInputsByName) {
     {
         cv::VideoWriter empty((dir / "empty.avi").string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25, cv::Size(64, 48));
     }
-    const std::string zero = error_of([&] {
+    const std::string zero = testkit::error_message_of([&] {
         FrameSource source((dir / "empty.avi").string());
         while (source.next(frame)) {
         }
     });
     EXPECT_NE(zero.find("empty.avi"), std::string::npos) << zero;
     std::ofstream(dir / "garbage.mp4") << "not a video at all";
-    EXPECT_NE(error_of([&] { FrameSource source((dir / "garbage.mp4").string()); }).find("garbage.mp4"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { FrameSource source((dir / "garbage.mp4").string()); }).find("garbage.mp4"), std::string::npos);
     fs::create_directories(dir / "empty");
-    EXPECT_NE(error_of([&] { FrameSource source((dir / "empty").string()); }).find("no images"), std::string::npos);
-    EXPECT_NE(error_of([&] { FrameSource source((dir / "missing.mp4").string()); }).find("not found"), std::string::npos);
-    EXPECT_NE(error_of([&] { FrameSource source("57"); }).find("camera 57"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { FrameSource source((dir / "empty").string()); }).find("no images"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { FrameSource source((dir / "missing.mp4").string()); }).find("not found"), std::string::npos);
+    EXPECT_NE(testkit::error_message_of([&] { FrameSource source("57"); }).find("camera 57"), std::string::npos);
     cv::imwrite((dir / "frames" / "f3.png").string(), cv::Mat(8, 8, CV_8UC3));
     std::ofstream(dir / "frames" / "f4.png") << "broken";
-    const std::string broken = error_of([&] {
+    const std::string broken = testkit::error_message_of([&] {
         FrameSource source((dir / "frames").string());
         while (source.next(frame)) {
         }
