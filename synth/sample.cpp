@@ -5,6 +5,7 @@
 #include "core/random.h"
 #include "core/srgb.h"
 #include "render/landmarks.h"
+#include "synth/degrade.h"
 #include "synth/neck.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -144,37 +145,6 @@ void draw_occluders(const std::vector<OccluderSpec>& occluders, cv::Mat& image, 
             cv::fillConvexPoly(image, polygon, to_scalar(o.colour), cv::LINE_AA);
             cv::fillConvexPoly(coverage, polygon, cv::Scalar(255), cv::LINE_8);
         }
-    }
-}
-
-void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::int64_t index) {
-    if (d.downscale < 1) {
-        cv::Mat small;
-        const cv::Size size(std::max(1, static_cast<int>(image.cols * d.downscale)), std::max(1, static_cast<int>(image.rows * d.downscale)));
-        cv::resize(image, small, size, 0, 0, cv::INTER_AREA);
-        cv::resize(small, image, image.size(), 0, 0, cv::INTER_LINEAR);
-    }
-    if (d.blur_sigma > 0) cv::GaussianBlur(image, image, cv::Size(0, 0), d.blur_sigma, d.blur_sigma, cv::BORDER_REFLECT);
-    if (d.gamma != 1 || d.gains != Eigen::Vector3d::Ones()) {
-        cv::Mat lut(1, 256, CV_8UC3);
-        for (int v = 0; v < 256; ++v)
-            for (int c = 0; c < 3; ++c)
-                lut.at<cv::Vec3b>(v)[c] = cv::saturate_cast<uchar>(255.0 * std::pow(v / 255.0, d.gamma) * d.gains[c]);
-        cv::LUT(image, lut, image);
-    }
-    if (d.noise_sigma > 0) {
-        core::Rng rng = core::make_rng(seed, static_cast<std::uint64_t>(index), core::RandomStream::kNoise);
-        for (int y = 0; y < image.rows; ++y) {
-            auto* row = image.ptr<uchar>(y);
-            for (int x = 0; x < image.cols * 3; ++x) row[x] = cv::saturate_cast<uchar>(row[x] + rng.normal(0, d.noise_sigma));
-        }
-    }
-    if (d.jpeg_quality > 0) {
-        std::vector<uchar> bytes;
-        cv::Mat bgr;
-        cv::cvtColor(image, bgr, cv::COLOR_RGB2BGR);
-        cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, d.jpeg_quality});
-        cv::cvtColor(cv::imdecode(bytes, cv::IMREAD_COLOR), image, cv::COLOR_BGR2RGB);
     }
 }
 
