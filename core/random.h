@@ -45,6 +45,7 @@ enum class RandomStream : std::uint64_t {
     kAlbedoRedraw,  // synth: colour draws that replace implausible ones (albedo.reject_implausible)
     kHead,          // synth: the head parts a sample wears (head.body)
     kSequence,      // synth: the keys of a clip's trajectories (sequence.frames)
+    kExposure,      // synth: the face-metered exposure's target (lighting.face_luminance_mean)
 };
 
 [[nodiscard]] inline Rng make_rng(std::uint64_t seed, std::uint64_t index, RandomStream stream) {

@@ -205,6 +205,9 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"lighting.specular_max", &c.lighting.specular_max, "Blinn-Phong specular weight upper bound"});
     f.push_back({"lighting.shadow_probability", &c.lighting.shadow_probability,
                  "share of samples whose directional lights cast shadows (shadow maps)"});
+    f.push_back({"lighting.face_luminance_mean", &c.lighting.face_luminance_mean,
+                 "face-metered exposure: mean grey level of the face in [0, 1] (0 = off)"});
+    f.push_back({"lighting.face_luminance_stddev", &c.lighting.face_luminance_stddev, "face-metered exposure: its spread over samples"});
     f.push_back({"background.type", &c.background.type,
                  "\"solid\", \"procedural\", \"images\" (background.folder) or \"wallpapers\" (the photographs among Debian's wallpaper packages)"});
     f.push_back({"background.folder", &c.background.folder, "folder of background images (type = \"images\")"});
@@ -349,6 +352,10 @@ void validate(const SynthConfig& c) {
     require(c.lighting.colour_temperature_max <= 40000, "lighting.colour_temperature_max", "must be at most 40000 K");
     require(c.lighting.specular_max >= 0, "lighting.specular_max", "must not be negative");
     validate_share(c.lighting.shadow_probability, "lighting.shadow_probability");
+    require(c.lighting.face_luminance_mean == 0 || (c.lighting.face_luminance_mean >= 0.1 && c.lighting.face_luminance_mean <= 0.9),
+            "lighting.face_luminance_mean", "must be 0 (off) or in [0.1, 0.9]");
+    require(c.lighting.face_luminance_stddev >= 0 && c.lighting.face_luminance_stddev <= 0.5, "lighting.face_luminance_stddev",
+            "must be in [0, 0.5]");
     require(c.background.type == "solid" || c.background.type == "procedural" || c.background.type == "images" || c.background.type == "wallpapers",
             "background.type", "must be \"solid\", \"procedural\", \"images\" or \"wallpapers\"");
     require(c.background.type != "images" || !c.background.folder.empty(), "background.folder", "must name a folder when background.type = \"images\"");

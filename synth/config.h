@@ -92,6 +92,11 @@ struct LightingConfig {
     // Share of samples whose directional lights cast shadows (shadow maps). Off by default: existing
     // datasets and their figures stay byte-identical, and each shadowed light costs a depth pass.
     double shadow_probability = 0;
+    // Face-metered exposure (synth/exposure.h): the face's light is scaled so that its mean grey level
+    // inside the landmarks' hull is drawn from normal(mean, stddev) within [0.1, 0.9]. 0 = off (the face
+    // is as bright as the drawn light makes it).
+    double face_luminance_mean = 0;
+    double face_luminance_stddev = 0.13;
 };
 
 struct BackgroundConfig {

@@ -6,6 +6,7 @@
 #include "core/srgb.h"
 #include "render/landmarks.h"
 #include "synth/degrade.h"
+#include "synth/exposure.h"
 #include "synth/neck.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -316,6 +317,9 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     labels.landmarks_3d_contour = projected.contour_model_points;
     labels.visible_contour.assign(projected.contour_visible.begin(), projected.contour_visible.end());
 
+    if (s.spec.lighting.face_luminance > 0)
+        s.exposure_gain = expose_face(frame_.rgb, frame_.mask, chosen_landmarks(labels, config_.landmarks.mode), s.spec.lighting.face_luminance,
+                                      s.spec.lighting.lighting.gamma);
     make_background(frame_.rgb.size(), s.spec.background, backgrounds_, background_, background_canvas_);
     composite(frame_.rgb, frame_.mask, background_, s.image);
     s.mask = frame_.mask.clone();

@@ -44,6 +44,7 @@ struct Sample {
     cv::Mat regions;  // CV_8UC1, Region id per pixel (morph/regions.h), 0 = background or occluder
     std::string texture;  // file name of the UV texture map used; empty without albedo.texture_folder
     std::string hair, clothing;  // head.body: the hair and clothing meshes worn (hair empty: none)
+    double exposure_gain = 1;    // linear gain of the face-metered exposure (lighting.face_luminance_mean)
 };
 
 // Where time goes, summed over samples (seconds): wall time and CPU time of the worker thread. The

@@ -130,6 +130,10 @@ LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
     // Drawn last, so that the draws above (and datasets made before shadows existed) are unchanged.
     const bool shadows = chance(rng, c.shadow_probability);
     l.shadows = shadows && !l.lights.empty();
+    if (c.face_luminance_mean > 0) {
+        core::Rng exposure = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kExposure);
+        spec.face_luminance = std::clamp(exposure.normal(c.face_luminance_mean, c.face_luminance_stddev), 0.1, 0.9);
+    }
     return spec;
 }
 

@@ -29,6 +29,7 @@ struct LightingSpec {
     double environment_temperature = 6500;  // K
     std::vector<double> light_temperatures;  // K, one per directional light
     std::array<double, 3> white_balance_gain{1, 1, 1};  // applied to every light colour above (already in `lighting`)
+    double face_luminance = 0;  // face-metered exposure's target grey level, 0 = none (synth/exposure.h)
 };
 
 struct BackgroundSpec {

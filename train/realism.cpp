@@ -4,6 +4,8 @@
 #include "morph/landmarks.h"
 #include "train/sdm.h"
 
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -12,16 +14,35 @@
 
 namespace facesynth::train {
 
+namespace {
+
+// Mean grey level inside the convex hull of the label. synth meters the same quantity on the face layer
+// before it is composited (synth/exposure.h); here it is measured on finished images of any source.
+double hull_grey(const cv::Mat& gray, const Eigen::Matrix2Xd& label) {
+    std::vector<cv::Point> points, hull;
+    for (Eigen::Index i = 0; i < label.cols(); ++i)
+        points.emplace_back(static_cast<int>(std::lround(label(0, i))), static_cast<int>(std::lround(label(1, i))));
+    cv::convexHull(points, hull);
+    cv::Mat inside = cv::Mat::zeros(gray.size(), CV_8UC1);
+    cv::fillConvexPoly(inside, hull, cv::Scalar(255));
+    if (cv::countNonZero(inside) == 0) return std::numeric_limits<double>::quiet_NaN();
+    return cv::mean(gray, inside)[0] / 255.0;
+}
+
+}  // namespace
+
 RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor, DetectorKind detector_kind,
                             const std::function<void()>& on_image) {
     RealismSide side;
     side.bias = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks);
     const FaceDetector detector(detector_kind);
+    std::vector<double> greys;
     for (const LabelledImage& image : images) {
         ++side.faces;
         double nme = std::numeric_limits<double>::infinity();
         try {
             const auto [truth, gray] = load_labelled_face(image);
+            if (const double grey = hull_grey(gray, truth); std::isfinite(grey)) greys.push_back(grey);
             if (const auto box = match_detection(detector.detect(gray), truth)) {
                 const Eigen::Matrix2Xd predicted = regressor.predict(gray, *box);
                 nme = landmark_nme(predicted, truth);
@@ -35,6 +56,11 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
         if (on_image) on_image();
     }
     if (side.detected > 0) side.bias /= side.detected;
+    if (!greys.empty()) {
+        const Eigen::Map<const Eigen::ArrayXd> g(greys.data(), static_cast<Eigen::Index>(greys.size()));
+        side.face_grey_mean = g.mean();
+        side.face_grey_stddev = std::sqrt((g - g.mean()).square().mean());
+    }
     side.nme = summarise_nme(side.nmes);
     return side;
 }
@@ -67,6 +93,8 @@ void add_side(nlohmann::json& j, const std::string& prefix, const RealismSide& s
     j[prefix + "_nme_median"] = side.nme.median;
     j[prefix + "_failure_rate_008"] = side.nme.failure_rate_008;
     j[prefix + "_auc_008"] = side.nme.auc_008;
+    j[prefix + "_face_grey_mean"] = side.face_grey_mean;
+    j[prefix + "_face_grey_stddev"] = side.face_grey_stddev;
     for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         char key[48];
         std::snprintf(key, sizeof key, "%s_bias_x_%02d", prefix.c_str(), i + 1);

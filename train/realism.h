@@ -27,6 +27,10 @@ struct RealismSide {
     // distances (morph/landmarks.h face_frame_offsets): 2 x 68.
     Eigen::Matrix2Xd bias;
     std::vector<std::string> warnings;  // unreadable images or .pts files (counted as misses)
+    // The face's grey level (mean over the labelled landmarks' convex hull, [0, 1]) over all readable
+    // images: how brightly the face is exposed, which synth's face-metered exposure matches
+    // (lighting.face_luminance_mean, synth/exposure.h).
+    double face_grey_mean = 0, face_grey_stddev = 0;
 };
 
 // Runs `regressor` on the faces `detector` finds in `images` (the detection matching each label).

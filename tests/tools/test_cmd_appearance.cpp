@@ -154,6 +154,13 @@ TEST_F(CmdAppearance, RealismComparesRendersWithPhotographs) {
     if (j["renders_detected"].get<int>() > 0 && j["photos_detected"].get<int>() > 0) {
         EXPECT_GT(j["nme_ratio"].get<double>(), 0.0);
     }
+    // The face's grey level: a rendered face is neither black nor white, and the same images measure the same.
+    EXPECT_GT(j["renders_face_grey_mean"].get<double>(), 0.1);
+    EXPECT_LT(j["renders_face_grey_mean"].get<double>(), 0.9);
+    EXPECT_GT(j["renders_face_grey_stddev"].get<double>(), 0.0);
+    if (j["photos_faces"] == j["renders_faces"]) {
+        EXPECT_DOUBLE_EQ(j["photos_face_grey_mean"].get<double>(), j["renders_face_grey_mean"].get<double>());
+    }
     EXPECT_EQ(run_command(appearance_cli() + " eval realism -q --data " + (dir / "renders").string() + " --max-yaw nan", &out), 2);
     EXPECT_EQ(run_command(appearance_cli() + " eval realism -q --data " + photos.string(), &out), 1);  // no meta: no yaw
     EXPECT_NE(out.find("no render with"), std::string::npos) << out;
