@@ -46,6 +46,7 @@ enum class RandomStream : std::uint64_t {
     kHead,          // synth: the head parts a sample wears (head.body)
     kSequence,      // synth: the keys of a clip's trajectories (sequence.frames)
     kExposure,      // synth: the face-metered exposure's target (lighting.face_luminance_mean)
+    kTextureMix,    // synth: the second texture mixed in (albedo.texture_mix_probability)
 };
 
 [[nodiscard]] inline Rng make_rng(std::uint64_t seed, std::uint64_t index, RandomStream stream) {

@@ -180,6 +180,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
                  "texture bank made by `facesynth textures` for this model; each sample renders with one of its textures, chosen from (seed, index); empty = off"});
     f.push_back({"albedo.texture_tone_jitter", &c.albedo.texture_tone_jitter,
                  "with a texture: its linear albedo times a per-channel gain uniform in [1 - x, 1 + x] per sample (0 = as in the texture)"});
+    f.push_back({"albedo.texture_mix_probability", &c.albedo.texture_mix_probability,
+                 "with a texture: share of samples whose texture takes the coarse colour of a second one (0 = off)"});
     add_angle(f, "yaw", c.pose.yaw);
     add_angle(f, "pitch", c.pose.pitch);
     add_angle(f, "roll", c.pose.roll);
@@ -329,6 +331,7 @@ void validate(const SynthConfig& c) {
     require(c.albedo.truncation >= 0, "albedo.truncation", "must not be negative");
     require(c.albedo.texture_folder.empty() || c.albedo.texture_bank.empty(), "albedo.texture_bank", "cannot be combined with albedo.texture_folder: set one");
     require(c.albedo.texture_tone_jitter >= 0 && c.albedo.texture_tone_jitter < 1, "albedo.texture_tone_jitter", "must be in [0, 1)");
+    validate_share(c.albedo.texture_mix_probability, "albedo.texture_mix_probability");
     validate_angle(c.pose.yaw, "yaw");
     validate_angle(c.pose.pitch, "pitch");
     validate_angle(c.pose.roll, "roll");

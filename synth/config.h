@@ -55,6 +55,9 @@ struct AlbedoConfig {
     std::string texture_folder;  // folder of UV texture maps; each sample renders with one of them
     std::string texture_bank;    // texture bank (`facesynth textures`); each sample renders with one of its textures
     double texture_tone_jitter = 0;  // texture's linear albedo times a per-channel gain uniform in [1 - x, 1 + x]
+    // Share of samples whose texture takes the coarse colour (tone, blotches, beard shadow) of a second
+    // texture of the bank, by a weight uniform in [0, 1], keeping its own features and shape (synth/texture_mix.h).
+    double texture_mix_probability = 0;
 };
 
 // Pose, camera and degradation defaults are those measured to train the best detector for real

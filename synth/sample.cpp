@@ -7,6 +7,7 @@
 #include "render/landmarks.h"
 #include "synth/degrade.h"
 #include "synth/exposure.h"
+#include "synth/texture_mix.h"
 #include "synth/neck.h"
 
 #include <opencv2/imgcodecs.hpp>
@@ -284,6 +285,11 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
         if (s.spec.texture_gain != Eigen::Vector3d::Ones()) {
             tone_texture(*texture, s.spec.texture_gain, toned_texture_);
             texture = &toned_texture_;
+        }
+        if (s.spec.texture_mix_choice) {
+            s.texture_mix = textures_.name(*s.spec.texture_mix_choice);
+            mix_coarse_colour(*texture, textures_.image(*s.spec.texture_mix_choice), s.spec.texture_mix_weight, mixed_texture_);
+            texture = &mixed_texture_;
         }
     }
     const render::LandmarkTopology* topology = &landmark_topology_;

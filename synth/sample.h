@@ -43,6 +43,7 @@ struct Sample {
     cv::Mat normals;  // CV_32FC3, camera axes
     cv::Mat regions;  // CV_8UC1, Region id per pixel (morph/regions.h), 0 = background or occluder
     std::string texture;  // file name of the UV texture map used; empty without albedo.texture_folder
+    std::string texture_mix;  // the texture whose coarse colour was mixed in; empty without
     std::string hair, clothing;  // head.body: the hair and clothing meshes worn (hair empty: none)
     double exposure_gain = 1;    // linear gain of the face-metered exposure (lighting.face_luminance_mean)
 };
@@ -136,6 +137,7 @@ private:
     morph::Mesh mesh_;  // the model's triangles and uv, set once; vertices and colours per sample
     cv::Mat background_, background_canvas_;  // per sample, in buffers kept between samples
     cv::Mat toned_texture_;  // the sample's texture times its albedo.texture_tone_jitter gains
+    cv::Mat mixed_texture_;  // with the coarse colour of a second texture (albedo.texture_mix_probability)
 };
 
 // Landmarks of the mode named in config.landmarks.mode, with their visibility.

@@ -219,6 +219,12 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const m
     if (sample.texture.empty()) j.null();
     else j.string(sample.texture);
     j.key("texture_gain").point(s.texture_gain);
+    if (config.albedo.texture_mix_probability > 0) {  // keys only with mixing, so that other datasets' meta is unchanged
+        j.key("texture_mix");
+        if (sample.texture_mix.empty()) j.null();
+        else j.string(sample.texture_mix);
+        j.key("texture_mix_weight").number(s.texture_mix_weight);
+    }
     j.key("translation").point(s.pose.translation);
     j.key("visibility").integers(chosen_visibility(labels, mode));
     j.key("visibility_contour").integers(labels.visible_contour);

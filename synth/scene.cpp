@@ -375,6 +375,12 @@ SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& 
         const double jitter = config.albedo.texture_tone_jitter;
         if (jitter > 0)
             for (int c = 0; c < 3; ++c) s.texture_gain[c] = rng.uniform(1 - jitter, 1 + jitter);
+        // Its own stream, so that the texture and gain draws above stay those of datasets without mixing.
+        core::Rng mix = core::make_rng(config.seed, i, core::RandomStream::kTextureMix);
+        if (chance(mix, config.albedo.texture_mix_probability)) {
+            s.texture_mix_choice = mix.next_u64();
+            s.texture_mix_weight = mix.uniform();
+        }
     }
     const auto texture_fit = [&](const char* key) -> const TextureFit& {
         if (!s.texture_choice || texture_fits.empty())

@@ -85,6 +85,10 @@ struct SampleSpec {
     std::optional<std::uint64_t> texture_choice;
     // With albedo.texture_tone_jitter: per-channel gain on the texture's linear albedo (R G B).
     Eigen::Vector3d texture_gain = Eigen::Vector3d::Ones();
+    // With albedo.texture_mix_probability: the texture whose coarse colour is mixed in (a draw taken
+    // modulo the number of maps), and by how much.
+    std::optional<std::uint64_t> texture_mix_choice;
+    double texture_mix_weight = 0;
     morph::EulerAngles angles;
     morph::CameraPose pose;
     morph::Intrinsics intrinsics;
