@@ -44,7 +44,7 @@ void mix_coarse_colour(const cv::Mat& features, const cv::Mat& colour, double we
         const float* in = linear_features.ptr<float>(y);
         std::uint8_t* o = out.ptr<std::uint8_t>(y);
         for (int x = 0; x < out.cols * 3; ++x) {
-            const int step = static_cast<int>(std::clamp(in[x], 0.0f, 1.0f) * kSteps + 0.5f);
+            const auto step = std::lround(std::clamp(in[x], 0.0f, 1.0f) * kSteps);
             o[x] = encode[static_cast<std::size_t>(step)];
         }
     }
