@@ -147,14 +147,8 @@ TrueFrontal render_true_frontal(Frontaliser& frontaliser, const TexturedFace& fa
     cv::cvtColor(frame.rgb, truth.render.image, cv::COLOR_RGB2BGR);
     truth.render.mask = frame.mask.clone();
     const Eigen::Matrix2Xd points = project(camera, frontaliser.model().landmark_positions(face.mesh.vertices).cast<double>());
-    std::vector<cv::Point> hull_input, hull;
-    for (Eigen::Index i = 0; i < points.cols(); ++i)
-        if (points.col(i).allFinite()) hull_input.emplace_back(static_cast<int>(std::lround(points(0, i))), static_cast<int>(std::lround(points(1, i))));
-    if (hull_input.size() < 3) throw core::Error("frontal benchmark: the model has too few landmarks for a face mask");
-    cv::convexHull(hull_input, hull);
-    truth.face_mask = cv::Mat(size, size, CV_8UC1, cv::Scalar::all(0));
-    cv::fillConvexPoly(truth.face_mask, hull, cv::Scalar(255));
-    truth.face_mask.setTo(0, truth.render.mask < 255);
+    if (points.array().isFinite().colwise().all().count() < 3) throw core::Error("frontal benchmark: the model has too few landmarks for a face mask");
+    truth.face_mask = render::landmark_hull_mask(truth.render.mask, points);
     return truth;
 }
 

@@ -6,6 +6,7 @@
 #include "morph/landmarks.h"
 
 #include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -316,6 +317,18 @@ ProjectedLandmarks project_landmarks(std::span<const morph::SurfacePoint> landma
             is_outline_visible(frame, out.contour_pixels.col(i), z, pixels_per_mm(camera, z), face_triangles, options) ? 1 : 0;
     }
     return out;
+}
+
+cv::Mat landmark_hull_mask(const cv::Mat& coverage, const Eigen::Matrix2Xd& points) {
+    std::vector<cv::Point> finite, hull;
+    for (Eigen::Index i = 0; i < points.cols(); ++i)
+        if (points.col(i).allFinite()) finite.emplace_back(static_cast<int>(std::lround(points(0, i))), static_cast<int>(std::lround(points(1, i))));
+    cv::Mat inside = cv::Mat::zeros(coverage.size(), CV_8UC1);
+    if (finite.size() < 3) return inside;
+    cv::convexHull(finite, hull);
+    cv::fillConvexPoly(inside, hull, cv::Scalar(255));
+    inside.setTo(0, coverage != 255);
+    return inside;
 }
 
 }  // namespace facesynth::render

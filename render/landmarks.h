@@ -105,4 +105,9 @@ struct LandmarkTopology {
 [[nodiscard]] std::optional<Eigen::Vector3d> surface_point_at(const morph::Mesh& mesh, const Camera& camera,
                                                               const Frame& frame, int x, int y);
 
+// The face inside its landmarks: 255 where the convex hull of the finite `points` (0-based px, rounded)
+// meets pixels that `coverage` (the frame's mask, same size) covers fully, 0 elsewhere; all 0 with fewer
+// than three finite points.
+[[nodiscard]] cv::Mat landmark_hull_mask(const cv::Mat& coverage, const Eigen::Matrix2Xd& points);
+
 }  // namespace facesynth::render

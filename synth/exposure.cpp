@@ -1,6 +1,6 @@
 #include "synth/exposure.h"
 
-#include <opencv2/imgproc.hpp>
+#include "render/landmarks.h"
 
 #include <algorithm>
 #include <array>
@@ -13,19 +13,6 @@ namespace facesynth::synth {
 namespace {
 
 constexpr double kMostGain = 4.0;
-
-cv::Mat hull_of_face(const cv::Mat& coverage, const Eigen::Matrix2Xd& landmarks) {
-    std::vector<cv::Point> points, hull;
-    for (Eigen::Index i = 0; i < landmarks.cols(); ++i)
-        if (std::isfinite(landmarks(0, i)) && std::isfinite(landmarks(1, i)))
-            points.emplace_back(static_cast<int>(std::lround(landmarks(0, i))), static_cast<int>(std::lround(landmarks(1, i))));
-    cv::Mat inside = cv::Mat::zeros(coverage.size(), CV_8UC1);
-    if (points.size() < 3) return inside;
-    cv::convexHull(points, hull);
-    cv::fillConvexPoly(inside, hull, cv::Scalar(255));
-    inside.setTo(0, coverage != 255);
-    return inside;
-}
 
 // Grey levels (0-255, BT.601) of the metered pixels, read once: the gain search only rescales them.
 std::vector<double> metered_greys(const cv::Mat& rgb, const cv::Mat& inside) {
@@ -42,7 +29,7 @@ std::vector<double> metered_greys(const cv::Mat& rgb, const cv::Mat& inside) {
 }  // namespace
 
 double face_luminance(const cv::Mat& rgb, const cv::Mat& coverage, const Eigen::Matrix2Xd& landmarks) {
-    const std::vector<double> greys = metered_greys(rgb, hull_of_face(coverage, landmarks));
+    const std::vector<double> greys = metered_greys(rgb, render::landmark_hull_mask(coverage, landmarks));
     if (greys.empty()) return std::numeric_limits<double>::quiet_NaN();
     double sum = 0;
     for (const double g : greys) sum += g;
@@ -50,7 +37,7 @@ double face_luminance(const cv::Mat& rgb, const cv::Mat& coverage, const Eigen::
 }
 
 double expose_face(cv::Mat& rgb, const cv::Mat& coverage, const Eigen::Matrix2Xd& landmarks, double target, double gamma) {
-    const std::vector<double> greys = metered_greys(rgb, hull_of_face(coverage, landmarks));
+    const std::vector<double> greys = metered_greys(rgb, render::landmark_hull_mask(coverage, landmarks));
     if (greys.empty()) return 1.0;
     // A linear gain k multiplies the encoded values by k^(1/gamma). The grey of a clipped pixel is
     // approximated by clipping its grey, which is exact for white and close for pale skin.

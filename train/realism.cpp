@@ -17,7 +17,8 @@ namespace facesynth::train {
 namespace {
 
 // Mean grey level inside the convex hull of the label. synth meters the same quantity on the face layer
-// before it is composited (synth/exposure.h); here it is measured on finished images of any source.
+// before it is composited (synth/exposure.h, through render::landmark_hull_mask, which train cannot
+// call: it does not link the renderer); here it is measured on finished images of any source.
 double hull_grey(const cv::Mat& gray, const Eigen::Matrix2Xd& label) {
     std::vector<cv::Point> points, hull;
     for (Eigen::Index i = 0; i < label.cols(); ++i)
