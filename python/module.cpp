@@ -22,6 +22,8 @@
 #include "train/realism.h"
 #include "train/regressor.h"
 #include "train/sdm.h"
+#include "track/session.h"
+#include "track/tracker.h"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
@@ -646,6 +648,67 @@ private:
     std::mutex mutex_;  // one renderer
 };
 
+
+// ---- tracking ----
+
+// `facesynth track`'s tracker fed one frame at a time (docs/track.md): each frame's faces as the
+// records of faces.jsonl (frame_record), landmarks as arrays. The model (and its fitter) is kept
+// alive by the binding (keep_alive) for as long as the tracker.
+class Tracker {
+public:
+    Tracker(const Model& model, const std::string& regressor, const std::string& detector, const track::TrackerSettings& settings)
+        : regressor_(train::open_regressor(regressor)), tracker_(*regressor_, detector_for(detector, *regressor_), model.fitter(), settings) {}
+
+    // The faces followed in `image` at `time_s` seconds (later than the previous frame's).
+    py::list process(const py::array& image, double time_s) {
+        if (!std::isfinite(time_s) || (frames_ > 0 && time_s <= last_time_s_))
+            throw py::value_error("time_s must be finite and later than the previous frame's (" + std::to_string(last_time_s_) + "), got " +
+                                  std::to_string(time_s));
+        const cv::Mat bgr = bgr_from(image, "image");
+        std::string record;
+        {
+            const py::gil_scoped_release released;
+            const std::lock_guard lock(mutex_);
+            record = track::frame_record(frames_, time_s, tracker_.process(bgr, time_s), true);
+        }
+        ++frames_;
+        last_time_s_ = time_s;
+        const py::dict frame = dict_from_json(nlohmann::json::parse(record));
+        py::list faces = frame["faces"];
+        const py::object asarray = py::module_::import("numpy").attr("asarray");
+        for (py::handle face : faces) {
+            const py::dict f = py::reinterpret_borrow<py::dict>(face);
+            f["box"] = py::tuple(f["box"]);
+            f["landmarks"] = asarray(f["landmarks"], "float64");
+        }
+        return faces;
+    }
+    [[nodiscard]] py::dict counters() const {
+        py::dict out;
+        out["frames"] = frames_;
+        out["detector_runs"] = tracker_.detector_runs();
+        out["fallback_detector_runs"] = tracker_.fallback_runs();
+        out["losses"] = tracker_.losses();
+        out["reacquired"] = tracker_.reacquired();
+        return out;
+    }
+
+private:
+    static train::DetectorKind detector_for(const std::string& option, const train::LandmarkRegressor& regressor) {
+        try {
+            return track::tracking_detector(option, regressor);
+        } catch (const core::Error& e) {
+            throw py::value_error(e.what());
+        }
+    }
+
+    std::unique_ptr<train::LandmarkRegressor> regressor_;  // outlives tracker_
+    track::Tracker tracker_;
+    std::int64_t frames_ = 0;
+    double last_time_s_ = 0;
+    std::mutex mutex_;  // one detector, one set of tracks
+};
+
 }  // namespace
 }  // namespace facesynth::python
 
@@ -655,6 +718,7 @@ PYBIND11_MODULE(_facesynth, m) {
     using facesynth::python::Generator;
     using facesynth::python::Model;
     using facesynth::python::Renderer;
+    using facesynth::python::Tracker;
     using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
     m.doc() = "facesynth's compiled core; use the facesynth package (docs/python.md)";
     // Every other facesynth failure (a file, the renderer, a sample) keeps its message as RuntimeError.
@@ -727,4 +791,23 @@ PYBIND11_MODULE(_facesynth, m) {
     py::class_<Frontaliser>(m, "Frontaliser")
         .def(py::init<const Model&, int, bool>(), py::arg("model"), py::arg("size"), py::arg("mirror_fill"))
         .def("frontalise", &Frontaliser::frontalise, py::arg("image"), py::arg("landmarks"));
+    py::class_<Tracker>(m, "Tracker")
+        .def(py::init([](const facesynth::python::Model& model, const std::string& regressor, const std::string& detector, int detect_every, int max_faces,
+                         bool track, bool smooth, double max_fit_error, bool multiview_fallback) {
+                 if (detect_every < 1) throw py::value_error("detect_every must be at least 1, got " + std::to_string(detect_every));
+                 if (max_faces < 1 || max_faces > 64) throw py::value_error("max_faces must be in [1, 64], got " + std::to_string(max_faces));
+                 if (!(max_fit_error > 0 && max_fit_error <= 10)) throw py::value_error("max_fit_error must be in (0, 10], got " + std::to_string(max_fit_error));
+                 facesynth::track::TrackerSettings settings;
+                 settings.detect_every = detect_every;
+                 settings.max_faces = max_faces;
+                 settings.track = track;
+                 settings.smooth = smooth;
+                 settings.max_fit_error = max_fit_error;
+                 settings.multiview_fallback = multiview_fallback;
+                 return std::make_unique<Tracker>(model, regressor, detector, settings);
+             }),
+             py::arg("model"), py::arg("regressor"), py::arg("detector"), py::arg("detect_every"), py::arg("max_faces"), py::arg("track"),
+             py::arg("smooth"), py::arg("max_fit_error"), py::arg("multiview_fallback"), py::keep_alive<1, 2>())
+        .def("process", &Tracker::process, py::arg("image"), py::arg("time_s"))
+        .def_property_readonly("counters", &Tracker::counters);
 }

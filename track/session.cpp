@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <map>
@@ -73,6 +74,32 @@ cv::Mat isomap_picture(const cv::Mat& bgra) {
         }
     return picture;
 }
+
+// The tiles of the isomap and frontal videos, one per face followed at once: a face keeps its tile
+// while it is followed, a new face takes the first free one.
+class FaceTiles {
+public:
+    explicit FaceTiles(int count) : ids_(static_cast<std::size_t>(count), kFree) {}
+    [[nodiscard]] int count() const { return static_cast<int>(ids_.size()); }
+    // The tile of each of `faces` (at most count() of them).
+    std::vector<int> assign(const std::vector<FaceState>& faces) {
+        for (int& id : ids_)
+            if (std::none_of(faces.begin(), faces.end(), [id](const FaceState& f) { return f.id == id; })) id = kFree;
+        std::vector<int> tile_of;
+        for (const FaceState& face : faces) {
+            auto tile = std::find(ids_.begin(), ids_.end(), face.id);
+            if (tile == ids_.end()) tile = std::find(ids_.begin(), ids_.end(), kFree);
+            if (tile == ids_.end()) throw core::Error("track: more faces than --max-faces");
+            *tile = face.id;
+            tile_of.push_back(static_cast<int>(tile - ids_.begin()));
+        }
+        return tile_of;
+    }
+
+private:
+    static constexpr int kFree = -1;
+    std::vector<int> ids_;
+};
 
 }  // namespace
 
@@ -166,6 +193,7 @@ TrackSummary run_track(const TrackJob& job, const std::function<void(std::int64_
         frontal::FrontalRenderOptions frontal_options;
         frontal_options.size = job.outputs.frontal_size;
         std::map<int, IsomapFusion> fusions;  // per face id
+        FaceTiles tiles(job.tracker.max_faces);
         TrackSummary summary;
         std::set<int> ids;
         std::optional<std::int64_t> total = source.expected_frames();
@@ -183,20 +211,23 @@ TrackSummary run_track(const TrackJob& job, const std::function<void(std::int64_
                 overlay.write(drawn);
             }
             if (textures) {
-                // The first face: its isomap from this frame joins the ones before, and the fused
-                // texture is shown, and rendered frontally with the fused identity and this frame's
-                // expression.
+                // Every followed face in its tile: its isomap from this frame joins the ones before,
+                // and the fused texture is shown, and rendered frontally with the fused identity and
+                // this frame's expression.
                 const auto texture_start = std::chrono::steady_clock::now();
-                cv::Mat isomap_frame(job.outputs.isomap_size, job.outputs.isomap_size, CV_8UC3, cv::Scalar::all(0));
-                cv::Mat frontal_frame(job.outputs.frontal_size, job.outputs.frontal_size, CV_8UC3, cv::Scalar::all(0));
-                if (!faces.empty()) {
-                    const FaceState& face = faces.front();
+                const int isomap_side = job.outputs.isomap_size, frontal_side = job.outputs.frontal_size;
+                cv::Mat isomap_frame(isomap_side, isomap_side * tiles.count(), CV_8UC3, cv::Scalar::all(0));
+                cv::Mat frontal_frame(frontal_side, frontal_side * tiles.count(), CV_8UC3, cv::Scalar::all(0));
+                const std::vector<int> tile_of = tiles.assign(faces);
+                for (std::size_t f = 0; f < faces.size(); ++f) {
+                    const FaceState& face = faces[f];
                     const Eigen::Matrix3Xf seen = fit::fitted_shape(model, face.fit);
                     IsomapFusion& fusion = fusions[face.id];
                     fusion.add(frontaliser->extract_isomap(frame, seen, {face.fit.camera, face.fit.pose}, isomap_options));
-                    isomap_frame = isomap_picture(fusion.fused());
+                    isomap_picture(fusion.fused()).copyTo(isomap_frame(cv::Rect(tile_of[f] * isomap_side, 0, isomap_side, isomap_side)));
                     if (job.outputs.frontal)
-                        frontal_frame = frontaliser->render_frontal(model.shape_instance(face.identity, face.fit.psi), fusion.fused(), frontal_options).image;
+                        frontaliser->render_frontal(model.shape_instance(face.identity, face.fit.psi), fusion.fused(), frontal_options)
+                            .image.copyTo(frontal_frame(cv::Rect(tile_of[f] * frontal_side, 0, frontal_side, frontal_side)));
                 }
                 if (job.outputs.isomap) isomap_video.write(isomap_frame);
                 if (job.outputs.frontal) frontal_video.write(frontal_frame);

@@ -16,8 +16,9 @@ namespace facesynth::track {
 struct TrackOutputs {
     bool pose = true;      // pose, expression and fused identity in faces.jsonl (landmarks always)
     bool overlay = false;  // overlay.avi: the frames with landmarks, boxes and ids drawn (MJPEG)
-    bool isomap = false;   // isomap.avi: the first face's texture fused over the frames so far
-    bool frontal = false;  // frontal.avi: the first face rendered frontally with that texture
+    // One tile per face followed at once (max_faces tiles side by side; a face keeps its tile while followed):
+    bool isomap = false;   // isomap.avi: each face's texture fused over its frames so far
+    bool frontal = false;  // frontal.avi: each face rendered frontally with that texture
     int isomap_size = 256;
     int frontal_size = 256;
 };

@@ -11,7 +11,7 @@ import os
 
 from . import _facesynth
 
-__all__ = ["Generator", "worker_shard", "Model", "Renderer", "fit", "Detector", "Frontaliser", "frontalise", "nme", "nme_summary", "eval_fit", "eval_frontalise", "eval_realism"]
+__all__ = ["Generator", "worker_shard", "Model", "Renderer", "fit", "Detector", "Tracker", "Frontaliser", "frontalise", "nme", "nme_summary", "eval_fit", "eval_frontalise", "eval_realism"]
 
 
 
@@ -187,6 +187,40 @@ class Detector(_facesynth.Detector):
 
     def __init__(self, regressor="dlib", detector="auto"):
         super().__init__(os.fspath(regressor), detector)
+
+
+class Tracker:
+    """Follows faces over the frames of a video given one at a time, as `facesynth track` does (the same
+    tracker, docs/track.md): the detector runs every `detect_every` frames or when a face is lost,
+    landmarks are smoothed without lag, and each face's identity is fused over its frames.
+
+    process(image, time_s=None) takes an (H, W, 3) RGB or (H, W) grey uint8 array and returns the faces
+    followed in it, each a dict with the keys of faces.jsonl's records: id (kept across frames),
+    landmarks (68, 2), box (x, y, w, h), detected (this frame's box came from the detector), fit_error,
+    yaw, pitch, roll (degrees), expression, identity and identity_frames. time_s defaults to the frame
+    count / fps; given, it must increase. `counters` holds frames, detector_runs,
+    fallback_detector_runs, losses and reacquired.
+
+    regressor: "dlib" or an .sdm file; detector: "auto" or a name as --detector takes; track=False is
+    the per-frame baseline (the detector every frame, no smoothing), smooth=False leaves the 1-euro
+    filter out."""
+
+    def __init__(self, regressor="dlib", model="builtin", detector="auto", detect_every=5, max_faces=1, track=True, smooth=True,
+                 max_fit_error=0.08, multiview_fallback=True, fps=30.0):
+        if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps > 0):
+            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        self._fps = float(fps)
+        self._tracker = _facesynth.Tracker(_model(model), os.fspath(regressor), detector, int(detect_every), int(max_faces), bool(track),
+                                           bool(smooth), float(max_fit_error), bool(multiview_fallback))
+
+    def process(self, image, time_s=None):
+        if time_s is None:
+            time_s = self._tracker.counters["frames"] / self._fps
+        return self._tracker.process(image, float(time_s))
+
+    @property
+    def counters(self):
+        return self._tracker.counters
 
 
 class Frontaliser(_facesynth.Frontaliser):

@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -112,7 +113,7 @@ TEST(LandmarkSmoother, RemovesJitterOnStillFacesAndFollowsMotion) {
     for (int f = 0; f < 60; ++f) {
         const Eigen::Matrix2Xd moving = Eigen::Matrix2Xd::Constant(2, 68, 100.0 + 200.0 * 2.0 * f / 30.0);
         const Eigen::Matrix2Xd out = smoother.filter(moving, 1.0 / 30, 100);
-        if (f > 10) EXPECT_LT((out - moving).cwiseAbs().maxCoeff(), 2.0) << "frame " << f;
+        if (f > 10) { EXPECT_LT((out - moving).cwiseAbs().maxCoeff(), 2.0) << "frame " << f; }
     }
 }
 
@@ -227,6 +228,53 @@ TEST(TrackCli, FollowsARenderedClipWithOneFaceAndScheduledDetection) {
     EXPECT_EQ(testkit::run_command(cli + " track " + (dir / "clip" / "images").string() + " -o " + (dir / "o2").string() + " --outputs landmarks,depth", &log), 1);
     EXPECT_NE(log.find("depth"), std::string::npos) << log;
     for (const auto& entry : fs::directory_iterator(dir)) EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos) << entry.path();
+}
+
+
+// Two faces side by side: both followed with their own ids, and the isomap and frontal videos give
+// each its own tile (--max-faces tiles wide).
+TEST(TrackCli, TwoFacesEachGetATileOfTheTextureVideos) {
+    const fs::path dir = testkit::fresh_temp_dir("track_two");
+    const std::string cli = testkit::cli_path().string();
+    std::string log;
+    for (const char* seed : {"3", "4"})
+        ASSERT_EQ(testkit::run_command(cli + " synth -q -o " + (dir / (std::string("clip") + seed)).string() + " -n 12 --sequence 12 --size 256 --seed " +
+                                           seed + " --set pose.yaw.min=-15 --set pose.yaw.max=15 --set degrade.blur_probability=0",
+                                       &log),
+                  0)
+            << log;
+    fs::create_directories(dir / "frames");
+    for (const auto& entry : fs::directory_iterator(dir / "clip3" / "images")) {
+        cv::Mat both;
+        cv::hconcat(cv::imread(entry.path().string()), cv::imread((dir / "clip4" / "images" / entry.path().filename()).string()), both);
+        ASSERT_TRUE(cv::imwrite((dir / "frames" / entry.path().filename()).string(), both));
+    }
+    ASSERT_EQ(testkit::run_command(cli + " track -q " + (dir / "frames").string() + " -o " + (dir / "out").string() +
+                                       " --detector dlib --max-faces 2 --outputs landmarks,isomap,frontal --isomap-size 64 --frontal-size 48 --json " +
+                                       (dir / "summary.json").string(),
+                                   &log),
+              0)
+        << log;
+    const auto summary = nlohmann::json::parse(std::ifstream(dir / "summary.json"));
+    EXPECT_EQ(summary["faces"], 2);
+    EXPECT_EQ(summary["frames_with_face"], 12);
+    std::ifstream lines(dir / "out" / "faces.jsonl");
+    std::string line;
+    while (std::getline(lines, line)) EXPECT_EQ(nlohmann::json::parse(line)["faces"].size(), 2u) << line;
+    for (const auto& [video, side] : {std::pair{"isomap.avi", 64}, std::pair{"frontal.avi", 48}}) {
+        cv::VideoCapture capture((dir / "out" / video).string());
+        ASSERT_TRUE(capture.isOpened()) << video;
+        EXPECT_EQ(capture.get(cv::CAP_PROP_FRAME_WIDTH), 2 * side) << video;
+        cv::Mat frame;
+        int frames = 0;
+        while (capture.read(frame)) {
+            for (int tile = 0; tile < 2; ++tile)
+                EXPECT_GT(cv::countNonZero(cv::Mat(frame(cv::Rect(tile * side, 0, side, side)).reshape(1) > 40)), side * side / 10)
+                    << video << " frame " << frames << " tile " << tile;
+            ++frames;
+        }
+        EXPECT_EQ(frames, 12) << video;
+    }
 }
 
 }  // namespace
