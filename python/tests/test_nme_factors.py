@@ -1,0 +1,45 @@
+"""tools/nme_factors.py: per-face NMEs joined with the samples' meta files."""
+
+import json
+import os
+import subprocess
+import sys
+
+TOOL = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "nme_factors.py")
+
+
+def run(*args):
+    return subprocess.run([sys.executable, TOOL, *map(str, args)], capture_output=True, text=True)
+
+
+def test_correlations_bins_and_texture_split_half(tmp_path):
+    (tmp_path / "meta").mkdir()
+    rows = ["key,yaw_deg,detected,view,regressor1,regressor2"]
+    for i in range(40):
+        pitch = -20 + i  # NME grows with |pitch|; roll is unrelated
+        meta = {"yaw": 0.5 * i, "pitch": pitch, "roll": 3.0 if i % 2 else -5.0, "fov": 10,
+                "degradation": {"blur_sigma": 0.0, "gains": [1.0, 1.0, 1.0]}, "texture": f"textures/{i % 10:06d}.png",
+                "landmarks": [[0, 0]] * 36 + [[10, 0]] + [[0, 0]] * 8 + [[40 + i, 0]] + [[0, 0]] * 22}
+        (tmp_path / "meta" / f"s{i:08d}.json").write_text(json.dumps(meta))
+        rows.append(f"links/s{i:08d},{meta['yaw']},{0 if i == 39 else 1},frontal,{0.02 + 0.002 * abs(pitch)},0.05")
+    (tmp_path / "nme.csv").write_text("\n".join(rows) + "\n")
+    result = run(tmp_path / "nme.csv", tmp_path, "--bins", "4")
+    assert result.returncode == 0, result.stderr
+    lines = {line.split()[0]: line for line in result.stdout.splitlines() if line}
+    assert "39 detected faces" in result.stdout  # the missed face is left out
+    assert float(lines["abs_pitch"].split()[1]) > 0.99
+    assert abs(float(lines["abs_roll"].split()[1])) < 0.2
+    assert lines["abs_pitch"].count("(") == 4
+    assert "degradation.blur_sigma" not in lines  # one value: nothing to relate
+    assert lines["interocular_px"].split()[2].startswith("30..")  # outer eye corners 36 and 45: 30 + i pixels apart
+    assert "over 10 textures" in lines["texture:"]
+
+
+def test_bad_inputs_name_the_file(tmp_path):
+    (tmp_path / "nme.csv").write_text("key,yaw_deg,detected,view,regressor1\nx/s1,0,1,frontal,0.05\n")
+    result = run(tmp_path / "nme.csv", tmp_path)
+    assert result.returncode != 0 and "s1.json" in result.stderr
+    result = run(tmp_path / "nme.csv", tmp_path, "--column", "3")
+    assert result.returncode != 0 and "regressor3" in result.stderr
+    result = run(tmp_path / "missing.csv", tmp_path)
+    assert result.returncode != 0 and "missing.csv" in result.stderr
