@@ -161,7 +161,7 @@ public:
                                   std::to_string(h));
             copy_image(s.image, image.at(slot), "image");
             const Eigen::Matrix2Xd& points = synth::chosen_landmarks(s.labels, config.landmarks.mode);
-            const Eigen::Matrix3Xd& points_3d = config.landmarks.mode == "contour" ? s.labels.landmarks_3d_contour : s.labels.landmarks_3d_fixed;
+            const Eigen::Matrix3Xd& points_3d = synth::chosen_landmarks_3d(s.labels, config.landmarks.mode);
             const std::vector<int>& visible = synth::chosen_visibility(s.labels, config.landmarks.mode);
             if (points.cols() != landmarks) throw core::Error("sample has " + std::to_string(points.cols()) + " landmarks, expected " + std::to_string(landmarks));
             float* p = points_2d.at(slot);

@@ -331,4 +331,58 @@ cv::Mat landmark_hull_mask(const cv::Mat& coverage, const Eigen::Matrix2Xd& poin
     return inside;
 }
 
+namespace {
+
+// Catmull-Rom point on the segment from jaw point i to i + 1 at t in [0, 1], its neighbours taken across
+// the chin (the curve is smooth there) and the end points repeated at 1 and 17.
+template <typename Points>
+auto catmull_rom(const Points& p, Eigen::Index i, double t) {
+    constexpr Eigen::Index kLast = morph::kNumJawLandmarks - 1;
+    const auto p0 = p.col(std::max<Eigen::Index>(i - 1, 0)), p1 = p.col(i), p2 = p.col(i + 1), p3 = p.col(std::min(i + 2, kLast));
+    const double t2 = t * t, t3 = t2 * t;
+    return (0.5 * (2.0 * p1 + (p2 - p0) * t + (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) * t2 + (3.0 * p1 - p0 - 3.0 * p2 + p3) * t3)).eval();
+}
+
+// Points first..last (9 jaw points) respaced evenly by arc length along their Catmull-Rom curve.
+void respace_half(const Eigen::Matrix2Xd& pixels, const Eigen::Matrix3Xd& model_points, std::span<const std::uint8_t> visible, Eigen::Index first,
+                  Eigen::Index last, RespacedJaw& out) {
+    constexpr int kSteps = 32;  // curve samples per segment for the arc length
+    for (Eigen::Index i = std::max<Eigen::Index>(first - 1, 0); i <= std::min<Eigen::Index>(last + 1, morph::kNumJawLandmarks - 1); ++i)
+        if (!pixels.col(i).allFinite() || (model_points.cols() > i && !model_points.col(i).allFinite())) return;
+    std::vector<double> length{0.0};  // cumulative, per sample
+    Eigen::Vector2d previous = pixels.col(first);
+    for (Eigen::Index i = first; i < last; ++i)
+        for (int s = 1; s <= kSteps; ++s) {
+            const Eigen::Vector2d q = catmull_rom(pixels, i, static_cast<double>(s) / kSteps);
+            length.push_back(length.back() + (q - previous).norm());
+            previous = q;
+        }
+    const double total = length.back();
+    if (!(total > 0)) return;
+    std::size_t sample = 0;
+    const auto segments = last - first;
+    for (Eigen::Index k = 1; k < segments; ++k) {
+        const double target = total * static_cast<double>(k) / static_cast<double>(segments);
+        while (length[sample + 1] < target) ++sample;
+        const double within = (target - length[sample]) / std::max(length[sample + 1] - length[sample], 1e-12);
+        const double u = (static_cast<double>(sample) + within) / kSteps;  // curve parameter from `first`
+        const auto segment = std::min<Eigen::Index>(static_cast<Eigen::Index>(u), segments - 1);
+        const double t = u - static_cast<double>(segment);
+        const Eigen::Index i = first + segment, point = first + k;
+        out.pixels.col(point) = catmull_rom(pixels, i, t);
+        if (model_points.cols() > point) out.model_points.col(point) = catmull_rom(model_points, i, t);
+        if (visible.size() > static_cast<std::size_t>(point)) out.visible[static_cast<std::size_t>(point)] = visible[static_cast<std::size_t>(t < 0.5 ? i : i + 1)];
+    }
+}
+
+}  // namespace
+
+RespacedJaw space_jaw_evenly(const Eigen::Matrix2Xd& pixels, const Eigen::Matrix3Xd& model_points, std::span<const std::uint8_t> visible) {
+    RespacedJaw out{pixels, model_points, {visible.begin(), visible.end()}};
+    if (pixels.cols() < morph::kNumIbugLandmarks) return out;
+    respace_half(pixels, model_points, visible, 0, morph::kChinLandmark, out);
+    respace_half(pixels, model_points, visible, morph::kChinLandmark, morph::kNumJawLandmarks - 1, out);
+    return out;
+}
+
 }  // namespace facesynth::render

@@ -110,4 +110,22 @@ struct LandmarkTopology {
 // than three finite points.
 [[nodiscard]] cv::Mat landmark_hull_mask(const cv::Mat& coverage, const Eigen::Matrix2Xd& points);
 
+// Jaw points as 300-W annotators space them (synth's `landmarks.mode = even`): annotators click the 17
+// jaw points at nearly even steps along the face's outline, while the model's jaw points (and the
+// contour mode's) are anatomical vertices at uneven steps. The 17 jaw points of `pixels` (2 x 68,
+// the contour mode's) move along the outline through them so that 1-9 and 9-17 are each evenly
+// spaced by arc length in the image; the ends (1, 17) and the chin (9) stay, and the 51 other points
+// are unchanged. Between two points the outline is the Catmull-Rom curve through the 17 (smooth across
+// the chin); the 3D points
+// follow the same curve parameters (between two of the model's points such a point is off its
+// surface by the curve's sag) and take the visibility of the nearer of the two. A half with a
+// non-finite point (its own or the neighbour across the chin) or no length is left as it is; fewer than 68 points are returned unchanged.
+struct RespacedJaw {
+    Eigen::Matrix2Xd pixels;
+    Eigen::Matrix3Xd model_points;
+    std::vector<std::uint8_t> visible;
+};
+[[nodiscard]] RespacedJaw space_jaw_evenly(const Eigen::Matrix2Xd& pixels, const Eigen::Matrix3Xd& model_points,
+                                           std::span<const std::uint8_t> visible);
+
 }  // namespace facesynth::render

@@ -235,7 +235,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
                  "neck, shoulders, clothing and hair meshes (MakeHuman's CC0 meshes) placed on the face; the model, its landmarks and face labels are unchanged"});
     f.push_back({"head.hair_probability", &c.head.hair_probability, "with head.body: share of samples with a hair mesh (the others show the model's scalp)"});
     f.push_back({"head.parts_file", &c.head.parts_file, "with head.body: a head parts file from tools/makehuman_parts.py (empty = the project's assets/head_parts.bin)"});
-    f.push_back({"landmarks.mode", &c.landmarks.mode, "jaw points written to .pts: \"contour\" (300-W style) or \"fixed\""});
+    f.push_back({"landmarks.mode", &c.landmarks.mode,
+                 "jaw points written to .pts: \"contour\" (on the visible outline), \"even\" (contour, evenly spaced along the outline as 300-W annotators space them) or \"fixed\" (the model's vertices)"});
     f.push_back({"render.antialiasing", &c.render.antialiasing,
                  "\"edges\" (silhouette edges blended on the CPU after a single-sample render), \"msaa\", \"supersampling\" or \"none\""});
     f.push_back({"render.antialiasing_samples", &c.render.antialiasing_samples,
@@ -385,7 +386,7 @@ void validate(const SynthConfig& c) {
     require(c.sequence.max_turn_deg >= 0 && c.sequence.max_turn_deg <= 180, "sequence.max_turn_deg", "must be in [0, 180]");
     require(c.sequence.drift >= 0 && c.sequence.drift <= 0.5, "sequence.drift", "must be in [0, 0.5]");
     require(c.occluders.max_size > 0 && c.occluders.max_size <= 1, "occluders.max_size", "must be in (0, 1]");
-    require(c.landmarks.mode == "contour" || c.landmarks.mode == "fixed", "landmarks.mode", "must be \"contour\" or \"fixed\"");
+    require(c.landmarks.mode == "contour" || c.landmarks.mode == "even" || c.landmarks.mode == "fixed", "landmarks.mode", "must be \"contour\", \"even\" or \"fixed\"");
     // The method first (with its default count), then the count, so that the error names the key at fault.
     for (const auto& [key, samples] : {std::pair{"render.antialiasing", 0}, std::pair{"render.antialiasing_samples", c.render.antialiasing_samples}}) {
         try {

@@ -322,6 +322,12 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     labels.landmarks_contour = projected.contour_pixels;
     labels.landmarks_3d_contour = projected.contour_model_points;
     labels.visible_contour.assign(projected.contour_visible.begin(), projected.contour_visible.end());
+    if (config_.landmarks.mode == "even") {
+        const render::RespacedJaw even = render::space_jaw_evenly(projected.contour_pixels, projected.contour_model_points, projected.contour_visible);
+        labels.landmarks_even = even.pixels;
+        labels.landmarks_3d_even = even.model_points;
+        labels.visible_even.assign(even.visible.begin(), even.visible.end());
+    }
 
     if (s.spec.lighting.face_luminance > 0)
         s.exposure_gain = expose_face(frame_.rgb, frame_.mask, chosen_landmarks(labels, config_.landmarks.mode), s.spec.lighting.face_luminance,
@@ -405,11 +411,18 @@ const cv::Mat* SampleGenerator::dress(Sample& s, const cv::Mat* texture) {
 }
 
 const Eigen::Matrix2Xd& chosen_landmarks(const SampleLabels& labels, const std::string& mode) {
-    return mode == "fixed" ? labels.landmarks_fixed : labels.landmarks_contour;
+    if (mode == "fixed") return labels.landmarks_fixed;
+    return mode == "even" ? labels.landmarks_even : labels.landmarks_contour;
+}
+
+const Eigen::Matrix3Xd& chosen_landmarks_3d(const SampleLabels& labels, const std::string& mode) {
+    if (mode == "fixed") return labels.landmarks_3d_fixed;
+    return mode == "even" ? labels.landmarks_3d_even : labels.landmarks_3d_contour;
 }
 
 const std::vector<int>& chosen_visibility(const SampleLabels& labels, const std::string& mode) {
-    return mode == "fixed" ? labels.visible_fixed : labels.visible_contour;
+    if (mode == "fixed") return labels.visible_fixed;
+    return mode == "even" ? labels.visible_even : labels.visible_contour;
 }
 
 }  // namespace facesynth::synth

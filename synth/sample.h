@@ -31,6 +31,11 @@ struct SampleLabels {
     Eigen::Matrix3Xd landmarks_3d_contour;
     std::vector<int> visible_fixed;       // 1 = not self-occluded and inside the image
     std::vector<int> visible_contour;
+    // landmarks.mode = "even" only (empty otherwise): the contour points with the jaw evenly spaced
+    // along the outline (render::space_jaw_evenly).
+    Eigen::Matrix2Xd landmarks_even;
+    Eigen::Matrix3Xd landmarks_3d_even;
+    std::vector<int> visible_even;
     std::vector<int> occluded;            // 1 = covered by an occluder (landmarks of the chosen mode)
 };
 
@@ -143,5 +148,6 @@ private:
 // Landmarks of the mode named in config.landmarks.mode, with their visibility.
 [[nodiscard]] const Eigen::Matrix2Xd& chosen_landmarks(const SampleLabels& labels, const std::string& mode);
 [[nodiscard]] const std::vector<int>& chosen_visibility(const SampleLabels& labels, const std::string& mode);
+[[nodiscard]] const Eigen::Matrix3Xd& chosen_landmarks_3d(const SampleLabels& labels, const std::string& mode);
 
 }  // namespace facesynth::synth

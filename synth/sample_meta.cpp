@@ -177,6 +177,7 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const m
     j.key("landmark_mode").string(mode);
     j.key("landmarks").points(chosen_landmarks(labels, mode));
     j.key("landmarks_3d_contour").points(labels.landmarks_3d_contour);
+    if (mode == "even") j.key("landmarks_3d_even").points(labels.landmarks_3d_even);  // only then, so that other datasets' meta is unchanged
     j.key("landmarks_3d_fixed").points(labels.landmarks_3d_fixed);
     j.key("landmarks_contour").points(labels.landmarks_contour);
     j.key("landmarks_fixed").points(labels.landmarks_fixed);

@@ -8,8 +8,9 @@
 #                             photographs with their annotated face cut away
 #   3. facesynth synth        COUNT renders (default 36000): each texture on its own photograph's fitted shape and
 #                             expression, the backgrounds, yaw normal (σ 25°, within ±60°), pitch and roll as
-#                             photographs have them (normal, σ 10° and 8°), long lenses (fov 4-20°) and degradations
-#                             (into WORK/train, replacing a set made with other settings)
+#                             photographs have them (normal, σ 10° and 8°), long lenses (fov 4-20°), degradations,
+#                             and the jaw labels evenly spaced along the outline as annotators space them
+#                             (landmarks.mode = even) (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
@@ -60,7 +61,7 @@ fi
     --set pose.yaw.distribution=normal --set pose.yaw.stddev=25 --set pose.yaw.min=-60 --set pose.yaw.max=60 \
     --set pose.pitch.distribution=normal --set pose.pitch.stddev=10 --set pose.roll.distribution=normal --set pose.roll.stddev=8 \
     --set albedo.texture_bank="$work/bank" --set identity.source=texture --set expression.source=texture \
-    --set camera.fov_min=4 --set camera.fov_max=20 \
+    --set camera.fov_min=4 --set camera.fov_max=20 --set landmarks.mode=even \
     "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \
     --set degrade.downscale_probability=0.3 --set degrade.gamma_probability=0.5 --set degrade.colour_jitter_probability=0.5
