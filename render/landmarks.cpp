@@ -361,6 +361,8 @@ void respace_half(const Eigen::Matrix2Xd& pixels, const Eigen::Matrix3Xd& model_
     if (!(total > 0)) return;
     std::size_t sample = 0;
     const auto segments = last - first;
+    const bool with_3d = model_points.cols() >= morph::kNumJawLandmarks;
+    const bool with_visibility = visible.size() >= static_cast<std::size_t>(morph::kNumJawLandmarks);
     for (Eigen::Index k = 1; k < segments; ++k) {
         const double target = total * static_cast<double>(k) / static_cast<double>(segments);
         while (length[sample + 1] < target) ++sample;
@@ -370,8 +372,8 @@ void respace_half(const Eigen::Matrix2Xd& pixels, const Eigen::Matrix3Xd& model_
         const double t = u - static_cast<double>(segment);
         const Eigen::Index i = first + segment, point = first + k;
         out.pixels.col(point) = catmull_rom(pixels, i, t);
-        if (model_points.cols() > point) out.model_points.col(point) = catmull_rom(model_points, i, t);
-        if (visible.size() > static_cast<std::size_t>(point)) out.visible[static_cast<std::size_t>(point)] = visible[static_cast<std::size_t>(t < 0.5 ? i : i + 1)];
+        if (with_3d) out.model_points.col(point) = catmull_rom(model_points, i, t);
+        if (with_visibility) out.visible[static_cast<std::size_t>(point)] = visible[static_cast<std::size_t>(t < 0.5 ? i : i + 1)];
     }
 }
 
