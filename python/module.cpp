@@ -673,7 +673,7 @@ public:
         }
         ++frames_;
         last_time_s_ = time_s;
-        const py::dict frame = dict_from_json(nlohmann::json::parse(record));
+        const py::dict frame = py::module_::import("json").attr("loads")(record);  // the record as Python values, parsed once
         py::list faces = frame["faces"];
         const py::object asarray = py::module_::import("numpy").attr("asarray");
         for (py::handle face : faces) {
