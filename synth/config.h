@@ -155,7 +155,7 @@ struct HeadConfig {
 };
 
 struct LandmarkConfig {
-    std::string mode = "contour";  // jaw points in the .pts files: "contour", "even" or "fixed"
+    std::string mode = "even";  // jaw points in the .pts files: "even", "contour" or "fixed"
 };
 
 struct OutputConfig {
