@@ -29,6 +29,9 @@ struct PhotoTextureOptions {
     double max_skin_outliers = 0.2;
     // The fit's landmark RMS over the inter-ocular distance (iBUG 37-46); above it: rejected.
     double max_fit_error = 0.08;
+    // Identity prior weight of the fit (fit::FitOptions::lambda): lower lets the fitted shape follow the
+    // annotated points further from the model's mean (the shape synth renders with identity.source = texture).
+    double fit_lambda = fit::FitOptions{}.lambda;
     // Warp the photograph before taking the texture so that its annotated points iBUG 18-68 land where
     // the fitted model projects them: the texture's brows, eyes, nose and mouth then lie at the model's
     // landmark vertices instead of off them by the fit's residual (docs/textures.md "Features aligned").

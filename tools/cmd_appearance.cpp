@@ -50,6 +50,7 @@ struct TexturesArgs {
     double min_coverage = 0.6;
     double max_outliers = 0.2;
     double max_fit_error = 0.08;
+    double fit_lambda = fit::FitOptions{}.lambda;
     std::string json;
     bool quiet = false;
 };
@@ -69,6 +70,7 @@ void run_textures(const TexturesArgs& a) {
     options.min_face_coverage = a.min_coverage;
     options.max_skin_outliers = a.max_outliers;
     options.max_fit_error = a.max_fit_error;
+    options.fit_lambda = a.fit_lambda;
     options.align_features = a.align_features;
     options.skin_beyond_face = a.skin_beyond_face;
     frontal::Frontaliser frontaliser(model);
@@ -83,7 +85,7 @@ void run_textures(const TexturesArgs& a) {
     header.settings = {{"photos", photos.string()},           {"remove_shading", options.remove_shading},
                        {"min_shading", options.min_shading},  {"max_abs_yaw_deg", options.max_abs_yaw_deg},
                        {"min_face_coverage", options.min_face_coverage}, {"max_skin_outliers", options.max_skin_outliers},
-                       {"max_fit_error", options.max_fit_error}, {"outlier_delta_e", frontal::kOutlierDeltaE},
+                       {"max_fit_error", options.max_fit_error}, {"fit_lambda", options.fit_lambda}, {"outlier_delta_e", frontal::kOutlierDeltaE},
                        {"align_features", options.align_features},
                        {"skin_beyond_face", options.skin_beyond_face},
                        {"detector_for_photos_without_pts", a.regressor}};
@@ -306,6 +308,9 @@ void register_appearance_commands(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--max-fit-error", a->max_fit_error, "Reject fits whose landmark RMS exceeds this share of the inter-ocular distance")
         ->check(finite_range(0.0, 1.0))
+        ->capture_default_str();
+    cmd->add_option("--fit-lambda", a->fit_lambda, "Identity prior weight of the fit (as fit's --lambda): lower follows the annotated points further from the model's mean")
+        ->check(finite_range(0.0, 1e6))
         ->capture_default_str();
     cmd->add_option("--json", a->json, "Write a summary (counts per rejection reason) as flat JSON");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary");

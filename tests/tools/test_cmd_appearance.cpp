@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 namespace {
@@ -97,6 +98,36 @@ TEST_F(CmdAppearance, TexturesBuildABankThatSynthDrawsFromDeterministically) {
                           &out),
               1);
     EXPECT_NE(out.find("albedo.texture_bank"), std::string::npos) << out;
+}
+
+// --fit-lambda: the identity prior of the fits; a weaker one lets the shapes stray further from the mean.
+TEST_F(CmdAppearance, TexturesFitLambdaSetsHowFarTheShapesFollowThePoints) {
+    std::string out;
+    const auto shape_norms = [&](const std::string& name, const std::string& option) {
+        const fs::path bank = dir / name;
+        EXPECT_EQ(run_command(appearance_cli() + " textures -q --size 64 --photos " + photos.string() + " --out " + bank.string() + option, &out), 0) << out;
+        const auto manifest = read_json(bank / "bank.json");
+        std::map<std::string, double> norms;
+        for (const auto& t : manifest["textures"]) {
+            double sum = 0;
+            for (const auto& a : t["shape"]) sum += a.get<double>() * a.get<double>();
+            norms[t["source"].get<std::string>()] = std::sqrt(sum);
+        }
+        return std::pair{manifest["settings"]["fit_lambda"].get<double>(), norms};
+    };
+    const auto [lambda_default, strong] = shape_norms("bank_default", "");
+    const auto [lambda_weak, weak] = shape_norms("bank_weak", " --fit-lambda 1");
+    EXPECT_EQ(lambda_default, 30);
+    EXPECT_EQ(lambda_weak, 1);
+    int compared = 0;
+    for (const auto& [source, norm] : strong)
+        if (weak.count(source)) {
+            EXPECT_GT(weak.at(source), norm) << source;
+            ++compared;
+        }
+    EXPECT_GE(compared, 4);
+    EXPECT_EQ(run_command(appearance_cli() + " textures -q --fit-lambda -1 --photos " + photos.string() + " --out " + (dir / "bank_bad").string(), &out), 2);
+    EXPECT_FALSE(fs::exists(dir / "bank_bad"));
 }
 
 TEST_F(CmdAppearance, TexturesRefuseEmptyFoldersAndLeaveNoPartialBank) {
