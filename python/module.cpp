@@ -669,7 +669,7 @@ public:
         {
             const py::gil_scoped_release released;
             const std::lock_guard lock(mutex_);
-            record = track::frame_record(frames_, time_s, tracker_.process(bgr, time_s), true);
+            record = track::frame_record(frames_, time_s, tracker_.process(bgr, time_s), tracker_, true);
         }
         ++frames_;
         last_time_s_ = time_s;
@@ -690,6 +690,8 @@ public:
         out["fallback_detector_runs"] = tracker_.fallback_runs();
         out["losses"] = tracker_.losses();
         out["reacquired"] = tracker_.reacquired();
+        out["cuts"] = tracker_.cuts();
+        out["reidentified"] = tracker_.reidentified();
         return out;
     }
 
@@ -793,10 +795,13 @@ PYBIND11_MODULE(_facesynth, m) {
         .def("frontalise", &Frontaliser::frontalise, py::arg("image"), py::arg("landmarks"));
     py::class_<Tracker>(m, "Tracker")
         .def(py::init([](const facesynth::python::Model& model, const std::string& regressor, const std::string& detector, int detect_every, int max_faces,
-                         bool track, bool smooth, double max_fit_error, bool multiview_fallback) {
+                         bool track, bool smooth, double max_fit_error, bool multiview_fallback, double cut_threshold, double max_reid_distance) {
                  if (detect_every < 1) throw py::value_error("detect_every must be at least 1, got " + std::to_string(detect_every));
                  if (max_faces < 1 || max_faces > 64) throw py::value_error("max_faces must be in [1, 64], got " + std::to_string(max_faces));
                  if (!(max_fit_error > 0 && max_fit_error <= 10)) throw py::value_error("max_fit_error must be in (0, 10], got " + std::to_string(max_fit_error));
+                 if (!(cut_threshold >= 0 && cut_threshold <= 255)) throw py::value_error("cut_threshold must be in [0, 255], got " + std::to_string(cut_threshold));
+                 if (!(max_reid_distance >= 0 && std::isfinite(max_reid_distance)))
+                     throw py::value_error("max_reid_distance must be finite and >= 0, got " + std::to_string(max_reid_distance));
                  facesynth::track::TrackerSettings settings;
                  settings.detect_every = detect_every;
                  settings.max_faces = max_faces;
@@ -804,10 +809,13 @@ PYBIND11_MODULE(_facesynth, m) {
                  settings.smooth = smooth;
                  settings.max_fit_error = max_fit_error;
                  settings.multiview_fallback = multiview_fallback;
+                 settings.cut_threshold = cut_threshold;
+                 settings.max_reid_distance = max_reid_distance;
                  return std::make_unique<Tracker>(model, regressor, detector, settings);
              }),
              py::arg("model"), py::arg("regressor"), py::arg("detector"), py::arg("detect_every"), py::arg("max_faces"), py::arg("track"),
-             py::arg("smooth"), py::arg("max_fit_error"), py::arg("multiview_fallback"), py::keep_alive<1, 2>())
+             py::arg("smooth"), py::arg("max_fit_error"), py::arg("multiview_fallback"), py::arg("cut_threshold"), py::arg("max_reid_distance"),
+             py::keep_alive<1, 2>())
         .def("process", &Tracker::process, py::arg("image"), py::arg("time_s"))
         .def_property_readonly("counters", &Tracker::counters);
 }

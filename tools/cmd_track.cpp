@@ -27,6 +27,17 @@ void add_smoothing_options(CLI::App& cmd, track::SmoothingSettings& smoothing) {
         ->check(CLI::Range(0.0, 1e6));
 }
 
+void add_scene_options(CLI::App& cmd, track::TrackerSettings& tracker) {
+    cmd.add_option("--cut-threshold", tracker.cut_threshold,
+                   "Scene cut when a frame's grey 32x32 thumbnail differs from the previous one's by more than this mean absolute difference (grey levels); 0: off")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0, 255.0));
+    cmd.add_option("--max-reid-distance", tracker.max_reid_distance,
+                   "Re-identification: a new face this close (LBPH distance) to a lost face's appearance takes its id; 0: off")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0, 1e9));
+}
+
 struct TrackArgs {
     track::TrackJob job;
     std::string outputs = "landmarks,pose";
@@ -50,10 +61,10 @@ void run_track_command(TrackArgs& a) {
     if (!a.quiet) {
         const auto j = summary.json();
         std::printf("%lld frames, %lld with a face, %d faces, %d detector runs, %d losses (%d found again): %.1f fps tracking (%.2f ms per frame), "
-                    "decoding %.2f ms per frame -> %s\n",
+                    "decoding %.2f ms per frame, %d scene cuts, %d faces recognised -> %s\n",
                     static_cast<long long>(summary.frames), static_cast<long long>(summary.frames_with_face), summary.faces, summary.detector_runs,
                     summary.losses, summary.reacquired, j["fps"].get<double>(), j["ms_per_frame"].get<double>(), j["decode_ms_per_frame"].get<double>(),
-                    a.job.out.string().c_str());
+                    summary.cuts, summary.reidentified, a.job.out.string().c_str());
     }
     if (!a.json.empty()) write_json_file(a.json, summary.json());
 }
@@ -90,6 +101,9 @@ void run_eval_track(TrackEvalArgs& a) {
                         j[p + "found_rate"].get<double>(), j[p + "jitter_static"].get<double>(), j[p + "reacquire_frames_mean"].get<double>(),
                         j[p + "yaw_error_deg"].get<double>(), j[p + "detector_runs"].get<int>(), j[p + "fps"].get<double>());
         }
+        if (e.with_cuts)
+            std::printf("cuts: %d of %d seen, %d elsewhere; returns with their first id: %d of %d; ids shared by two faces: %d\n", e.cut.cuts_detected,
+                        e.cut.cuts, e.cut.false_cuts, e.cut.returns_same_id, e.cut.returns, e.cut.false_merges);
     }
     if (!a.nme_csv.empty()) {
         // The layout of `eval landmarks --nme-csv` (regressor1 tracked, regressor2 per frame; detected:
@@ -133,6 +147,7 @@ void register_track_commands(CLI::App& app) {
         ->check(CLI::Range(1e-6, 10.0));
     cmd->add_flag("--no-smoothing", a->no_smoothing, "Landmarks as the regressor gives them (no 1-euro filter)");
     add_smoothing_options(*cmd, a->job.tracker.smoothing);
+    add_scene_options(*cmd, a->job.tracker);
     cmd->add_flag("--per-frame", [a](std::int64_t) { a->job.tracker.track = false; }, "The baseline: detect every frame, no tracking, no smoothing");
     cmd->add_option("--max-frames", a->job.max_frames, "Stop after this many frames (0: the whole input)")->capture_default_str()->check(CLI::NonNegativeNumber);
     cmd->add_option("--fps", a->job.folder_fps, "Frame rate of a folder of frames")->capture_default_str()->check(CLI::Range(0.01, 1000.0));
@@ -155,6 +170,9 @@ void register_track_commands(CLI::App& app) {
         ->check(CLI::Range(1e-6, 10.0));
     ev->add_flag("--no-smoothing", [e](std::int64_t) { e->settings.tracker.smooth = false; }, "Track without the 1-euro filter");
     add_smoothing_options(*ev, e->settings.tracker.smoothing);
+    add_scene_options(*ev, e->settings.tracker);
+    ev->add_flag("--cuts", e->settings.cuts,
+                 "One stream through every clip's first half, then every clip's second half: faces leave at cuts and come back (cuts, returns_same_id, false_merges)");
     ev->add_option("--json", e->json, "Write the flat figures (tracked_* and per_frame_*)");
     ev->add_option("--nme-csv", e->nme_csv, "Write every frame's NME per variant (image,regressor,found,nme), for tools/nme_bootstrap.py");
     ev->add_flag("--quiet,-q", e->quiet, "Only the files, no table or progress");

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 
 namespace facesynth::track {
 namespace {
@@ -81,15 +82,20 @@ const FaceState* face_for(const std::vector<FaceState>& faces, const Eigen::Matr
 }
 
 struct VariantRun {
+    VariantRun(VariantFigures& figures_, const train::LandmarkRegressor& regressor, train::DetectorKind detector, const fit::Fitter& fitter,
+               const TrackerSettings& settings)
+        : figures(figures_), tracker(regressor, detector, fitter, settings) {}
+
     VariantFigures& figures;
     Tracker tracker;
     std::optional<Eigen::Matrix2Xd> previous;  // the previous frame's prediction (found)
     bool had_success = false;
     std::int64_t failure_run = 0;
 
-    void frame(const cv::Mat& image, const Frame& f, const Frame* before, double failure_threshold, double fps) {
+    // The id of the face matched to the truth, -1 when none.
+    int frame(const cv::Mat& image, const Frame& f, const Frame* before, double failure_threshold, double time_s) {
         const auto start = std::chrono::steady_clock::now();
-        const std::vector<FaceState>& faces = tracker.process(image, f.frame / fps);
+        const std::vector<FaceState>& faces = tracker.process(image, time_s);
         figures.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         ++figures.frames;
         const FaceState* face = face_for(faces, f.truth);
@@ -122,8 +128,27 @@ struct VariantRun {
             failure_run = 0;
             had_success = true;
         }
+        return face ? face->id : -1;
     }
 };
+
+// A run of one clip's frames in the stream.
+struct Segment {
+    std::int64_t clip = 0;
+    const std::vector<Frame>* frames = nullptr;
+    std::size_t begin = 0, end = 0;
+};
+
+// The id most of a segment's matched frames had; -1 when none matched.
+int majority_id(const std::vector<int>& ids) {
+    std::map<int, int> counts;
+    for (int id : ids)
+        if (id >= 0) ++counts[id];
+    int best = -1, best_count = 0;
+    for (const auto& [id, count] : counts)
+        if (count > best_count) best = id, best_count = count;
+    return best;
+}
 
 void write_variant(nlohmann::json& j, const std::string& prefix, const VariantFigures& v) {
     const auto share = [](double part, std::int64_t whole) { return whole > 0 ? part / static_cast<double>(whole) : 0.0; };
@@ -154,6 +179,14 @@ nlohmann::json TrackEvaluation::json(double failure_threshold) const {
     j["failure_threshold"] = failure_threshold;
     write_variant(j, "tracked_", tracked);
     write_variant(j, "per_frame_", per_frame);
+    if (with_cuts) {
+        j["cuts"] = cut.cuts;
+        j["cuts_detected"] = cut.cuts_detected;
+        j["false_cuts"] = cut.false_cuts;
+        j["returns"] = cut.returns;
+        j["returns_same_id"] = cut.returns_same_id;
+        j["false_merges"] = cut.false_merges;
+    }
     return j;
 }
 
@@ -169,32 +202,78 @@ TrackEvaluation evaluate_tracking(const train::LandmarkRegressor& regressor, tra
             fps = (*config)["sequence"]["fps"].get<double>();
     }
     TrackEvaluation e;
+    e.with_cuts = settings.cuts;
     std::int64_t total = 0;
-    for (const auto& [clip, frames] : clips) total += static_cast<std::int64_t>(frames.size());
+    std::vector<Segment> segments;
+    for (const auto& [clip, frames] : clips) {
+        total += static_cast<std::int64_t>(frames.size());
+        if (!settings.cuts) segments.push_back({clip, &frames, 0, frames.size()});
+    }
+    if (settings.cuts)
+        for (int half = 0; half < 2; ++half)
+            for (const auto& [clip, frames] : clips) {
+                const std::size_t middle = frames.size() / 2;
+                if (half == 0 ? middle > 0 : middle < frames.size())
+                    segments.push_back({clip, &frames, half == 0 ? 0 : middle, half == 0 ? middle : frames.size()});
+            }
     TrackerSettings baseline = settings.tracker;
     baseline.track = false;
-    for (const auto& [clip, frames] : clips) {
-        ++e.clips;
-        VariantRun tracked{e.tracked, Tracker(regressor, detector, fitter, settings.tracker)};
-        VariantRun per_frame{e.per_frame, Tracker(regressor, detector, fitter, baseline)};
-        for (std::size_t k = 0; k < frames.size(); ++k) {
+    std::optional<VariantRun> tracked, per_frame;
+    const auto finish_runs = [&] {
+        if (!tracked) return;
+        e.tracked.detector_runs += tracked->tracker.detector_runs();
+        e.tracked.losses += tracked->tracker.losses();
+        e.per_frame.detector_runs += per_frame->tracker.detector_runs();
+        e.per_frame.losses += per_frame->tracker.losses();
+    };
+    std::map<std::int64_t, int> first_half_id;  // with cuts: each clip's id in its first segment
+    std::vector<std::pair<std::int64_t, int>> segment_ids;
+    std::int64_t stream_frame = 0;
+    for (const Segment& segment : segments) {
+        if (!settings.cuts || !tracked) {
+            // Each clip is its own stream without cuts; with them, one stream through all segments.
+            finish_runs();
+            tracked.emplace(e.tracked, regressor, detector, fitter, settings.tracker);
+            per_frame.emplace(e.per_frame, regressor, detector, fitter, baseline);
+            ++e.clips;
+        }
+        const std::vector<Frame>& frames = *segment.frames;
+        std::vector<int> ids;
+        for (std::size_t k = segment.begin; k < segment.end; ++k) {
             const Frame& f = frames[k];
             const cv::Mat image = cv::imread(f.image.string(), cv::IMREAD_COLOR);
             if (image.empty()) throw core::file_error(f.image.string(), "cannot read the image (sample " + f.key + ")");
-            const Frame* before = k > 0 && frames[k - 1].frame + 1 == f.frame ? &frames[k - 1] : nullptr;
+            const Frame* before = k > segment.begin && frames[k - 1].frame + 1 == f.frame ? &frames[k - 1] : nullptr;
             if (before && (f.truth - before->truth).cwiseAbs().maxCoeff() < 1e-6) ++e.static_frames;
-            tracked.frame(image, f, before, settings.failure_threshold, fps);
-            per_frame.frame(image, f, before, settings.failure_threshold, fps);
+            // Without cuts the clip's own frame times; with them the stream's.
+            const double time_s = static_cast<double>(settings.cuts ? stream_frame : f.frame) / fps;
+            ids.push_back(tracked->frame(image, f, before, settings.failure_threshold, time_s));
+            per_frame->frame(image, f, before, settings.failure_threshold, time_s);
+            if (settings.cuts && k == segment.begin && stream_frame > 0) {
+                ++e.cut.cuts;
+                if (tracked->tracker.cut()) ++e.cut.cuts_detected;
+            }
+            ++stream_frame;
             e.keys.push_back(f.key);
             e.yaws.push_back(f.yaw);
             ++e.frames;
             if (on_frame) on_frame(e.frames, total);
         }
-        e.tracked.detector_runs += tracked.tracker.detector_runs();
-        e.tracked.losses += tracked.tracker.losses();
-        e.per_frame.detector_runs += per_frame.tracker.detector_runs();
-        e.per_frame.losses += per_frame.tracker.losses();
+        if (settings.cuts) {
+            const int id = majority_id(ids);
+            if (id >= 0 && std::any_of(segment_ids.begin(), segment_ids.end(), [&](const auto& s) { return s.second == id && s.first != segment.clip; }))
+                ++e.cut.false_merges;
+            if (segment.begin == 0) {
+                first_half_id[segment.clip] = id;
+            } else if (const auto first = first_half_id.find(segment.clip); first != first_half_id.end() && first->second >= 0 && id >= 0) {
+                ++e.cut.returns;
+                if (first->second == id) ++e.cut.returns_same_id;
+            }
+            segment_ids.emplace_back(segment.clip, id);
+        }
     }
+    finish_runs();
+    if (settings.cuts) e.cut.false_cuts = tracked->tracker.cuts() - e.cut.cuts_detected;
     return e;
 }
 

@@ -125,10 +125,12 @@ TrackOutputs parse_track_outputs(const std::string& list) {
     return outputs;
 }
 
-std::string frame_record(std::int64_t frame, double time_s, const std::vector<FaceState>& faces, bool pose) {
+std::string frame_record(std::int64_t frame, double time_s, const std::vector<FaceState>& faces, const Tracker& tracker, bool pose) {
     nlohmann::json j;
     j["frame"] = frame;
     j["time_s"] = time_s;
+    j["scene_change"] = tracker.scene_change();
+    j["cut"] = tracker.cut();
     j["faces"] = nlohmann::json::array();
     for (const FaceState& face : faces) {
         nlohmann::json f;
@@ -158,6 +160,8 @@ nlohmann::json TrackSummary::json() const {
     j["fallback_detector_runs"] = fallback_runs;
     j["losses"] = losses;
     j["reacquired"] = reacquired;
+    j["cuts"] = cuts;
+    j["reidentified"] = reidentified;
     j["faces"] = faces;
     j["fps"] = track_seconds > 0 ? static_cast<double>(frames) / track_seconds : 0.0;
     j["ms_per_frame"] = frames > 0 ? 1000.0 * track_seconds / static_cast<double>(frames) : 0.0;
@@ -203,7 +207,7 @@ TrackSummary run_track(const TrackJob& job, const std::function<void(std::int64_
             const auto start = std::chrono::steady_clock::now();
             const double time_s = static_cast<double>(summary.frames) / source.fps();
             const std::vector<FaceState>& faces = tracker.process(frame, time_s);
-            lines << frame_record(summary.frames, time_s, faces, job.outputs.pose) << '\n';
+            lines << frame_record(summary.frames, time_s, faces, tracker, job.outputs.pose) << '\n';
             if (job.outputs.overlay) {
                 cv::Mat drawn = frame.channels() == 3 ? frame.clone() : cv::Mat();
                 if (drawn.empty()) cv::cvtColor(frame, drawn, cv::COLOR_GRAY2BGR);
@@ -253,6 +257,8 @@ TrackSummary run_track(const TrackJob& job, const std::function<void(std::int64_
         summary.detector_runs = tracker.detector_runs();
         summary.fallback_runs = tracker.fallback_runs();
         summary.losses = tracker.losses();
+        summary.cuts = tracker.cuts();
+        summary.reidentified = tracker.reidentified();
         summary.reacquired = tracker.reacquired();
         summary.faces = static_cast<int>(ids.size());
         core::write_file_atomically(temporary / "summary.json", summary.json().dump(2) + "\n");

@@ -40,6 +40,7 @@ struct TrackJob {
 struct TrackSummary {
     std::int64_t frames = 0, frames_with_face = 0;
     int detector_runs = 0, fallback_runs = 0, losses = 0, reacquired = 0, faces = 0;  // faces: distinct ids
+    int cuts = 0, reidentified = 0;  // scene cuts seen; faces recognised by appearance (of reacquired)
     double track_seconds = 0;   // tracking, fitting and writing, decoding excluded
     double decode_seconds = 0;
     double texture_seconds = 0;   // isomap extraction, fusion and the frontal render (within track_seconds)
@@ -57,7 +58,7 @@ struct TrackSummary {
 // which is three times faster than the multi-view cascades at 640x360).
 [[nodiscard]] train::DetectorKind tracking_detector(const std::string& option, const train::LandmarkRegressor& regressor);
 
-// One line of faces.jsonl.
-[[nodiscard]] std::string frame_record(std::int64_t frame, double time_s, const std::vector<FaceState>& faces, bool pose);
+// One line of faces.jsonl; `tracker` gives the frame's scene change and cut.
+[[nodiscard]] std::string frame_record(std::int64_t frame, double time_s, const std::vector<FaceState>& faces, const Tracker& tracker, bool pose);
 
 }  // namespace facesynth::track

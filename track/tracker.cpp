@@ -2,6 +2,10 @@
 
 #include "core/error.h"
 #include "morph/landmarks.h"
+#include "recognition/appearance.h"
+#include "recognition/face_crop.h"
+
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -29,6 +33,19 @@ std::vector<int> fixed_correspondence_points() {
     return points;
 }
 
+// Appearance for re-identification: a descriptor every kAppearanceEvery good frames, the latest
+// kAppearanceViews kept; faces whose eye centres are closer than kAppearanceMinEyes pixels give none
+// (their crop would be mostly interpolation).
+constexpr int kAppearanceEvery = 5;
+constexpr std::size_t kAppearanceViews = 8;
+constexpr double kAppearanceMinEyes = 20;
+
+std::optional<cv::Mat> appearance_of(const cv::Mat& gray, const Eigen::Matrix2Xd& landmarks) {
+    const Eigen::Vector2d left = landmarks.middleCols(36, 6).rowwise().mean(), right = landmarks.middleCols(42, 6).rowwise().mean();
+    if (!landmarks.allFinite() || (right - left).norm() < kAppearanceMinEyes) return std::nullopt;
+    return recognition::lbph_descriptor(recognition::eye_aligned_crop(gray, landmarks));
+}
+
 }  // namespace
 
 Tracker::Tracker(const train::LandmarkRegressor& regressor, train::DetectorKind detector, const fit::Fitter& fitter, TrackerSettings settings)
@@ -36,6 +53,8 @@ Tracker::Tracker(const train::LandmarkRegressor& regressor, train::DetectorKind 
     if (settings_.detect_every < 1) throw core::Error("tracker: detect_every must be at least 1 frame");
     if (settings_.max_faces < 1) throw core::Error("tracker: max_faces must be at least 1");
     if (!(settings_.max_fit_error > 0)) throw core::Error("tracker: max_fit_error must be positive");
+    if (!(settings_.cut_threshold >= 0) || !(settings_.max_reid_distance >= 0) || settings_.reid_faces < 1)
+        throw core::Error("tracker: cut_threshold and max_reid_distance must be >= 0 and reid_faces at least 1");
     fit_options_.jaw = fit::JawMode::kContour;
     fit_options_.lambda = fit_options_.expression_lambda = settings_.lambda;
     identity_options_.subset = fixed_correspondence_points();
@@ -52,20 +71,38 @@ void Tracker::place_on_detection(Track& track, const cv::Mat& gray, const train:
     if (b.width > 0) track.calibration = {detection.width / b.width, (detection.centre - b.centre) / b.width};
 }
 
+std::vector<Tracker::LostTrack>::iterator Tracker::find_lost(const cv::Mat& gray, const Track& track, const train::FaceBox& detection) {
+    // A face lost nearby not long ago, in this shot, is the same face.
+    const auto nearby = std::find_if(lost_.begin(), lost_.end(), [&](const LostTrack& lost) {
+        return lost.shot == shot_ && frame_ - lost.frame <= settings_.reacquire_frames &&
+               train::match_detection({detection}, lost.track.last_good).has_value();
+    });
+    if (nearby != lost_.end() || !(settings_.max_reid_distance > 0)) return nearby;
+    const std::optional<cv::Mat> appearance = appearance_of(gray, track.state.raw_landmarks);
+    if (!appearance) return lost_.end();
+    auto best = lost_.end();
+    double best_distance = settings_.max_reid_distance;
+    for (auto lost = lost_.begin(); lost != lost_.end(); ++lost)
+        for (const cv::Mat& seen : lost->track.appearance)
+            if (const double d = recognition::lbph_distance(*appearance, seen); d < best_distance) {
+                best_distance = d;
+                best = lost;
+            }
+    if (best != lost_.end()) ++reidentified_;
+    return best;
+}
+
 void Tracker::start_track(const cv::Mat& gray, const train::FaceBox& detection, double time_s) {
     Track track;
     track.smoother = LandmarkSmoother(settings_.smoothing);
     place_on_detection(track, gray, detection);
-    // A face lost nearby not long ago is the same face: it keeps its id and what was learnt of it.
-    const auto found = std::find_if(lost_.begin(), lost_.end(), [&](const LostTrack& lost) {
-        return frame_ - lost.frame <= settings_.reacquire_frames &&
-               train::match_detection({detection}, lost.track.last_good).has_value();
-    });
+    const auto found = find_lost(gray, track, detection);
     if (found != lost_.end()) {
         track.state.id = found->track.state.id;
         track.evidence = found->track.evidence;
         track.state.identity = found->track.state.identity;
         track.state.identity_frames = found->track.state.identity_frames;
+        track.appearance = std::move(found->track.appearance);
         lost_.erase(found);
         ++reacquired_;
     } else {
@@ -75,7 +112,18 @@ void Tracker::start_track(const cv::Mat& gray, const train::FaceBox& detection, 
     tracks_.push_back(std::move(track));
 }
 
-bool Tracker::update(Track& track, double time_s, const cv::Size& image) {
+void Tracker::lose(Track&& track) { lost_.push_back({std::move(track), frame_, shot_}); }
+
+bool Tracker::scene_cut(const cv::Mat& gray) {
+    if (!(settings_.cut_threshold > 0)) return false;
+    cv::Mat thumbnail;
+    cv::resize(gray, thumbnail, cv::Size(32, 32), 0, 0, cv::INTER_AREA);
+    scene_change_ = previous_thumbnail_.empty() ? 0.0 : cv::norm(thumbnail, previous_thumbnail_, cv::NORM_L1) / static_cast<double>(thumbnail.total());
+    previous_thumbnail_ = thumbnail;
+    return scene_change_ > settings_.cut_threshold;
+}
+
+bool Tracker::update(Track& track, double time_s, const cv::Size& image, const cv::Mat& gray) {
     FaceState& s = track.state;
     const double raw_iod = inter_ocular(s.raw_landmarks);
     if (!s.raw_landmarks.allFinite() || raw_iod < 3) return false;
@@ -96,12 +144,25 @@ bool Tracker::update(Track& track, double time_s, const cv::Size& image) {
     track.evidence += fit::identity_evidence(fitter_.model(), s.fit.camera, s.landmarks, identity_options_, s.fit.psi);
     s.identity = fit::solve_identity(track.evidence, settings_.lambda, fitter_.model().num_shape_components());
     ++s.identity_frames;
+    if (settings_.max_reid_distance > 0 && track.good_frames++ % kAppearanceEvery == 0) {
+        if (std::optional<cv::Mat> appearance = appearance_of(gray, s.landmarks)) {
+            if (track.appearance.size() == kAppearanceViews) track.appearance.erase(track.appearance.begin());
+            track.appearance.push_back(std::move(*appearance));
+        }
+    }
     return true;
 }
 
 const std::vector<FaceState>& Tracker::process(const cv::Mat& frame, double time_s) {
     ++frame_;
     const cv::Mat gray = train::to_gray8(frame);
+    cut_ = scene_cut(gray);
+    if (cut_) {
+        ++cuts_;
+        for (Track& track : tracks_) lose(std::move(track));
+        tracks_.clear();
+        ++shot_;
+    }
     // Follow every face from its previous landmarks, through the box the detector would give them.
     bool drifted = false;
     if (settings_.track) {
@@ -147,7 +208,7 @@ const std::vector<FaceState>& Tracker::process(const cv::Mat& frame, double time
                 if (!match) {
                     if (track.drifted || track.missed) {
                         ++losses_;
-                        lost_.push_back({std::move(track), frame_});
+                        lose(std::move(track));
                     } else {
                         track.missed = true;  // looked for again in the next frame (below)
                         kept.push_back(std::move(track));
@@ -199,17 +260,24 @@ const std::vector<FaceState>& Tracker::process(const cv::Mat& frame, double time
     states_.clear();
     std::vector<Track> kept;
     for (Track& track : tracks_) {
-        if (update(track, time_s, gray.size())) {
+        if (update(track, time_s, gray.size(), gray)) {
             states_.push_back(track.state);
             kept.push_back(std::move(track));
         } else {
             ++losses_;
-            lost_.push_back({std::move(track), frame_});
+            lose(std::move(track));
             frames_since_detection_ = settings_.detect_every;  // look again in the next frame
         }
     }
     tracks_ = std::move(kept);
-    std::erase_if(lost_, [&](const LostTrack& lost) { return frame_ - lost.frame > settings_.reacquire_frames; });
+    // Kept while they may be found again nearby, and for re-identification (the most recent, with a
+    // descriptor) for as long as there is room.
+    const auto forgotten = [&](const LostTrack& lost) {
+        return frame_ - lost.frame > settings_.reacquire_frames && (!(settings_.max_reid_distance > 0) || lost.track.appearance.empty());
+    };
+    std::erase_if(lost_, forgotten);
+    if (lost_.size() > static_cast<std::size_t>(settings_.reid_faces))
+        lost_.erase(lost_.begin(), lost_.end() - settings_.reid_faces);
     return states_;
 }
 

@@ -29,6 +29,16 @@ struct TrackerSettings {
     double max_fit_error = 0.08;
     // A face found again within this many frames of its loss, where it was lost, keeps its id and identity.
     int reacquire_frames = 45;
+    // Scene cuts: a frame whose grey 32 x 32 thumbnail differs from the previous frame's by more than this
+    // mean absolute difference (grey levels) starts a new shot. The faces followed are let go and the
+    // detector runs: landmarks left where a face was would follow whoever is there in the new shot.
+    // 0: no cut detection. Measured on the real clip and on clips cut together (docs/track.md).
+    double cut_threshold = 18;
+    // Re-identification: a new face whose appearance (the LBPH distance of its eye-aligned crop to the
+    // nearest of a lost face's crops, recognition/appearance.h) is below this takes the lost face's id
+    // and fused identity: faces that come back after a cut, or later than reacquire_frames. 0: off.
+    double max_reid_distance = 70;
+    int reid_faces = 32;  // lost faces remembered for re-identification (the most recent)
     // Followed boxes that grow or shrink by more than this factor since the face's last detection call
     // the detector in the next frame; a face it does not find there is lost (landmarks drifting in scale).
     double max_scale_drift = 1.3;
@@ -68,6 +78,12 @@ public:
     [[nodiscard]] int fallback_runs() const { return fallback_runs_; }  // runs of the multi-view fallback
     [[nodiscard]] int losses() const { return losses_; }       // faces dropped by the fit check
     [[nodiscard]] int reacquired() const { return reacquired_; }  // losses found again with their id
+    [[nodiscard]] int cuts() const { return cuts_; }              // scene cuts seen
+    [[nodiscard]] bool cut() const { return cut_; }               // the last frame began a new shot
+    // The last frame's thumbnail difference from the frame before (grey levels; 0 for the first frame
+    // and without cut detection).
+    [[nodiscard]] double scene_change() const { return scene_change_; }
+    [[nodiscard]] int reidentified() const { return reidentified_; }  // of reacquired: by appearance
 
 private:
     struct BoxCalibration {  // the detector's box relative to the landmarks' bounding box
@@ -86,17 +102,26 @@ private:
         Eigen::Matrix2Xd last_good;     // the landmarks of the last frame that passed the fit check
         fit::IdentityEvidence evidence;
         double last_time = 0;
+        std::vector<cv::Mat> appearance;  // LBPH descriptors of some of its good frames (the latest few)
+        int good_frames = 0;
     };
     struct LostTrack {
         Track track;
         int frame = 0;  // when it was lost
+        int shot = 0;   // in which shot
     };
 
     void start_track(const cv::Mat& gray, const train::FaceBox& detection, double time_s);
+    // The lost face a new track is: the one lost nearby not long ago in this shot, else the one its
+    // appearance matches (with max_reid_distance); lost_.end() when none.
+    std::vector<LostTrack>::iterator find_lost(const cv::Mat& gray, const Track& track, const train::FaceBox& detection);
+    // True when `gray` begins a new shot (cut_threshold).
+    bool scene_cut(const cv::Mat& gray);
+    void lose(Track&& track);
     // Landmarks from a detector box; the box's relation to them calibrates the boxes that follow.
     void place_on_detection(Track& track, const cv::Mat& gray, const train::FaceBox& detection) const;
     // Smooths, fits and checks a track's new landmarks; false when the face is lost.
-    bool update(Track& track, double time_s, const cv::Size& image);
+    bool update(Track& track, double time_s, const cv::Size& image, const cv::Mat& gray);
 
     const train::LandmarkRegressor& regressor_;
     train::FaceDetector detector_;
@@ -107,10 +132,14 @@ private:
     std::vector<Track> tracks_;
     std::vector<LostTrack> lost_;
     std::vector<FaceState> states_;
+    cv::Mat previous_thumbnail_;
     int frame_ = -1;
+    int shot_ = 0;
+    bool cut_ = false;
+    double scene_change_ = 0;
     int frames_since_detection_ = 0;
     int next_id_ = 0;
-    int detector_runs_ = 0, fallback_runs_ = 0, losses_ = 0, reacquired_ = 0;
+    int detector_runs_ = 0, fallback_runs_ = 0, losses_ = 0, reacquired_ = 0, cuts_ = 0, reidentified_ = 0;
 };
 
 }  // namespace facesynth::track

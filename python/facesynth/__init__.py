@@ -199,19 +199,21 @@ class Tracker:
     landmarks (68, 2), box (x, y, w, h), detected (this frame's box came from the detector), fit_error,
     yaw, pitch, roll (degrees), expression, identity and identity_frames. time_s defaults to the frame
     count / fps; given, it must increase. `counters` holds frames, detector_runs,
-    fallback_detector_runs, losses and reacquired.
+    fallback_detector_runs, losses, reacquired, cuts and reidentified.
 
     regressor: "dlib" or an .sdm file; detector: "auto" or a name as --detector takes; track=False is
     the per-frame baseline (the detector every frame, no smoothing), smooth=False leaves the 1-euro
-    filter out."""
+    filter out; cut_threshold and max_reid_distance are --cut-threshold and --max-reid-distance (scene
+    cuts, re-identification by appearance; 0 turns either off)."""
 
     def __init__(self, regressor="dlib", model="builtin", detector="auto", detect_every=5, max_faces=1, track=True, smooth=True,
-                 max_fit_error=0.08, multiview_fallback=True, fps=30.0):
+                 max_fit_error=0.08, multiview_fallback=True, fps=30.0, cut_threshold=18.0, max_reid_distance=70.0):
         if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         self._fps = float(fps)
         self._tracker = _facesynth.Tracker(_model(model), os.fspath(regressor), detector, int(detect_every), int(max_faces), bool(track),
-                                           bool(smooth), float(max_fit_error), bool(multiview_fallback))
+                                           bool(smooth), float(max_fit_error), bool(multiview_fallback), float(cut_threshold),
+                                           float(max_reid_distance))
 
     def process(self, image, time_s=None):
         if time_s is None:

@@ -40,7 +40,8 @@ def test_tracker_gives_the_cli_faces_frame_by_frame(clip, tmp_path):
         for key in ("yaw", "pitch", "roll", "fit_error"):
             assert face[key] == pytest.approx(expected[key], abs=1e-9), key
         assert face["identity_frames"] == record["frame"] + 1
-    assert tracker.counters == {"frames": 20, "detector_runs": 4, "fallback_detector_runs": 0, "losses": 0, "reacquired": 0}
+    assert tracker.counters == {"frames": 20, "detector_runs": 4, "fallback_detector_runs": 0, "losses": 0, "reacquired": 0,
+                                "cuts": 0, "reidentified": 0}
 
 
 def test_per_frame_baseline_detects_every_frame(clip):
@@ -66,6 +67,10 @@ def test_bad_arguments(clip, tmp_path):
         facesynth.Tracker(detect_every=0)
     with pytest.raises(ValueError, match="fps"):
         facesynth.Tracker(fps=0)
+    with pytest.raises(ValueError, match="cut_threshold"):
+        facesynth.Tracker(cut_threshold=-1)
+    with pytest.raises(ValueError, match="max_reid_distance"):
+        facesynth.Tracker(max_reid_distance=float("nan"))
     with pytest.raises(ValueError, match="nodetector"):
         facesynth.Tracker(detector="nodetector")
     broken = tmp_path / "broken.sdm"
