@@ -109,13 +109,21 @@ void run_eval_track(TrackEvalArgs& a) {
         // The layout of `eval landmarks --nme-csv` (regressor1 tracked, regressor2 per frame; detected:
         // both found the face), for tools/nme_bootstrap.py. Frames of a clip are not independent: the
         // intervals it gives are narrower than a bootstrap over clips would be.
-        std::string csv = "key,yaw_deg,detected,view,regressor1,regressor2\n";
+        // Beside them, the pose error over time: each frame's clip, frame and |yaw error| per variant
+        // (empty where the face was missed).
+        std::string csv = "key,yaw_deg,detected,view,regressor1,regressor2,clip,frame,tracked_yaw_error_deg,per_frame_yaw_error_deg\n";
+        const auto error_text = [](double error) {
+            char text[32] = "";
+            if (std::isfinite(error)) std::snprintf(text, sizeof text, "%.4g", error);
+            return std::string(text);
+        };
         for (std::size_t i = 0; i < e.keys.size(); ++i) {
             const double t = e.tracked.nmes[i], p = e.per_frame.nmes[i];
             const bool both = std::isfinite(t) && std::isfinite(p);
             char row[200];
-            std::snprintf(row, sizeof row, "%s,%.3f,%d,frame,%.7g,%.7g\n", e.keys[i].c_str(), e.yaws[i], both ? 1 : 0, both ? t : 0.0, both ? p : 0.0);
-            csv += row;
+            std::snprintf(row, sizeof row, "%s,%.3f,%d,frame,%.7g,%.7g,%lld,%lld,", e.keys[i].c_str(), e.yaws[i], both ? 1 : 0, both ? t : 0.0, both ? p : 0.0,
+                          static_cast<long long>(e.clip_of[i]), static_cast<long long>(e.frame_of[i]));
+            csv += row + error_text(e.tracked.yaw_errors[i]) + "," + error_text(e.per_frame.yaw_errors[i]) + "\n";
         }
         core::write_file_atomically(a.nme_csv, csv);
     }
@@ -174,7 +182,7 @@ void register_track_commands(CLI::App& app) {
     ev->add_flag("--cuts", e->settings.cuts,
                  "One stream through every clip's first half, then every clip's second half: faces leave at cuts and come back (cuts, returns_same_id, false_merges)");
     ev->add_option("--json", e->json, "Write the flat figures (tracked_* and per_frame_*)");
-    ev->add_option("--nme-csv", e->nme_csv, "Write every frame's NME per variant (image,regressor,found,nme), for tools/nme_bootstrap.py");
+    ev->add_option("--nme-csv", e->nme_csv, "Write every frame's NME per variant (eval landmarks' layout, for tools/nme_bootstrap.py) with its clip, frame and yaw error per variant");
     ev->add_flag("--quiet,-q", e->quiet, "Only the files, no table or progress");
     ev->callback([e] { run_eval_track(*e); });
 }

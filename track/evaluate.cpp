@@ -105,6 +105,7 @@ struct VariantRun {
             ++figures.found;
             figures.nme_sum += nme;
             figures.yaw_error_sum += std::abs(face->fit.pose.angles.yaw - f.yaw);
+            figures.yaw_errors.push_back(std::abs(face->fit.pose.angles.yaw - f.yaw));
             const bool still = before && (f.truth - before->truth).cwiseAbs().maxCoeff() < 1e-6;
             if (still && previous) {
                 const double iod = (f.truth.col(45) - f.truth.col(36)).norm();
@@ -114,6 +115,7 @@ struct VariantRun {
             previous = face->landmarks;
         } else {
             previous.reset();
+            figures.yaw_errors.push_back(std::numeric_limits<double>::quiet_NaN());
         }
         figures.nmes.push_back(nme);
         const bool ok = nme <= failure_threshold;
@@ -256,6 +258,8 @@ TrackEvaluation evaluate_tracking(const train::LandmarkRegressor& regressor, tra
             ++stream_frame;
             e.keys.push_back(f.key);
             e.yaws.push_back(f.yaw);
+            e.clip_of.push_back(segment.clip);
+            e.frame_of.push_back(f.frame);
             ++e.frames;
             if (on_frame) on_frame(e.frames, total);
         }

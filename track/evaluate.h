@@ -40,6 +40,7 @@ struct VariantFigures {
     std::int64_t frames = 0, found = 0, failed = 0;
     double nme_sum = 0;            // over found frames
     std::vector<double> nmes;      // per frame, +inf when missed (dataset order within clips)
+    std::vector<double> yaw_errors;  // per frame, |fitted - true yaw| in degrees, NaN when missed
     double jitter_sum = 0;         // over static frames with the face found in both
     std::int64_t jitter_frames = 0;
     std::int64_t reacquisitions = 0, reacquisition_frames = 0;  // failure runs after a success that ended in a success
@@ -55,6 +56,7 @@ struct TrackEvaluation {
     CutFigures cut;  // with settings.cuts
     std::vector<std::string> keys;  // the sample of each frame, in the order of `nmes`
     std::vector<double> yaws;       // its true yaw, degrees
+    std::vector<std::int64_t> clip_of, frame_of;  // its clip and frame within the clip
     // clips, frames, static_frames, and per variant (tracked_, per_frame_): nme_mean, nme_median,
     // failure_rate, found_rate, jitter_static, reacquire_frames_mean, reacquisitions, yaw_error_deg,
     // detector_runs, losses, fps, ms_per_frame; with cuts also cuts, cuts_detected, false_cuts,

@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -105,11 +106,30 @@ TEST(EvalTrack, CountsCutsReturnsAndMergesOnClipsCutTogether) {
         return nlohmann::json::parse(std::ifstream(dir / (name + ".json")));
     };
     // A tracker per clip: no cuts to count.
-    const auto plain = eval("plain", "");
+    const auto plain = eval("plain", "--nme-csv " + (dir / "frames.csv").string());
     EXPECT_EQ(plain["clips"], 2);
     EXPECT_EQ(plain["frames"], 24);
     EXPECT_FALSE(plain.contains("cuts"));
     EXPECT_GT(plain["tracked_found_rate"].get<double>(), 0.9);
+    // Every frame's NME, clip, frame and yaw error per variant: the pose error over time.
+    std::ifstream csv(dir / "frames.csv");
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line, "key,yaw_deg,detected,view,regressor1,regressor2,clip,frame,tracked_yaw_error_deg,per_frame_yaw_error_deg");
+    int rows = 0, with_errors = 0;
+    while (std::getline(csv, line)) {
+        std::vector<std::string> cells;
+        std::stringstream row(line);
+        for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+        if (cells.size() == 10 && !cells[8].empty()) {
+            EXPECT_LT(std::stod(cells[8]), 20) << line;
+            ++with_errors;
+        }
+        EXPECT_EQ(cells[7], std::to_string(rows % 12)) << line;
+        ++rows;
+    }
+    EXPECT_EQ(rows, 24);
+    EXPECT_GT(with_errors, 20);
 
     // One stream: clip 0's first half, clip 1's, clip 0's second half, clip 1's: three cuts, two returns.
     const auto cut = eval("cuts", "--cuts --max-reid-distance 70");
