@@ -143,11 +143,6 @@ TEST(EvalTrack, CountsCutsReturnsAndMergesOnClipsCutTogether) {
     EXPECT_EQ(cut["false_merges"], 0);
     EXPECT_GT(cut["tracked_found_rate"].get<double>(), 0.9);
     EXPECT_LT(cut["tracked_nme_mean"].get<double>(), 0.15);
-
-    const auto unrecognised = eval("no_reid", "--cuts --max-reid-distance 0");
-    EXPECT_EQ(unrecognised["returns"], 2);
-    EXPECT_EQ(unrecognised["returns_same_id"], 0);
-    EXPECT_EQ(unrecognised["false_merges"], 0);
 }
 
 }  // namespace
