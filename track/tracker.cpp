@@ -123,7 +123,8 @@ bool Tracker::scene_cut(const cv::Mat& gray) {
     return scene_change_ > settings_.cut_threshold;
 }
 
-bool Tracker::update(Track& track, double time_s, const cv::Size& image, const cv::Mat& gray) {
+bool Tracker::update(Track& track, double time_s, const cv::Mat& gray) {
+    const cv::Size image = gray.size();
     FaceState& s = track.state;
     const double raw_iod = inter_ocular(s.raw_landmarks);
     if (!s.raw_landmarks.allFinite() || raw_iod < 3) return false;
@@ -260,7 +261,7 @@ const std::vector<FaceState>& Tracker::process(const cv::Mat& frame, double time
     states_.clear();
     std::vector<Track> kept;
     for (Track& track : tracks_) {
-        if (update(track, time_s, gray.size(), gray)) {
+        if (update(track, time_s, gray)) {
             states_.push_back(track.state);
             kept.push_back(std::move(track));
         } else {

@@ -121,7 +121,7 @@ private:
     // Landmarks from a detector box; the box's relation to them calibrates the boxes that follow.
     void place_on_detection(Track& track, const cv::Mat& gray, const train::FaceBox& detection) const;
     // Smooths, fits and checks a track's new landmarks; false when the face is lost.
-    bool update(Track& track, double time_s, const cv::Size& image, const cv::Mat& gray);
+    bool update(Track& track, double time_s, const cv::Mat& gray);
 
     const train::LandmarkRegressor& regressor_;
     train::FaceDetector detector_;
