@@ -145,7 +145,8 @@ bool Tracker::update(Track& track, double time_s, const cv::Mat& gray) {
     track.evidence += fit::identity_evidence(fitter_.model(), s.fit.camera, s.landmarks, identity_options_, s.fit.psi);
     s.identity = fit::solve_identity(track.evidence, settings_.lambda, fitter_.model().num_shape_components());
     ++s.identity_frames;
-    if (settings_.max_reid_distance > 0 && track.good_frames++ % kAppearanceEvery == 0) {
+    // The per-frame baseline gives ids by place only: it needs no descriptors.
+    if (settings_.track && settings_.max_reid_distance > 0 && track.good_frames++ % kAppearanceEvery == 0) {
         if (std::optional<cv::Mat> appearance = appearance_of(gray, s.landmarks)) {
             if (track.appearance.size() == kAppearanceViews) track.appearance.erase(track.appearance.begin());
             track.appearance.push_back(std::move(*appearance));
