@@ -3,7 +3,6 @@
 // patterns of an eye-aligned crop, recognition/face_crop.h), kept as a descriptor so that one face can
 // be compared with many without recomputing them: the tracker recognises a face that comes back after
 // a scene cut this way (docs/track.md).
-#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 namespace facesynth::recognition {

@@ -55,7 +55,7 @@ void check(const ExperimentOptions& o) {
 }
 
 cv::Ptr<cv::face::LBPHFaceRecognizer> lbph(const ExperimentOptions& o) {
-    return cv::face::LBPHFaceRecognizer::create(o.lbph_radius, o.lbph_neighbours, o.lbph_grid, o.lbph_grid);
+    return cv::face::LBPHFaceRecognizer::create(o.lbph.radius, o.lbph.neighbours, o.lbph.grid, o.lbph.grid);
 }
 
 // Matches every probe of one bin against the gallery: the distance to its own identity's gallery

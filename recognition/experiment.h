@@ -7,6 +7,7 @@
 // OpenCV's LBPH (local binary pattern histograms, chi-square distance) against a gallery of one
 // image per identity at a fixed yaw; probes fall in yaw bins.
 #include "frontal/benchmark.h"
+#include "recognition/appearance.h"
 #include "recognition/face_crop.h"
 #include "recognition/verification.h"
 #include "morph/model.h"
@@ -32,9 +33,7 @@ struct ExperimentOptions {
     int frontal_size = 128;
     bool mirror_fill = false;                  // LM: fill hidden texels from the mirror side (needs a symmetry map)
     CropOptions crop;                          // both representations end as crop.size² grey images
-    int lbph_radius = 1;
-    int lbph_neighbours = 8;
-    int lbph_grid = 8;                         // cells per side
+    LbphSettings lbph;
     int example_identities = 4;
     // With a LandmarkFinder: the probes it sees are rendered with the same camera and more around the
     // face (frontal::with_context), so that the detector has the head's outline to find.

@@ -223,6 +223,7 @@ struct ConventionsArgs {
     std::string model = "builtin";
     std::string jaw = "contour";
     double max_yaw = 30;
+    double lambda = fit::FitOptions{}.lambda;
     std::string json;
     bool quiet = false;
 };
@@ -251,6 +252,7 @@ void run_conventions(const ConventionsArgs& a) {
     const fit::Fitter fitter(model);
     fit::FitOptions options;
     options.jaw = a.jaw == "fixed" ? fit::JawMode::kFixed : fit::JawMode::kContour;
+    options.lambda = a.lambda;
     const fit::ConventionStudy study = fit::study_conventions(fitter, annotations, options, a.max_yaw);
     if (study.faces == 0) throw core::file_error(a.photos, "no annotation fitted within |yaw| <= " + std::to_string(a.max_yaw) + "°");
     if (!a.quiet) {
@@ -270,6 +272,7 @@ void run_conventions(const ConventionsArgs& a) {
         j["model"] = model.name;
         j["jaw"] = a.jaw;
         j["max_yaw_deg"] = a.max_yaw;
+        j["lambda"] = a.lambda;
         j["faces"] = study.faces;
         j["skipped_pose"] = study.skipped_pose;
         j["failed"] = study.failed;
@@ -351,6 +354,9 @@ void register_fit_commands(CLI::App& app) {
         ->capture_default_str()
         ->check(CLI::IsMember({"contour", "fixed"}));
     conventions->add_option("--max-yaw", conventions_args->max_yaw, "Only faces whose fitted |yaw| is at most this, degrees")->capture_default_str()->check(finite_range(0.0, 90.0));
+    conventions->add_option("--lambda", conventions_args->lambda, "Identity prior weight of the fits (as textures' --fit-lambda)")
+        ->capture_default_str()
+        ->check(finite_range(0.0, 1e6));
     conventions->add_option("--json", conventions_args->json, "Write counts and per-landmark mean_<x|y>_NN, sd_<x|y>_NN as flat JSON");
     conventions->add_flag("-q,--quiet", conventions_args->quiet, "Only the JSON");
     conventions->callback([conventions_args] { run_conventions(*conventions_args); });

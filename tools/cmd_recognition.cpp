@@ -168,9 +168,9 @@ void run_eval_recognition(const RecognitionArgs& a) {
     j["failed_frontalisations"] = result.failed_frontalisations;
     j["far"] = a.far;
     j["matcher"] = "lbph";
-    j["lbph_radius"] = a.experiment.lbph_radius;
-    j["lbph_neighbours"] = a.experiment.lbph_neighbours;
-    j["lbph_grid"] = a.experiment.lbph_grid;
+    j["lbph_radius"] = a.experiment.lbph.radius;
+    j["lbph_neighbours"] = a.experiment.lbph.neighbours;
+    j["lbph_grid"] = a.experiment.lbph.grid;
     j["crop_size"] = a.experiment.crop.size;
     j["landmarks"] = "ground truth";
     j["mirror_fill"] = a.experiment.mirror_fill;

@@ -104,8 +104,9 @@ struct VariantRun {
             nme = train::landmark_nme(face->landmarks, f.truth);
             ++figures.found;
             figures.nme_sum += nme;
-            figures.yaw_error_sum += std::abs(face->fit.pose.angles.yaw - f.yaw);
-            figures.yaw_errors.push_back(std::abs(face->fit.pose.angles.yaw - f.yaw));
+            const double yaw_error = std::abs(face->fit.pose.angles.yaw - f.yaw);
+            figures.yaw_error_sum += yaw_error;
+            figures.yaw_errors.push_back(yaw_error);
             const bool still = before && (f.truth - before->truth).cwiseAbs().maxCoeff() < 1e-6;
             if (still && previous) {
                 const double iod = (f.truth.col(45) - f.truth.col(36)).norm();
@@ -228,8 +229,7 @@ TrackEvaluation evaluate_tracking(const train::LandmarkRegressor& regressor, tra
         e.per_frame.detector_runs += per_frame->tracker.detector_runs();
         e.per_frame.losses += per_frame->tracker.losses();
     };
-    std::map<std::int64_t, int> first_half_id;  // with cuts: each clip's id in its first segment
-    std::vector<std::pair<std::int64_t, int>> segment_ids;
+    std::vector<std::pair<std::int64_t, int>> segment_ids;  // with cuts: each segment's clip and id, in stream order
     std::int64_t stream_frame = 0;
     for (const Segment& segment : segments) {
         if (!settings.cuts || !tracked) {
@@ -267,9 +267,8 @@ TrackEvaluation evaluate_tracking(const train::LandmarkRegressor& regressor, tra
             const int id = majority_id(ids);
             if (id >= 0 && std::any_of(segment_ids.begin(), segment_ids.end(), [&](const auto& s) { return s.second == id && s.first != segment.clip; }))
                 ++e.cut.false_merges;
-            if (segment.begin == 0) {
-                first_half_id[segment.clip] = id;
-            } else if (const auto first = first_half_id.find(segment.clip); first != first_half_id.end() && first->second >= 0 && id >= 0) {
+            const auto first = std::find_if(segment_ids.begin(), segment_ids.end(), [&](const auto& s) { return s.first == segment.clip; });
+            if (first != segment_ids.end() && first->second >= 0 && id >= 0) {
                 ++e.cut.returns;
                 if (first->second == id) ++e.cut.returns_same_id;
             }

@@ -78,6 +78,7 @@ std::vector<Tracker::LostTrack>::iterator Tracker::find_lost(const cv::Mat& gray
                train::match_detection({detection}, lost.track.last_good).has_value();
     });
     if (nearby != lost_.end() || !(settings_.max_reid_distance > 0)) return nearby;
+    if (std::none_of(lost_.begin(), lost_.end(), [](const LostTrack& lost) { return !lost.track.appearance.empty(); })) return lost_.end();
     const std::optional<cv::Mat> appearance = appearance_of(gray, track.state.raw_landmarks);
     if (!appearance) return lost_.end();
     auto best = lost_.end();

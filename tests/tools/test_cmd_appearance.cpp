@@ -233,6 +233,18 @@ TEST_F(CmdAppearance, ConventionsWriteOffsetsThatTrainReadsAndBadOffsetFilesAreN
     for (const char* key : {"mean_x_01", "mean_y_68", "sd_x_18", "skipped_pose", "failed"}) EXPECT_TRUE(j.contains(key)) << key;
     // The renders' own labels: the model's definitions, so small offsets (the fit's own error).
     EXPECT_LT(std::abs(j["mean_y_18"].get<double>()), 0.05);
+    EXPECT_EQ(j["lambda"], 30);
+    // A weaker identity prior lets the fits follow the labels closer.
+    const fs::path loose = dir / "conventions_loose.json";
+    ASSERT_EQ(run_command(appearance_cli() + " eval conventions -q --lambda 0.1 --photos " + photos.string() + " --json " + loose.string(), &out), 0) << out;
+    const auto spread = [](const nlohmann::json& study) {
+        double sum = 0;
+        for (const auto& [key, value] : study.items())
+            if (key.rfind("sd_", 0) == 0) sum += value.get<double>();
+        return sum;
+    };
+    EXPECT_EQ(read_json(loose)["lambda"], 0.1);
+    EXPECT_LT(spread(read_json(loose)), spread(j));
     const fs::path bad = dir / "bad.json";
     std::ofstream(bad) << R"({"mean_x_01": 0.1})";
     EXPECT_EQ(run_command(appearance_cli() + " train --quiet --data " + (dir / "renders").string() + " --out " + (dir / "m.sdm").string() + " --label-offsets " +
