@@ -58,6 +58,7 @@ struct TrainArgs {
     int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
     std::string shape_unit = "eyes";
     int feature_pca = SdmTrainOptions{}.feature_components;
+    bool mirror = false;
     std::string detector = "dlib";
     std::string cascades = "auto";  // auto, views or single
     std::vector<double> view_overlap;  // frontal max |yaw|, profile min |yaw|
@@ -77,6 +78,7 @@ void run_train(const TrainArgs& args) {
     if (!args.view_overlap.empty() && args.cascades == "single")
         throw CLI::ValidationError("--view-overlap", "only applies to view-specific cascades");
     if (args.feature_pca > 0 && args.method != "sdm") throw CLI::ValidationError("--feature-pca", "only applies to --method sdm");
+    if (args.mirror && args.method != "sdm") throw CLI::ValidationError("--mirror", "only applies to --method sdm");
     if (const int dims = morph::kNumIbugLandmarks * hog_dims(args.hog_cells); args.feature_pca > dims)
         throw CLI::ValidationError("--feature-pca", std::to_string(args.feature_pca) + " is more than the feature dimension " +
                                                         std::to_string(dims) + " (68 * " + std::to_string(args.hog_cells) +
@@ -105,6 +107,7 @@ void run_train(const TrainArgs& args) {
     sdm.jaw_features_from = args.jaw_features_from;
     sdm.unit = args.shape_unit == "box" ? ShapeUnitKind::kFixed : ShapeUnitKind::kInterEyeCentres;
     sdm.feature_components = args.feature_pca;
+    sdm.mirror = args.mirror;
     request.ert.threads = args.threads;
     request.ert.oversampling = args.augment;
     request.ert.seed = args.seed;
@@ -454,6 +457,9 @@ void register_train_commands(CLI::App& app) {
                         "into the stored weights; at most 68 * hog-cells^2 * 16); 0 = off")
             ->check(CLI::NonNegativeNumber)
             ->capture_default_str();
+        cmd->add_flag("--mirror", args->mirror,
+                      "SDM: every training face also trains as its mirror image (the frontal cascade's faces with view "
+                      "cascades; validation faces are not mirrored)");
         cmd->add_option("--ranks", args->ranks,
                         "SDM: candidate ranks of each stage's update (1-136, comma-separated); validation keeps the "
                         "smallest within 1% of the best NME")

@@ -585,19 +585,29 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& box
     validate_options(options);
     const auto settings = options.stage_settings.empty() ? default_stage_settings(options.stages, options.jaw_features_from)
                                                          : options.stage_settings;
-    const FaceSplit split = split_faces(faces.size(), options);
+    FaceSplit split = split_faces(faces.size(), options);
+    std::vector<TrainingFace> with_mirrors;  // the faces, then the training faces' mirror images
+    if (options.mirror) {
+        with_mirrors.assign(faces.begin(), faces.end());
+        const std::size_t originals = split.train.size();
+        for (std::size_t i = 0; i < originals; ++i) {
+            with_mirrors.push_back(mirror_training_face(faces[split.train[i]]));
+            split.train.push_back(with_mirrors.size() - 1);
+        }
+    }
+    const std::span<const TrainingFace> rows = options.mirror ? std::span<const TrainingFace>(with_mirrors) : faces;
 
     SdmModel model;
     model.num_landmarks = morph::kNumIbugLandmarks;
     model.hog_cells = options.hog_cells;
     model.training_faces = static_cast<std::uint32_t>(faces.size());
     model.augment = static_cast<std::uint32_t>(options.augment);
-    learn_starts(faces, split.train, boxes, model);
+    learn_starts(rows, split.train, boxes, model);
     model.unit.kind = options.unit;
     if (options.unit == ShapeUnitKind::kFixed)
         model.unit.fixed_length = options.fixed_unit_length > 0 ? options.fixed_unit_length : morph::inter_eye_centre_distance(model.mean_shape);
 
-    CascadeTrainer trainer(faces, split, options, model, settings);
+    CascadeTrainer trainer(rows, split, options, model, settings);
     for (std::size_t k = 0; k < settings.size(); ++k) trainer.train_stage(k, settings[k]);
     return model;
 }

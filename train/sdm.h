@@ -163,6 +163,9 @@ struct SdmStageReport {
 struct SdmTrainOptions {
     int stages = 4;
     int augment = 10;        // perturbed initialisations per face
+    // Each training face also trains as its mirror image (mirror_training_face; validation faces are
+    // not mirrored, so λ and the rank are still chosen on faces no row has seen).
+    bool mirror = false;
     int threads = 1;
     std::uint64_t seed = 1;
     int hog_cells = 3;

@@ -56,6 +56,7 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
         report[stage + "_feature_components"] = r.feature_components;
     };
     report["feature_pca"] = options.feature_components;
+    report["mirror"] = options.mirror;
     SdmModel model;
     if (views) {
         ViewCascadeCounts counts;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace facesynth::train {
@@ -69,6 +70,8 @@ SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStati
     const auto train_one = [&](const char* name, const std::vector<TrainingFace>& set, double fixed_unit_length = 0) {
         SdmTrainOptions o = options;
         if (fixed_unit_length > 0) o.fixed_unit_length = fixed_unit_length;
+        // The profile cascade learns nose-left faces only: a mirror image would be nose-right.
+        if (std::string_view(name) == "profile") o.mirror = false;
         if (on_stage) o.on_stage = [&](const SdmStageReport& r) { on_stage(name, r); };
         try {
             return train_sdm(set, boxes, o);

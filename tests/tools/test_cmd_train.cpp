@@ -44,10 +44,11 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     ASSERT_TRUE(fs::exists(model));
     const auto train_report = read_json(dir / "train.json");
     for (const char* key : {"stage1_nme", "stage1_validation_nme", "stage1_lambda_factor", "stage1_rank", "stage3_rank",
-                            "feature_pca", "stage1_feature_components",
+                            "feature_pca", "stage1_feature_components", "mirror",
                             "detector_matched_frontal", "detector_matched_nose_left", "detector_matched_nose_right"})
         EXPECT_TRUE(train_report.contains(key)) << key;
     EXPECT_EQ(train_report["detector"], "dlib");  // the default
+    EXPECT_EQ(train_report["mirror"], false);
     // --cascades auto: these near-frontal faces give the profile cascade too few faces, so one cascade.
     EXPECT_EQ(train_report["view_cascades"], false);
 
@@ -200,6 +201,8 @@ TEST(CmdTrain, BadRegressorFileAndUsageErrors) {
     EXPECT_NE(out.find("--feature-pca"), std::string::npos) << out;
     EXPECT_EQ(run_command(train_here + " --hog-cells 2 --feature-pca 4353", &out), 2) << out;  // D = 68 * 4 * 16 = 4352
     EXPECT_NE(out.find("--feature-pca"), std::string::npos) << out;
+    EXPECT_EQ(run_command(train_here + " --method ert --mirror", &out), 2) << out;  // the SDM's option
+    EXPECT_NE(out.find("--mirror"), std::string::npos) << out;
     EXPECT_FALSE(fs::exists(dir / "m.sdm"));
     EXPECT_EQ(run_command(cli_path().string() + " eval landmarks --regressor sdm@x:" + (dir / "bad.sdm").string() +
                               " --data " + dir.string(),

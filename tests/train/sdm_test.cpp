@@ -226,6 +226,28 @@ TEST(Sdm, RejectsFeatureComponentsOutsideTheFeatureDimension) {
     }
 }
 
+TEST(Sdm, MirroredTrainingFacesMakeTheStartSymmetricAndStillGeneralise) {
+    const auto train = cartoon_training_faces(9, 40);
+    const auto test = cartoon_training_faces(10, 15);
+    SdmTrainOptions options;
+    options.augment = 3;
+    options.stages = 2;
+    options.threads = 2;
+    const SdmModel plain = train_sdm(train, BoxStatistics{}, options);
+    options.mirror = true;
+    std::vector<SdmStageReport> reports;
+    options.on_stage = [&](const SdmStageReport& r) { reports.push_back(r); };
+    const SdmModel mirrored = train_sdm(train, BoxStatistics{}, options);
+    // The start is the mean of the training shapes and their mirror images: its own mirror image.
+    EXPECT_LT((mirrored.mean_shape - mirror_canonical_shape(mirrored.mean_shape)).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_GT((plain.mean_shape - mirror_canonical_shape(plain.mean_shape)).cwiseAbs().maxCoeff(), 0.1);
+    EXPECT_EQ(mirrored.training_faces, train.size());  // the faces given, not the rows made from them
+    ASSERT_EQ(reports.size(), 2u);
+    for (const auto& r : reports) EXPECT_LT(r.validation_nme_after, r.validation_nme_before) << "stage " << r.stage;
+    const HeldOutErrors e = held_out_errors(mirrored, test);
+    EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+}
+
 TEST(Sdm, RejectsTooFewFaces) {
     const auto train = cartoon_training_faces(1, 1);
     EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, SdmTrainOptions{}), core::Error);

@@ -148,6 +148,20 @@ TEST(ViewCascades, OverlapAddsFacesOfTheOtherViewByTrueYaw) {
     EXPECT_EQ(model.profile->faces, 27);
 }
 
+TEST(ViewCascades, MirroringAppliesToTheFrontalCascadeOnly) {
+    SdmTrainOptions options = small_options();
+    options.stages = 1;
+    options.mirror = true;
+    const SdmModel model = train_view_cascades(three_view_faces(80, 12), BoxStatistics{}, options, ViewSplit{});
+    const auto asymmetry = [](const Eigen::Matrix2Xd& shape) { return (shape - mirror_canonical_shape(shape)).cwiseAbs().maxCoeff(); };
+    EXPECT_LT(asymmetry(model.mean_shape), 1e-9);  // frontal faces and their mirror images
+    ASSERT_TRUE(model.profile.has_value());
+    // Still a nose-left start: the profile cascade's faces were not mirrored into nose-right ones.
+    const Eigen::Matrix2Xd& p = model.profile->mean_shape;
+    EXPECT_LT(p(0, 30) - 0.5 * (p(0, 36) + p(0, 45)), 0);
+    EXPECT_GT(asymmetry(p), 1.0);
+}
+
 TEST(ViewCascades, TooFewFacesOfOneViewNameTheCascade) {
     const auto frontal_only = cartoon_training_faces(60, 12);
     try {
