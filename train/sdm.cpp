@@ -19,6 +19,8 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
+#include <utility>
+#include <vector>
 
 namespace facesynth::train {
 namespace {
@@ -28,6 +30,25 @@ constexpr std::uint64_t kInitStreamBase = 0x5344'4d00;  // "SDM"
 constexpr std::size_t kChunkRows = 1024;
 
 using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// The lower triangle of `product` += `left` · `right`ᵀ restricted to the lower tiles, where `left`
+// and `right` are the same rows (`lines` gives line i of either). Computed in fixed square tiles
+// of kGramTile lines, one product per tile on `threads` threads: each entry's arithmetic, and so the
+// result, is the same for any thread count (Eigen's own products run on one thread here).
+constexpr Eigen::Index kGramTile = 512;
+
+template <typename Lines>
+void add_lower_gram(Eigen::MatrixXf& product, Eigen::Index size, int threads, const Lines& lines) {
+    const Eigen::Index tiles = (size + kGramTile - 1) / kGramTile;
+    std::vector<std::pair<Eigen::Index, Eigen::Index>> lower;
+    for (Eigen::Index i = 0; i < tiles; ++i)
+        for (Eigen::Index j = 0; j <= i; ++j) lower.emplace_back(i, j);
+    parallel_for(0, lower.size(), threads, [&](std::size_t t) {
+        const Eigen::Index i0 = lower[t].first * kGramTile, j0 = lower[t].second * kGramTile;
+        const Eigen::Index ni = std::min(kGramTile, size - i0), nj = std::min(kGramTile, size - j0);
+        product.block(i0, j0, ni, nj).noalias() += lines(i0, ni) * lines(j0, nj).transpose();
+    });
+}
 
 struct Similarity {
     double scale = 1, rotation = 0;  // rotation in radians
@@ -447,7 +468,10 @@ CascadeTrainer::RidgeProblem CascadeTrainer::dual_problem(const SdmStageSettings
     p.feature_offset = p.features.colwise().mean();
     p.target_mean = y.colwise().mean();
     p.features.rowwise() -= p.feature_offset;
-    p.scatter = (p.features * p.features.transpose()).cast<double>();
+    Eigen::MatrixXf gram = Eigen::MatrixXf::Zero(p.features.rows(), p.features.rows());
+    add_lower_gram(gram, p.features.rows(), options_.threads,
+                   [&](Eigen::Index first, Eigen::Index count) { return p.features.middleRows(first, count); });
+    p.scatter = gram.cast<double>().selfadjointView<Eigen::Lower>();
     p.right_side = y.rowwise() - p.target_mean;
     p.target_scatter = p.right_side.transpose() * p.right_side;
     // The Gram matrix's leading eigenvectors are the features' principal components seen
@@ -475,7 +499,7 @@ CascadeTrainer::RidgeProblem CascadeTrainer::primal_problem(const SdmStageSettin
         if (first == 0) p.feature_offset = a.colwise().mean();
         a.rowwise() -= p.feature_offset;
         const Eigen::MatrixXd y = targets(first, count);
-        gram.selfadjointView<Eigen::Lower>().rankUpdate(a.transpose());
+        add_lower_gram(gram, dims_, options_.threads, [&](Eigen::Index first, Eigen::Index count) { return a.middleCols(first, count).transpose(); });
         sum_x += a.colwise().sum().transpose().cast<double>();
         p.right_side.noalias() += a.transpose().cast<double>() * y;
         sum_y += y.colwise().sum();
