@@ -524,13 +524,15 @@ CascadeTrainer::ChosenStage CascadeTrainer::choose_stage(std::size_t k, const Ri
     const Eigen::MatrixXf principal = eigen.eigenvectors().rowwise().reverse().cast<float>();
     const Eigen::RowVectorXf target_mean = problem.target_mean.cast<float>();
     std::vector<Candidate> candidates;
-    std::vector<FullSolution> solutions;
-    std::vector<double> lambdas;
-    for (std::size_t f = 0; f < options_.lambda_factors.size(); ++f) {
-        double lambda = 0;
-        solutions.push_back(problem.solve(options_.lambda_factors[f], lambda));
-        lambdas.push_back(lambda);
-        const FullSolution& full = solutions.back();
+    // The λ candidates' solves (one Cholesky factorisation of the D×D system each) are independent:
+    // one per training thread, each with its own copy of the system.
+    const std::size_t factors = options_.lambda_factors.size();
+    std::vector<FullSolution> solutions(factors);
+    std::vector<double> lambdas(factors, 0.0);
+    parallel_for(0, factors, options_.threads,
+                 [&](std::size_t f) { solutions[f] = problem.solve(options_.lambda_factors[f], lambdas[f]); });
+    for (std::size_t f = 0; f < factors; ++f) {
+        const FullSolution& full = solutions[f];
         if (!full.weights.allFinite() || !full.bias.allFinite()) continue;
         if (!choose) {
             candidates.push_back({0.0, f, options_.ranks.front()});
