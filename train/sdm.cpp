@@ -31,10 +31,10 @@ constexpr std::size_t kChunkRows = 1024;
 
 using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// The lower triangle of `product` += `left` · `right`ᵀ restricted to the lower tiles, where `left`
-// and `right` are the same rows (`lines` gives line i of either). Computed in fixed square tiles
-// of kGramTile lines, one product per tile on `threads` threads: each entry's arithmetic, and so the
-// result, is the same for any thread count (Eigen's own products run on one thread here).
+// Adds L·Lᵀ to the lower triangle of `product` (size × size), where `lines(begin, count)` is the block
+// of `count` rows of L from row `begin`. Computed in fixed square tiles of kGramTile rows, one product
+// per tile on `threads` threads: each entry's arithmetic, and so the result, is the same for any
+// thread count (Eigen's own products run on one thread here). Tiles on the diagonal are filled whole.
 constexpr Eigen::Index kGramTile = 512;
 
 template <typename Lines>
@@ -470,7 +470,7 @@ CascadeTrainer::RidgeProblem CascadeTrainer::dual_problem(const SdmStageSettings
     p.features.rowwise() -= p.feature_offset;
     Eigen::MatrixXf gram = Eigen::MatrixXf::Zero(p.features.rows(), p.features.rows());
     add_lower_gram(gram, p.features.rows(), options_.threads,
-                   [&](Eigen::Index first, Eigen::Index count) { return p.features.middleRows(first, count); });
+                   [&](Eigen::Index begin, Eigen::Index n) { return p.features.middleRows(begin, n); });
     p.scatter = gram.cast<double>().selfadjointView<Eigen::Lower>();
     p.right_side = y.rowwise() - p.target_mean;
     p.target_scatter = p.right_side.transpose() * p.right_side;
@@ -499,7 +499,7 @@ CascadeTrainer::RidgeProblem CascadeTrainer::primal_problem(const SdmStageSettin
         if (first == 0) p.feature_offset = a.colwise().mean();
         a.rowwise() -= p.feature_offset;
         const Eigen::MatrixXd y = targets(first, count);
-        add_lower_gram(gram, dims_, options_.threads, [&](Eigen::Index first, Eigen::Index count) { return a.middleCols(first, count).transpose(); });
+        add_lower_gram(gram, dims_, options_.threads, [&](Eigen::Index begin, Eigen::Index n) { return a.middleCols(begin, n).transpose(); });
         sum_x += a.colwise().sum().transpose().cast<double>();
         p.right_side.noalias() += a.transpose().cast<double>() * y;
         sum_y += y.colwise().sum();
