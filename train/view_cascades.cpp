@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <string>
-#include <string_view>
 #include <vector>
 
 namespace facesynth::train {
@@ -67,11 +66,10 @@ SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStati
     const ViewCascadeCounts& c = sets.counts;
     if (counts) *counts = c;
 
-    const auto train_one = [&](const char* name, const std::vector<TrainingFace>& set, double fixed_unit_length = 0) {
+    const auto train_one = [&](const char* name, const std::vector<TrainingFace>& set, bool mirror, double fixed_unit_length = 0) {
         SdmTrainOptions o = options;
         if (fixed_unit_length > 0) o.fixed_unit_length = fixed_unit_length;
-        // The profile cascade learns nose-left faces only: a mirror image would be nose-right.
-        if (std::string_view(name) == "profile") o.mirror = false;
+        o.mirror = mirror;
         if (on_stage) o.on_stage = [&](const SdmStageReport& r) { on_stage(name, r); };
         try {
             return train_sdm(set, boxes, o);
@@ -80,9 +78,10 @@ SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStati
                         " faces): " + e.what());
         }
     };
-    SdmModel model = train_one("frontal", sets.frontal);
+    SdmModel model = train_one("frontal", sets.frontal, options.mirror);
     // Both cascades measure shapes in the same unit (with a fixed one, the frontal faces').
-    const SdmModel profile_model = train_one("profile", sets.profile, model.unit.fixed_length);
+    // The profile cascade learns nose-left faces only (a mirror image would be nose-right): never mirrored.
+    const SdmModel profile_model = train_one("profile", sets.profile, false, model.unit.fixed_length);
 
     ProfileCascade cascade;
     cascade.mean_shape = profile_model.mean_shape;
