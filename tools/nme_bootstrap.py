@@ -10,7 +10,12 @@ and per detector view. Standard library only.
 With --cluster-size N the rows come in clusters of N consecutive rows that are not independent (the
 frames of one clip from `facesynth eval track --nme-csv`), and whole clusters are resampled.
 
+Targets stated as ratios ("within 1.2 x the reference") are read with --ratio R: every paired
+difference is then other - R x reference per face, so an interval below 0 means the target is met on
+these faces. --yaw-split D adds the faces with |yaw| <= D and > D as two more groups.
+
     tools/nme_bootstrap.py F.csv [--reference 1] [--names ours,dlib,...] [--resamples 5000] [--seed 1] [--cluster-size N]
+                           [--ratio R] [--yaw-split D]
 """
 import argparse
 import csv
@@ -55,16 +60,31 @@ def main():
     parser.add_argument("--resamples", type=int, default=5000)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--cluster-size", type=int, default=0, help="resample clusters of this many consecutive rows (clips)")
+    parser.add_argument("--ratio", type=float, default=1.0, help="compare each regressor with this multiple of the reference")
+    parser.add_argument("--yaw-split", type=float, default=None, help="also compare the faces with |yaw| up to and beyond this")
     args = parser.parse_args()
     if args.cluster_size < 0:
         sys.exit("--cluster-size must not be negative")
+    if not math.isfinite(args.ratio) or args.ratio <= 0:
+        sys.exit("--ratio must be a positive number")
+    if args.yaw_split is not None and not (0 <= args.yaw_split <= 90):
+        sys.exit("--yaw-split must be between 0 and 90 degrees")
 
-    with open(args.csv, newline="") as f:
-        rows = list(csv.DictReader(f))
+    try:
+        with open(args.csv, newline="") as f:
+            rows = list(csv.DictReader(f))
+    except OSError as error:
+        sys.exit(f"{args.csv}: {error.strerror}")
+    if not rows:
+        sys.exit(f"{args.csv}: no faces")
     columns = [c for c in rows[0].keys() if c.startswith("regressor")]
     names = args.names.split(",") if args.names else columns
     if len(names) != len(columns):
         sys.exit(f"{args.csv}: {len(columns)} regressor columns, {len(names)} names")
+    if not 1 <= args.reference <= len(columns):
+        sys.exit(f"{args.csv}: --reference {args.reference}, but the file has {len(columns)} regressor columns")
+    if args.yaw_split is not None and not rows[0]["yaw_deg"]:
+        sys.exit(f"{args.csv}: --yaw-split needs the yaw_deg column, which is empty")
     for position, row in enumerate(rows):
         row["_cluster"] = position // args.cluster_size if args.cluster_size else position
     found = [r for r in rows if r["detected"] == "1"]
@@ -80,17 +100,20 @@ def main():
         low, high = bootstrap_mean(values, args.resamples, rng, clusters_of(found))
         print(f"  {name:>14}: mean {sum(values) / len(values):.4f} [{low:.4f}, {high:.4f}]")
 
+    reference = names[args.reference - 1] if args.ratio == 1 else f"{args.ratio:g} x {names[args.reference - 1]}"
+    beaten_by = "reference better" if args.ratio == 1 else "above it"
+
     def paired(subset, label):
         if not subset:
             return
         for column, name in zip(columns, names):
             if column == ref:
                 continue
-            diffs = [float(r[column]) - float(r[ref]) for r in subset]
+            diffs = [float(r[column]) - args.ratio * float(r[ref]) for r in subset]
             low, high = bootstrap_mean(diffs, args.resamples, rng, clusters_of(subset))
-            better = sum(d > 0 for d in diffs)
-            print(f"  {label:>12} {name:>14} - {names[args.reference - 1]}: {sum(diffs) / len(diffs):+.4f} "
-                  f"[{low:+.4f}, {high:+.4f}], reference better on {better} of {len(diffs)}; "
+            above = sum(d > 0 for d in diffs)
+            print(f"  {label:>12} {name:>14} - {reference}: {sum(diffs) / len(diffs):+.4f} "
+                  f"[{low:+.4f}, {high:+.4f}], {beaten_by} on {above} of {len(diffs)}; "
                   f"means {sum(float(r[column]) for r in subset) / len(subset):.4f} vs "
                   f"{sum(float(r[ref]) for r in subset) / len(subset):.4f}")
 
@@ -99,6 +122,9 @@ def main():
         for low, high in ((0, 15), (15, 30), (30, 45), (45, 60)):
             paired([r for r in found if low <= abs(float(r["yaw_deg"])) < high or (high == 60 and abs(float(r["yaw_deg"])) == 60)],
                    f"yaw {low}-{high}")
+        if args.yaw_split is not None:
+            paired([r for r in found if abs(float(r["yaw_deg"])) <= args.yaw_split], f"yaw<={args.yaw_split:g}")
+            paired([r for r in found if abs(float(r["yaw_deg"])) > args.yaw_split], f"yaw>{args.yaw_split:g}")
     for view in ("frontal", "nose_left", "nose_right"):
         paired([r for r in found if r["view"] == view], view)
 

@@ -1,0 +1,67 @@
+"""tools/nme_bootstrap.py: paired bootstrap of per-face NMEs, ratio targets and the yaw split."""
+
+import os
+import subprocess
+import sys
+
+TOOL = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "nme_bootstrap.py")
+
+
+def run(*args):
+    return subprocess.run([sys.executable, TOOL, *map(str, args)], capture_output=True, text=True)
+
+
+def write_csv(path, rows, with_yaw=True):
+    lines = ["key,yaw_deg,detected,view,regressor1,regressor2"]
+    for key, yaw, detected, ours, reference in rows:
+        lines.append(f"{key},{yaw if with_yaw else ''},{detected},frontal,{ours},{reference}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def line_of(output, label, name):
+    """The paired line of one group and regressor, split into words."""
+    for line in output.splitlines():
+        words = line.split()
+        if len(words) > 2 and words[0] == label and words[1] == name:
+            return line
+    raise AssertionError(f"no '{label} {name}' line in:\n{output}")
+
+
+def test_ratio_and_yaw_split(tmp_path):
+    # ours is 0.04 on the 20 faces within 40 degrees and 0.08 on the 10 beyond; the reference 0.03 and 0.10.
+    rows = [(f"f{i}", 10 + i, 1, 0.04, 0.03) for i in range(20)]
+    rows += [(f"g{i}", -45 - i, 1, 0.08, 0.10) for i in range(10)]
+    rows.append(("missed", 5, 0, "inf", "inf"))  # a detector miss is left out of every group
+    write_csv(tmp_path / "nme.csv", rows)
+    result = run(tmp_path / "nme.csv", "--reference", 2, "--names", "ours,ref", "--yaw-split", 40)
+    assert result.returncode == 0, result.stderr
+    assert "31 faces, 30 detected" in result.stdout
+    assert "+0.0100 [+0.0100, +0.0100], reference better on 20 of 20" in line_of(result.stdout, "yaw<=40", "ours")
+    assert "-0.0200 [-0.0200, -0.0200], reference better on 0 of 10" in line_of(result.stdout, "yaw>40", "ours")
+
+    # Within 1.4 x the reference below 40 degrees (0.04 - 1.4 * 0.03 = -0.002): met on every face.
+    result = run(tmp_path / "nme.csv", "--reference", 2, "--names", "ours,ref", "--yaw-split", 40, "--ratio", 1.4)
+    assert result.returncode == 0, result.stderr
+    below = line_of(result.stdout, "yaw<=40", "ours")
+    assert "ours - 1.4 x ref: -0.0020 [-0.0020, -0.0020], above it on 0 of 20" in below
+    assert "above it on 0 of 10" in line_of(result.stdout, "yaw>40", "ours")
+
+    # Without --yaw-split there are no split groups.
+    result = run(tmp_path / "nme.csv", "--reference", 2)
+    assert result.returncode == 0 and "yaw<=" not in result.stdout
+
+
+def test_bad_inputs_say_what_is_wrong(tmp_path):
+    write_csv(tmp_path / "nme.csv", [("f0", 0, 1, 0.04, 0.03), ("f1", 0, 1, 0.05, 0.03)])
+    result = run(tmp_path / "nme.csv", "--reference", 3)
+    assert result.returncode != 0 and "--reference 3" in result.stderr and "2 regressor columns" in result.stderr
+    result = run(tmp_path / "nme.csv", "--ratio", 0)
+    assert result.returncode != 0 and "--ratio" in result.stderr
+    result = run(tmp_path / "missing.csv")
+    assert result.returncode != 0 and "missing.csv" in result.stderr
+    write_csv(tmp_path / "noyaw.csv", [("f0", 0, 1, 0.04, 0.03)], with_yaw=False)
+    result = run(tmp_path / "noyaw.csv", "--yaw-split", 40)
+    assert result.returncode != 0 and "noyaw.csv" in result.stderr and "yaw_deg" in result.stderr
+    (tmp_path / "empty.csv").write_text("key,yaw_deg,detected,view,regressor1\n")
+    result = run(tmp_path / "empty.csv")
+    assert result.returncode != 0 and "empty.csv: no faces" in result.stderr
