@@ -18,10 +18,11 @@ these faces. --yaw-split D adds the faces with |yaw| <= D and > D as two more gr
                            [--ratio R] [--yaw-split D]
 """
 import argparse
-import csv
 import math
 import random
 import sys
+
+from nme_csv import read_nme_rows
 
 
 def percentile(sorted_values, q):
@@ -70,13 +71,7 @@ def main():
     if args.yaw_split is not None and not (0 <= args.yaw_split <= 90):
         sys.exit("--yaw-split must be between 0 and 90 degrees")
 
-    try:
-        with open(args.csv, newline="") as f:
-            rows = list(csv.DictReader(f))
-    except OSError as error:
-        sys.exit(f"{args.csv}: {error.strerror}")
-    if not rows:
-        sys.exit(f"{args.csv}: no faces")
+    rows = read_nme_rows(args.csv)
     columns = [c for c in rows[0].keys() if c.startswith("regressor")]
     names = args.names.split(",") if args.names else columns
     if len(names) != len(columns):

@@ -14,11 +14,12 @@ matched to DATASET/meta by their last path component, so a folder of links to a 
 .pts works too. Standard library only.
 """
 import argparse
-import csv
 import json
 import math
 import os
 import sys
+
+from nme_csv import read_nme_rows
 
 
 def pearson(a, b):
@@ -65,13 +66,9 @@ def main():
     if args.column < 1 or args.bins < 1:
         parser.error("--column and --bins must be at least 1")
 
-    try:
-        with open(args.csv, newline="") as f:
-            rows = list(csv.DictReader(f))
-    except OSError as e:
-        sys.exit(f"{args.csv}: {e.strerror}")
+    rows = read_nme_rows(args.csv)
     column = f"regressor{args.column}"
-    if not rows or column not in rows[0]:
+    if column not in rows[0]:
         sys.exit(f"{args.csv}: no column {column} (is it an `eval landmarks --nme-csv` file?)")
     nmes, factors, textures = [], [], {}
     for row in rows:
