@@ -11,7 +11,8 @@
 #                             photographs have them (normal, σ 10° and 8°), long lenses (fov 4-20°), degradations,
 #                             and the jaw labels evenly spaced along the outline as annotators space them
 #                             (landmarks.mode = even) (into WORK/train, replacing a set made with other settings)
-#   4. facesynth train        the SDM regressor on those renders alone
+#   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, 4 starts: at
+#                             36000 renders about 45 minutes and 7.7 GB on 2 cores; docs/results.md row 41)
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 set -euo pipefail
@@ -65,6 +66,6 @@ fi
     "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \
     --set degrade.downscale_probability=0.3 --set degrade.gamma_probability=0.5 --set degrade.colour_jitter_probability=0.5
-"$facesynth" train --data "$work/train" --out "$out" --hog-cells 2 --augment 4 --threads "$threads" --lambda-factors 3,10,30,100 \
+"$facesynth" train --data "$work/train" --out "$out" --hog-cells 3 --stages 6 --augment 4 --threads "$threads" --lambda-factors 3,10,30,100 \
     --json "$work/train.json" $([[ ${#quiet[@]} -gt 0 ]] && echo --quiet)
 echo "sim2real: $out (work files in $work)"
