@@ -96,7 +96,7 @@ def main():
         print(f"  {name:>14}: mean {sum(values) / len(values):.4f} [{low:.4f}, {high:.4f}]")
 
     reference = names[args.reference - 1] if args.ratio == 1 else f"{args.ratio:g} x {names[args.reference - 1]}"
-    beaten_by = "reference better" if args.ratio == 1 else "above it"
+    count_label = "reference better" if args.ratio == 1 else "above it"
 
     def paired(subset, label):
         if not subset:
@@ -108,7 +108,7 @@ def main():
             low, high = bootstrap_mean(diffs, args.resamples, rng, clusters_of(subset))
             above = sum(d > 0 for d in diffs)
             print(f"  {label:>12} {name:>14} - {reference}: {sum(diffs) / len(diffs):+.4f} "
-                  f"[{low:+.4f}, {high:+.4f}], {beaten_by} on {above} of {len(diffs)}; "
+                  f"[{low:+.4f}, {high:+.4f}], {count_label} on {above} of {len(diffs)}; "
                   f"means {sum(float(r[column]) for r in subset) / len(subset):.4f} vs "
                   f"{sum(float(r[ref]) for r in subset) / len(subset):.4f}")
 

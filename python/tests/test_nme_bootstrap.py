@@ -19,7 +19,7 @@ def write_csv(path, rows, with_yaw=True):
 
 
 def line_of(output, label, name):
-    """The paired line of one group and regressor, split into words."""
+    """The paired line of one group (yaw<=40, all, ...) and one regressor."""
     for line in output.splitlines():
         words = line.split()
         if len(words) > 2 and words[0] == label and words[1] == name:
