@@ -185,6 +185,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     add_angle(f, "yaw", c.pose.yaw);
     add_angle(f, "pitch", c.pose.pitch);
     add_angle(f, "roll", c.pose.roll);
+    f.push_back({"pose.source", &c.pose.source,
+                 "\"random\" or \"texture\": yaw, pitch and roll drawn around the pose fitted to the texture's photograph (albedo.texture_bank; the distributions' means become offsets)"});
     f.push_back({"pose.translation_jitter", &c.pose.translation_jitter, "face centre offset from the image centre, share of the image side (uniform ±)"});
     f.push_back({"camera.width", &c.camera.width, "image width, px"});
     f.push_back({"camera.height", &c.camera.height, "image height, px"});
@@ -336,6 +338,12 @@ void validate(const SynthConfig& c) {
     validate_angle(c.pose.yaw, "yaw");
     validate_angle(c.pose.pitch, "pitch");
     validate_angle(c.pose.roll, "roll");
+    require(c.pose.source == "random" || c.pose.source == "texture", "pose.source", "must be \"random\" or \"texture\"");
+    require(c.pose.source != "texture" || !c.albedo.texture_bank.empty(), "pose.source",
+            "\"texture\" needs albedo.texture_bank (the poses come with the bank's textures)");
+    for (const auto& [angle, name] : {std::pair{&c.pose.yaw, "yaw"}, std::pair{&c.pose.pitch, "pitch"}, std::pair{&c.pose.roll, "roll"}})
+        require(c.pose.source != "texture" || angle->distribution == "normal", std::string("pose.") + name + ".distribution",
+                "must be \"normal\" with pose.source = \"texture\" (drawn around the texture's angle)");
     require(c.pose.translation_jitter >= 0 && c.pose.translation_jitter < 0.5, "pose.translation_jitter", "must be in [0, 0.5)");
     require(c.camera.width >= 16 && c.camera.width <= 8192, "camera.width", "must be in [16, 8192]");
     require(c.camera.height >= 16 && c.camera.height <= 8192, "camera.height", "must be in [16, 8192]");
@@ -380,6 +388,8 @@ void validate(const SynthConfig& c) {
     require(d.downscale_min > 0 && d.downscale_min <= 1, "degrade.downscale_min", "must be in (0, 1]");
     require(c.occluders.max_count >= 1, "occluders.max_count", "must be at least 1");
     require(c.sequence.frames >= 0, "sequence.frames", "must not be negative");
+    require(c.sequence.frames == 0 || c.pose.source == "random", "pose.source",
+            "\"texture\" is for still samples: a clip's keys are drawn from the distributions themselves (sequence.frames > 0)");
     require(std::isfinite(c.sequence.fps) && c.sequence.fps > 0 && c.sequence.fps <= 1000, "sequence.fps", "must be in (0, 1000]");
     require(std::isfinite(c.sequence.key_seconds) && c.sequence.key_seconds > 0, "sequence.key_seconds", "must be positive");
     validate_share(c.sequence.hold_share, "sequence.hold_share");

@@ -68,6 +68,10 @@ struct PoseConfig {
     AngleDistribution pitch{"normal", -30, 30, 0, 10};   // helen_train's: σ 6.7°
     AngleDistribution roll{"normal", -20, 20, 0, 8};     // helen_train's: σ 8.1°
     double translation_jitter = 0.05;  // face centre offset from the image centre, share of the image side
+    // "random": the angles as above; "texture": each normal distribution centred on the angle fitted to
+    // the photograph of the sample's texture (albedo.texture_bank) plus its mean, so that renders
+    // show mostly the side of the face its photograph saw (min and max still bound the draw).
+    std::string source = "random";
 };
 
 struct CameraConfig {

@@ -30,6 +30,12 @@ double sample_angle(core::Rng& rng, const AngleDistribution& a) {
     return rng.uniform(a.min, a.max);
 }
 
+// The normal distribution `a` moved so that its mean is `angle` plus a's mean, kept inside [min, max].
+AngleDistribution centred_on(AngleDistribution a, double angle) {
+    a.mean = std::clamp(angle + a.mean, a.min, a.max);
+    return a;
+}
+
 bool chance(core::Rng& rng, double probability) { return rng.uniform() < probability; }
 
 std::vector<float> sample_expression(const SynthConfig& config, const morph::MorphableModel& model, core::Rng& rng) {
@@ -411,9 +417,16 @@ SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& 
     }
     {
         core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kPose);
-        s.angles.yaw = sample_angle(rng, config.pose.yaw);
-        s.angles.pitch = sample_angle(rng, config.pose.pitch);
-        s.angles.roll = sample_angle(rng, config.pose.roll);
+        if (config.pose.source == "texture") {
+            const morph::EulerAngles& fitted = texture_fit("pose.source").angles;
+            s.angles.yaw = sample_angle(rng, centred_on(config.pose.yaw, fitted.yaw));
+            s.angles.pitch = sample_angle(rng, centred_on(config.pose.pitch, fitted.pitch));
+            s.angles.roll = sample_angle(rng, centred_on(config.pose.roll, fitted.roll));
+        } else {
+            s.angles.yaw = sample_angle(rng, config.pose.yaw);
+            s.angles.pitch = sample_angle(rng, config.pose.pitch);
+            s.angles.roll = sample_angle(rng, config.pose.roll);
+        }
         s.pose.rotation = morph::rotation_from_euler(s.angles);
     }
 

@@ -59,10 +59,11 @@ struct OccluderSpec {
 };
 
 // The fit a texture bank's texture was taken with: the identity (empty in banks made before shapes
-// were stored) and the expression (absent in banks made before expressions were stored).
+// were stored), the expression (absent in banks made before expressions were stored) and the pose.
 struct TextureFit {
     std::vector<float> shape;
     std::optional<std::vector<float>> expression;
+    morph::EulerAngles angles;  // the fitted head pose, degrees (pose.source = "texture")
 };
 
 // Where a sample sits in its clip (sequence.frames > 0).

@@ -194,7 +194,7 @@ ImageLibrary load_texture_bank(const fs::path& bank, const morph::MorphableModel
         if (e.expression && static_cast<int>(e.expression->size()) != model.num_expression_components())
             throw core::file_error(manifest, e.file + ": " + std::to_string(e.expression->size()) + " expression coefficients, the model has " +
                                            std::to_string(model.num_expression_components()));
-        fits.push_back({e.shape, e.expression});
+        fits.push_back({e.shape, e.expression, {e.yaw_deg, e.pitch_deg, e.roll_deg}});
     }
     return {std::move(images), std::move(names), std::move(fits)};
 }

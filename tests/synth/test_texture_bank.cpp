@@ -261,6 +261,61 @@ TEST_F(TextureBankTest, TextureExpressionIsTheExpressionStoredWithTheDrawnTextur
     EXPECT_NE(testkit::error_message_of([&] { (void)load_texture_bank(dir / "bank", *model_); }).find("1 expression coefficients"), std::string::npos);
 }
 
+// pose.source = "texture": each angle is drawn around the one fitted to the texture's photograph
+// (through bank.json), bounded by the configured range; it needs a bank, normal distributions and
+// still samples.
+TEST_F(TextureBankTest, TexturePoseIsDrawnAroundThePoseFittedToItsPhotograph) {
+    const fs::path dir = testkit::fresh_temp_dir("texture_bank_pose");
+    std::vector<TextureBankEntry> entries(2);
+    entries[0].yaw_deg = 30, entries[0].pitch_deg = 5, entries[0].roll_deg = -4;
+    entries[1].yaw_deg = -50, entries[1].pitch_deg = -8, entries[1].roll_deg = 6;
+    write_bank_of_fits(dir / "bank", *model_, entries);
+    const ImageLibrary library = load_texture_bank(dir / "bank", *model_);
+    ASSERT_EQ(library.fits().size(), 2u);
+    EXPECT_EQ(library.fits()[1].angles.yaw, -50);  // through bank.json and back
+
+    SynthConfig config;
+    config.pose.source = "texture";
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("pose.source"), std::string::npos);  // no bank
+    config.albedo.texture_bank = (dir / "bank").string();
+    config.pose.yaw = {"normal", -40, 60, 0, 3};
+    config.pose.pitch = {"normal", -30, 30, 2, 1};
+    config.pose.roll = {"normal", -20, 20, 0, 1};
+    validate(config);
+    std::array<double, 2> yaw_sum{}, pitch_sum{};
+    std::array<int, 2> count{};
+    for (int i = 0; i < 200; ++i) {
+        const SampleSpec s = sample_scene(config, *model_, i, nullptr, nullptr, library.fits());
+        const std::size_t t = *s.texture_choice % entries.size();
+        yaw_sum[t] += s.angles.yaw;
+        pitch_sum[t] += s.angles.pitch;
+        ++count[t];
+        EXPECT_GE(s.angles.yaw, -40) << "sample " << i;  // texture 1's -50 is outside the range: its draws stay inside
+        EXPECT_NEAR(s.angles.roll, entries[t].roll_deg, 5) << "sample " << i;
+        EXPECT_EQ(s.angles.yaw, sample_scene(config, *model_, i, nullptr, nullptr, library.fits()).angles.yaw);  // (seed, i) alone
+    }
+    ASSERT_GT(count[0], 20);
+    ASSERT_GT(count[1], 20);
+    EXPECT_NEAR(yaw_sum[0] / count[0], 30, 1);
+    EXPECT_NEAR(pitch_sum[0] / count[0], 5 + 2, 0.5);  // the configured mean is an offset
+    EXPECT_NEAR(pitch_sum[1] / count[1], -8 + 2, 0.5);
+    EXPECT_LT(yaw_sum[1] / count[1], -35);
+    // The random source ignores the bank's poses.
+    config.pose.source = "random";
+    double random_yaw = 0;
+    for (int i = 0; i < 200; ++i) random_yaw += sample_scene(config, *model_, i, nullptr, nullptr, library.fits()).angles.yaw;
+    EXPECT_NEAR(random_yaw / 200, 0, 1);
+    config.pose.source = "texture";
+    config.pose.roll.distribution = "uniform";
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("pose.roll.distribution"), std::string::npos);
+    config.pose.roll.distribution = "normal";
+    config.sequence.frames = 10;
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("still samples"), std::string::npos);
+    config.sequence.frames = 0;
+    config.pose.source = "photo";
+    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("pose.source"), std::string::npos);
+}
+
 TEST(PhotoBackgrounds, RegionsNeverMeetTheAnnotatedFace) {
     core::Rng rng(5, 0, 0);
     for (int trial = 0; trial < 200; ++trial) {
