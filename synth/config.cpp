@@ -341,6 +341,8 @@ void validate(const SynthConfig& c) {
     require(c.pose.source == "random" || c.pose.source == "texture", "pose.source", "must be \"random\" or \"texture\"");
     require(c.pose.source != "texture" || !c.albedo.texture_bank.empty(), "pose.source",
             "\"texture\" needs albedo.texture_bank (the poses come with the bank's textures)");
+    require(c.sequence.frames == 0 || c.pose.source == "random", "pose.source",
+            "\"texture\" is for still samples: a clip's keys are drawn from the distributions themselves (sequence.frames > 0)");
     for (const auto& [angle, name] : {std::pair{&c.pose.yaw, "yaw"}, std::pair{&c.pose.pitch, "pitch"}, std::pair{&c.pose.roll, "roll"}})
         require(c.pose.source != "texture" || angle->distribution == "normal", std::string("pose.") + name + ".distribution",
                 "must be \"normal\" with pose.source = \"texture\" (drawn around the texture's angle)");
@@ -388,8 +390,6 @@ void validate(const SynthConfig& c) {
     require(d.downscale_min > 0 && d.downscale_min <= 1, "degrade.downscale_min", "must be in (0, 1]");
     require(c.occluders.max_count >= 1, "occluders.max_count", "must be at least 1");
     require(c.sequence.frames >= 0, "sequence.frames", "must not be negative");
-    require(c.sequence.frames == 0 || c.pose.source == "random", "pose.source",
-            "\"texture\" is for still samples: a clip's keys are drawn from the distributions themselves (sequence.frames > 0)");
     require(std::isfinite(c.sequence.fps) && c.sequence.fps > 0 && c.sequence.fps <= 1000, "sequence.fps", "must be in (0, 1000]");
     require(std::isfinite(c.sequence.key_seconds) && c.sequence.key_seconds > 0, "sequence.key_seconds", "must be positive");
     validate_share(c.sequence.hold_share, "sequence.hold_share");

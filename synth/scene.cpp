@@ -417,16 +417,12 @@ SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& 
     }
     {
         core::Rng rng = core::make_rng(config.seed, i, core::RandomStream::kPose);
-        if (config.pose.source == "texture") {
-            const morph::EulerAngles& fitted = texture_fit("pose.source").angles;
-            s.angles.yaw = sample_angle(rng, centred_on(config.pose.yaw, fitted.yaw));
-            s.angles.pitch = sample_angle(rng, centred_on(config.pose.pitch, fitted.pitch));
-            s.angles.roll = sample_angle(rng, centred_on(config.pose.roll, fitted.roll));
-        } else {
-            s.angles.yaw = sample_angle(rng, config.pose.yaw);
-            s.angles.pitch = sample_angle(rng, config.pose.pitch);
-            s.angles.roll = sample_angle(rng, config.pose.roll);
-        }
+        // Random poses are centred on zero: validate() keeps a normal's mean inside [min, max], so the
+        // distributions are the configured ones, unchanged.
+        const morph::EulerAngles centre = config.pose.source == "texture" ? texture_fit("pose.source").angles : morph::EulerAngles{};
+        s.angles.yaw = sample_angle(rng, centred_on(config.pose.yaw, centre.yaw));
+        s.angles.pitch = sample_angle(rng, centred_on(config.pose.pitch, centre.pitch));
+        s.angles.roll = sample_angle(rng, centred_on(config.pose.roll, centre.roll));
         s.pose.rotation = morph::rotation_from_euler(s.angles);
     }
 
