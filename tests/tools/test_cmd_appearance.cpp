@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <sstream>
 
@@ -128,6 +129,44 @@ TEST_F(CmdAppearance, TexturesFitLambdaSetsHowFarTheShapesFollowThePoints) {
     EXPECT_GE(compared, 4);
     EXPECT_EQ(run_command(appearance_cli() + " textures -q --fit-lambda -1 --photos " + photos.string() + " --out " + (dir / "bank_bad").string(), &out), 2);
     EXPECT_FALSE(fs::exists(dir / "bank_bad"));
+}
+
+// pose.source = texture end to end: the angles `textures` fits to a photograph are in synth's
+// convention, so a render drawn at its texture's pose (spread ~0) turns and tilts as the photograph does.
+TEST_F(CmdAppearance, TexturePoseRendersFaceTheWayTheirPhotographDoes) {
+    std::string out;
+    const fs::path turned = dir / "turned";
+    const fs::path photos_turned = facesynth::testkit::photo_folder_from_renders(
+        turned, "-n 6 --seed 5 --set pose.yaw.min=-35 --set pose.yaw.max=35 --set pose.roll.min=-12 --set pose.roll.max=12"
+                " --set pose.pitch.min=-5 --set pose.pitch.max=5 --set camera.face_scale_min=0.3 --set camera.face_scale_max=0.35");
+    const fs::path bank = dir / "bank_turned";
+    ASSERT_EQ(run_command(appearance_cli() + " textures -q --size 64 --photos " + photos_turned.string() + " --out " + bank.string(), &out), 0) << out;
+    ASSERT_EQ(run_command(appearance_cli() + " synth -n 12 --seed 2 --size 96 -q -o " + (dir / "at_pose").string() + " --set albedo.texture_bank=" +
+                              bank.string() +
+                              " --set pose.source=texture --set pose.yaw.distribution=normal --set pose.yaw.stddev=0.1"
+                              " --set pose.pitch.distribution=normal --set pose.pitch.stddev=0.1 --set pose.roll.distribution=normal"
+                              " --set pose.roll.stddev=0.1",
+                          &out),
+              0)
+        << out;
+    std::map<std::string, std::string> photo_of_texture;  // bank file -> photograph's stem
+    const auto manifest = read_json(bank / "bank.json");
+    for (const auto& t : manifest["textures"])
+        photo_of_texture[t["file"].get<std::string>()] = fs::path(t["source"].get<std::string>()).stem().string();
+    bool saw_left = false, saw_right = false;
+    for (int i = 0; i < 12; ++i) {
+        std::ostringstream key;
+        key << 's' << std::setw(8) << std::setfill('0') << i;
+        const auto render = read_json(dir / "at_pose" / "meta" / (key.str() + ".json"));
+        const std::string stem = photo_of_texture.at(render["texture"].get<std::string>());
+        const auto photo = read_json(turned / "renders" / "meta" / (stem + ".json"));
+        // The fit recovers the photograph's pose to within a few degrees; a flipped sign would be off by twice the angle.
+        EXPECT_NEAR(render["yaw"].get<double>(), photo["yaw"].get<double>(), 5) << "sample " << i << ", photograph " << stem;
+        EXPECT_NEAR(render["roll"].get<double>(), photo["roll"].get<double>(), 4) << "sample " << i << ", photograph " << stem;
+        saw_left |= photo["yaw"].get<double>() < -10;
+        saw_right |= photo["yaw"].get<double>() > 10;
+    }
+    EXPECT_TRUE(saw_left && saw_right);  // both signs tested
 }
 
 TEST_F(CmdAppearance, TexturesRefuseEmptyFoldersAndLeaveNoPartialBank) {
