@@ -309,7 +309,7 @@ void register_fit_commands(CLI::App& app) {
     cmd->add_flag("--no-expression", fit_args->no_expression, "Keep the expression neutral");
     cmd->add_option("--focal", fit_args->focal, "Known focal length in pixels for --refine (0: estimate)")->capture_default_str()->check(CLI::NonNegativeNumber);
     cmd->add_option("--sigma", fit_args->sigma, "Landmark noise sigma in pixels for --refine")->capture_default_str()->check(CLI::PositiveNumber);
-    cmd->add_flag("--quiet", fit_args->quiet, "Print nothing on success");
+    cmd->add_flag("-q,--quiet", fit_args->quiet, "Print nothing on success");
     cmd->callback([fit_args] { run_fit(*fit_args); });
 
     auto lambda_args = std::make_shared<LambdaArgs>();
@@ -321,7 +321,7 @@ void register_fit_commands(CLI::App& app) {
     lam->add_option("--seed", lambda_args->seed, "Seed of the validation set (keep it apart from test sets)")->capture_default_str();
     lam->add_option("--landmark-set", lambda_args->landmark_set, "Landmark subset: 7, 13, 49 or 68")->capture_default_str()->check(CLI::IsMember({"7", "13", "49", "68"}));
     lam->add_option("--json", lambda_args->json, "Write the scores (flat keys) here");
-    lam->add_flag("--quiet", lambda_args->quiet, "No progress output");
+    lam->add_flag("-q,--quiet", lambda_args->quiet, "No progress output");
     lam->callback([lambda_args] { run_lambda(*lambda_args); });
 
     CLI::App* eval = &eval_group(app);
@@ -340,7 +340,7 @@ void register_fit_commands(CLI::App& app) {
     ev->add_option("--sigma", eval_args->sigma, "Landmark sigma (pixels) of the refinement")->capture_default_str()->check(CLI::PositiveNumber);
     auto* max_yaw = ev->add_option("--max-yaw", eval_args->max_yaw, "Yaw range +-degrees of the generated cases and of the yaw bins (with --data default 90)")->capture_default_str()->check(CLI::Range(1.0, 90.0));
     ev->add_option("--json", eval_args->json, "Write the flat metrics here");
-    ev->add_flag("--quiet", eval_args->quiet, "Only the JSON, no table or progress");
+    ev->add_flag("-q,--quiet", eval_args->quiet, "Only the JSON, no table or progress");
     ev->callback([eval_args, max_yaw] {
         eval_args->max_yaw_given = max_yaw->count() > 0;
         run_eval(*eval_args);

@@ -462,7 +462,7 @@ void register_frontal_commands(CLI::App& app) {
     cmd->add_flag("--mirror-fill", a->mirror_fill, "Fill occluded texels from the mirror side (needs the model's symmetry map)");
     cmd->add_option("--background", a->background, "R,G,B behind the frontal face (default: black)");
     cmd->add_option("--json", a->json, "Write a summary (flat keys) here");
-    cmd->add_flag("--quiet", a->quiet, "No progress or summary");
+    cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary");
     cmd->callback([a, regressor, landmarks, pts] {
         if (regressor->count() == 0 && landmarks->count() == 0 && pts->count() == 0)
             throw CLI::ValidationError("frontalise", "say where landmarks come from: --regressor MODEL, --landmarks dlib|pts, or --pts FILE");
@@ -495,7 +495,7 @@ void register_frontal_commands(CLI::App& app) {
     ev->add_option("--json", e->json, "Write the flat metrics here");
     ev->add_option("--plot", e->plot, "Write PSNR per yaw bin as an SVG plot here");
     ev->add_option("--examples", e->examples, "Write the views, isomaps and frontal renders of the first two identities into this folder");
-    ev->add_flag("--quiet", e->quiet, "Only the JSON, no table or progress");
+    ev->add_flag("-q,--quiet", e->quiet, "Only the JSON, no table or progress");
     ev->callback([e] { run_eval_frontalise(*e); });
 
     auto b = std::make_shared<FrontaliseBenchArgs>();
@@ -506,7 +506,7 @@ void register_frontal_commands(CLI::App& app) {
     bench->add_option("--size", b->size, "Frontal render side in pixels")->capture_default_str()->check(CLI::Range(16, 4096));
     bench->add_flag("--mirror-fill", b->mirror_fill, "Include mirror filling");
     bench->add_option("--json", b->json, "Write the timings (flat keys) here");
-    bench->add_flag("--quiet", b->quiet, "Only the JSON");
+    bench->add_flag("-q,--quiet", b->quiet, "Only the JSON");
     bench->callback([b] { run_bench_frontalise(*b); });
 }
 

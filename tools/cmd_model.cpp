@@ -328,7 +328,7 @@ void register_model_commands(CLI::App& app) {
     check_cmd->add_option("--truncation", check->truncation, "As synth's albedo.truncation")->capture_default_str()->check(CLI::NonNegativeNumber);
     check_cmd->add_option("--scale", check->scale, "As synth's albedo.scale")->capture_default_str();
     check_cmd->add_option("--json", check->json, "Also write the figures as flat JSON to this file");
-    check_cmd->add_flag("--quiet,-q", check->quiet, "No progress output");
+    check_cmd->add_flag("-q,--quiet", check->quiet, "No progress output");
     check_cmd->callback([check] { run_albedo_check(*check); });
 
     auto build = std::make_shared<BuildArgs>();
@@ -344,7 +344,7 @@ void register_model_commands(CLI::App& app) {
         ->check(CLI::Range(0.0, 1.0));
     build_cmd->add_option("--name", build->name, "Model name (default: the output file's stem)");
     build_cmd->add_option("--like", build->like, "Copy landmarks, contours and symmetry from this model (same mesh)");
-    build_cmd->add_flag("--quiet,-q", build->quiet, "No progress output");
+    build_cmd->add_flag("-q,--quiet", build->quiet, "No progress output");
     build_cmd->callback([build] { run_build(*build); });
 }
 

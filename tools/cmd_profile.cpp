@@ -223,7 +223,7 @@ void register_profile_commands(CLI::App& app) {
     cmd->add_option("--regressor", a->regressor, "landmarks for photographs without a .pts: dlib or a regressor file");
     add_detector_option(*cmd, a->detector);
     cmd->add_option("--json", a->json, "write the run's figures as flat JSON to this file");
-    cmd->add_flag("--quiet,-q", a->quiet, "no progress or summary");
+    cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
     a->command = cmd;
     cmd->callback([a] { run_profile_command(*a); });
 
@@ -236,7 +236,7 @@ void register_profile_commands(CLI::App& app) {
     bench->add_option("--threads,-j", b->threads, "worker threads (default: all cores)")->check(CLI::Range(1, 256));
     bench->add_option("--work", b->work, "folder for the copied photographs and the views (default: a temporary folder, removed)");
     bench->add_option("--json", b->json, "write the figures as flat JSON to this file");
-    bench->add_flag("--quiet,-q", b->quiet, "no summary line");
+    bench->add_flag("-q,--quiet", b->quiet, "no summary line");
     bench->callback([b] { run_profile_bench(*b); });
 }
 

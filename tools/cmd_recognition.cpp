@@ -269,7 +269,7 @@ void register_recognition_commands(CLI::App& app) {
                     "With --regressor: the detector's probe views show this much around the face (same camera, larger image)")
         ->check(CLI::Range(1.5, 4.0))
         ->capture_default_str();
-    cmd->add_flag("--quiet", a->quiet, "No progress or table");
+    cmd->add_flag("-q,--quiet", a->quiet, "No progress or table");
     cmd->callback([a, regressor] {
         a->regressor_given = regressor->count() > 0;
         run_eval_recognition(*a);

@@ -418,7 +418,7 @@ void register_render_commands(CLI::App& app) {
     cmd->add_option("--truncation", args->truncation, "coefficient truncation in standard deviations")->capture_default_str();
     cmd->add_option("--out,-o", args->out, "output folder")->required();
     cmd->add_option("--json", args->json, "also write render.json's content to this file");
-    cmd->add_flag("--quiet,-q", args->quiet, "print nothing");
+    cmd->add_flag("-q,--quiet", args->quiet, "print nothing");
     cmd->callback([args] { run_render(*args); });
 
     auto bench_args = std::make_shared<RenderBenchArgs>();
@@ -432,7 +432,7 @@ void register_render_commands(CLI::App& app) {
     bench->add_flag("--bare", bench_args->bare,
                     "the floor: positions only, constant colour, RGBA8 + 24-bit depth, RGBA read back (needs --antialiasing none)");
     bench->add_option("--json", bench_args->json, "write the result (renders_per_s, ms_per_render, backend, renderer, ...) here");
-    bench->add_flag("--quiet,-q", bench_args->quiet, "no progress output");
+    bench->add_flag("-q,--quiet", bench_args->quiet, "no progress output");
     bench->callback([bench_args] { run_bench(*bench_args); });
 }
 

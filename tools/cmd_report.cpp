@@ -63,7 +63,7 @@ void register_report_commands(CLI::App& app) {
     cmd->add_option("--sheet-count", args->sheet_count, "Samples on the contact sheet")->check(CLI::Range(1, 512))->capture_default_str();
     cmd->add_option("--photos", args->photos, "Photographs with .pts beside them, shown in rows between the contact sheet's renders")
         ->check(CLI::ExistingDirectory);
-    cmd->add_flag("--quiet", args->quiet, "Print nothing but warnings and errors");
+    cmd->add_flag("-q,--quiet", args->quiet, "Print nothing but warnings and errors");
     cmd->callback([args] { run_report(*args); });
 }
 

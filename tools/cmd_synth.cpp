@@ -74,7 +74,7 @@ void add_run_options(CLI::App* cmd, SynthArgs& a) {
     cmd->add_option("--size", a.size, "image size N or WxH (camera.width, camera.height)");
     cmd->add_option("--set", a.overrides, "override a config key: key.sub=value (repeatable)");
     cmd->add_option("--json", a.json, "write results as flat JSON to FILE");
-    cmd->add_flag("--quiet,-q", a.quiet, "no progress output");
+    cmd->add_flag("-q,--quiet", a.quiet, "no progress output");
 }
 
 void run_generate(const SynthArgs& a) {
@@ -210,7 +210,7 @@ void register_synth_commands(CLI::App& app) {
     CLI::App* merge = synth_cmd->add_subcommand("merge", "Merge shard manifests (and their files) into one dataset folder");
     merge->add_option("inputs", *merge_inputs, "dataset folders written by shards (one folder may hold all shards)")->required()->check(CLI::ExistingDirectory);
     merge->add_option("--into", *merge_out, "merged dataset folder (default: the first input)");
-    merge->add_flag("--quiet,-q", *merge_quiet, "no summary line");
+    merge->add_flag("-q,--quiet", *merge_quiet, "no summary line");
     merge->callback([=] {
         std::vector<std::filesystem::path> inputs(merge_inputs->begin(), merge_inputs->end());
         const std::filesystem::path out = merge_out->empty() ? inputs.front() : std::filesystem::path(*merge_out);

@@ -160,7 +160,7 @@ void register_track_commands(CLI::App& app) {
     cmd->add_option("--max-frames", a->job.max_frames, "Stop after this many frames (0: the whole input)")->capture_default_str()->check(CLI::NonNegativeNumber);
     cmd->add_option("--fps", a->job.folder_fps, "Frame rate of a folder of frames")->capture_default_str()->check(CLI::Range(0.01, 1000.0));
     cmd->add_option("--json", a->json, "Write the summary as flat JSON (frames, frames_with_face, detector_runs, fps, ms_per_frame, decode_ms_per_frame, ...)");
-    cmd->add_flag("--quiet,-q", a->quiet, "No progress or summary line");
+    cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary line");
     cmd->callback([a] { run_track_command(*a); });
 
     auto e = std::make_shared<TrackEvalArgs>();
@@ -183,7 +183,7 @@ void register_track_commands(CLI::App& app) {
                  "One stream through every clip's first half, then every clip's second half: faces leave at cuts and come back (cuts, returns_same_id, false_merges)");
     ev->add_option("--json", e->json, "Write the flat figures (tracked_* and per_frame_*)");
     ev->add_option("--nme-csv", e->nme_csv, "Write every frame's NME per variant (eval landmarks' layout, for tools/nme_bootstrap.py) with its clip, frame and yaw error per variant");
-    ev->add_flag("--quiet,-q", e->quiet, "Only the files, no table or progress");
+    ev->add_flag("-q,--quiet", e->quiet, "Only the files, no table or progress");
     ev->callback([e] { run_eval_track(*e); });
 }
 

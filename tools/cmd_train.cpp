@@ -513,7 +513,7 @@ void register_train_commands(CLI::App& app) {
                         "`eval conventions --json` file before training (the regressor then predicts the annotators' convention)")
             ->check(CLI::ExistingFile);
         cmd->add_option("--json", args->json, "Write a JSON summary here");
-        cmd->add_flag("--quiet", args->quiet, "No progress output");
+        cmd->add_flag("-q,--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_train(*args); });
     }
     {
@@ -524,7 +524,7 @@ void register_train_commands(CLI::App& app) {
         cmd->add_option("images", args->images, "Images")->required();
         cmd->add_option("--out", args->out, "Output folder: <stem>_<k>.pts, <stem>_overlay.png, <stem>.json")->required();
         add_detector_option(*cmd, args->detector);
-        cmd->add_flag("--quiet", args->quiet, "No progress output");
+        cmd->add_flag("-q,--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_detect(*args); });
     }
     {
@@ -539,7 +539,7 @@ void register_train_commands(CLI::App& app) {
         cmd->add_option("--json", args->json, "Write flat JSON results here");
         cmd->add_option("--ced", args->ced, "Write the CED curves (NME 0-0.08) here: .svg, or .png");
         cmd->add_option("--nme-csv", args->nme_csv, "Write every face's NME per regressor here (key,yaw_deg,detected,view,regressor1,...)");
-        cmd->add_flag("--quiet", args->quiet, "No progress output");
+        cmd->add_flag("-q,--quiet", args->quiet, "No progress output");
         cmd->callback([args] { run_eval_landmarks(*args); });
     }
 }
