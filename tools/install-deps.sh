@@ -8,7 +8,7 @@ packages=(
   libeigen3-dev libceres-dev
   libopencv-dev libopencv-contrib-dev opencv-data
   libegl-dev libegl1 libegl-mesa0 libgl1-mesa-dri libgl-dev libgles-dev libosmesa6-dev libgbm-dev
-  libglm-dev libtinygltf-dev libopenimageio-dev openimageio-tools python3-imath
+  libglm-dev libtinygltf-dev libopenexr-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libtoml11-dev libspdlog-dev libfmt-dev
   libarchive-dev libdeflate-dev libhdf5-dev libpng-dev

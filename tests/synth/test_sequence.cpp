@@ -53,7 +53,9 @@ TEST(SynthSequence, AClipKeepsItsSceneAndMovesSmoothly) {
             EXPECT_EQ(s.background.pattern_seed, first.background.pattern_seed);
             EXPECT_EQ(s.degradation.blur_sigma, first.degradation.blur_sigma);
             ASSERT_EQ(s.occluders.size(), first.occluders.size());
-            if (!s.occluders.empty()) EXPECT_EQ(s.occluders[0].centre, first.occluders[0].centre);
+            if (!s.occluders.empty()) {
+                EXPECT_EQ(s.occluders[0].centre, first.occluders[0].centre);
+            }
             EXPECT_EQ(s.pose.translation.z(), first.pose.translation.z());
             // Smooth: small steps between frames, inside the configured ranges.
             EXPECT_LE(std::abs(s.angles.yaw - previous.angles.yaw), max_yaw_step + 1e-9) << "clip " << clip << " frame " << frame;
