@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdlib>
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -32,10 +33,10 @@ class OsmesaLibrary {
 public:
     OsmesaLibrary() {
         for (const char* name : {"libOSMesa.so.8", "libOSMesa.so"}) {
-            handle_ = ::dlopen(name, RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
-            if (handle_ != nullptr) break;
+            handle_.reset(::dlopen(name, RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE));
+            if (handle_) break;
         }
-        if (handle_ == nullptr) {
+        if (!handle_) {
             const char* why = ::dlerror();
             throw core::Error(std::string("OSMesa: cannot load libOSMesa.so.8") + (why != nullptr ? std::string(": ") + why : std::string()));
         }
@@ -45,11 +46,6 @@ public:
         current_context = symbol<decltype(&OSMesaGetCurrentContext)>("OSMesaGetCurrentContext");
         proc_address = symbol<decltype(&OSMesaGetProcAddress)>("OSMesaGetProcAddress");
     }
-    ~OsmesaLibrary() {
-        if (handle_ != nullptr) ::dlclose(handle_);
-    }
-    OsmesaLibrary(const OsmesaLibrary&) = delete;
-    OsmesaLibrary& operator=(const OsmesaLibrary&) = delete;
 
     decltype(&OSMesaCreateContextAttribs) create_context = nullptr;
     decltype(&OSMesaDestroyContext) destroy_context = nullptr;
@@ -58,18 +54,18 @@ public:
     decltype(&OSMesaGetProcAddress) proc_address = nullptr;
 
 private:
+    struct Closer {
+        void operator()(void* handle) const { ::dlclose(handle); }
+    };
+
     template <typename Function>
-    Function symbol(const char* name) {
-        void* address = ::dlsym(handle_, name);
-        if (address == nullptr) {
-            ::dlclose(handle_);
-            handle_ = nullptr;
-            throw core::Error(std::string("OSMesa: libOSMesa has no ") + name);
-        }
+    Function symbol(const char* name) const {
+        void* address = ::dlsym(handle_.get(), name);
+        if (address == nullptr) throw core::Error(std::string("OSMesa: libOSMesa has no ") + name);
         return reinterpret_cast<Function>(address);  // NOLINT(cppcoreguidelines-pro-type-reinterpret-cast): dlsym's contract
     }
 
-    void* handle_ = nullptr;
+    std::unique_ptr<void, Closer> handle_;
 };
 
 class OsmesaContext final : public GlContext {
