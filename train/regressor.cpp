@@ -13,9 +13,10 @@ namespace {
 
 class SdmRegressor final : public LandmarkRegressor {
 public:
+    enum class Mirroring : bool { kOff, kAveraged };
     // Keeps the first `stages` stages (all when negative); 0 is the mean shape placed in the box.
-    SdmRegressor(std::string label, const std::string& path, int stages)
-        : LandmarkRegressor(std::move(label)), model_(read_sdm_model(path)) {
+    SdmRegressor(std::string label, const std::string& path, int stages, Mirroring mirroring = Mirroring::kOff)
+        : LandmarkRegressor(std::move(label)), model_(read_sdm_model(path)), mirroring_(mirroring) {
         if (stages > static_cast<int>(model_.stages.size()))
             throw core::file_error(path, "has " + std::to_string(model_.stages.size()) + " stages, asked for " +
                                        std::to_string(stages));
@@ -24,11 +25,14 @@ public:
             if (model_.profile) model_.profile->stages.resize(static_cast<std::size_t>(stages));
         }
     }
-    Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override { return sdm_detect(model_, gray, box); }
+    Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override {
+        return mirroring_ == Mirroring::kAveraged ? sdm_detect_mirror_averaged(model_, gray, box) : sdm_detect(model_, gray, box);
+    }
     std::optional<DetectorKind> trained_detector() const override { return model_.boxes.detector; }
 
 private:
     SdmModel model_;
+    Mirroring mirroring_;
 };
 
 class DlibRegressor final : public LandmarkRegressor {
@@ -96,6 +100,8 @@ std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec) {
         return std::make_unique<CanonicalBaselineRegressor<LbfPredictor>>("lbf:", spec.substr(4), BaselineMethod::kLbf);
     if (spec.rfind("sdm:", 0) == 0) return std::make_unique<SdmRegressor>(spec, spec.substr(4), -1);
     if (spec.rfind("mean:", 0) == 0) return std::make_unique<SdmRegressor>(spec, spec.substr(5), 0);
+    if (spec.rfind("mirror:", 0) == 0)
+        return std::make_unique<SdmRegressor>(spec, spec.substr(7), -1, SdmRegressor::Mirroring::kAveraged);
     if (spec.rfind("sdm@", 0) == 0) {
         const auto colon = spec.find(':');
         int stages = -1;

@@ -6,6 +6,8 @@
 //   ert:PATH      a dlib ERT model from `facesynth train --method ert` (runs on our canonical crop)
 //   mean:PATH     the SDM model's mean shape placed in the box, no stages (initialisation baseline)
 //   sdm@K:PATH    the SDM cascade cut after its first K stages (per-stage diagnosis)
+//   mirror:PATH   the SDM cascade run on the face and on its mirror image, averaged (frontal-view
+//                 boxes where the model has a profile cascade; twice the cost)
 //   lbf:PATH      an OpenCV LBF model from `facesynth train --method lbf` (runs on our canonical crop)
 #include "train/face_box.h"
 

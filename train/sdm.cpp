@@ -183,6 +183,21 @@ Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const Fa
     return frame.to_image(sdm_refine_view(model, canonical_crop(gray, frame), box.view));
 }
 
+Eigen::Matrix2Xd sdm_refine_view_mirror_averaged(const SdmModel& model, const cv::Mat& crop, FaceView view) {
+    Eigen::Matrix2Xd direct = sdm_refine_view(model, crop, view);
+    if (model.profile && view != FaceView::kFrontal) return direct;
+    cv::Mat mirrored;
+    cv::flip(crop, mirrored, 1);
+    const Eigen::Matrix2Xd from_mirror =
+        mirror_canonical_shape(sdm_refine(model, mirrored, mirror_canonical_shape(model.initial_shape(view))));
+    return 0.5 * (direct + from_mirror);
+}
+
+Eigen::Matrix2Xd sdm_detect_mirror_averaged(const SdmModel& model, const cv::Mat& gray, const FaceBox& box) {
+    const FaceFrame frame{box};
+    return frame.to_image(sdm_refine_view_mirror_averaged(model, canonical_crop(gray, frame), box.view));
+}
+
 Eigen::Matrix2Xd mirror_canonical_shape(const Eigen::Matrix2Xd& shape) {
     const auto partner = morph::ibug_mirror_pairs();
     if (shape.cols() != static_cast<Eigen::Index>(partner.size()))

@@ -125,10 +125,17 @@ void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_ce
 // cascade and the result mirrored back).
 [[nodiscard]] Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view);
 
+// Test-time mirroring: sdm_refine_view on the crop and on its mirror image (from the mirrored start
+// shape, the result mirrored back), averaged. Where the model has a profile cascade, profile-view
+// crops get sdm_refine_view alone: that cascade reads one orientation only. Twice the cost per face.
+[[nodiscard]] Eigen::Matrix2Xd sdm_refine_view_mirror_averaged(const SdmModel& model, const cv::Mat& crop, FaceView view);
+
 // Landmarks (0-based image pixels) of the face in `box` of an 8-bit grey image, starting from the
 // initial shape of the box's view; profile views go through the profile cascade where the model has
 // one (nose-right crops mirrored).
 [[nodiscard]] Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box);
+// The same with test-time mirroring (sdm_refine_view_mirror_averaged).
+[[nodiscard]] Eigen::Matrix2Xd sdm_detect_mirror_averaged(const SdmModel& model, const cv::Mat& gray, const FaceBox& box);
 
 // One training face, already cut out around its box.
 struct TrainingFace {

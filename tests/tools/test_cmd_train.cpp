@@ -55,7 +55,7 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     const auto eval_json = dir / "eval.json";
     const std::string eval_cmd = cli_path().string() + " eval landmarks --regressor " + model.string() +
                                  " --regressor mean:" + model.string() + " --regressor sdm@1:" + model.string() +
-                                 " --data " + test.string() +
+                                 " --regressor mirror:" + model.string() + " --data " + test.string() +
                                  " --quiet --json " + eval_json.string() + " --ced " + (dir / "ced.svg").string() +
                                  " --nme-csv " + (dir / "nme.csv").string();
     ASSERT_EQ(run_command(eval_cmd, &out), 0) << out;
@@ -70,12 +70,15 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     EXPECT_LT(j["detector_misses"].get<int>(), 30);
     // The cascade must improve on its own starting point (the mean shape in the same boxes).
     EXPECT_LT(j["nme_mean"].get<double>(), j["regressor2_nme_mean"].get<double>());
+    // So must the cascade averaged with its run on the mirror image.
+    EXPECT_EQ(j["regressor4"], "mirror:" + model.string());
+    EXPECT_LT(j["regressor4_nme_mean"].get<double>(), j["regressor2_nme_mean"].get<double>());
     EXPECT_TRUE(fs::exists(dir / "ced.svg"));
     // --nme-csv: a header naming the regressors by position, then one row per face.
     std::ifstream nme_csv(dir / "nme.csv");
     std::string line;
     ASSERT_TRUE(std::getline(nme_csv, line));
-    EXPECT_EQ(line, "key,yaw_deg,detected,view,regressor1,regressor2,regressor3");
+    EXPECT_EQ(line, "key,yaw_deg,detected,view,regressor1,regressor2,regressor3,regressor4");
     int rows = 0;
     while (std::getline(nme_csv, line)) ++rows;
     EXPECT_EQ(rows, 30);

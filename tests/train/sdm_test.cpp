@@ -15,6 +15,8 @@
 
 #include <gtest/gtest.h>
 
+#include <opencv2/core.hpp>
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
@@ -246,6 +248,32 @@ TEST(Sdm, MirroredTrainingFacesMakeTheStartSymmetricAndStillGeneralise) {
     for (const auto& r : reports) EXPECT_LT(r.validation_nme_after, r.validation_nme_before) << "stage " << r.stage;
     const HeldOutErrors e = held_out_errors(mirrored, test);
     EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+}
+
+TEST(Sdm, MirrorAveragedDetectionTreatsAFaceAndItsMirrorImageAlike) {
+    // Trained with mirrored faces, the start shape is its own mirror image; the averaged run on a
+    // flipped crop must then be the mirror image of the averaged run on the crop, to rounding. A wrong
+    // point permutation or flip of the second run breaks this; the single run does not have it.
+    const auto train = cartoon_training_faces(9, 40);
+    SdmTrainOptions options;
+    options.augment = 3;
+    options.stages = 2;
+    options.threads = 2;
+    options.mirror = true;
+    const SdmModel model = train_sdm(train, BoxStatistics{}, options);
+    double single_asymmetry = 0;
+    for (const auto& face : cartoon_training_faces(10, 5)) {
+        cv::Mat flipped;
+        cv::flip(face.crop, flipped, 1);
+        const Eigen::Matrix2Xd averaged = sdm_refine_view_mirror_averaged(model, face.crop, FaceView::kFrontal);
+        const Eigen::Matrix2Xd of_flipped = sdm_refine_view_mirror_averaged(model, flipped, FaceView::kFrontal);
+        EXPECT_LT((mirror_canonical_shape(of_flipped) - averaged).cwiseAbs().maxCoeff(), 1e-6);
+        const Eigen::Matrix2Xd single = sdm_refine_view(model, face.crop, FaceView::kFrontal);
+        single_asymmetry = std::max(single_asymmetry,
+                                    (mirror_canonical_shape(sdm_refine_view(model, flipped, FaceView::kFrontal)) - single).cwiseAbs().maxCoeff());
+        EXPECT_LT(landmark_nme(averaged, face.truth), 2 * landmark_nme(single, face.truth) + 0.02);
+    }
+    EXPECT_GT(single_asymmetry, 1e-3);
 }
 
 TEST(Sdm, RejectsTooFewFaces) {
