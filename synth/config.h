@@ -107,7 +107,9 @@ struct LightingConfig {
 };
 
 struct BackgroundConfig {
-    std::string type = "procedural";  // "solid", "procedural", "images" or "wallpapers" (synth/wallpapers.h)
+    // "solid", "procedural", "images", "wallpapers" (synth/wallpapers.h) or "texture_photo" (the photograph
+    // of the sample's texture around the face, aligned to the rendered face: synth/texture_bank.h)
+    std::string type = "procedural";
     std::string folder;               // image folder for type = "images"
 };
 
