@@ -187,7 +187,6 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     }
     out.shape = fit.alpha;
     out.expression = fit.psi;
-    out.projected = fit.projected;
     out.expression.resize(static_cast<std::size_t>(model.num_expression_components()), 0.0f);  // an unfitted expression is neutral
     out.yaw_deg = fit.pose.angles.yaw;
     out.pitch_deg = fit.pose.angles.pitch;

@@ -68,7 +68,6 @@ struct PhotoTexture {
     std::array<double, 3> skin_srgb{};  // median skin colour of the texture (sRGB, 0-255, R G B)
     std::vector<float> shape;           // the fitted identity coefficients (σ units) the texture was taken with
     std::vector<float> expression;      // and the fitted expression (the texture's lips and teeth sit where it puts them)
-    Eigen::Matrix2Xd projected;         // the fitted model's 68 landmarks projected into the photograph, 0-based pixels
 };
 
 // Builds the texture of the face with `landmarks` (68 iBUG points, 0-based pixels) in `image` (8-bit BGR

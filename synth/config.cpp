@@ -213,9 +213,7 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
                  "face-metered exposure: mean grey level of the face in [0, 1] (0 = off)"});
     f.push_back({"lighting.face_luminance_stddev", &c.lighting.face_luminance_stddev, "face-metered exposure: its spread over samples"});
     f.push_back({"background.type", &c.background.type,
-                 "\"solid\", \"procedural\", \"images\" (background.folder), \"wallpapers\" (the photographs among Debian's wallpaper packages) or "
-                 "\"texture_photo\" (the photograph of the sample's texture (albedo.texture_bank) around the face, aligned to the rendered face; "
-                 "wallpapers beyond its borders and over other faces in it)"});
+                 "\"solid\", \"procedural\", \"images\" (background.folder) or \"wallpapers\" (the photographs among Debian's wallpaper packages)"});
     f.push_back({"background.folder", &c.background.folder, "folder of background images (type = \"images\")"});
     f.push_back({"degrade.blur_probability", &c.degrade.blur_probability, "share of images blurred"});
     f.push_back({"degrade.blur_sigma_max", &c.degrade.blur_sigma_max, "Gaussian blur sigma upper bound, px"});
@@ -372,11 +370,8 @@ void validate(const SynthConfig& c) {
             "lighting.face_luminance_mean", "must be 0 (off) or in [0.1, 0.9]");
     require(c.lighting.face_luminance_stddev >= 0 && c.lighting.face_luminance_stddev <= 0.5, "lighting.face_luminance_stddev",
             "must be in [0, 0.5]");
-    require(c.background.type == "solid" || c.background.type == "procedural" || c.background.type == "images" || c.background.type == "wallpapers" ||
-                c.background.type == "texture_photo",
-            "background.type", "must be \"solid\", \"procedural\", \"images\", \"wallpapers\" or \"texture_photo\"");
-    require(c.background.type != "texture_photo" || !c.albedo.texture_bank.empty(), "background.type",
-            "\"texture_photo\" needs albedo.texture_bank (each sample's background is its texture's photograph)");
+    require(c.background.type == "solid" || c.background.type == "procedural" || c.background.type == "images" || c.background.type == "wallpapers",
+            "background.type", "must be \"solid\", \"procedural\", \"images\" or \"wallpapers\"");
     require(c.background.type != "images" || !c.background.folder.empty(), "background.folder", "must name a folder when background.type = \"images\"");
     validate_share(c.head.hair_probability, "head.hair_probability");
     require(!(c.head.body && c.head.neck), "head.body", "cannot be combined with head.neck (the body has its own neck): set one");

@@ -107,9 +107,7 @@ struct LightingConfig {
 };
 
 struct BackgroundConfig {
-    // "solid", "procedural", "images", "wallpapers" (synth/wallpapers.h) or "texture_photo" (the photograph
-    // of the sample's texture around the face, aligned to the rendered face: synth/texture_bank.h)
-    std::string type = "procedural";
+    std::string type = "procedural";  // "solid", "procedural", "images" or "wallpapers" (synth/wallpapers.h)
     std::string folder;               // image folder for type = "images"
 };
 

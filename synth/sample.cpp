@@ -7,7 +7,6 @@
 #include "render/landmarks.h"
 #include "synth/degrade.h"
 #include "synth/exposure.h"
-#include "synth/texture_bank.h"
 #include "synth/texture_mix.h"
 #include "synth/neck.h"
 
@@ -245,13 +244,7 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const morph::Morphab
     // The jaw outline is the face's: neck triangles never count as face triangles.
     if (!landmark_topology_.face_triangles.empty())
         std::fill(landmark_topology_.face_triangles.begin() + static_cast<std::ptrdiff_t>(model.triangles.size()), landmark_topology_.face_triangles.end(), 0);
-    if (config.background.type == "texture_photo")
-        for (std::size_t t = 0; t < textures.size(); ++t)
-            if (t >= textures.fits().size() || textures.fits()[t].surroundings.empty())
-                throw core::Error("background.type = \"texture_photo\": texture " + textures.name(t) + " of the bank " + config.albedo.texture_bank +
-                                  " has no photograph around the face (a bank made before they were kept: rebuild it)");
-    if ((config.background.type == "images" || config.background.type == "wallpapers" || config.background.type == "texture_photo") &&
-        backgrounds.empty())
+    if ((config.background.type == "images" || config.background.type == "wallpapers") && backgrounds.empty())
         throw core::Error("background.type = \"" + config.background.type + "\" needs readable background images");
     if (!config.albedo.texture_folder.empty() && textures.empty())
         throw core::Error("albedo.texture_folder needs a folder with readable texture images");
@@ -339,13 +332,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     if (s.spec.lighting.face_luminance > 0)
         s.exposure_gain = expose_face(frame_.rgb, frame_.mask, chosen_landmarks(labels, config_.landmarks.mode), s.spec.lighting.face_luminance,
                                       s.spec.lighting.lighting.gamma);
-    if (s.spec.background.type == "texture_photo") {
-        background_.create(frame_.rgb.size(), CV_8UC3);
-        image_crop(background_, s.spec.background, backgrounds_);
-        draw_texture_photo(background_, textures_.fits()[*s.spec.texture_choice % textures_.size()], labels.landmarks_fixed);
-    } else {
-        make_background(frame_.rgb.size(), s.spec.background, backgrounds_, background_, background_canvas_);
-    }
+    make_background(frame_.rgb.size(), s.spec.background, backgrounds_, background_, background_canvas_);
     composite(frame_.rgb, frame_.mask, background_, s.image);
     s.mask = frame_.mask.clone();
     cv::Mat occluder_coverage;

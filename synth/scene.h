@@ -10,10 +10,10 @@
 #include "synth/head_parts.h"
 
 #include <Eigen/Core>
-#include <opencv2/core.hpp>
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <optional>
 #include <span>
 #include <string>
@@ -59,15 +59,11 @@ struct OccluderSpec {
 };
 
 // The fit a texture bank's texture was taken with: the identity (empty in banks made before shapes
-// were stored), the expression (absent in banks made before expressions were stored) and the pose;
-// with background.type = "texture_photo", the photograph around the face and the fitted landmarks in it.
+// were stored), the expression (absent in banks made before expressions were stored) and the pose.
 struct TextureFit {
     std::vector<float> shape;
     std::optional<std::vector<float>> expression;
     morph::EulerAngles angles;  // the fitted head pose, degrees (pose.source = "texture")
-    cv::Mat surroundings;       // CV_8UC3 RGB (synth/texture_bank.h), or empty
-    cv::Mat surroundings_valid;  // CV_8UC1, 255 where `surroundings` shows the photograph
-    Eigen::Matrix2Xd surroundings_landmarks;  // 2 x 68, 0-based pixels of `surroundings`
 };
 
 // Where a sample sits in its clip (sequence.frames > 0).

@@ -14,14 +14,13 @@ namespace facesynth::synth {
 Appearance load_appearance(const SynthConfig& config, const morph::MorphableModel& model) {
     Appearance a;
     if (config.background.type == "images") a.backgrounds = ImageLibrary(config.background.folder, "background");
-    // texture_photo: wallpapers beyond the photograph's borders and over other people's faces.
-    if (config.background.type == "wallpapers" || config.background.type == "texture_photo") a.backgrounds = load_wallpaper_photos();
+    if (config.background.type == "wallpapers") a.backgrounds = load_wallpaper_photos();
     if (!config.albedo.texture_folder.empty() || !config.albedo.texture_bank.empty()) {
         const std::string key = config.albedo.texture_bank.empty() ? "albedo.texture_folder" : "albedo.texture_bank";
         if (model.uv.cols() != model.num_vertices())
             throw core::Error(key + ": model '" + model.name + "' has no uv coordinates to map a texture with");
         a.textures = config.albedo.texture_bank.empty() ? ImageLibrary(config.albedo.texture_folder, "texture")
-                                                        : load_texture_bank(config.albedo.texture_bank, model, config.background.type == "texture_photo");
+                                                        : load_texture_bank(config.albedo.texture_bank, model);
     }
     return a;
 }

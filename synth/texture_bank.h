@@ -6,14 +6,9 @@
 //                             per texture (file, source photograph, pose, coverage, skin colour) and
 //                             one per rejected photograph (source, reason)
 //   BANK/textures/NNNNNN.png  8-bit RGB: the renderer's texture (sRGB-encoded linear albedo)
-//   BANK/surroundings/NNNNNN.jpg  the photograph around the face, square, with the fitted landmarks'
-//                             places in it (background.type = "texture_photo"); absent in older banks
-//   BANK/surroundings/NNNNNN_valid.png  8-bit: 255 where that square shows the photograph, 0 beyond its
-//                             borders and over the other faces a detector found in it
 // A bank is written into a temporary folder and renamed into place when complete.
 #include "synth/sample.h"
 
-#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
@@ -39,35 +34,7 @@ struct TextureBankEntry {
     // Expression coefficients of the fit (expression.source = "texture"); absent in older banks, empty
     // for a model without expressions.
     std::optional<std::vector<float>> expression;
-    // The photograph around the face (relative to the bank folder; empty in banks made before these
-    // were kept) and the fitted model's 68 landmarks projected into it, 0-based pixels.
-    std::string surroundings, surroundings_valid;
-    Eigen::Matrix2Xd surroundings_landmarks;
 };
-
-// The photograph around a face, for background.type = "texture_photo": a square of side
-// kSurroundingsSpan x the diagonal of the landmarks' bounding box, centred on the box, scaled to
-// kSurroundingsSide pixels, with `landmarks` moved into it and a mask of what shows the photograph.
-inline constexpr double kSurroundingsSpan = 3.0;
-inline constexpr int kSurroundingsSide = 384;
-struct PhotoSurroundings {
-    cv::Mat image;  // CV_8UC3, the photograph's channel order (its border pixels repeated beyond it)
-    cv::Mat valid;  // CV_8UC1: 255 on the photograph, 0 beyond its borders (and over excluded faces)
-    Eigen::Matrix2Xd landmarks;
-};
-// Throws core::Error when `landmarks` has no finite point or spans no area.
-[[nodiscard]] PhotoSurroundings photo_surroundings(const cv::Mat& photo, const Eigen::Matrix2Xd& landmarks);
-// Marks the faces a detector found in `surroundings.image` (boxes in its pixels) as not valid, each
-// box grown as FaceExclusion grows an annotated face (forehead, hair, ears), so that no face without
-// labels shows behind a render; the detection whose centre lies inside the landmarks' box is the
-// labelled face itself and is kept.
-void exclude_other_faces(PhotoSurroundings& surroundings, const std::vector<cv::Rect>& detections);
-// background.type = "texture_photo": draws the photograph around the face of `fit` (loaded with
-// surroundings) over `out` (CV_8UC3, the wallpaper it replaces), moved by the least-squares similarity
-// that takes its fitted inner landmarks (iBUG 18-68) onto `rendered` (the sample's 68, pixels), so that
-// the hair, ears, neck and clothing around the rendered face are those of the texture's photograph;
-// `out` shows through where the photograph has no pixels or another face was excluded.
-void draw_texture_photo(cv::Mat& out, const TextureFit& fit, const Eigen::Matrix2Xd& rendered);
 
 struct TextureBankRejection {
     std::string source;
@@ -100,9 +67,8 @@ public:
     TextureBankWriter(const TextureBankWriter&) = delete;
     TextureBankWriter& operator=(const TextureBankWriter&) = delete;
 
-    // `texture` is CV_8UC3 R G B of the manifest's size; entry.file is set here, and with `surroundings`
-    // (image in B G R) entry.surroundings, entry.surroundings_valid and entry.surroundings_landmarks.
-    void add(const cv::Mat& texture, TextureBankEntry entry, const PhotoSurroundings* surroundings = nullptr);
+    // `texture` is CV_8UC3 R G B of the manifest's size; entry.file is set here.
+    void add(const cv::Mat& texture, TextureBankEntry entry);
     void reject(std::string source, std::string reason);
     [[nodiscard]] const TextureBankManifest& manifest() const { return manifest_; }
     void commit();
@@ -113,10 +79,9 @@ private:
     bool committed_ = false;
 };
 
-// The bank's textures for `model`, in manifest order; `with_surroundings` also reads each texture's
-// photograph around the face into its TextureFit. Throws core::Error naming the bank (and the file)
-// when it was made for another model, holds no texture, a texture or photograph is unreadable or of
-// the wrong size, or surroundings are asked of a bank made without them.
-[[nodiscard]] ImageLibrary load_texture_bank(const std::filesystem::path& bank, const morph::MorphableModel& model, bool with_surroundings = false);
+// The bank's textures for `model`, in manifest order. Throws core::Error naming the bank (and the
+// file) when it was made for another model, holds no texture, or a texture is unreadable or of the
+// wrong size.
+[[nodiscard]] ImageLibrary load_texture_bank(const std::filesystem::path& bank, const morph::MorphableModel& model);
 
 }  // namespace facesynth::synth

@@ -93,8 +93,6 @@ void run_textures(const TexturesArgs& a) {
 
     // Photographs without a .pts: the largest face the regressor's detector finds.
     train::PtsOrDetected landmarker(a.regressor, a.detector);
-    // Other people in the photograph around the face (synth's background.type = "texture_photo").
-    const train::FaceDetector face_detector(train::DetectorKind::kDlib);
     std::map<std::string, int> reasons;
     int from_pts = 0, detected = 0;
     Progress progress("textures", images.size(), a.quiet);
@@ -116,20 +114,7 @@ void run_textures(const TexturesArgs& a) {
                 e.fit_error = t.fit_error, e.shading_range = t.shading_range, e.skin_srgb = t.skin_srgb;
                 e.shape = t.shape;
                 e.expression = t.expression;
-                cv::Mat colour = image;
-                if (image.channels() == 1) cv::cvtColor(image, colour, cv::COLOR_GRAY2BGR);
-                synth::PhotoSurroundings around = synth::photo_surroundings(colour, t.projected);
-                // dlib's detector misses faces under about 80 px: the square is searched at twice its size.
-                cv::Mat larger;
-                cv::resize(train::to_gray8(around.image), larger, cv::Size(), 2, 2, cv::INTER_LINEAR);
-                std::vector<cv::Rect> faces;
-                for (const train::FaceBox& f : face_detector.detect(larger)) {
-                    const Eigen::Vector2d corner = 0.5 * (f.centre - Eigen::Vector2d::Constant(0.5 * f.width));
-                    faces.emplace_back(static_cast<int>(corner.x()), static_cast<int>(corner.y()), static_cast<int>(0.5 * f.width),
-                                       static_cast<int>(0.5 * f.width));
-                }
-                synth::exclude_other_faces(around, faces);
-                bank.add(t.texture, std::move(e), &around);
+                bank.add(t.texture, std::move(e));
             }
         } catch (const core::Error& e) {
             ++reasons["unreadable"];

@@ -9,7 +9,6 @@
 #include "synth/scene.h"
 #include "synth/texture_bank.h"
 
-#include <Eigen/LU>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
@@ -315,130 +314,6 @@ TEST_F(TextureBankTest, TexturePoseIsDrawnAroundThePoseFittedToItsPhotograph) {
     config.sequence.frames = 0;
     config.pose.source = "photo";
     EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("pose.source"), std::string::npos);
-}
-
-// A photograph whose colour tells where each pixel came from: B = x / 2, G = y / 2 (x, y < 510).
-cv::Mat position_coded_photo(int width, int height) {
-    cv::Mat photo(height, width, CV_8UC3);
-    for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) photo.at<cv::Vec3b>(y, x) = cv::Vec3b(static_cast<uchar>(x / 2), static_cast<uchar>(y / 2), 77);
-    return photo;
-}
-
-// 68 points spread over a face-sized box at (x, y).
-Eigen::Matrix2Xd face_points(double x, double y, double width, double height) {
-    core::Rng rng(11, 0, 0);
-    Eigen::Matrix2Xd points(2, 68);
-    for (int k = 0; k < 68; ++k) points.col(k) << x + rng.uniform(0, width), y + rng.uniform(0, height);
-    return points;
-}
-
-// background.type = "texture_photo": the square around the face keeps each landmark on the photograph's
-// pixel under it and marks what lies beyond the photograph's borders; other faces are masked, the
-// labelled one never.
-TEST(TextureSurroundings, SquareAroundTheFaceFollowsItsLandmarksAndMasksWhatIsNotThePhotograph) {
-    const cv::Mat photo = position_coded_photo(400, 300);
-    const Eigen::Matrix2Xd landmarks = face_points(40, 60, 120, 140);  // near the left border: the square leaves the photograph
-    PhotoSurroundings around = photo_surroundings(photo, landmarks);
-    ASSERT_EQ(around.image.size(), cv::Size(kSurroundingsSide, kSurroundingsSide));
-    ASSERT_EQ(around.landmarks.cols(), 68);
-    for (int k = 0; k < 68; k += 7) {
-        const cv::Vec3b seen = around.image.at<cv::Vec3b>(static_cast<int>(std::lround(around.landmarks(1, k))),
-                                                          static_cast<int>(std::lround(around.landmarks(0, k))));
-        EXPECT_NEAR(seen[0], landmarks(0, k) / 2, 2.0) << "landmark " << k;
-        EXPECT_NEAR(seen[1], landmarks(1, k) / 2, 2.0) << "landmark " << k;
-    }
-    EXPECT_EQ(around.valid.at<uchar>(kSurroundingsSide / 2, 2), 0);  // left of the photograph
-    EXPECT_EQ(around.valid.at<uchar>(kSurroundingsSide / 2, kSurroundingsSide / 2), 255);
-    const int valid_before = cv::countNonZero(around.valid);
-    // A detection on the labelled face changes nothing; one beside it is masked with its hair and ears.
-    const Eigen::Vector2d centre = around.landmarks.rowwise().mean();
-    exclude_other_faces(around, {cv::Rect(static_cast<int>(centre.x()) - 30, static_cast<int>(centre.y()) - 30, 60, 60)});
-    EXPECT_EQ(cv::countNonZero(around.valid), valid_before);
-    const cv::Rect other(300, 250, 50, 50);
-    exclude_other_faces(around, {other});
-    EXPECT_EQ(around.valid.at<uchar>(275, 325), 0);
-    EXPECT_EQ(around.valid.at<uchar>(250 - 30, 325), 0);  // above the box: forehead and hair
-    EXPECT_LT(cv::countNonZero(around.valid), valid_before);
-    EXPECT_THROW((void)photo_surroundings(photo, Eigen::Matrix2Xd::Constant(2, 68, 5.0)), core::Error);
-}
-
-// The photograph is moved by the similarity that takes its landmarks onto the rendered ones; where it
-// is not valid the wallpaper under it stays.
-TEST(TextureSurroundings, DrawnPhotographFollowsTheRenderedFace) {
-    TextureFit fit;
-    fit.surroundings = position_coded_photo(kSurroundingsSide, kSurroundingsSide);
-    fit.surroundings_valid = cv::Mat(fit.surroundings.size(), CV_8UC1, cv::Scalar(255));
-    fit.surroundings_valid(cv::Rect(0, 0, kSurroundingsSide, 40)).setTo(0);  // the top rows: beyond the photograph
-    fit.surroundings_landmarks = face_points(120, 120, 150, 160);
-    // rendered = 0.6 R(15°) p + (20, 30)
-    const double angle = 15 * M_PI / 180, scale = 0.6;
-    Eigen::Matrix2d a;
-    a << scale * std::cos(angle), -scale * std::sin(angle), scale * std::sin(angle), scale * std::cos(angle);
-    const Eigen::Vector2d shift(20, 30);
-    const Eigen::Matrix2Xd rendered = (a * fit.surroundings_landmarks).colwise() + shift;
-    cv::Mat out(256, 256, CV_8UC3, cv::Scalar(1, 2, 3));
-    draw_texture_photo(out, fit, rendered);
-    const Eigen::Matrix2d inverse = a.inverse();
-    int compared = 0, kept = 0;
-    for (int y = 10; y < 256; y += 23)
-        for (int x = 10; x < 256; x += 23) {
-            const Eigen::Vector2d source = inverse * (Eigen::Vector2d(x, y) - shift);
-            if (source.x() < 2 || source.y() < 2 || source.x() > kSurroundingsSide - 3 || source.y() > kSurroundingsSide - 3) continue;
-            const cv::Vec3b seen = out.at<cv::Vec3b>(y, x);
-            if (source.y() < 38) {
-                EXPECT_EQ(seen, cv::Vec3b(1, 2, 3)) << x << "," << y;  // the wallpaper
-                ++kept;
-            } else if (source.y() > 42) {
-                EXPECT_NEAR(seen[0], source.x() / 2, 1.5) << x << "," << y;
-                EXPECT_NEAR(seen[1], source.y() / 2, 1.5) << x << "," << y;
-                ++compared;
-            }
-        }
-    EXPECT_GT(compared, 20);
-    EXPECT_GT(kept, 0);
-    EXPECT_THROW(draw_texture_photo(out, TextureFit{}, rendered), core::Error);  // a texture loaded without its photograph
-}
-
-// Banks keep the photograph around each face; synth asks for it only with background.type =
-// "texture_photo", and a bank made before they were kept, or one missing a file, is refused by name.
-TEST_F(TextureBankTest, SurroundingsRoundTripAndBanksWithoutThemAreRefusedByName) {
-    const fs::path dir = testkit::fresh_temp_dir("texture_bank_surroundings");
-    PhotoSurroundings around = photo_surroundings(position_coded_photo(300, 300), face_points(100, 100, 100, 110));
-    exclude_other_faces(around, {cv::Rect(10, 10, 40, 40)});
-    {
-        TextureBankWriter writer(dir / "bank", bank_header_for(*model_, 16));
-        TextureBankEntry e;
-        e.source = "a.jpg";
-        writer.add(solid_texture(16, 10, 20, 30), e, &around);
-        writer.commit();
-    }
-    const ImageLibrary library = load_texture_bank(dir / "bank", *model_, true);
-    ASSERT_EQ(library.fits().size(), 1u);
-    const TextureFit& fit = library.fits()[0];
-    EXPECT_TRUE(fit.surroundings_landmarks.isApprox(around.landmarks, 1e-9));
-    ASSERT_EQ(fit.surroundings.size(), around.image.size());
-    EXPECT_EQ(cv::countNonZero(fit.surroundings_valid != around.valid), 0);  // lossless
-    cv::Mat difference;
-    cv::absdiff(fit.surroundings, around.image, difference);  // JPEG: close, not exact (and RGB now)
-    EXPECT_LT(cv::mean(difference)[1], 3.0);
-    EXPECT_TRUE(load_texture_bank(dir / "bank", *model_).fits()[0].surroundings.empty());  // not read unless asked
-
-    {
-        TextureBankWriter writer(dir / "old", bank_header_for(*model_, 16));
-        writer.add(solid_texture(16, 10, 20, 30), TextureBankEntry{});
-        writer.commit();
-    }
-    std::string message = testkit::error_message_of([&] { (void)load_texture_bank(dir / "old", *model_, true); });
-    EXPECT_NE(message.find("rebuild"), std::string::npos) << message;
-    EXPECT_NE(message.find("bank.json"), std::string::npos) << message;
-    fs::remove(dir / "bank" / "surroundings" / "000000_valid.png");
-    message = testkit::error_message_of([&] { (void)load_texture_bank(dir / "bank", *model_, true); });
-    EXPECT_NE(message.find("000000_valid.png"), std::string::npos) << message;
-
-    SynthConfig config;
-    config.background.type = "texture_photo";
-    EXPECT_NE(testkit::error_message_of([&] { validate(config); }).find("albedo.texture_bank"), std::string::npos);
 }
 
 TEST(PhotoBackgrounds, RegionsNeverMeetTheAnnotatedFace) {
