@@ -78,11 +78,11 @@ PhotoTexture rejected(PhotoTexture t, std::string why) {
 
 }  // namespace
 
-cv::Mat align_photo_to_fit(const cv::Mat& image, const Eigen::Matrix2Xd& annotated, const Eigen::Matrix2Xd& projected) {
+cv::Mat align_photo_to_fit(const cv::Mat& image, const Eigen::Matrix2Xd& annotated, const Eigen::Matrix2Xd& projected, bool with_jaw) {
     if (annotated.cols() != morph::kNumIbugLandmarks || projected.cols() != morph::kNumIbugLandmarks)
         throw core::Error("texture: feature alignment needs 68 annotated and 68 projected points");
     std::vector<int> used;
-    for (int k = 17; k < morph::kNumIbugLandmarks; ++k)
+    for (int k = with_jaw ? 0 : 17; k < morph::kNumIbugLandmarks; ++k)
         if (annotated.col(k).allFinite() && projected.col(k).allFinite()) used.push_back(k);
     const double eye_distance = (annotated.col(morph::kLeftEyeOuterCorner) - annotated.col(morph::kRightEyeOuterCorner)).norm();
     if (used.size() < 3 || !(eye_distance > 0)) return image;
@@ -206,7 +206,7 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     const Eigen::Matrix3Xf vertices = fit::fitted_shape(model, fit);
     IsomapOptions isomap_options;
     isomap_options.size = options.size;
-    const cv::Mat photo = options.align_features ? align_photo_to_fit(image, landmarks, fit.projected) : image;
+    const cv::Mat photo = options.align_features ? align_photo_to_fit(image, landmarks, fit.projected, options.align_jaw) : image;
     cv::Mat isomap = frontaliser.extract_isomap(photo, vertices, {fit.camera, fit.pose}, isomap_options);
     const UvRaster& raster = frontaliser.uv_raster(options.size);
     const Eigen::Matrix3Xf normals = morph::vertex_normals(vertices, model.triangles);

@@ -37,6 +37,11 @@ struct PhotoTextureOptions {
     // landmark vertices instead of off them by the fit's residual (docs/textures.md "Features aligned").
     // Off by default: it did not make a better training set (docs/history/results-runs.md, seventh run).
     bool align_features = false;
+    // With align_features, the jaw outline too (iBUG 1-17 onto the fitted contour's projections): the
+    // photograph's chin and jaw edge then lie on the model's silhouette instead of above or beside it
+    // by the fit's residual (at the default prior the fitted chin is 0.026 inter-ocular distances below
+    // the annotated one: docs/results.md "Landmark conventions").
+    bool align_jaw = false;
     // Beyond the face the photograph shows hair, background or clothing, whatever the fit: the model's
     // ears and neck take the face's own median skin colour (after shading removal) instead, and unseen
     // skin fades to it over `skin_fade` of the texture side away from what was seen, instead of smearing
@@ -46,12 +51,13 @@ struct PhotoTextureOptions {
     double skin_fade = 0.05;
 };
 
-// The photograph warped smoothly so that `annotated` points (iBUG 18-68 of 2 x 68, 0-based pixels) move
-// onto `projected` (the fitted model's projections of them): out(p) = image(p + d(p)), where d is the
+// The photograph warped smoothly so that `annotated` points (iBUG 18-68 of 2 x 68, 0-based pixels; with
+// `with_jaw` 1-68) move onto `projected` (the fitted model's projections of them): out(p) = image(p + d(p)), where d is the
 // Gaussian radial-basis interpolant (width 0.25 of the outer-eye-corner distance) through the residuals
 // annotated - projected, fading to no displacement away from the face's features. Non-finite points are
 // left out; with none left the image is returned unchanged.
-[[nodiscard]] cv::Mat align_photo_to_fit(const cv::Mat& image, const Eigen::Matrix2Xd& annotated, const Eigen::Matrix2Xd& projected);
+[[nodiscard]] cv::Mat align_photo_to_fit(const cv::Mat& image, const Eigen::Matrix2Xd& annotated, const Eigen::Matrix2Xd& projected,
+                                         bool with_jaw = false);
 
 // Skin texels farther than this from the skin's median colour (CIE76 ΔE) count as outliers.
 inline constexpr double kOutlierDeltaE = 25.0;

@@ -14,7 +14,6 @@
 #include <array>
 #include <cstdint>
 #include <optional>
-#include <optional>
 #include <span>
 #include <string>
 #include <vector>

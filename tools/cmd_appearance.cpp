@@ -45,6 +45,7 @@ struct TexturesArgs {
     int size = 512;
     bool keep_shading = false;
     bool align_features = false;
+    bool align_jaw = false;
     bool skin_beyond_face = false;
     double max_yaw = 50;
     double min_coverage = 0.6;
@@ -71,7 +72,8 @@ void run_textures(const TexturesArgs& a) {
     options.max_skin_outliers = a.max_outliers;
     options.max_fit_error = a.max_fit_error;
     options.fit_lambda = a.fit_lambda;
-    options.align_features = a.align_features;
+    options.align_features = a.align_features || a.align_jaw;
+    options.align_jaw = a.align_jaw;
     options.skin_beyond_face = a.skin_beyond_face;
     frontal::Frontaliser frontaliser(model);
     if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
@@ -86,7 +88,7 @@ void run_textures(const TexturesArgs& a) {
                        {"min_shading", options.min_shading},  {"max_abs_yaw_deg", options.max_abs_yaw_deg},
                        {"min_face_coverage", options.min_face_coverage}, {"max_skin_outliers", options.max_skin_outliers},
                        {"max_fit_error", options.max_fit_error}, {"fit_lambda", options.fit_lambda}, {"outlier_delta_e", frontal::kOutlierDeltaE},
-                       {"align_features", options.align_features},
+                       {"align_features", options.align_features}, {"align_jaw", options.align_jaw},
                        {"skin_beyond_face", options.skin_beyond_face},
                        {"detector_for_photos_without_pts", a.regressor}};
     synth::TextureBankWriter bank(a.out, header);
@@ -300,6 +302,7 @@ void register_appearance_commands(CLI::App& app) {
     cmd->add_option("--size", a->size, "Texture side, texels")->check(CLI::Range(64, 4096))->capture_default_str();
     cmd->add_flag("--keep-shading", a->keep_shading, "Keep the photograph's shading in the texture (default: divide it out)");
     cmd->add_flag("--align-features", a->align_features, "Warp each photograph so that its annotated features land on the fitted model's landmarks before taking the texture");
+    cmd->add_flag("--align-jaw", a->align_jaw, "With --align-features (implied), the annotated jaw outline too, onto the fitted model's silhouette");
     cmd->add_flag("--skin-beyond-face", a->skin_beyond_face, "Give the model's ears and neck the face's own skin colour, and fade unseen skin to it, instead of what surrounds the face in the photograph");
     cmd->add_option("--max-yaw", a->max_yaw, "Reject faces turned further than this, degrees")->check(finite_range(0.0, 90.0))->capture_default_str();
     cmd->add_option("--min-coverage", a->min_coverage, "Reject faces with less of the face seen (with the mirror side)")->check(finite_range(0.0, 1.0))->capture_default_str();

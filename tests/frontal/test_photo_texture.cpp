@@ -250,6 +250,28 @@ TEST(AlignPhotoToFit, MovesTheAnnotatedFeaturesOntoTheFittedPoints) {
     EXPECT_EQ(cv::norm(align_photo_to_fit(corner, annotated, projected)(cv::Rect(0, 0, 12, 12)), corner(cv::Rect(0, 0, 12, 12)), cv::NORM_INF), 0);
 }
 
+// The jaw (iBUG 1-17) moves only with with_jaw: the photograph's chin then lands on the model's.
+TEST(AlignPhotoToFit, TheJawOutlineMovesOnlyWhenAsked) {
+    Eigen::Matrix2Xd projected(2, 68);
+    for (int k = 17; k < 68; ++k) projected.col(k) = Eigen::Vector2d(60 + 11 * (k % 12), 40 + 10 * ((k - 17) / 12));
+    projected.col(36) = Eigen::Vector2d(80, 60);
+    projected.col(45) = Eigen::Vector2d(160, 60);
+    for (int k = 0; k < 17; ++k) projected.col(k) = Eigen::Vector2d(40 + 10 * k, 250);  // 190 px below the features
+    Eigen::Matrix2Xd annotated = projected;
+    annotated.leftCols(17).colwise() += Eigen::Vector2d(0, -6);  // the annotated chin 6 px above the fitted one
+    cv::Mat photo(300, 260, CV_8UC3, cv::Scalar::all(0));
+    const Eigen::Vector2d chin = annotated.col(8);
+    cv::circle(photo, cv::Point(static_cast<int>(chin.x()), static_cast<int>(chin.y())), 3, cv::Scalar::all(255), cv::FILLED);
+    const auto dot_height = [](const cv::Mat& image) {
+        cv::Mat grey;
+        cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+        const cv::Moments m = cv::moments(grey, false);
+        return m.m01 / m.m00;
+    };
+    EXPECT_NEAR(dot_height(align_photo_to_fit(photo, annotated, projected)), chin.y(), 0.5);
+    EXPECT_NEAR(dot_height(align_photo_to_fit(photo, annotated, projected, true)), chin.y() + 6, 0.7);
+}
+
 TEST(AlignPhotoToFit, AnExactFitLeavesThePhotographAsItIs) {
     const Eigen::Matrix2Xd points = feature_layout();
     cv::Mat photo(240, 260, CV_8UC3);
