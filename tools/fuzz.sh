@@ -57,7 +57,7 @@ mkdir -p "$corpus" "$findings"
 # An impossible malloc returns NULL as it does outside ASan: HDF5 (C) then reports an error, which
 # the reader turns into core::Error; in our C++ code it is std::bad_alloc, still a finding, and
 # any allocation over -malloc_limit_mb is reported by libFuzzer before that.
-export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1}
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1:intercept_tls_get_addr=0}  # as tools/test.sh
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/tools/lsan.supp:print_suppressions=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 export TMPDIR=${TMPDIR:-/tmp}
