@@ -206,7 +206,7 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     const Eigen::Matrix3Xf vertices = fit::fitted_shape(model, fit);
     IsomapOptions isomap_options;
     isomap_options.size = options.size;
-    const cv::Mat photo = options.align_features ? align_photo_to_fit(image, landmarks, fit.projected, options.align_jaw) : image;
+    const cv::Mat photo = options.align_features || options.align_jaw ? align_photo_to_fit(image, landmarks, fit.projected, options.align_jaw) : image;
     cv::Mat isomap = frontaliser.extract_isomap(photo, vertices, {fit.camera, fit.pose}, isomap_options);
     const UvRaster& raster = frontaliser.uv_raster(options.size);
     const Eigen::Matrix3Xf normals = morph::vertex_normals(vertices, model.triangles);

@@ -37,7 +37,7 @@ struct PhotoTextureOptions {
     // landmark vertices instead of off them by the fit's residual (docs/textures.md "Features aligned").
     // Off by default: it did not make a better training set (docs/history/results-runs.md, seventh run).
     bool align_features = false;
-    // With align_features, the jaw outline too (iBUG 1-17 onto the fitted contour's projections): the
+    // Alignment as align_features (which it implies) with the jaw outline too (iBUG 1-17 onto the fitted contour's projections): the
     // photograph's chin and jaw edge then lie on the model's silhouette instead of above or beside it
     // by the fit's residual (at the default prior the fitted chin is 0.026 inter-ocular distances below
     // the annotated one: docs/results.md "Landmark conventions").

@@ -72,7 +72,7 @@ void run_textures(const TexturesArgs& a) {
     options.max_skin_outliers = a.max_outliers;
     options.max_fit_error = a.max_fit_error;
     options.fit_lambda = a.fit_lambda;
-    options.align_features = a.align_features || a.align_jaw;
+    options.align_features = a.align_features;
     options.align_jaw = a.align_jaw;
     options.skin_beyond_face = a.skin_beyond_face;
     frontal::Frontaliser frontaliser(model);
@@ -88,7 +88,7 @@ void run_textures(const TexturesArgs& a) {
                        {"min_shading", options.min_shading},  {"max_abs_yaw_deg", options.max_abs_yaw_deg},
                        {"min_face_coverage", options.min_face_coverage}, {"max_skin_outliers", options.max_skin_outliers},
                        {"max_fit_error", options.max_fit_error}, {"fit_lambda", options.fit_lambda}, {"outlier_delta_e", frontal::kOutlierDeltaE},
-                       {"align_features", options.align_features}, {"align_jaw", options.align_jaw},
+                       {"align_features", options.align_features || options.align_jaw}, {"align_jaw", options.align_jaw},
                        {"skin_beyond_face", options.skin_beyond_face},
                        {"detector_for_photos_without_pts", a.regressor}};
     synth::TextureBankWriter bank(a.out, header);
