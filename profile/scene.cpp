@@ -9,6 +9,7 @@
 #include "morph/polygon.h"
 #include "morph/pose.h"
 #include "morph/regions.h"
+#include "render/zbuffer.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -113,7 +114,7 @@ void build_picture_grid(PhotoScene& scene, const morph::MorphableModel& model, c
     Eigen::Matrix2Xf pixels;
     std::vector<float> depth;
     project_source(scene.camera, scene.vertices, pixels, depth);
-    const cv::Mat zbuffer = frontal::orthographic_zbuffer(pixels, depth, model.triangles, width, height);
+    const cv::Mat zbuffer = render::orthographic_zbuffer(pixels, depth, model.triangles, width, height);
     const int step = options.grid_step_px;
     const int columns = (width - 1 + step - 1) / step + 1, rows = (height - 1 + step - 1) / step + 1;
     const auto grid_x = [&](int i) { return std::min(i * step, width - 1); };
@@ -200,6 +201,7 @@ Profiler::Profiler(const morph::MorphableModel& model, const render::RendererOpt
     if (static_cast<int>(model.landmarks.size()) >= morph::kNumIbugLandmarks) {
         const Eigen::Matrix3Xf points = model.landmark_positions(mean);
         std::vector<Eigen::Vector2f> outline;
+        outline.reserve(17);
         for (int k = 0; k < 17; ++k) outline.emplace_back(points(0, k), points(1, k));
         const float brow = std::max(points(1, 19), points(1, 24));
         const float top = brow + 0.6f * (brow - points(1, 8));  // the forehead, to about the hairline

@@ -236,6 +236,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"head.body", &c.head.body,
                  "neck, shoulders, clothing and hair meshes (MakeHuman's CC0 meshes) placed on the face; the model, its landmarks and face labels are unchanged"});
     f.push_back({"head.hair_probability", &c.head.hair_probability, "with head.body: share of samples with a hair mesh (the others show the model's scalp)"});
+    f.push_back({"head.ambient_occlusion", &c.head.ambient_occlusion,
+                 "with head.body: darkens the bare skin of neck and shoulders by the sky the face and chin hide from it (ambient occlusion), 0 = off, 1 = fully"});
     f.push_back({"head.parts_file", &c.head.parts_file, "with head.body: a head parts file from tools/makehuman_parts.py (empty = the project's assets/head_parts.bin)"});
     f.push_back({"landmarks.mode", &c.landmarks.mode,
                  "jaw points written to .pts: \"contour\" (on the visible outline), \"even\" (contour, evenly spaced along the outline as 300-W annotators space them) or \"fixed\" (the model's vertices)"});
@@ -374,6 +376,7 @@ void validate(const SynthConfig& c) {
             "background.type", "must be \"solid\", \"procedural\", \"images\" or \"wallpapers\"");
     require(c.background.type != "images" || !c.background.folder.empty(), "background.folder", "must name a folder when background.type = \"images\"");
     validate_share(c.head.hair_probability, "head.hair_probability");
+    validate_share(c.head.ambient_occlusion, "head.ambient_occlusion");
     require(!(c.head.body && c.head.neck), "head.body", "cannot be combined with head.neck (the body has its own neck): set one");
     const auto& d = c.degrade;
     for (const auto& [value, key] : {std::pair{d.blur_probability, "degrade.blur_probability"}, {d.noise_probability, "degrade.noise_probability"},

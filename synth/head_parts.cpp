@@ -6,12 +6,14 @@
 #include "core/random.h"
 #include "morph/regions.h"
 #include "core/srgb.h"
+#include "render/ambient_occlusion.h"
 
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace facesynth::synth {
 namespace {
@@ -22,6 +24,8 @@ constexpr double kFaceShare = kAtlasFaceShare;
 constexpr int kPatches = 3;  // skin, cloth, hair: skin next to cloth, for triangles across a neckline
 constexpr int kSkinPatch = 0, kClothPatch = 1, kHairPatch = 2;
 constexpr double kPatchMargin = 0.04;  // of a patch, so that bilinear lookups stay inside it
+// A shaded skin patch runs from this share of the skin's colour (v = 0) to all of it (v = 1).
+constexpr double kDarkestShade = 0.2;
 
 Eigen::Vector2f patch_uv(int patch, const Eigen::Vector2f& uv) {
     const auto inside = [](float x) { return static_cast<float>(kPatchMargin + (1 - 2 * kPatchMargin) * (x - std::floor(x))); };
@@ -150,7 +154,8 @@ Eigen::Matrix4f HeadPlacement::transform(const Eigen::Matrix3Xf& shape) const {
 }
 
 void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::Matrix4f& placement, const Eigen::Matrix3d& head_rotation,
-                const Eigen::Vector3d& skin_colour, const Eigen::Vector3d& hair_colour, bool with_head, DressedParts& out) {
+                const Eigen::Vector3d& skin_colour, const Eigen::Vector3d& hair_colour, bool with_head, DressedParts& out, const SkinOcclusion& occlusion) {
+    const bool occluded = occlusion.strength > 0 && !occlusion.visibility.empty();
     std::vector<const HeadPart*> worn;
     for (const int p : parts.skin) worn.push_back(&parts.parts[static_cast<std::size_t>(p)]);
     if (with_head)
@@ -185,14 +190,22 @@ void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::
             const bool bare = head || (skin && !covered);
             const int patch = hair ? kHairPatch : bare ? kSkinPatch : kClothPatch;
             const morph::Region region = hair ? morph::Region::kHair : head ? head_region : bare ? morph::Region::kNeck : morph::Region::kClothing;
-            const Eigen::Vector3d colour = hair ? hair_colour : bare ? skin_colour : spec.clothing_colour;
+            Eigen::Vector3d colour = hair ? hair_colour : bare ? skin_colour : spec.clothing_colour;
+            // The skin's shade as a v in the shaded skin patch (make_parts_atlas), kept off its wrap at 1.
+            std::optional<float> shade_v;
+            const std::size_t index = static_cast<std::size_t>(part - parts.parts.data());
+            if (occluded && skin && bare && index < occlusion.visibility.size() && occlusion.visibility[index].size() == part->vertices.cols()) {
+                const double shade = 1 - occlusion.strength * (1 - std::clamp(static_cast<double>(occlusion.visibility[index][v]), 0.0, 1.0));
+                colour *= shade;
+                shade_v = static_cast<float>(std::min(0.999, (std::max(shade, kDarkestShade) - kDarkestShade) / (1 - kDarkestShade)));
+            }
             const Eigen::Vector3f on_head = linear * p + shift;
             // The neck turns by a share of the torso's rotation that grows toward the shoulders
             // (blending rotations, not positions, which would pinch a twisted neck).
             const float w = part->head_weight[v];
             const Eigen::Matrix3f turn = w >= 1 ? Eigen::Matrix3f::Identity() : Eigen::AngleAxisf((1 - w) * twist.angle(), twist.axis()).toRotationMatrix();
             out.vertices.col(first + v) = turn * (on_head - pivot) + pivot;
-            out.uv.col(first + v) = patch_uv(patch, part->uv.col(v));
+            out.uv.col(first + v) = patch_uv(patch, shade_v ? Eigen::Vector2f(part->uv(0, v), *shade_v) : Eigen::Vector2f(part->uv.col(v)));
             out.colours.col(first + v) = colour.cast<float>();
             out.labels[static_cast<std::size_t>(first + v)] = static_cast<std::uint8_t>(region);
         }
@@ -202,8 +215,38 @@ void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::
     }
 }
 
+std::vector<Eigen::VectorXf> skin_ambient_visibility(const HeadParts& parts, const HeadPlacement& placement) {
+    // The occluder in the asset's frame: the model's mean face (placed as dress_head places the parts,
+    // inverted), the skin parts and, for a face-only model, the asset's head and ears.
+    const morph::MorphableModel& model = placement.model();
+    const Eigen::Matrix3Xf mean = model.shape_instance({}, {});
+    const Eigen::Matrix4f to_asset = placement.transform(mean).inverse();
+    std::vector<const HeadPart*> occluders;
+    for (const int p : parts.skin) occluders.push_back(&parts.parts[static_cast<std::size_t>(p)]);
+    if (placement.face_only())
+        for (const int p : parts.head) occluders.push_back(&parts.parts[static_cast<std::size_t>(p)]);
+    Eigen::Index total = mean.cols();
+    for (const HeadPart* part : occluders) total += part->vertices.cols();
+    Eigen::Matrix3Xf vertices(3, total);
+    vertices.leftCols(mean.cols()) = (to_asset.topLeftCorner<3, 3>() * mean).colwise() + to_asset.topRightCorner<3, 1>();
+    std::vector<morph::Triangle> triangles = model.triangles;
+    Eigen::Index first = mean.cols();
+    for (const HeadPart* part : occluders) {
+        vertices.middleCols(first, part->vertices.cols()) = part->vertices;
+        for (const morph::Triangle& t : part->triangles)
+            triangles.push_back({t[0] + static_cast<int>(first), t[1] + static_cast<int>(first), t[2] + static_cast<int>(first)});
+        first += part->vertices.cols();
+    }
+    std::vector<Eigen::VectorXf> visibility(parts.parts.size());
+    for (const int p : parts.skin) {
+        const HeadPart& part = parts.parts[static_cast<std::size_t>(p)];
+        visibility[static_cast<std::size_t>(p)] = render::ambient_visibility(vertices, triangles, part.vertices, morph::vertex_normals(part.vertices, part.triangles));
+    }
+    return visibility;
+}
+
 void make_parts_atlas(const cv::Mat& face, const HeadPartsSpec& spec, const Eigen::Vector3d& skin_colour, const Eigen::Vector3d& hair_colour,
-                      cv::Mat& atlas) {
+                      cv::Mat& atlas, bool shaded_skin) {
     const int strip = static_cast<int>(std::lround(face.rows * (1 - kFaceShare) / kFaceShare));
     atlas.create(face.rows + strip, face.cols, CV_8UC3);
     face.copyTo(atlas.rowRange(0, face.rows));
@@ -214,11 +257,14 @@ void make_parts_atlas(const cv::Mat& face, const HeadPartsSpec& spec, const Eige
         const int x0 = k * width / kPatches, x1 = (k + 1) * width / kPatches;
         return atlas(cv::Rect(x0, face.rows, x1 - x0, strip));
     };
-    // Skin: the face's own colour with faint mottling.
+    // Skin: the face's own colour with faint mottling; shaded, darker toward v = 0 as patch_uv maps v.
     {
         cv::Mat p = patch(kSkinPatch);
-        for (int y = 0; y < p.rows; ++y)
-            for (int x = 0; x < p.cols; ++x) p.at<cv::Vec3b>(y, x) = encoded(skin_colour * rng.uniform(0.96, 1.04));
+        for (int y = 0; y < p.rows; ++y) {
+            const double v = std::clamp(((y + 0.5) / p.rows - kPatchMargin) / (1 - 2 * kPatchMargin), 0.0, 1.0);
+            const double shade = shaded_skin ? kDarkestShade + (1 - kDarkestShade) * v : 1.0;
+            for (int x = 0; x < p.cols; ++x) p.at<cv::Vec3b>(y, x) = encoded(skin_colour * (shade * rng.uniform(0.96, 1.04)));
+        }
     }
     // Hair: strands along v (MakeHuman's hair uv runs along the strands), bright and dark by column.
     {

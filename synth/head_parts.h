@@ -16,6 +16,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -79,11 +80,26 @@ public:
     [[nodiscard]] Eigen::Matrix4f transform(const Eigen::Matrix3Xf& shape) const;
     // A face-only model (no vertices labelled ears): it wears the asset's head and ears too.
     [[nodiscard]] bool face_only() const { return right_ear_.empty() || left_ear_.empty(); }
+    [[nodiscard]] const morph::MorphableModel& model() const { return *model_; }
 
 private:
     const morph::MorphableModel* model_;
     Eigen::Matrix3Xf anchors_;  // the parts'
     std::vector<int> right_ear_, left_ear_;
+};
+
+// Ambient visibility (render/ambient_occlusion.h) of the skin parts' vertices at the asset's base shape:
+// the model's mean face placed on the parts (with the asset's head for a face-only model) and the skin
+// itself as the occluder, so that the neck under the chin and jaw is shaded as the sky it sees. One
+// vector per part (parts.parts' order), empty for parts that are not skin.
+[[nodiscard]] std::vector<Eigen::VectorXf> skin_ambient_visibility(const HeadParts& parts, const HeadPlacement& placement);
+
+// Ambient occlusion on the parts' bare skin: each vertex's albedo times 1 - strength · (1 - visibility).
+// Baked into the albedo, so it also dims the directional lights there (under the chin they are mostly
+// shadowed anyway). An empty `visibility` or strength 0: no occlusion (the skin as before).
+struct SkinOcclusion {
+    std::span<const Eigen::VectorXf> visibility;  // skin_ambient_visibility
+    double strength = 0;
 };
 
 // The vertices, uv, labels and colours one sample's parts add to its mesh, in the model's frame.
@@ -100,13 +116,14 @@ struct DressedParts {
 // `with_head`: add the head and ears parts (HeadPlacement::face_only).
 void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::Matrix4f& placement,
                 const Eigen::Matrix3d& head_rotation, const Eigen::Vector3d& skin_colour, const Eigen::Vector3d& hair_colour,
-                bool with_head, DressedParts& out);
+                bool with_head, DressedParts& out, const SkinOcclusion& occlusion = {});
 
 // The texture to render a textured face and its parts with: `face` (8-bit RGB, sRGB) on top and a
 // strip below it with the patches the parts' uv point into (skin, hair strands, cloth); the face's
-// own v coordinates must be multiplied by kAtlasFaceShare.
+// own v coordinates must be multiplied by kAtlasFaceShare. `shaded_skin`: the skin patch darkens upward
+// (its v carries dress_head's occlusion) instead of being even.
 void make_parts_atlas(const cv::Mat& face, const HeadPartsSpec& spec, const Eigen::Vector3d& skin_colour,
-                      const Eigen::Vector3d& hair_colour, cv::Mat& atlas);
+                      const Eigen::Vector3d& hair_colour, cv::Mat& atlas, bool shaded_skin = false);
 inline constexpr double kAtlasFaceShare = 0.8;
 
 // The median linear colour of `texture` (8-bit RGB, sRGB) at the uv of the model vertices labelled

@@ -238,6 +238,7 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const morph::Morphab
     if (config.head.body) {
         head_parts_ = read_head_parts(config.head.parts_file.empty() ? default_head_parts_file() : std::filesystem::path(config.head.parts_file));
         head_placement_.emplace(model, *head_parts_);
+        if (config.head.ambient_occlusion > 0) skin_visibility_ = skin_ambient_visibility(*head_parts_, *head_placement_);
     }
     const int vertex_count = model.num_vertices() + (neck_ ? static_cast<int>(neck_->source.size()) : 0);
     landmark_topology_ = render::landmark_topology(mesh_.triangles, vertex_count, &contour_region_);
@@ -371,7 +372,8 @@ const cv::Mat* SampleGenerator::dress(Sample& s, const cv::Mat* texture) {
                 sum += mesh_.colours.col(v).cast<double>(), ++n;
         if (n > 0) skin = sum / n;
     }
-    dress_head(*head_parts_, spec, head_placement_->transform(model_shape), s.spec.pose.rotation, skin, hair, head_placement_->face_only(), dressed_);
+    dress_head(*head_parts_, spec, head_placement_->transform(model_shape), s.spec.pose.rotation, skin, hair, head_placement_->face_only(), dressed_,
+               {skin_visibility_, config_.head.ambient_occlusion});
     const auto& parts = head_parts_->parts;
     s.clothing = parts[static_cast<std::size_t>(head_parts_->clothing[spec.clothing_choice % head_parts_->clothing.size()])].name;
     if (spec.hair && !head_parts_->hair.empty()) s.hair = parts[static_cast<std::size_t>(head_parts_->hair[spec.hair_choice % head_parts_->hair.size()])].name;
@@ -392,7 +394,7 @@ const cv::Mat* SampleGenerator::dress(Sample& s, const cv::Mat* texture) {
         mesh_.uv.leftCols(model_vertices) = model_.uv;
         mesh_.uv.block(1, 0, 1, model_vertices) *= static_cast<float>(kAtlasFaceShare);
         mesh_.uv.rightCols(dressed_.uv.cols()) = dressed_.uv;
-        make_parts_atlas(*texture, spec, skin, hair, atlas_);
+        make_parts_atlas(*texture, spec, skin, hair, atlas_, !skin_visibility_.empty());
         texture = &atlas_;
     }
     // The topology depends only on which parts are worn: made once per hair and outfit pair.

@@ -131,6 +131,7 @@ private:
     std::optional<NeckTemplate> neck_;  // head.neck
     std::optional<HeadParts> head_parts_;  // head.body
     std::optional<HeadPlacement> head_placement_;
+    std::vector<Eigen::VectorXf> skin_visibility_;  // head.ambient_occlusion > 0: skin_ambient_visibility
     DressedParts dressed_;  // the sample's head parts
     cv::Mat atlas_;  // with head.body and a texture: the texture with the parts' patches
     std::vector<std::uint8_t> dressed_labels_;  // the model's labels, then the parts'

@@ -30,6 +30,27 @@ double hull_grey(const cv::Mat& gray, const Eigen::Matrix2Xd& label) {
     return cv::mean(gray, inside)[0] / 255.0;
 }
 
+// Mean grey of a disc `below` inter-ocular distances under the chin (iBUG 9) along the face frame's
+// down axis (perpendicular to the line between the outer eye corners), radius 0.06 of them; NaN when
+// the disc leaves the image.
+double grey_below_chin(const cv::Mat& gray, const Eigen::Matrix2Xd& label, double below) {
+    const Eigen::Vector2d eyes = label.col(45) - label.col(36);
+    const double iod = eyes.norm();
+    if (!(iod > 0)) return std::numeric_limits<double>::quiet_NaN();
+    const Eigen::Vector2d down = Eigen::Vector2d(-eyes.y(), eyes.x()) / iod;
+    const Eigen::Vector2d centre = label.col(8) + below * iod * down;
+    const int radius = std::max(1, static_cast<int>(std::lround(0.06 * iod)));
+    const cv::Point c(static_cast<int>(std::lround(centre.x())), static_cast<int>(std::lround(centre.y())));
+    if (c.x - radius < 0 || c.y - radius < 0 || c.x + radius >= gray.cols || c.y + radius >= gray.rows) return std::numeric_limits<double>::quiet_NaN();
+    cv::Mat inside = cv::Mat::zeros(gray.size(), CV_8UC1);
+    cv::circle(inside, c, radius, cv::Scalar(255), cv::FILLED);
+    return cv::mean(gray, inside)[0] / 255.0;
+}
+
+double mean_of(const std::vector<double>& values) {
+    return values.empty() ? 0.0 : std::accumulate(values.begin(), values.end(), 0.0) / static_cast<double>(values.size());
+}
+
 }  // namespace
 
 RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor, DetectorKind detector_kind,
@@ -37,13 +58,19 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
     RealismSide side;
     side.bias = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks);
     const FaceDetector detector(detector_kind);
-    std::vector<double> greys;
+    std::vector<double> greys, under_chin, neck;
     for (const LabelledImage& image : images) {
         ++side.faces;
         double nme = std::numeric_limits<double>::infinity();
         try {
             const auto [truth, gray] = load_labelled_face(image);
-            if (const double grey = hull_grey(gray, truth); std::isfinite(grey)) greys.push_back(grey);
+            if (const double grey = hull_grey(gray, truth); std::isfinite(grey)) {
+                greys.push_back(grey);
+                if (grey > 0) {
+                    if (const double g = grey_below_chin(gray, truth, 0.12); std::isfinite(g)) under_chin.push_back(g / grey);
+                    if (const double g = grey_below_chin(gray, truth, 0.30); std::isfinite(g)) neck.push_back(g / grey);
+                }
+            }
             if (const auto box = match_detection(detector.detect(gray), truth)) {
                 const Eigen::Matrix2Xd predicted = regressor.predict(gray, *box);
                 nme = landmark_nme(predicted, truth);
@@ -62,6 +89,8 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
         side.face_grey_mean = g.mean();
         side.face_grey_stddev = std::sqrt((g - g.mean()).square().mean());
     }
+    side.under_chin_shade = mean_of(under_chin);
+    side.neck_shade = mean_of(neck);
     side.nme = summarise_nme(side.nmes);
     return side;
 }
@@ -96,6 +125,8 @@ void add_side(nlohmann::json& j, const std::string& prefix, const RealismSide& s
     j[prefix + "_auc_008"] = side.nme.auc_008;
     j[prefix + "_face_grey_mean"] = side.face_grey_mean;
     j[prefix + "_face_grey_stddev"] = side.face_grey_stddev;
+    j[prefix + "_under_chin_shade"] = side.under_chin_shade;
+    j[prefix + "_neck_shade"] = side.neck_shade;
     for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         char key[48];
         std::snprintf(key, sizeof key, "%s_bias_x_%02d", prefix.c_str(), i + 1);

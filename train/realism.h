@@ -31,6 +31,11 @@ struct RealismSide {
     // images: how brightly the face is exposed, which synth's face-metered exposure matches
     // (lighting.face_luminance_mean, synth/exposure.h).
     double face_grey_mean = 0, face_grey_stddev = 0;
+    // The skin under the chin against the face: the mean grey of a disc (radius 0.06 inter-ocular
+    // distances) centred 0.12 below the labelled chin (iBUG 9, face frame), and of one 0.30 below it,
+    // each over the face's grey as above; means over the images where the disc lies inside. Photographs
+    // are darker there than lit skin (the chin and jaw hide the sky from the neck).
+    double under_chin_shade = 0, neck_shade = 0;
 };
 
 // Runs `regressor` on the faces `detector` finds in `images` (the detection matching each label).

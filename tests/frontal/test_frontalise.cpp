@@ -6,6 +6,7 @@
 #include "morph/builtin.h"
 #include "core/error.h"
 #include "morph/pose.h"
+#include "render/zbuffer.h"
 #include "train/face_box.h"
 
 #include <gtest/gtest.h>
@@ -377,7 +378,7 @@ TEST_F(FrontaliseTest, CpuZBufferAgreesWithTheRenderersDepthPass) {
         const Eigen::Matrix3Xf camera_xyz = (morph::model_to_camera_flip() * camera.pose.rotation).cast<float>() * face_->mesh.vertices;
         const Eigen::Matrix2Xf pixels = (1.3f * camera_xyz.topRows<2>()).colwise() + Eigen::Vector2f(120.25f, 131.5f);
         const Eigen::RowVectorXf z = camera_xyz.row(2).array() + 1000.0f;
-        const cv::Mat got = orthographic_zbuffer(pixels, std::span(z.data(), static_cast<std::size_t>(z.size())), model_->triangles, 240, 260);
+        const cv::Mat got = render::orthographic_zbuffer(pixels, std::span(z.data(), static_cast<std::size_t>(z.size())), model_->triangles, 240, 260);
         const int covered = cv::countNonZero(want > 0);
         const int coverage_differs = cv::countNonZero((want > 0) != (got > 0));
         cv::Mat difference;
@@ -394,7 +395,7 @@ TEST_F(FrontaliseTest, CpuZBufferAgreesWithTheRenderersDepthPass) {
         // rasterisers' tie rules differ): measured 1 such pixel of 49052 at yaw -35, none elsewhere.
         EXPECT_LE(depth_differs, covered / 10000) << "yaw " << yaw;
     }
-    EXPECT_THROW((void)orthographic_zbuffer(Eigen::Matrix2Xf::Zero(2, 3), std::vector<float>(2, 0.0f), model_->triangles, 8, 8), core::Error);
+    EXPECT_THROW((void)render::orthographic_zbuffer(Eigen::Matrix2Xf::Zero(2, 3), std::vector<float>(2, 0.0f), model_->triangles, 8, 8), core::Error);
 }
 
 TEST(ImageMetrics, IdenticalImagesAreAPerfectMatchAndNoiseLowersEveryScore) {

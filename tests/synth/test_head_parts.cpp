@@ -5,6 +5,7 @@
 #include "core/atomic_file.h"
 #include "morph/model_io.h"
 #include "core/random.h"
+#include "core/srgb.h"
 #include "morph/regions.h"
 #include "render/renderer.h"
 #include "synth/config.h"
@@ -14,8 +15,12 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <cstdio>
 #include <fstream>
+#include <numeric>
 
 namespace facesynth::synth {
 namespace {
@@ -176,6 +181,119 @@ TEST(HeadParts, ConfigErrorsNameTheKeyOrFile) {
     const ImageLibrary none;
     const std::string file_message = testkit::error_message_of([&] { SampleGenerator g(missing, model, none, none, {render::Backend::kEgl, false}); });
     EXPECT_NE(file_message.find("/nonexistent/parts.bin"), std::string::npos) << file_message;
+}
+
+TEST(HeadParts, AmbientOcclusionShadesTheNeckUnderTheChinAndLeavesOpenSkinAlone) {
+    const morph::MorphableModel model = morph::load_model("builtin");
+    const HeadParts parts = read_head_parts(default_head_parts_file());
+    const HeadPlacement placement(model, parts);
+    const std::vector<Eigen::VectorXf> visibility = skin_ambient_visibility(parts, placement);
+    ASSERT_EQ(visibility.size(), parts.parts.size());
+    // In the asset's frame (mm, y up, z to the front; the neck joint at y 589, the shoulders near 520):
+    // the front of the neck just under the jaw against the chest's front and the shoulders' tops.
+    const Eigen::Vector3f neck_joint = parts.anchors.col(static_cast<int>(HeadAnchor::kNeckJoint));
+    std::vector<float> under_chin, chest;
+    for (std::size_t p = 0; p < parts.parts.size(); ++p) {
+        const HeadPart& part = parts.parts[p];
+        if (part.kind != HeadPartKind::kSkin) {
+            EXPECT_EQ(visibility[p].size(), 0) << part.name;
+            continue;
+        }
+        ASSERT_EQ(visibility[p].size(), part.vertices.cols()) << part.name;
+        EXPECT_GE(visibility[p].minCoeff(), 0.0f);
+        EXPECT_LE(visibility[p].maxCoeff(), 1.0f);
+        for (Eigen::Index v = 0; v < part.vertices.cols(); ++v) {
+            const Eigen::Vector3f q = part.vertices.col(v) - neck_joint;
+            if (std::abs(q.x()) < 20 && q.y() > 5 && q.y() < 40 && q.z() > 20) under_chin.push_back(visibility[p][v]);
+            if (std::abs(q.x()) < 60 && q.y() < -90 && q.y() > -160 && q.z() > 40) chest.push_back(visibility[p][v]);
+        }
+    }
+    ASSERT_FALSE(under_chin.empty());
+    ASSERT_FALSE(chest.empty());
+    const auto mean = [](const std::vector<float>& x) { return std::accumulate(x.begin(), x.end(), 0.0) / static_cast<double>(x.size()); };
+    std::printf("ambient visibility: neck under the chin %.2f (%zu vertices), chest %.2f (%zu)\n", mean(under_chin), under_chin.size(), mean(chest), chest.size());
+    EXPECT_LT(mean(under_chin), 0.75);
+    EXPECT_GT(mean(chest), 0.85);
+    EXPECT_GT(mean(chest) - mean(under_chin), 0.2);
+}
+
+TEST(HeadParts, AmbientOcclusionDarkensTheNeckOnlyWithVertexColoursAndInTheAtlas) {
+    const morph::MorphableModel model = morph::load_model("builtin");
+    SynthConfig plain;
+    plain.camera.width = plain.camera.height = 128;
+    plain.output.labels = true;
+    apply_override(plain, "head.body=true");
+    apply_override(plain, "head.hair_probability=0");
+    // Edge anti-aliasing blends the next surface behind an outline into it, the neck's too, and blur,
+    // downscaling and JPEG blocks spread the neck's grey into the face: neither here.
+    apply_override(plain, "render.antialiasing=none");
+    plain.degrade.blur_probability = plain.degrade.jpeg_probability = plain.degrade.downscale_probability = 0;
+    SynthConfig occluded = plain;
+    apply_override(occluded, "head.ambient_occlusion=1");
+    const ImageLibrary none;
+    const render::RendererOptions options{render::Backend::kEgl, false};
+    SampleGenerator a(plain, model, none, none, options), b(occluded, model, none, none, options);
+    double neck_before = 0, neck_after = 0, face_change = 0;
+    int neck_pixels = 0, face_pixels = 0;
+    for (std::int64_t index = 0; index < 4; ++index) {
+        const Sample without = a.generate(index), with = b.generate(index);
+        EXPECT_EQ(without.labels.landmarks_contour, with.labels.landmarks_contour) << "sample " << index;
+        ASSERT_EQ(cv::norm(without.regions, with.regions, cv::NORM_INF), 0) << "sample " << index << ": occlusion moved a region";
+        cv::Mat grey_without, grey_with;
+        cv::cvtColor(without.image, grey_without, cv::COLOR_RGB2GRAY);
+        cv::cvtColor(with.image, grey_with, cv::COLOR_RGB2GRAY);
+        // Pixels 3 or more from another region.
+        cv::Mat neck = with.regions == static_cast<std::uint8_t>(morph::Region::kNeck), face = cv::Mat::zeros(with.regions.size(), CV_8UC1);
+        for (int y = 0; y < face.rows; ++y)
+            for (int x = 0; x < face.cols; ++x)
+                face.at<std::uint8_t>(y, x) = is_face_region(static_cast<morph::Region>(with.regions.at<std::uint8_t>(y, x))) ? 255 : 0;
+        const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(7, 7));
+        cv::erode(neck, neck, kernel);
+        cv::erode(face, face, kernel);
+        for (int y = 0; y < face.rows; ++y)
+            for (int x = 0; x < face.cols; ++x) {
+                if (neck.at<std::uint8_t>(y, x)) neck_before += grey_without.at<std::uint8_t>(y, x), neck_after += grey_with.at<std::uint8_t>(y, x), ++neck_pixels;
+                if (face.at<std::uint8_t>(y, x)) face_change += std::abs(grey_with.at<std::uint8_t>(y, x) - grey_without.at<std::uint8_t>(y, x)), ++face_pixels;
+            }
+    }
+    ASSERT_GT(neck_pixels, 100);
+    ASSERT_GT(face_pixels, 2000);
+    std::printf("neck grey %.1f -> %.1f (%d pixels); face pixels change by %.3f on average\n", neck_before / neck_pixels, neck_after / neck_pixels,
+                neck_pixels, face_change / face_pixels);
+    EXPECT_LT(neck_after, 0.95 * neck_before);
+    EXPECT_EQ(face_change, 0.0) << "the face itself changed";
+
+    // With a texture the shade rides in the skin's v into a patch that darkens upward: sampling the atlas
+    // at a shaded vertex's uv gives the skin colour times its shade (mottling ±4 %, 8-bit encoding).
+    const HeadParts parts = read_head_parts(default_head_parts_file());
+    const HeadPlacement placement(model, parts);
+    const std::vector<Eigen::VectorXf> visibility = skin_ambient_visibility(parts, placement);
+    HeadPartsSpec spec;
+    spec.shirt = false;
+    const Eigen::Vector3d skin(0.4, 0.3, 0.25);
+    DressedParts open, shaded;
+    const Eigen::Matrix4f at = placement.transform(model.shape_instance({}, {}));
+    dress_head(parts, spec, at, Eigen::Matrix3d::Identity(), skin, skin, false, open);
+    dress_head(parts, spec, at, Eigen::Matrix3d::Identity(), skin, skin, false, shaded, {visibility, 1.0});
+    DressedParts unshaded;
+    dress_head(parts, spec, at, Eigen::Matrix3d::Identity(), skin, skin, false, unshaded, {visibility, 0.0});
+    EXPECT_EQ(unshaded.uv, open.uv) << "strength 0 must leave the parts as they were";
+    EXPECT_EQ(unshaded.colours, open.colours);
+    const cv::Mat face(400, 400, CV_8UC3, cv::Scalar(128, 128, 128));
+    cv::Mat atlas;
+    make_parts_atlas(face, spec, skin, skin, atlas, true);
+    const std::size_t skin_part = static_cast<std::size_t>(parts.skin.front());
+    int checked = 0;
+    for (Eigen::Index v = 0; v < parts.parts[skin_part].vertices.cols(); v += 7) {
+        const float shade = shaded.colours(0, v) / open.colours(0, v);
+        EXPECT_NEAR(shade, 1 - (1 - visibility[skin_part][v]), 1e-5) << "vertex " << v;
+        const int x = std::clamp(static_cast<int>(shaded.uv(0, v) * static_cast<float>(atlas.cols)), 0, atlas.cols - 1);
+        const int y = std::clamp(static_cast<int>(shaded.uv(1, v) * static_cast<float>(atlas.rows)), 0, atlas.rows - 1);
+        const double red = core::srgb_decode(atlas.at<cv::Vec3b>(y, x)[0] / 255.0);
+        EXPECT_NEAR(red / skin.x(), std::max(0.2, static_cast<double>(shade)), 0.07) << "vertex " << v;
+        ++checked;
+    }
+    EXPECT_GT(checked, 100);
 }
 
 }  // namespace

@@ -228,8 +228,14 @@ TEST_F(CmdAppearance, RealismComparesRendersWithPhotographs) {
     EXPECT_GT(j["renders_face_grey_mean"].get<double>(), 0.1);
     EXPECT_LT(j["renders_face_grey_mean"].get<double>(), 0.9);
     EXPECT_GT(j["renders_face_grey_stddev"].get<double>(), 0.0);
+    // The skin under the chin against the face's: some grey, not the face's twice over.
+    for (const char* key : {"renders_under_chin_shade", "renders_neck_shade"}) {
+        EXPECT_GT(j[key].get<double>(), 0.05) << key;
+        EXPECT_LT(j[key].get<double>(), 2.0) << key;
+    }
     if (j["photos_faces"] == j["renders_faces"]) {
         EXPECT_DOUBLE_EQ(j["photos_face_grey_mean"].get<double>(), j["renders_face_grey_mean"].get<double>());
+        EXPECT_DOUBLE_EQ(j["photos_under_chin_shade"].get<double>(), j["renders_under_chin_shade"].get<double>());
     }
     EXPECT_EQ(run_command(appearance_cli() + " eval realism -q --data " + (dir / "renders").string() + " --max-yaw nan", &out), 2);
     EXPECT_EQ(run_command(appearance_cli() + " eval realism -q --data " + photos.string(), &out), 1);  // no meta: no yaw
