@@ -173,6 +173,14 @@ TEST(HeadParts, ConfigErrorsNameTheKeyOrFile) {
     apply_override(both, "head.neck=true");
     const std::string message = testkit::error_message_of([&] { validate(both); });
     EXPECT_NE(message.find("head.body"), std::string::npos) << message;
+    for (const char* value : {"1.5", "-0.1", "nan"}) {
+        SynthConfig occlusion;
+        const std::string occlusion_message = testkit::error_message_of([&] {
+            apply_override(occlusion, std::string("head.ambient_occlusion=") + value);
+            validate(occlusion);
+        });
+        EXPECT_NE(occlusion_message.find("head.ambient_occlusion"), std::string::npos) << value << ": " << occlusion_message;
+    }
 
     const morph::MorphableModel model = morph::load_model("builtin");
     SynthConfig missing;
