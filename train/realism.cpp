@@ -47,10 +47,6 @@ double grey_below_chin(const cv::Mat& gray, const Eigen::Matrix2Xd& label, doubl
     return cv::mean(gray, inside)[0] / 255.0;
 }
 
-double mean_of(const std::vector<double>& values) {
-    return values.empty() ? 0.0 : std::accumulate(values.begin(), values.end(), 0.0) / static_cast<double>(values.size());
-}
-
 }  // namespace
 
 RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor, DetectorKind detector_kind,
@@ -89,8 +85,11 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
         side.face_grey_mean = g.mean();
         side.face_grey_stddev = std::sqrt((g - g.mean()).square().mean());
     }
-    side.under_chin_shade = mean_of(under_chin);
-    side.neck_shade = mean_of(neck);
+    const auto mean = [](const std::vector<double>& values) {
+        return values.empty() ? 0.0 : std::accumulate(values.begin(), values.end(), 0.0) / static_cast<double>(values.size());
+    };
+    side.under_chin_shade = mean(under_chin);
+    side.neck_shade = mean(neck);
     side.nme = summarise_nme(side.nmes);
     return side;
 }
