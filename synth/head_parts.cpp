@@ -182,6 +182,11 @@ void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::
         const bool skin = part->kind == HeadPartKind::kSkin, hair = part->kind == HeadPartKind::kHair;
         const bool head = part->kind == HeadPartKind::kHead || part->kind == HeadPartKind::kEars;
         const morph::Region head_region = part->kind == HeadPartKind::kEars ? morph::Region::kEars : morph::Region::kSkin;
+        // This skin part's ambient visibility when it is shaded (one per vertex), else none.
+        const Eigen::VectorXf* visibility = nullptr;
+        if (const auto index = static_cast<std::size_t>(part - parts.parts.data());
+            occluded && skin && index < occlusion.visibility.size() && occlusion.visibility[index].size() == part->vertices.cols())
+            visibility = &occlusion.visibility[index];
         for (Eigen::Index v = 0; v < part->vertices.cols(); ++v) {
             const Eigen::Vector3f p = part->vertices.col(v);
             // The shirt: the skin below the neckline, lower at the front by up to the dip.
@@ -193,9 +198,8 @@ void dress_head(const HeadParts& parts, const HeadPartsSpec& spec, const Eigen::
             Eigen::Vector3d colour = hair ? hair_colour : bare ? skin_colour : spec.clothing_colour;
             // The skin's shade as a v in the shaded skin patch (make_parts_atlas), kept off its wrap at 1.
             std::optional<float> shade_v;
-            const std::size_t index = static_cast<std::size_t>(part - parts.parts.data());
-            if (occluded && skin && bare && index < occlusion.visibility.size() && occlusion.visibility[index].size() == part->vertices.cols()) {
-                const double shade = 1 - occlusion.strength * (1 - std::clamp(static_cast<double>(occlusion.visibility[index][v]), 0.0, 1.0));
+            if (visibility && bare) {
+                const double shade = 1 - occlusion.strength * (1 - std::clamp(static_cast<double>((*visibility)[v]), 0.0, 1.0));
                 colour *= shade;
                 shade_v = static_cast<float>(std::min(0.999, (std::max(shade, kDarkestShade) - kDarkestShade) / (1 - kDarkestShade)));
             }

@@ -42,9 +42,11 @@ double grey_below_chin(const cv::Mat& gray, const Eigen::Matrix2Xd& label, doubl
     const int radius = std::max(1, static_cast<int>(std::lround(0.06 * iod)));
     const cv::Point c(static_cast<int>(std::lround(centre.x())), static_cast<int>(std::lround(centre.y())));
     if (c.x - radius < 0 || c.y - radius < 0 || c.x + radius >= gray.cols || c.y + radius >= gray.rows) return std::numeric_limits<double>::quiet_NaN();
-    cv::Mat inside = cv::Mat::zeros(gray.size(), CV_8UC1);
-    cv::circle(inside, c, radius, cv::Scalar(255), cv::FILLED);
-    return cv::mean(gray, inside)[0] / 255.0;
+    // The disc's square only: a full-image mask per call would cost a photograph's size each time.
+    const cv::Rect square(c.x - radius, c.y - radius, 2 * radius + 1, 2 * radius + 1);
+    cv::Mat inside = cv::Mat::zeros(square.size(), CV_8UC1);
+    cv::circle(inside, cv::Point(radius, radius), radius, cv::Scalar(255), cv::FILLED);
+    return cv::mean(gray(square), inside)[0] / 255.0;
 }
 
 }  // namespace
