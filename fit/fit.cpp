@@ -158,10 +158,6 @@ std::vector<int> select_points(const morph::MorphableModel& model, const Eigen::
         throw core::Error("fit: " + std::to_string(options.weights.size()) + " landmark weights, expected 68");
     if (options.iterations < 1) throw core::Error("fit: iterations must be at least 1");
     if (!(options.lambda >= 0) || !(options.expression_lambda >= 0)) throw core::Error("fit: regularisation must be >= 0");
-    if (options.identity_prior_mean.size() > model.num_shape_components())
-        throw core::Error("fit: an identity prior mean of " + std::to_string(options.identity_prior_mean.size()) + " components for model '" +
-                          model.name + "' of " + std::to_string(model.num_shape_components()));
-    if (!options.identity_prior_mean.allFinite()) throw core::Error("fit: the identity prior mean has non-finite components");
 
     std::vector<int> candidates = options.subset;
     if (candidates.empty())
@@ -342,12 +338,7 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
     };
     refresh_expression_gram();
 
-    // The prior's centre: the fit solves for α − m with the mean shape moved to m.
-    Eigen::VectorXd prior_mean = Eigen::VectorXd::Zero(k);
-    const Eigen::Index given_mean = std::min<Eigen::Index>(k, options.identity_prior_mean.size());
-    prior_mean.head(given_mean) = options.identity_prior_mean.head(given_mean);
-    const bool centred = !prior_mean.isZero(0);
-    Eigen::VectorXd alpha = prior_mean, psi = Eigen::VectorXd::Zero(lin.e());
+    Eigen::VectorXd alpha = Eigen::VectorXd::Zero(k), psi = Eigen::VectorXd::Zero(lin.e());
     auto to_floats = [](const Eigen::VectorXd& v, std::size_t size) {
         std::vector<float> out(size, 0.0f);
         for (Eigen::Index i = 0; i < v.size(); ++i) out[static_cast<std::size_t>(i)] = static_cast<float>(v(i));
@@ -393,12 +384,8 @@ FitResult Fitter::fit(const Eigen::Matrix2Xd& landmarks, const FitOptions& optio
                 const Eigen::VectorXd ex = rows.expression * psi;
                 fixed += Eigen::Map<const Eigen::Matrix3Xd>(ex.data(), 3, n);
             }
-            if (centred) {
-                const Eigen::VectorXd shift = rows.identity * prior_mean;
-                fixed += Eigen::Map<const Eigen::Matrix3Xd>(shift.data(), 3, n);
-            }
-            alpha = prior_mean + solve_coefficients<float>(a3, result.pose.translation, fixed, rows.identity, *fixed_gram, rechosen, observed,
-                                                           weights, sigma, options.lambda, false, {});
+            alpha = solve_coefficients<float>(a3, result.pose.translation, fixed, rows.identity, *fixed_gram, rechosen, observed, weights,
+                                              sigma, options.lambda, false, {});
         }
         if (e > 0) {
             const Eigen::VectorXd id_part = rows.identity * alpha;
@@ -439,39 +426,6 @@ FitResult fit_landmarks(const morph::MorphableModel& model, const Eigen::Matrix2
 
 Eigen::Matrix3Xf fitted_shape(const morph::MorphableModel& model, const FitResult& result) {
     return model.shape_instance(result.alpha, result.psi);
-}
-
-PopulationMean population_identity_mean(const Fitter& fitter, std::span<const Eigen::Matrix2Xd> faces, const FitOptions& options,
-                                        int max_rounds, double tolerance) {
-    const int k_all = fitter.model().num_shape_components();
-    if (options.identity_prior_mean.size() > k_all)
-        throw core::Error("fit: an identity prior mean of " + std::to_string(options.identity_prior_mean.size()) + " components for a model of " +
-                          std::to_string(k_all));
-    FitOptions centred = options;
-    PopulationMean out;
-    out.mean = Eigen::VectorXd::Zero(k_all);
-    out.mean.head(options.identity_prior_mean.size()) = options.identity_prior_mean;
-    for (out.rounds = 1; out.rounds <= max_rounds; ++out.rounds) {
-        centred.identity_prior_mean = out.mean;
-        Eigen::VectorXd sum = Eigen::VectorXd::Zero(k_all);
-        out.faces = 0;
-        for (const Eigen::Matrix2Xd& face : faces) {
-            try {
-                const FitResult r = fitter.fit(face, centred);
-                sum += Eigen::Map<const Eigen::VectorXf>(r.alpha.data(), k_all).cast<double>();
-                ++out.faces;
-            } catch (const core::Error&) {
-                continue;  // a degenerate face says nothing about the population
-            }
-        }
-        if (out.faces == 0) throw core::Error("fit: no face of " + std::to_string(faces.size()) + " could be fitted for a population mean");
-        const Eigen::VectorXd next = sum / out.faces;
-        out.last_change = std::sqrt((next - out.mean).squaredNorm() / std::max(1, k_all));
-        out.mean = next;
-        if (out.last_change < tolerance) break;
-    }
-    out.rounds = std::min(out.rounds, max_rounds);
-    return out;
 }
 
 std::optional<double> annotated_yaw(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks) {

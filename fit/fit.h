@@ -29,9 +29,6 @@ struct FitOptions {
     // landmark_sigma_px when > 0, otherwise 1 mm at the current camera scale (image-size invariant).
     double lambda = 30.0;            // chosen by `facesynth fit-lambda` (docs/fit.md)
     double expression_lambda = 30.0; // the same for the expression coefficients / blendshape weights
-    // Centre m of the identity prior, which becomes λ ‖α − m‖² (σ units, at most the model's component
-    // count, the rest 0; empty: the model's mean face, m = 0). population_identity_mean() estimates one.
-    Eigen::VectorXd identity_prior_mean;
     double landmark_sigma_px = 0;
     int shape_components = 0;        // fit only the first k identity components (0: all)
     bool fit_expression = true;
@@ -101,21 +98,6 @@ struct IdentityEvidence {
                                                  std::span<const float> psi = {});
 // α (σ units, `num_components` long: the model's count, unused ones 0) from summed evidence and λ.
 [[nodiscard]] std::vector<float> solve_identity(const IdentityEvidence& evidence, double lambda, int num_components);
-
-// The identity prior centre a population of faces supports (empirical Bayes): the fixed point of
-// m ← the mean of the α fitted to each face with the prior centred at m, starting from
-// options.identity_prior_mean. A model whose mean face differs from the people photographed pulls every
-// regularised fit toward its own proportions; centred at this mean the prior shrinks each face toward
-// the population's instead. Faces whose fit fails are left out. Stops when m moves less than
-// `tolerance` (RMS over components, σ units) or after `max_rounds`. Throws core::Error when no face fits.
-struct PopulationMean {
-    Eigen::VectorXd mean;     // the model's component count
-    int faces = 0;            // faces fitted (the rest failed)
-    int rounds = 0;
-    double last_change = 0;   // RMS change of the last round, σ units
-};
-[[nodiscard]] PopulationMean population_identity_mean(const Fitter& fitter, std::span<const Eigen::Matrix2Xd> faces, const FitOptions& options,
-                                                      int max_rounds = 50, double tolerance = 1e-3);
 
 // The yaw (degrees) of the model fitted to a face's 68 annotated points with the jaw on the silhouette,
 // as photographs are annotated: the pose estimate per photograph that reports bin faces by. nullopt

@@ -179,7 +179,6 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     fit::FitOptions fit_options;
     fit_options.jaw = fit::JawMode::kContour;
     fit_options.lambda = options.fit_lambda;
-    fit_options.identity_prior_mean = options.fit_prior_mean;
     fit::FitResult fit;
     try {
         fit = frontaliser.fitter().fit(landmarks, fit_options);

@@ -32,8 +32,6 @@ struct PhotoTextureOptions {
     // Identity prior weight of the fit (fit::FitOptions::lambda): lower lets the fitted shape follow the
     // annotated points further from the model's mean (the shape synth renders with identity.source = texture).
     double fit_lambda = fit::FitOptions{}.lambda;
-    // Centre of the fit's identity prior (fit::FitOptions::identity_prior_mean; empty: the model's mean).
-    Eigen::VectorXd fit_prior_mean;
     // Warp the photograph before taking the texture so that its annotated points iBUG 18-68 land where
     // the fitted model projects them: the texture's brows, eyes, nose and mouth then lie at the model's
     // landmark vertices instead of off them by the fit's residual (docs/textures.md "Features aligned").

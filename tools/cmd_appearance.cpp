@@ -52,7 +52,6 @@ struct TexturesArgs {
     double max_outliers = 0.2;
     double max_fit_error = 0.08;
     double fit_lambda = fit::FitOptions{}.lambda;
-    std::string fit_prior = "model";
     std::string json;
     bool quiet = false;
 };
@@ -92,46 +91,17 @@ void run_textures(const TexturesArgs& a) {
                        {"align_features", options.align_features || options.align_jaw}, {"align_jaw", options.align_jaw},
                        {"skin_beyond_face", options.skin_beyond_face},
                        {"detector_for_photos_without_pts", a.regressor}};
+    synth::TextureBankWriter bank(a.out, header);
 
     // Photographs without a .pts: the largest face the regressor's detector finds.
     train::PtsOrDetected landmarker(a.regressor, a.detector);
-    std::map<fs::path, train::PhotoLandmarks> found;  // the prior's pass keeps what it found for the textures' pass
-    if (a.fit_prior == "population") {
-        std::vector<Eigen::Matrix2Xd> faces;
-        Progress prior_progress("prior", images.size(), a.quiet);
-        for (const fs::path& path : images) {
-            try {
-                auto landmarks = landmarker.find(path, train::read_photo(path));
-                faces.push_back(landmarks.points);
-                found.emplace(path, std::move(landmarks));
-            } catch (const core::Error&) {
-                // reported by the textures' pass below
-            }
-            prior_progress.advance();
-        }
-        prior_progress.finish();
-        fit::FitOptions fit_options;
-        fit_options.jaw = fit::JawMode::kContour;
-        fit_options.lambda = options.fit_lambda;
-        const fit::PopulationMean prior = fit::population_identity_mean(frontaliser.fitter(), faces, fit_options);
-        options.fit_prior_mean = prior.mean;
-        header.settings["fit_prior_faces"] = prior.faces;
-        header.settings["fit_prior_rounds"] = prior.rounds;
-        header.settings["fit_prior_mean"] = std::vector<double>(prior.mean.data(), prior.mean.data() + prior.mean.size());
-        if (!a.quiet)
-            std::printf("identity prior: the mean of %d fitted faces (%d rounds, last change %.4f σ), %.2f σ from the model's mean\n", prior.faces,
-                        prior.rounds, prior.last_change, prior.mean.norm());
-    }
-    header.settings["fit_prior"] = a.fit_prior;
-    synth::TextureBankWriter bank(a.out, header);
     std::map<std::string, int> reasons;
     int from_pts = 0, detected = 0;
     Progress progress("textures", images.size(), a.quiet);
     for (const fs::path& path : images) {
         try {
             const cv::Mat image = train::read_photo(path);
-            const auto known = found.find(path);
-            const auto [landmarks, source] = known != found.end() ? known->second : landmarker.find(path, image);
+            const auto [landmarks, source] = landmarker.find(path, image);
             ++(source == "pts" ? from_pts : detected);
             frontal::PhotoTexture t = frontal::extract_photo_texture(frontaliser, image, landmarks, options);
             if (!t.rejection.empty()) {
@@ -345,11 +315,6 @@ void register_appearance_commands(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--fit-lambda", a->fit_lambda, "Identity prior weight of the fit (as fit's --lambda): lower follows the annotated points further from the model's mean")
         ->check(finite_range(0.0, 1e6))
-        ->capture_default_str();
-    cmd->add_option("--fit-prior", a->fit_prior,
-                    "Centre of the fit's identity prior: model (its mean face) or population (the mean of these photographs' fits, found by "
-                    "fitting them all first: each face is then drawn toward the people photographed rather than the model's proportions)")
-        ->check(CLI::IsMember({"model", "population"}))
         ->capture_default_str();
     cmd->add_option("--json", a->json, "Write a summary (counts per rejection reason) as flat JSON");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary");
