@@ -2,15 +2,19 @@
 # Trains a landmark regressor for real photographs on synthetic images only, with appearance taken from
 # annotated photographs (docs/textures.md; figures in docs/results.md):
 #   1. facesynth textures     a texture bank from the photographs, each texture with the shape and expression
-#                             fitted to its photograph (their labels are not training targets)
+#                             fitted to its photograph, its features warped onto the fitted model's
+#                             (--align-features; their labels are not training targets)
 #   2. backgrounds            wallpapers (default): the photographs among Debian's wallpaper packages
 #                             (background.type = wallpapers); photos: `facesynth backgrounds`, the
 #                             photographs with their annotated face cut away
 #   3. facesynth synth        COUNT renders (default 36000): each texture on its own photograph's fitted shape and
-#                             expression, the backgrounds, yaw normal (σ 25°, within ±60°), pitch and roll as
-#                             photographs have them (normal, σ 10° and 8°), long lenses (fov 4-20°), degradations,
-#                             and the jaw labels evenly spaced along the outline as annotators space them
-#                             (landmarks.mode = even) (into WORK/train, replacing a set made with other settings)
+#                             expression, half of them mixed with a second texture's colour, on a whole head
+#                             (neck, shoulders, clothing, hair; head.body) whose skin the face and chin shade
+#                             (head.ambient_occlusion), lights that cast shadows, the backgrounds, yaw normal
+#                             (σ 25°, within ±60°), pitch and roll as photographs have them (normal, mean +4.6°
+#                             σ 6.7° and σ 8°), long lenses (fov 4-20°), degradations, and the jaw labels evenly
+#                             spaced along the outline as annotators space them (landmarks.mode = even)
+#                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, 4 starts: at
 #                             36000 renders about 45 minutes and 7.7 GB on 2 cores; docs/results.md row 41)
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
@@ -27,7 +31,7 @@ while [[ $# -gt 0 ]]; do
         --seed) seed=$2; shift 2 ;;
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
-        -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -52,7 +56,7 @@ quiet=()
 
 # The bank is rebuilt every time (a minute for 870 photographs): one made by another build may be for
 # another model or lack what synth now takes from it.
-"$facesynth" textures --photos "$photos" --out "$work/bank" --json "$work/textures.json" "${quiet[@]}"
+"$facesynth" textures --photos "$photos" --out "$work/bank" --align-features --json "$work/textures.json" "${quiet[@]}"
 background=(--set background.type=wallpapers)
 if [[ $backgrounds == photos ]]; then
     [[ -d $work/backgrounds ]] || "$facesynth" backgrounds --photos "$photos" --out "$work/backgrounds" --min-side "$min_side" --json "$work/backgrounds.json" "${quiet[@]}"
@@ -60,8 +64,9 @@ if [[ $backgrounds == photos ]]; then
 fi
 "$facesynth" synth --out "$work/train" --overwrite --count "$count" --seed "$seed" --threads "$threads" "${quiet[@]}" \
     --set pose.yaw.distribution=normal --set pose.yaw.stddev=25 --set pose.yaw.min=-60 --set pose.yaw.max=60 \
-    --set pose.pitch.distribution=normal --set pose.pitch.stddev=10 --set pose.roll.distribution=normal --set pose.roll.stddev=8 \
-    --set albedo.texture_bank="$work/bank" --set identity.source=texture --set expression.source=texture \
+    --set pose.pitch.distribution=normal --set pose.pitch.mean=4.6 --set pose.pitch.stddev=6.7 --set pose.roll.distribution=normal --set pose.roll.stddev=8 \
+    --set albedo.texture_bank="$work/bank" --set identity.source=texture --set expression.source=texture --set albedo.texture_mix_probability=0.5 \
+    --set head.body=true --set head.ambient_occlusion=1 --set lighting.shadow_probability=1 \
     --set camera.fov_min=4 --set camera.fov_max=20 --set landmarks.mode=even \
     "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \

@@ -255,6 +255,12 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     const auto meta = read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json");
     EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);  // rendered with the bank
     EXPECT_EQ(meta["background"]["type"], "wallpapers");                       // the default backgrounds
+    EXPECT_TRUE(meta["head_parts"].is_object());                                // on a whole head (row 55)
+    EXPECT_TRUE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["align_features"].get<bool>());
+    const auto config = read_json(dir / "sim2real-work" / "train" / "dataset.json")["config"];
+    EXPECT_EQ(config["head"]["ambient_occlusion"], 1.0);
+    EXPECT_EQ(config["lighting"]["shadow_probability"], 1.0);
+    EXPECT_EQ(config["albedo"]["texture_mix_probability"], 0.5);
     // The photographs' own backgrounds instead, with paths relative to the folder the script is started
     // from (not the checkout it works in).
     fs::remove(model);
