@@ -15,8 +15,9 @@
 #                             σ 6.7° and σ 8°), long lenses (fov 4-20°), degradations, and the jaw labels evenly
 #                             spaced along the outline as annotators space them (landmarks.mode = even)
 #                             (into WORK/train, replacing a set made with other settings)
-#   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, 4 starts: at
-#                             36000 renders about 45 minutes and 7.7 GB on 2 cores; docs/results.md row 41)
+#   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, 4 starts).
+#                             At 36000 renders on 2 cores the whole script takes about 51 minutes (renders 14,
+#                             training 36) and 7.5 GB; docs/results.md row 55
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 set -euo pipefail
@@ -31,7 +32,7 @@ while [[ $# -gt 0 ]]; do
         --seed) seed=$2; shift 2 ;;
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
-        -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
