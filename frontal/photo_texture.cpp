@@ -62,7 +62,7 @@ std::vector<cv::Point2f> trusted_face_polygon(const Eigen::Matrix2Xd& landmarks)
     std::vector<cv::Point2f> points;
     for (Eigen::Index i = 0; i < landmarks.cols(); ++i) points.emplace_back(static_cast<float>(landmarks(0, i)), static_cast<float>(landmarks(1, i)));
     const Eigen::Vector2d brow_mid = landmarks.middleCols(17, 10).rowwise().mean();
-    const Eigen::Vector2d up = 0.6 * (brow_mid - landmarks.col(30));
+    const Eigen::Vector2d up = 0.6 * (brow_mid - landmarks.col(morph::kNoseTipLandmark));
     for (Eigen::Index i = 17; i < 27; ++i)
         points.emplace_back(static_cast<float>(landmarks(0, i) + up.x()), static_cast<float>(landmarks(1, i) + up.y()));
     std::vector<cv::Point2f> hull;
@@ -330,11 +330,44 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     for (int i = 0; i < skin_lab.cols; ++i) outliers += cv::norm(skin_lab.at<cv::Vec3f>(i) - median_lab) > kOutlierDeltaE ? 1 : 0;
     out.skin_outliers = static_cast<double>(outliers) / static_cast<double>(skin_lab.cols);
 
+    // Coverage says how much of the face the photograph showed: occluders dropped below still count.
+    cv::Mat shown = seen;
+    if (options.drop_occluders) {
+        shown = seen.clone();
+        frontaliser.mirror_fill(shown);
+        const Eigen::Matrix3Xf points = model.landmark_positions(vertices);
+        const Eigen::Vector3d nose_base = points.col(morph::kNoseBaseLandmark).cast<double>();
+        const Eigen::Vector3d up = (points.middleCols(17, 10).rowwise().mean() - points.col(morph::kChinLandmark)).cast<double>().normalized();
+        std::vector<int> candidates;
+        std::vector<cv::Vec3f> candidate_linear;
+        for (const UvRaster::TriangleTexels& tri : raster.triangles)
+            for (int k = tri.first; k < tri.first + tri.count; ++k) {
+                const int index = raster.texels[static_cast<std::size_t>(k)].index;
+                if (seen_px[index][3] == 0 || (labelled && !is_plain_skin(region[static_cast<std::size_t>(k)]))) continue;
+                Eigen::Vector3d position = Eigen::Vector3d::Zero();
+                for (std::size_t c = 0; c < 3; ++c)
+                    position += raster.texels[static_cast<std::size_t>(k)].weights[c] * vertices.col(tri.vertices[c]).cast<double>();
+                if ((position - nose_base).dot(up) <= 0) continue;
+                candidates.push_back(index);
+                candidate_linear.push_back(albedo_px[index]);
+            }
+        if (!candidates.empty()) {
+            const cv::Mat candidate_lab = lab_of_linear(candidate_linear);
+            int dropped_count = 0;
+            for (std::size_t i = 0; i < candidates.size(); ++i)
+                if (cv::norm(candidate_lab.at<cv::Vec3f>(static_cast<int>(i)) - median_lab) > kOutlierDeltaE) {
+                    seen_px[candidates[i]][3] = 0;
+                    ++dropped_count;
+                }
+            out.dropped_share = face_texels > 0 ? static_cast<double>(dropped_count) / face_texels : 0;
+        }
+    }
+
     // The hidden side from the mirror, then coverage of the face counted after it.
     frontaliser.mirror_fill(seen);
     int face_filled = 0;
     for (std::size_t k = 0; k < texel_count; ++k)
-        if ((!labelled || is_face_region(region[k])) && seen_px[raster.texels[k].index][3] > 0) ++face_filled;
+        if ((!labelled || is_face_region(region[k])) && shown.ptr<cv::Vec4b>()[raster.texels[k].index][3] > 0) ++face_filled;
     out.face_coverage = face_texels > 0 ? static_cast<double>(face_filled) / face_texels : 0;
     if (out.face_coverage < options.min_face_coverage) {
         std::snprintf(text, sizeof text, "coverage: %.0f %% of the face seen (with its mirror), below %.0f %%", 100 * out.face_coverage,

@@ -49,6 +49,11 @@ struct PhotoTextureOptions {
     // worse training set (docs/results.md, "Sim-to-real").
     bool skin_beyond_face = false;
     double skin_fade = 0.05;
+    // Seen plain skin above the nose's base whose colour lies kOutlierDeltaE or more from the skin's median
+    // (a fringe or strands of hair across the forehead, a hand on the cheek, spectacle frames) counts as
+    // unseen: its mirror texel or its neighbours fill it. Below the nose it is kept: beards and stubble
+    // are the face's own (docs/textures.md "Occluders dropped").
+    bool drop_occluders = false;
 };
 
 // The photograph warped smoothly so that `annotated` points (iBUG 18-68 of 2 x 68, 0-based pixels; with
@@ -69,6 +74,7 @@ struct PhotoTexture {
     double face_coverage = 0;      // see PhotoTextureOptions::min_face_coverage
     double seen_share = 0;         // share of the face's texels seen directly (before the mirror fill)
     double skin_outliers = 0;      // see PhotoTextureOptions::max_skin_outliers
+    double dropped_share = 0;      // share of the face's texels dropped as occluders (PhotoTextureOptions::drop_occluders)
     double fit_error = 0;          // see PhotoTextureOptions::max_fit_error
     double shading_range = 0;      // fitted shading over the seen skin: 90th / 10th percentile (1 = flat light)
     std::array<double, 3> skin_srgb{};  // median skin colour of the texture (sRGB, 0-255, R G B)

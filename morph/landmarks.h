@@ -20,6 +20,9 @@ inline constexpr int kLeftEyeOuterCorner = 45;
 // The 17 jaw points (iBUG 1-17) are indices 0..16; 0..7 subject's right, 8 chin, 9..16 subject's left.
 inline constexpr int kNumJawLandmarks = 17;
 inline constexpr int kChinLandmark = 8;
+// The nose's tip (iBUG 31) and the base of its columella (iBUG 34).
+inline constexpr int kNoseTipLandmark = 30;
+inline constexpr int kNoseBaseLandmark = 33;
 
 enum class LandmarkSubset { k7, k13, k49, k68 };
 

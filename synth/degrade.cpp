@@ -60,6 +60,11 @@ void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::
         core::Rng rng = core::make_rng(seed, static_cast<std::uint64_t>(index), core::RandomStream::kNoise);
         add_sensor_noise(image, d.noise_sigma, rng);
     }
+    if (d.greyscale) {
+        cv::Mat grey;
+        cv::cvtColor(image, grey, cv::COLOR_RGB2GRAY);
+        cv::cvtColor(grey, image, cv::COLOR_GRAY2RGB);
+    }
     if (d.jpeg_quality > 0) {
         std::vector<uchar> bytes;
         cv::Mat bgr;

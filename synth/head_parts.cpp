@@ -4,6 +4,7 @@
 #include "core/byte_io.h"
 #include "core/error.h"
 #include "core/random.h"
+#include "morph/landmarks.h"
 #include "morph/regions.h"
 #include "core/srgb.h"
 #include "render/ambient_occlusion.h"
@@ -130,7 +131,7 @@ Eigen::Matrix4f HeadPlacement::transform(const Eigen::Matrix3Xf& shape) const {
     Eigen::Matrix3Xf target(3, kNumHeadAnchors - 1);
     target.col(static_cast<int>(HeadAnchor::kRightEye)) = mean_of(36, 41);
     target.col(static_cast<int>(HeadAnchor::kLeftEye)) = mean_of(42, 47);
-    target.col(static_cast<int>(HeadAnchor::kNoseTip)) = l.col(30);
+    target.col(static_cast<int>(HeadAnchor::kNoseTip)) = l.col(morph::kNoseTipLandmark);
     target.col(static_cast<int>(HeadAnchor::kNasion)) = l.col(27);
     Eigen::Matrix3Xf source = anchors_.leftCols(kNumHeadAnchors - 1);
     if (!right_ear_.empty() && !left_ear_.empty()) {

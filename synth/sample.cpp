@@ -217,6 +217,29 @@ ImageLibrary::ImageLibrary(const std::filesystem::path& folder, const std::strin
         names_.push_back(file.filename().string());
     }
     if (images_.empty()) throw core::file_error(folder.string(), "no readable " + kind + " images");
+    for (const cv::Mat& image : images_) greyscale_.push_back(is_greyscale(image));
+}
+
+ImageLibrary::ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names) : images_(std::move(images)), names_(std::move(names)) {
+    for (const cv::Mat& image : images_) greyscale_.push_back(is_greyscale(image));
+}
+
+ImageLibrary::ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names, std::vector<TextureFit> fits)
+    : images_(std::move(images)), names_(std::move(names)), fits_(std::move(fits)) {
+    for (const cv::Mat& image : images_) greyscale_.push_back(is_greyscale(image));
+}
+
+bool is_greyscale(const cv::Mat& rgb) {
+    if (rgb.type() != CV_8UC3) return rgb.channels() == 1;
+    std::size_t coloured = 0;
+    for (int r = 0; r < rgb.rows; ++r) {
+        const auto* p = rgb.ptr<cv::Vec3b>(r);
+        for (int c = 0; c < rgb.cols; ++c) {
+            const int lo = std::min({p[c][0], p[c][1], p[c][2]}), hi = std::max({p[c][0], p[c][1], p[c][2]});
+            coloured += hi - lo > 2 ? 1 : 0;
+        }
+    }
+    return coloured * 100 <= rgb.total();
 }
 
 SampleGenerator::SampleGenerator(const SynthConfig& config, const morph::MorphableModel& model, const ImageLibrary& backgrounds,
@@ -287,6 +310,11 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
             tone_texture(*texture, s.spec.texture_gain, toned_texture_);
             texture = &toned_texture_;
         }
+        // A greyscale photograph's texture makes a greyscale picture, as the photograph was; its coarse
+        // colour never greys a coloured face.
+        s.spec.degradation.greyscale = textures_.greyscale(*s.spec.texture_choice);
+        if (s.spec.texture_mix_choice && textures_.greyscale(*s.spec.texture_mix_choice) && !s.spec.degradation.greyscale)
+            s.spec.texture_mix_choice.reset();
         if (s.spec.texture_mix_choice) {
             s.texture_mix = textures_.name(*s.spec.texture_mix_choice);
             mix_coarse_colour(*texture, textures_.image(*s.spec.texture_mix_choice), s.spec.texture_mix_weight, mixed_texture_);

@@ -145,6 +145,7 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const m
     j.key("downscale").number(d.downscale);
     j.key("gains").point(d.gains);
     j.key("gamma").number(d.gamma);
+    if (!sample.texture.empty()) j.key("greyscale").raw(d.greyscale ? "true" : "false");  // only with textures: other datasets' meta unchanged
     j.key("jpeg_quality").integer(d.jpeg_quality);
     j.key("noise_sigma").number(d.noise_sigma);
     j.end_object();

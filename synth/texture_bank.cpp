@@ -42,7 +42,7 @@ nlohmann::json to_json(const TextureBankManifest& m) {
     for (const TextureBankEntry& e : m.textures) {
         nlohmann::json t = {{"file", e.file}, {"source", e.source}, {"landmarks_source", e.landmarks_source}, {"yaw_deg", e.yaw_deg},
                             {"pitch_deg", e.pitch_deg}, {"roll_deg", e.roll_deg}, {"face_coverage", e.face_coverage},
-                            {"seen_share", e.seen_share}, {"skin_outliers", e.skin_outliers}, {"fit_error", e.fit_error},
+                            {"seen_share", e.seen_share}, {"skin_outliers", e.skin_outliers}, {"dropped_share", e.dropped_share}, {"fit_error", e.fit_error},
                             {"shading_range", e.shading_range}, {"skin_srgb", e.skin_srgb}, {"shape", e.shape}};
         if (e.expression) t["expression"] = *e.expression;
         textures.push_back(std::move(t));
@@ -85,6 +85,7 @@ TextureBankManifest texture_bank_from_json(const nlohmann::json& j, const std::s
         e.face_coverage = t.value("face_coverage", 0.0);
         e.seen_share = t.value("seen_share", 0.0);
         e.skin_outliers = t.value("skin_outliers", 0.0);
+        e.dropped_share = t.value("dropped_share", 0.0);
         e.fit_error = t.value("fit_error", 0.0);
         e.shading_range = t.value("shading_range", 0.0);
         if (t.contains("skin_srgb")) e.skin_srgb = required<std::array<double, 3>>(t, "skin_srgb", where);

@@ -28,7 +28,7 @@ struct TextureBankEntry {
     std::string source;  // the photograph it came from
     std::string landmarks_source;  // "pts" or the detector that found the face
     double yaw_deg = 0, pitch_deg = 0, roll_deg = 0;
-    double face_coverage = 0, seen_share = 0, skin_outliers = 0, fit_error = 0, shading_range = 0;
+    double face_coverage = 0, seen_share = 0, skin_outliers = 0, dropped_share = 0, fit_error = 0, shading_range = 0;
     std::array<double, 3> skin_srgb{};
     std::vector<float> shape;  // identity coefficients of the fit (identity.source = "texture"); empty in older banks
     // Expression coefficients of the fit (expression.source = "texture"); absent in older banks, empty

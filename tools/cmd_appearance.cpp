@@ -47,6 +47,7 @@ struct TexturesArgs {
     bool align_features = false;
     bool align_jaw = false;
     bool skin_beyond_face = false;
+    bool drop_occluders = false;
     double max_yaw = 50;
     double min_coverage = 0.6;
     double max_outliers = 0.2;
@@ -75,6 +76,7 @@ void run_textures(const TexturesArgs& a) {
     options.align_features = a.align_features;
     options.align_jaw = a.align_jaw;
     options.skin_beyond_face = a.skin_beyond_face;
+    options.drop_occluders = a.drop_occluders;
     frontal::Frontaliser frontaliser(model);
     if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
         throw core::Error("textures: model '" + model.name + "' (" + a.model + ") has no symmetry map to fill the hidden side with");
@@ -89,7 +91,7 @@ void run_textures(const TexturesArgs& a) {
                        {"min_face_coverage", options.min_face_coverage}, {"max_skin_outliers", options.max_skin_outliers},
                        {"max_fit_error", options.max_fit_error}, {"fit_lambda", options.fit_lambda}, {"outlier_delta_e", frontal::kOutlierDeltaE},
                        {"align_features", options.align_features || options.align_jaw}, {"align_jaw", options.align_jaw},
-                       {"skin_beyond_face", options.skin_beyond_face},
+                       {"skin_beyond_face", options.skin_beyond_face}, {"drop_occluders", options.drop_occluders},
                        {"detector_for_photos_without_pts", a.regressor}};
     synth::TextureBankWriter bank(a.out, header);
 
@@ -113,6 +115,7 @@ void run_textures(const TexturesArgs& a) {
                 e.landmarks_source = source;
                 e.yaw_deg = t.yaw_deg, e.pitch_deg = t.pitch_deg, e.roll_deg = t.roll_deg;
                 e.face_coverage = t.face_coverage, e.seen_share = t.seen_share, e.skin_outliers = t.skin_outliers;
+                e.dropped_share = t.dropped_share;
                 e.fit_error = t.fit_error, e.shading_range = t.shading_range, e.skin_srgb = t.skin_srgb;
                 e.shape = t.shape;
                 e.expression = t.expression;
@@ -305,6 +308,8 @@ void register_appearance_commands(CLI::App& app) {
     cmd->add_flag("--align-features", a->align_features, "Warp each photograph so that its annotated features land on the fitted model's landmarks before taking the texture");
     cmd->add_flag("--align-jaw", a->align_jaw, "With --align-features (implied), the annotated jaw outline too, onto the fitted model's silhouette");
     cmd->add_flag("--skin-beyond-face", a->skin_beyond_face, "Give the model's ears and neck the face's own skin colour, and fade unseen skin to it, instead of what surrounds the face in the photograph");
+    cmd->add_flag("--drop-occluders", a->drop_occluders,
+                  "Treat seen skin above the nose's base far from the skin's median colour (hair across the forehead, hands, frames) as unseen: filled from its mirror or its neighbours");
     cmd->add_option("--max-yaw", a->max_yaw, "Reject faces turned further than this, degrees")->check(finite_range(0.0, 90.0))->capture_default_str();
     cmd->add_option("--min-coverage", a->min_coverage, "Reject faces with less of the face seen (with the mirror side)")->check(finite_range(0.0, 1.0))->capture_default_str();
     cmd->add_option("--max-outliers", a->max_outliers, "Reject faces with more of the seen skin far from its median colour (occlusion)")

@@ -3,7 +3,8 @@
 # annotated photographs (docs/textures.md; figures in docs/results.md):
 #   1. facesynth textures     a texture bank from the photographs, each texture with the shape and expression
 #                             fitted to its photograph, its features warped onto the fitted model's
-#                             (--align-features; their labels are not training targets)
+#                             (--align-features; their labels are not training targets), hair and hands
+#                             across the upper face filled from the other side (--drop-occluders)
 #   2. backgrounds            wallpapers (default): the photographs among Debian's wallpaper packages
 #                             (background.type = wallpapers); photos: `facesynth backgrounds`, the
 #                             photographs with their annotated face cut away
@@ -57,7 +58,7 @@ quiet=()
 
 # The bank is rebuilt every time (a minute for 870 photographs): one made by another build may be for
 # another model or lack what synth now takes from it.
-"$facesynth" textures --photos "$photos" --out "$work/bank" --align-features --json "$work/textures.json" "${quiet[@]}"
+"$facesynth" textures --photos "$photos" --out "$work/bank" --align-features --drop-occluders --json "$work/textures.json" "${quiet[@]}"
 background=(--set background.type=wallpapers)
 if [[ $backgrounds == photos ]]; then
     [[ -d $work/backgrounds ]] || "$facesynth" backgrounds --photos "$photos" --out "$work/backgrounds" --min-side "$min_side" --json "$work/backgrounds.json" "${quiet[@]}"

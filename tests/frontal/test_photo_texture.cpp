@@ -188,6 +188,48 @@ TEST_F(PhotoTextureTest, EarsAndNeckTakeTheFacesSkinNotWhatSurroundsIt) {
     }
 }
 
+// A dark fringe across one side of the forehead is dropped and filled from the other side with
+// drop_occluders; a dark beard on the chin stays either way (below the nose it belongs to the face).
+TEST_F(PhotoTextureTest, DroppedOccludersLeaveTheForeheadButNotTheBeard) {
+    const SyntheticView v = view(0);
+    const Eigen::Matrix2Xd& l = v.landmarks;
+    const double brow_y = std::min(l(1, 19), l(1, 24)), nose_to_brow = l(1, 30) - brow_y;
+    const cv::Rect fringe(cv::Point(static_cast<int>(l(0, 17)), static_cast<int>(brow_y - 0.45 * nose_to_brow)),
+                          cv::Point(static_cast<int>(l(0, 21)), static_cast<int>(brow_y - 0.12 * nose_to_brow)));
+    const cv::Rect beard(cv::Point(static_cast<int>(l(0, 48)), static_cast<int>(l(1, 57) + 2)),
+                         cv::Point(static_cast<int>(l(0, 54)), static_cast<int>(l(1, 8) - 3)));
+    PhotoTextureOptions keep = options(true), drop = keep;
+    drop.drop_occluders = true;
+    const PhotoTexture truth = extract_photo_texture(*frontaliser_, v.image, l, keep);
+    ASSERT_TRUE(truth.rejection.empty()) << truth.rejection;
+    for (const cv::Rect& patch : {fringe, beard}) {
+        cv::Mat painted = v.image.clone();
+        painted(patch).setTo(cv::Scalar(30, 40, 60));  // B G R: dark brown
+        const PhotoTexture kept = extract_photo_texture(*frontaliser_, painted, l, keep);
+        const PhotoTexture dropped = extract_photo_texture(*frontaliser_, painted, l, drop);
+        ASSERT_TRUE(kept.rejection.empty() && dropped.rejection.empty()) << kept.rejection << dropped.rejection;
+        // Over the texels the paint reached: how far each texture lies from the unpainted one.
+        double kept_off = 0, dropped_off = 0;
+        int texels = 0;
+        for (int i = 0; i < kTextureSize * kTextureSize; ++i) {
+            const cv::Vec3b t = truth.texture.ptr<cv::Vec3b>()[i], k = kept.texture.ptr<cv::Vec3b>()[i], d = dropped.texture.ptr<cv::Vec3b>()[i];
+            const double k_off = cv::norm(cv::Vec3d(k) - cv::Vec3d(t), cv::NORM_L1) / 3, d_off = cv::norm(cv::Vec3d(d) - cv::Vec3d(t), cv::NORM_L1) / 3;
+            if (k_off < 30) continue;
+            kept_off += k_off, dropped_off += d_off, ++texels;
+        }
+        ASSERT_GT(texels, 100);
+        kept_off /= texels, dropped_off /= texels;
+        std::printf("%s: %d texels painted, %.1f levels off kept, %.1f dropped; dropped share %.3f\n", patch == fringe ? "fringe" : "beard", texels,
+                    kept_off, dropped_off, dropped.dropped_share);
+        if (patch == fringe) {
+            EXPECT_LT(dropped_off, 0.3 * kept_off);
+            EXPECT_GT(dropped.dropped_share, kept.dropped_share);
+        } else {
+            EXPECT_GT(dropped_off, 0.8 * kept_off);
+        }
+    }
+}
+
 TEST_F(PhotoTextureTest, UnusablePhotographsAreRejectedWithTheReason) {
     PhotoTextureOptions o = options(true);
     o.max_abs_yaw_deg = 30;

@@ -1,8 +1,11 @@
 // Texture mixing (synth/texture_mix.h, albedo.texture_mix_probability): the features stay, the coarse
-// colour moves by the weight, and synth's other draws do not change.
+// colour moves by the weight, and synth's other draws do not change. Textures from greyscale
+// photographs make greyscale pictures and never grey a coloured face.
 #include "common/test_data.h"
 #include "morph/model_io.h"
+#include "render/renderer.h"
 #include "synth/config.h"
+#include "synth/sample.h"
 #include "synth/scene.h"
 #include "synth/texture_mix.h"
 #include "core/error.h"
@@ -72,6 +75,41 @@ TEST(TextureMix, DrawsOnItsOwnStream) {
     SynthConfig wrong;
     apply_override(wrong, "albedo.texture_mix_probability=1.5");
     EXPECT_NE(testkit::error_message_of([&] { validate(wrong); }).find("albedo.texture_mix_probability"), std::string::npos);
+}
+
+TEST(TextureMix, GreyscaleImagesAreTellableFromColouredOnes) {
+    cv::Mat grey(64, 64, CV_8UC3, cv::Scalar(90, 90, 90));
+    grey.at<cv::Vec3b>(3, 3) = cv::Vec3b(90, 92, 91);  // rounding and chroma noise
+    EXPECT_TRUE(is_greyscale(grey));
+    cv::Mat tinted = grey.clone();
+    tinted(cv::Rect(0, 0, 64, 2)).setTo(cv::Scalar(90, 60, 40));  // 3 % coloured
+    EXPECT_FALSE(is_greyscale(tinted));
+    EXPECT_FALSE(is_greyscale(texture(cv::Scalar(200, 150, 120), true)));
+}
+
+TEST(TextureMix, GreyscalePhotographsTexturesMakeGreyscalePictures) {
+    const morph::MorphableModel model = morph::load_model("builtin");
+    SynthConfig config;
+    config.camera.width = config.camera.height = 96;
+    config.albedo.texture_folder = "given below";
+    apply_override(config, "albedo.texture_mix_probability=1");
+    const ImageLibrary textures({texture(cv::Scalar(128, 128, 128), true), texture(cv::Scalar(200, 150, 120), true)}, {"grey.png", "colour.png"});
+    ASSERT_TRUE(textures.greyscale(0));
+    ASSERT_FALSE(textures.greyscale(1));
+    const ImageLibrary none;
+    SampleGenerator generator(config, model, none, textures, render::RendererOptions{render::Backend::kEgl, false});
+    int grey = 0, coloured = 0;
+    for (std::int64_t index = 0; index < 12; ++index) {
+        const Sample s = generator.generate(index);
+        ASSERT_TRUE(s.spec.texture_choice.has_value());
+        const bool from_grey = textures.greyscale(*s.spec.texture_choice);
+        EXPECT_EQ(s.spec.degradation.greyscale, from_grey) << "sample " << index;
+        EXPECT_EQ(is_greyscale(s.image), from_grey) << "sample " << index;
+        if (!from_grey) EXPECT_NE(s.texture_mix, "grey.png") << "sample " << index;  // a grey mix would grey the face alone
+        ++(from_grey ? grey : coloured);
+    }
+    EXPECT_GT(grey, 0);
+    EXPECT_GT(coloured, 0);
 }
 
 }  // namespace

@@ -257,6 +257,7 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_EQ(meta["background"]["type"], "wallpapers");                       // the default backgrounds
     EXPECT_TRUE(meta["head_parts"].is_object());                                // on a whole head (row 55)
     EXPECT_TRUE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["align_features"].get<bool>());
+    EXPECT_TRUE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["drop_occluders"].get<bool>());
     const auto config = read_json(dir / "sim2real-work" / "train" / "dataset.json")["config"];
     EXPECT_EQ(config["head"]["ambient_occlusion"], 1.0);
     EXPECT_EQ(config["lighting"]["shadow_probability"], 1.0);
