@@ -18,7 +18,7 @@
 #                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, 4 starts).
 #                             At 36000 renders on 2 cores the whole script takes about 51 minutes (renders 14,
-#                             training 36) and 7.5 GB; docs/results.md row 55
+#                             training 36) and 7.5 GB on a quiet machine; docs/results.md rows 55 and 59
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 set -euo pipefail
