@@ -310,11 +310,13 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
             tone_texture(*texture, s.spec.texture_gain, toned_texture_);
             texture = &toned_texture_;
         }
-        // A greyscale photograph's texture makes a greyscale picture, as the photograph was; its coarse
-        // colour never greys a coloured face.
-        s.spec.degradation.greyscale = textures_.greyscale(*s.spec.texture_choice);
-        if (s.spec.texture_mix_choice && textures_.greyscale(*s.spec.texture_mix_choice) && !s.spec.degradation.greyscale)
-            s.spec.texture_mix_choice.reset();
+        // A bank's texture from a greyscale photograph makes a greyscale picture, as the photograph was;
+        // its coarse colour never greys a coloured face. (A plain uv texture folder is taken as it is.)
+        if (!config_.albedo.texture_bank.empty()) {
+            s.spec.degradation.greyscale = textures_.greyscale(*s.spec.texture_choice);
+            if (s.spec.texture_mix_choice && textures_.greyscale(*s.spec.texture_mix_choice) && !s.spec.degradation.greyscale)
+                s.spec.texture_mix_choice.reset();
+        }
         if (s.spec.texture_mix_choice) {
             s.texture_mix = textures_.name(*s.spec.texture_mix_choice);
             mix_coarse_colour(*texture, textures_.image(*s.spec.texture_mix_choice), s.spec.texture_mix_weight, mixed_texture_);

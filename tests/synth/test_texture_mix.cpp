@@ -91,7 +91,7 @@ TEST(TextureMix, GreyscalePhotographsTexturesMakeGreyscalePictures) {
     const morph::MorphableModel model = morph::load_model("builtin");
     SynthConfig config;
     config.camera.width = config.camera.height = 96;
-    config.albedo.texture_folder = "given below";
+    config.albedo.texture_bank = "given below";
     apply_override(config, "albedo.texture_mix_probability=1");
     const ImageLibrary textures({texture(cv::Scalar(128, 128, 128), true), texture(cv::Scalar(200, 150, 120), true)}, {"grey.png", "colour.png"});
     ASSERT_TRUE(textures.greyscale(0));
@@ -110,6 +110,12 @@ TEST(TextureMix, GreyscalePhotographsTexturesMakeGreyscalePictures) {
     }
     EXPECT_GT(grey, 0);
     EXPECT_GT(coloured, 0);
+    // A plain uv texture folder is rendered as it is: a grey uv map is a grey face, not a grey picture.
+    SynthConfig folder = config;
+    folder.albedo.texture_bank.clear();
+    folder.albedo.texture_folder = "given above";
+    SampleGenerator plain(folder, model, none, textures, render::RendererOptions{render::Backend::kEgl, false});
+    for (std::int64_t index = 0; index < 12; ++index) EXPECT_FALSE(plain.generate(index).spec.degradation.greyscale) << "sample " << index;
 }
 
 }  // namespace
