@@ -231,6 +231,12 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
         }
     }
 
+    // A texel's point on the fitted mesh (model space).
+    const auto texel_position = [&](const UvRaster::TriangleTexels& tri, const UvRaster::Texel& t) {
+        Eigen::Vector3d position = Eigen::Vector3d::Zero();
+        for (std::size_t c = 0; c < 3; ++c) position += t.weights[c] * vertices.col(tri.vertices[c]).cast<double>();
+        return position;
+    };
     // Face texels seen outside the face's polygon show something else in the photograph: not seen.
     const std::vector<cv::Point2f> face_polygon = trusted_face_polygon(landmarks);
     auto* isomap_px = isomap.ptr<cv::Vec4b>();
@@ -238,9 +244,7 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
         for (int k = tri.first; k < tri.first + tri.count; ++k) {
             const UvRaster::Texel& t = raster.texels[static_cast<std::size_t>(k)];
             if (isomap_px[t.index][3] == 0 || (labelled && !is_face_region(region[static_cast<std::size_t>(k)]))) continue;
-            Eigen::Vector3d position = Eigen::Vector3d::Zero();
-            for (std::size_t c = 0; c < 3; ++c) position += t.weights[c] * vertices.col(tri.vertices[c]).cast<double>();
-            const Eigen::Vector2d p = fit.camera.project(position);
+            const Eigen::Vector2d p = fit.camera.project(texel_position(tri, t));
             if (cv::pointPolygonTest(face_polygon, cv::Point2f(static_cast<float>(p.x()), static_cast<float>(p.y())), false) < 0)
                 isomap_px[t.index][3] = 0;
         }
@@ -344,10 +348,7 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
             for (int k = tri.first; k < tri.first + tri.count; ++k) {
                 const int index = raster.texels[static_cast<std::size_t>(k)].index;
                 if (seen_px[index][3] == 0 || (labelled && !is_plain_skin(region[static_cast<std::size_t>(k)]))) continue;
-                Eigen::Vector3d position = Eigen::Vector3d::Zero();
-                for (std::size_t c = 0; c < 3; ++c)
-                    position += raster.texels[static_cast<std::size_t>(k)].weights[c] * vertices.col(tri.vertices[c]).cast<double>();
-                if ((position - nose_base).dot(up) <= 0) continue;
+                if ((texel_position(tri, raster.texels[static_cast<std::size_t>(k)]) - nose_base).dot(up) <= 0) continue;
                 candidates.push_back(index);
                 candidate_linear.push_back(albedo_px[index]);
             }

@@ -217,11 +217,6 @@ ImageLibrary::ImageLibrary(const std::filesystem::path& folder, const std::strin
         names_.push_back(file.filename().string());
     }
     if (images_.empty()) throw core::file_error(folder.string(), "no readable " + kind + " images");
-    for (const cv::Mat& image : images_) greyscale_.push_back(is_greyscale(image));
-}
-
-ImageLibrary::ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names) : images_(std::move(images)), names_(std::move(names)) {
-    for (const cv::Mat& image : images_) greyscale_.push_back(is_greyscale(image));
 }
 
 ImageLibrary::ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names, std::vector<TextureFit> fits)

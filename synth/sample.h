@@ -91,22 +91,22 @@ public:
     ImageLibrary() = default;
     ImageLibrary(const std::filesystem::path& folder, const std::string& kind);
     // Images already read (CV_8UC3 RGB), with their names.
-    ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names);
-    // With the fit each image was taken with (a texture bank's).
+    ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names) : images_(std::move(images)), names_(std::move(names)) {}
+    // With the fit each image was taken with (a texture bank's); which of them are greyscale is found here.
     ImageLibrary(std::vector<cv::Mat> images, std::vector<std::string> names, std::vector<TextureFit> fits);
     [[nodiscard]] bool empty() const { return images_.empty(); }
     [[nodiscard]] const cv::Mat& image(std::uint64_t choice) const { return images_[choice % images_.size()]; }
     [[nodiscard]] const std::string& name(std::uint64_t choice) const { return names_[choice % names_.size()]; }
     [[nodiscard]] std::size_t size() const { return images_.size(); }
-    // Whether the image has no colour (a texture from a greyscale photograph): see is_greyscale.
-    [[nodiscard]] bool greyscale(std::uint64_t choice) const { return greyscale_[choice % greyscale_.size()]; }
+    // Whether a bank's texture has no colour (from a greyscale photograph: is_greyscale); false for other libraries.
+    [[nodiscard]] bool greyscale(std::uint64_t choice) const { return !greyscale_.empty() && greyscale_[choice % greyscale_.size()]; }
     [[nodiscard]] std::span<const TextureFit> fits() const { return fits_; }
 
 private:
     std::vector<cv::Mat> images_;  // CV_8UC3 RGB
     std::vector<std::string> names_;  // file names
     std::vector<TextureFit> fits_;  // empty, or one per image
-    std::vector<bool> greyscale_;  // one per image
+    std::vector<bool> greyscale_;  // with fits: one per image
 };
 
 // An 8-bit RGB image without colour: at most 1 % of its pixels have channels more than 2 levels apart

@@ -93,7 +93,8 @@ TEST(TextureMix, GreyscalePhotographsTexturesMakeGreyscalePictures) {
     config.camera.width = config.camera.height = 96;
     config.albedo.texture_bank = "given below";
     apply_override(config, "albedo.texture_mix_probability=1");
-    const ImageLibrary textures({texture(cv::Scalar(128, 128, 128), true), texture(cv::Scalar(200, 150, 120), true)}, {"grey.png", "colour.png"});
+    const ImageLibrary textures({texture(cv::Scalar(128, 128, 128), true), texture(cv::Scalar(200, 150, 120), true)}, {"grey.png", "colour.png"},
+                                {TextureFit{}, TextureFit{}});  // a bank's
     ASSERT_TRUE(textures.greyscale(0));
     ASSERT_FALSE(textures.greyscale(1));
     const ImageLibrary none;
