@@ -199,7 +199,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"lighting.environment_max", &c.lighting.environment_max, "SH environment radiance upper bound"});
     f.push_back({"lighting.sh_strength", &c.lighting.sh_strength, "stddev of SH bands 1-2 relative to the DC term"});
     f.push_back({"lighting.ambient_max", &c.lighting.ambient_max, "extra grey ambient uniform in [0, ambient_max]"});
-    f.push_back({"lighting.directional_max", &c.lighting.directional_max, "0..n directional lights per sample (at most 4)"});
+    f.push_back({"lighting.directional_min", &c.lighting.directional_min, "fewest directional lights per sample"});
+    f.push_back({"lighting.directional_max", &c.lighting.directional_max, "most directional lights per sample (at most 4)"});
     f.push_back({"lighting.intensity_min", &c.lighting.intensity_min, "directional light intensity lower bound"});
     f.push_back({"lighting.intensity_max", &c.lighting.intensity_max, "directional light intensity upper bound"});
     f.push_back({"lighting.colour_temperature_min", &c.lighting.colour_temperature_min, "light colour temperature lower bound, K"});
@@ -361,6 +362,8 @@ void validate(const SynthConfig& c) {
     require(c.lighting.ambient_max >= 0, "lighting.ambient_max", "must not be negative");
     require(c.lighting.sh_strength >= 0, "lighting.sh_strength", "must not be negative");
     require(c.lighting.directional_max >= 0 && c.lighting.directional_max <= 4, "lighting.directional_max", "must be in [0, 4]");
+    require(c.lighting.directional_min >= 0 && c.lighting.directional_min <= c.lighting.directional_max, "lighting.directional_min",
+            "must be in [0, lighting.directional_max]");
     require(c.lighting.intensity_min >= 0 && c.lighting.intensity_min <= c.lighting.intensity_max, "lighting.intensity_min", "must be in [0, lighting.intensity_max]");
     require(c.lighting.colour_temperature_min >= 1000 && c.lighting.colour_temperature_min <= c.lighting.colour_temperature_max,
             "lighting.colour_temperature_min", "must be at least 1000 K and not exceed lighting.colour_temperature_max");

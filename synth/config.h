@@ -89,7 +89,8 @@ struct LightingConfig {
     double environment_max = 0.7;
     double sh_strength = 0.35;             // stddev of SH bands 1-2 relative to the DC term
     double ambient_max = 0.1;              // extra grey ambient uniform in [0, ambient_max]
-    int directional_max = 2;               // 0..directional_max directional lights per sample
+    int directional_min = 0;               // directional_min..directional_max directional lights per sample
+    int directional_max = 2;
     double intensity_min = 0.2;            // per directional light
     double intensity_max = 0.6;
     double colour_temperature_min = 3200;  // K, directional lights and the SH tint

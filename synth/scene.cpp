@@ -122,7 +122,7 @@ LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
     l.sh[2] = to_floats(Eigen::Vector3d(l.sh[2][0], l.sh[2][1], l.sh[2][2]) + dc * (0.3 * c.sh_strength));
     const float ambient = static_cast<float>(rng.uniform(0.0, c.ambient_max));
     l.ambient = {ambient, ambient, ambient};
-    const int count = rng.uniform_int(0, c.directional_max);
+    const int count = rng.uniform_int(c.directional_min, c.directional_max);
     for (int i = 0; i < count; ++i) {
         // Toward the camera (+z) and somewhat from above (+y), spread over a wide cone.
         const Eigen::Vector3d direction = direction_in_cone(rng, Eigen::Vector3d(0, 0.4, 1), 75.0);

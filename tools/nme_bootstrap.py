@@ -14,7 +14,12 @@ Targets stated as ratios ("within 1.2 x the reference") are read with --ratio R:
 difference is then other - R x reference per face, so an interval below 0 means the target is met on
 these faces. --yaw-split D adds the faces with |yaw| <= D and > D as two more groups.
 
-    tools/nme_bootstrap.py F.csv [--reference 1] [--names ours,dlib,...] [--resamples 5000] [--seed 1] [--cluster-size N]
+Several CSV files are joined by the last path component of their keys, so that the same sample index of
+two datasets rendered with one setting changed (or the same photographs in two runs) pair up: their
+regressor columns follow one another, a face counts as detected where every file found it, and the yaw
+and view are the first file's; faces missing from any file are left out.
+
+    tools/nme_bootstrap.py F.csv [G.csv ...] [--reference 1] [--names ours,dlib,...] [--resamples 5000] [--seed 1] [--cluster-size N]
                            [--ratio R] [--yaw-split D]
 """
 import argparse
@@ -53,9 +58,38 @@ def bootstrap_mean(values, resamples, rng, clusters=None):
     return percentile(means, 0.025), percentile(means, 0.975)
 
 
+def joined_rows(paths):
+    """One file's rows as they are; several files' rows joined by the last path component of the key."""
+    if len(paths) == 1:
+        return read_nme_rows(paths[0])
+    tables = []
+    for path in paths:
+        table = {}
+        for row in read_nme_rows(path):
+            name = row["key"].rsplit("/", 1)[-1]
+            if name in table:
+                sys.exit(f"{path}: key '{name}' appears twice, so the files cannot be joined by it")
+            table[name] = row
+        tables.append(table)
+    joined = []
+    for name, first in tables[0].items():
+        if not all(name in table for table in tables[1:]):
+            continue
+        row = {"key": name, "yaw_deg": first["yaw_deg"], "view": first["view"],
+               "detected": "1" if all(table[name]["detected"] == "1" for table in tables) else "0"}
+        for table in tables:
+            for column, value in table[name].items():
+                if column.startswith("regressor"):
+                    row[f"regressor{sum(c.startswith('regressor') for c in row) + 1}"] = value
+        joined.append(row)
+    if not joined:
+        sys.exit(f"{', '.join(paths)}: no face is in every file")
+    return joined
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("csv")
+    parser.add_argument("csv", nargs="+")
     parser.add_argument("--reference", type=int, default=1, help="regressor column (1-based) the others are compared with")
     parser.add_argument("--names", default="", help="comma-separated names of the regressor columns")
     parser.add_argument("--resamples", type=int, default=5000)
@@ -71,7 +105,8 @@ def main():
     if args.yaw_split is not None and not (0 <= args.yaw_split <= 90):
         sys.exit("--yaw-split must be between 0 and 90 degrees")
 
-    rows = read_nme_rows(args.csv)
+    rows = joined_rows(args.csv)
+    args.csv = " + ".join(args.csv)
     columns = [c for c in rows[0].keys() if c.startswith("regressor")]
     names = args.names.split(",") if args.names else columns
     if len(names) != len(columns):

@@ -65,3 +65,25 @@ def test_bad_inputs_say_what_is_wrong(tmp_path):
     (tmp_path / "empty.csv").write_text("key,yaw_deg,detected,view,regressor1\n")
     result = run(tmp_path / "empty.csv")
     assert result.returncode != 0 and "empty.csv: no faces" in result.stderr
+
+
+def test_several_files_pair_by_sample_name(tmp_path):
+    # Two datasets rendered with one setting changed: the same sample names under different folders.
+    (tmp_path / "a.csv").write_text("key,yaw_deg,detected,view,regressor1\n"
+                                     "set_a/s0,5,1,frontal,0.05\nset_a/s1,-30,1,frontal,0.07\n"
+                                     "set_a/s2,0,1,frontal,0.06\nset_a/only_here,0,1,frontal,0.9\n")
+    (tmp_path / "b.csv").write_text("key,yaw_deg,detected,view,regressor1\n"
+                                     "set_b/s1,-30,1,frontal,0.06\nset_b/s0,5,1,frontal,0.04\n"
+                                     "set_b/s2,0,0,,inf\n")
+    result = run(tmp_path / "a.csv", tmp_path / "b.csv", "--names", "a,b", "--yaw-split", 20)
+    assert result.returncode == 0, result.stderr
+    assert "3 faces, 2 detected" in result.stdout  # only_here is in one file; s2 was missed in b
+    assert "-0.0100 [-0.0100, -0.0100], reference better on 0 of 2" in line_of(result.stdout, "all", "b")
+    assert "reference better on 0 of 1" in line_of(result.stdout, "yaw<=20", "b")
+
+    (tmp_path / "twice.csv").write_text("key,yaw_deg,detected,view,regressor1\nx/s0,0,1,frontal,0.1\ny/s0,0,1,frontal,0.2\n")
+    result = run(tmp_path / "a.csv", tmp_path / "twice.csv")
+    assert result.returncode != 0 and "twice.csv" in result.stderr and "'s0'" in result.stderr
+    (tmp_path / "other.csv").write_text("key,yaw_deg,detected,view,regressor1\nz/q9,0,1,frontal,0.1\n")
+    result = run(tmp_path / "a.csv", tmp_path / "other.csv")
+    assert result.returncode != 0 and "no face is in every file" in result.stderr

@@ -230,6 +230,27 @@ TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
     EXPECT_NE(testkit::error_message_of([&] { validate(half); }).find("render.shadow_map_size"), std::string::npos);
 }
 
+TEST(SynthScene, DirectionalMinLightsEverySample) {
+    const morph::MorphableModel model = testkit::make_toy_model();
+    SynthConfig by_default, at_least_one, exactly_two;
+    at_least_one.lighting.directional_min = 1;
+    exactly_two.lighting.directional_min = 2;
+    int unlit_by_default = 0, one_light = 0;
+    for (int i = 0; i < 40; ++i) {
+        unlit_by_default += sample_scene(by_default, model, i).lighting.lighting.lights.empty() ? 1 : 0;
+        const std::size_t lights = sample_scene(at_least_one, model, i).lighting.lighting.lights.size();
+        EXPECT_GE(lights, 1U) << i;
+        EXPECT_LE(lights, 2U) << i;
+        one_light += lights == 1 ? 1 : 0;
+        EXPECT_EQ(sample_scene(exactly_two, model, i).lighting.lighting.lights.size(), 2U) << i;
+    }
+    EXPECT_GT(unlit_by_default, 5);  // by default a third of the samples have the environment's light only
+    EXPECT_GT(one_light, 5);
+    EXPECT_LT(one_light, 35);
+    exactly_two.lighting.directional_min = 3;
+    EXPECT_NE(testkit::error_message_of([&] { validate(exactly_two); }).find("lighting.directional_min"), std::string::npos);
+}
+
 // The defaults are the recipe's pose, lens and degradations (measured, docs/results.md); the file of the
 // earlier defaults restores exactly what figures measured before them were made with.
 TEST(SynthConfig, DefaultsAreThePhotographsPoseAndTheEarlierOnesAreAFileAway) {

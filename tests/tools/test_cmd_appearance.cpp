@@ -261,6 +261,7 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     const auto config = read_json(dir / "sim2real-work" / "train" / "dataset.json")["config"];
     EXPECT_EQ(config["head"]["ambient_occlusion"], 1.0);
     EXPECT_EQ(config["lighting"]["shadow_probability"], 1.0);
+    EXPECT_EQ(config["lighting"]["directional_min"], 1);
     EXPECT_EQ(config["albedo"]["texture_mix_probability"], 0.5);
     // The photographs' own backgrounds instead, with paths relative to the folder the script is started
     // from (not the checkout it works in).
