@@ -3,10 +3,11 @@
 --nme-csv` on a synth dataset, joined with each sample's meta file (docs/train.md).
 
     facesynth eval landmarks --regressor dlib --data DATASET_OR_FOLDER --detector dlib --nme-csv F.csv
-    tools/nme_factors.py F.csv DATASET [--column 1] [--bins 5]
+    tools/nme_factors.py F.csv DATASET [--column 1] [--bins 5] [--max-yaw 20]
 
-For the faces the detector found, and for every number the meta files hold for a sample (|yaw|, |pitch|,
-|roll|, fov, each degradation and lighting value, the inter-ocular distance in pixels): its Pearson
+For the faces the detector found (with --max-yaw, those within it), and for every number the meta files
+hold for a sample (|yaw|, |pitch|, |roll|, fov, each degradation and lighting value, the number of
+directional lights, the inter-ocular distance in pixels): its Pearson
 correlation with the NME and the mean NME per quantile bin of it. For the texture (a categorical
 parameter) the split-half correlation: the NMEs of two renders of the same texture, over textures with
 at least two renders (near 0: the texture does not decide how hard a render is). The CSV's keys are
@@ -50,6 +51,9 @@ def factors_of(meta):
                 out[f"{group}.{key}"] = value
             elif isinstance(value, list) and value and all(isinstance(v, (int, float)) for v in value):
                 out[f"{group}.{key}_mean"] = sum(value) / len(value)
+    lights = (meta.get("lighting") or {}).get("lights")
+    if isinstance(lights, list):
+        out["lighting.directional_lights"] = len(lights)
     landmarks = meta.get("landmarks")
     if isinstance(landmarks, list) and len(landmarks) == 68:
         out["interocular_px"] = math.dist(landmarks[36], landmarks[45])
@@ -62,9 +66,12 @@ def main():
     parser.add_argument("dataset", help="the synth dataset whose meta/ folder describes the faces")
     parser.add_argument("--column", type=int, default=1, help="which regressor's NME (1 = the first)")
     parser.add_argument("--bins", type=int, default=5, help="quantile bins per parameter")
+    parser.add_argument("--max-yaw", type=float, default=None, help="only the faces with |yaw| up to this (degrees; the CSV's yaw_deg)")
     args = parser.parse_args()
     if args.column < 1 or args.bins < 1:
         parser.error("--column and --bins must be at least 1")
+    if args.max_yaw is not None and not args.max_yaw >= 0:
+        parser.error("--max-yaw must be a number of degrees, at least 0")
 
     rows = read_nme_rows(args.csv)
     column = f"regressor{args.column}"
@@ -73,6 +80,8 @@ def main():
     nmes, factors, textures = [], [], {}
     for row in rows:
         if row.get("detected") != "1":
+            continue
+        if args.max_yaw is not None and not (row.get("yaw_deg") and abs(float(row["yaw_deg"])) <= args.max_yaw):
             continue
         key = row["key"].replace("\\", "/").split("/")[-1]
         path = os.path.join(args.dataset, "meta", key + ".json")

@@ -43,3 +43,22 @@ def test_bad_inputs_name_the_file(tmp_path):
     assert result.returncode != 0 and "regressor3" in result.stderr
     result = run(tmp_path / "missing.csv", tmp_path)
     assert result.returncode != 0 and "missing.csv" in result.stderr
+
+
+def test_directional_lights_counted_and_max_yaw_keeps_the_near_frontal_faces(tmp_path):
+    (tmp_path / "meta").mkdir()
+    rows = ["key,yaw_deg,detected,view,regressor1"]
+    for i in range(30):
+        lights = [{"colour": [0.3, 0.3, 0.3], "direction": [0, 0.4, 1]}] * (i % 3)
+        meta = {"yaw": -45 + 3 * i, "lighting": {"lights": lights, "shadows": bool(lights)}}
+        (tmp_path / "meta" / f"s{i:08d}.json").write_text(json.dumps(meta))
+        rows.append(f"d/s{i:08d},{meta['yaw']},1,frontal,{0.06 - 0.01 * len(lights)}")
+    (tmp_path / "nme.csv").write_text("\n".join(rows) + "\n")
+    result = run(tmp_path / "nme.csv", tmp_path, "--max-yaw", 20)
+    assert result.returncode == 0, result.stderr
+    assert "13 detected faces" in result.stdout  # yaw -45 + 3i within 20 degrees: i = 9..21
+    lines = {line.split()[0]: line for line in result.stdout.splitlines() if line}
+    assert float(lines["lighting.directional_lights"].split()[1]) < -0.99
+    assert "0: 0.0600" in lines["lighting.directional_lights"] and "2: 0.0400" in lines["lighting.directional_lights"]
+    result = run(tmp_path / "nme.csv", tmp_path, "--max-yaw", -1)
+    assert result.returncode != 0 and "--max-yaw" in result.stderr
