@@ -11,14 +11,14 @@
 #   3. facesynth synth        COUNT renders (default 36000): each texture on its own photograph's fitted shape and
 #                             expression, half of them mixed with a second texture's colour, on a whole head
 #                             (neck, shoulders, clothing, hair; head.body) whose skin the face and chin shade
-#                             (head.ambient_occlusion), one or two lights that cast shadows, the backgrounds, yaw normal
+#                             (head.ambient_occlusion), one or two bright lights that cast shadows, the backgrounds, yaw normal
 #                             (σ 25°, within ±60°), pitch and roll as photographs have them (normal, mean +4.6°
 #                             σ 6.7° and σ 8°), long lenses (fov 4-20°), degradations, and the jaw labels evenly
 #                             spaced along the outline as annotators space them (landmarks.mode = even)
 #                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, 4 starts).
 #                             At 36000 renders on 2 cores the whole script takes about 51 minutes (renders 14,
-#                             training 36) and 7.5 GB on a quiet machine; docs/results.md rows 55 and 59
+#                             training 36) and 7.5 GB on a quiet machine; docs/results.md rows 55, 59, 64
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 set -euo pipefail
@@ -68,7 +68,8 @@ fi
     --set pose.yaw.distribution=normal --set pose.yaw.stddev=25 --set pose.yaw.min=-60 --set pose.yaw.max=60 \
     --set pose.pitch.distribution=normal --set pose.pitch.mean=4.6 --set pose.pitch.stddev=6.7 --set pose.roll.distribution=normal --set pose.roll.stddev=8 \
     --set albedo.texture_bank="$work/bank" --set identity.source=texture --set expression.source=texture --set albedo.texture_mix_probability=0.5 \
-    --set head.body=true --set head.ambient_occlusion=1 --set lighting.directional_min=1 --set lighting.shadow_probability=1 \
+    --set head.body=true --set head.ambient_occlusion=1 --set lighting.directional_min=1 --set lighting.intensity_min=0.4 --set lighting.intensity_max=0.8 \
+    --set lighting.shadow_probability=1 \
     --set camera.fov_min=4 --set camera.fov_max=20 --set landmarks.mode=even \
     "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \

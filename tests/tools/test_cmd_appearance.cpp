@@ -262,6 +262,7 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_EQ(config["head"]["ambient_occlusion"], 1.0);
     EXPECT_EQ(config["lighting"]["shadow_probability"], 1.0);
     EXPECT_EQ(config["lighting"]["directional_min"], 1);
+    EXPECT_EQ(config["lighting"]["intensity_min"], 0.4);
     EXPECT_EQ(config["albedo"]["texture_mix_probability"], 0.5);
     // The photographs' own backgrounds instead, with paths relative to the folder the script is started
     // from (not the checkout it works in).
