@@ -27,7 +27,7 @@ import math
 import random
 import sys
 
-from nme_csv import read_nme_rows
+from nme_csv import read_nme_rows, sample_name
 
 
 def percentile(sorted_values, q):
@@ -66,7 +66,7 @@ def joined_rows(paths):
     for path in paths:
         table = {}
         for row in read_nme_rows(path):
-            name = row["key"].rsplit("/", 1)[-1]
+            name = sample_name(row["key"])
             if name in table:
                 sys.exit(f"{path}: key '{name}' appears twice, so the files cannot be joined by it")
             table[name] = row
@@ -77,10 +77,8 @@ def joined_rows(paths):
             continue
         row = {"key": name, "yaw_deg": first["yaw_deg"], "view": first["view"],
                "detected": "1" if all(table[name]["detected"] == "1" for table in tables) else "0"}
-        for table in tables:
-            for column, value in table[name].items():
-                if column.startswith("regressor"):
-                    row[f"regressor{sum(c.startswith('regressor') for c in row) + 1}"] = value
+        values = [v for table in tables for c, v in table[name].items() if c.startswith("regressor")]
+        row.update((f"regressor{k}", value) for k, value in enumerate(values, 1))
         joined.append(row)
     if not joined:
         sys.exit(f"{', '.join(paths)}: no face is in every file")
@@ -106,15 +104,15 @@ def main():
         sys.exit("--yaw-split must be between 0 and 90 degrees")
 
     rows = joined_rows(args.csv)
-    args.csv = " + ".join(args.csv)
+    source = " + ".join(args.csv)
     columns = [c for c in rows[0].keys() if c.startswith("regressor")]
     names = args.names.split(",") if args.names else columns
     if len(names) != len(columns):
-        sys.exit(f"{args.csv}: {len(columns)} regressor columns, {len(names)} names")
+        sys.exit(f"{source}: {len(columns)} regressor columns, {len(names)} names")
     if not 1 <= args.reference <= len(columns):
-        sys.exit(f"{args.csv}: --reference {args.reference}, but the file has {len(columns)} regressor columns")
+        sys.exit(f"{source}: --reference {args.reference}, but the file has {len(columns)} regressor columns")
     if args.yaw_split is not None and not rows[0]["yaw_deg"]:
-        sys.exit(f"{args.csv}: --yaw-split needs the yaw_deg column, which is empty")
+        sys.exit(f"{source}: --yaw-split needs the yaw_deg column, which is empty")
     for position, row in enumerate(rows):
         row["_cluster"] = position // args.cluster_size if args.cluster_size else position
     found = [r for r in rows if r["detected"] == "1"]
@@ -124,7 +122,7 @@ def main():
     ref = columns[args.reference - 1]
     rng = random.Random(args.seed)
     unit = f"; clusters of {args.cluster_size} rows resampled" if args.cluster_size else ""
-    print(f"{args.csv}: {len(rows)} faces, {len(found)} detected; {args.resamples} resamples{unit}")
+    print(f"{source}: {len(rows)} faces, {len(found)} detected; {args.resamples} resamples{unit}")
     for column, name in zip(columns, names):
         values = [float(r[column]) for r in found]
         low, high = bootstrap_mean(values, args.resamples, rng, clusters_of(found))

@@ -15,3 +15,8 @@ def read_nme_rows(path):
     if not rows:
         sys.exit(f"{path}: no faces")
     return rows
+
+
+def sample_name(key):
+    """The last path component of a row's key: the sample or photograph, whichever folder it was read from."""
+    return key.replace("\\", "/").rsplit("/", 1)[-1]

@@ -20,7 +20,7 @@ import math
 import os
 import sys
 
-from nme_csv import read_nme_rows
+from nme_csv import read_nme_rows, sample_name
 
 
 def pearson(a, b):
@@ -83,7 +83,7 @@ def main():
             continue
         if args.max_yaw is not None and not (row.get("yaw_deg") and abs(float(row["yaw_deg"])) <= args.max_yaw):
             continue
-        key = row["key"].replace("\\", "/").split("/")[-1]
+        key = sample_name(row["key"])
         path = os.path.join(args.dataset, "meta", key + ".json")
         try:
             with open(path) as f:
