@@ -21,8 +21,9 @@
 #                             training 36) and 7.5 GB on a quiet machine; docs/results.md rows 55, 59, 64
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
+#                          [--augment A]  (training starts per render, default 4)
 set -euo pipefail
-photos="" out="" count=36000 threads=2 work="" seed=101 min_side=96 backgrounds=wallpapers
+photos="" out="" count=36000 threads=2 work="" seed=101 min_side=96 backgrounds=wallpapers augment=4
 while [[ $# -gt 0 ]]; do
     case $1 in
         --photos) photos=$2; shift 2 ;;
@@ -33,15 +34,16 @@ while [[ $# -gt 0 ]]; do
         --seed) seed=$2; shift 2 ;;
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
-        -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+        --augment) augment=$2; shift 2 ;;
+        -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
 [[ -n $photos && -n $out ]] || { echo "sim2real: --photos DIR and --out MODEL are required (see --help)" >&2; exit 2; }
 [[ $backgrounds == wallpapers || $backgrounds == photos ]] || { echo "sim2real: --backgrounds takes wallpapers or photos" >&2; exit 2; }
 [[ -d $photos ]] || { echo "sim2real: $photos: photo folder not found" >&2; exit 1; }
-[[ $count =~ ^[1-9][0-9]*$ && $threads =~ ^[1-9][0-9]*$ && $seed =~ ^[0-9]+$ && $min_side =~ ^[1-9][0-9]*$ ]] ||
-    { echo "sim2real: --count, --threads, --seed and --min-side take whole numbers" >&2; exit 2; }
+[[ $count =~ ^[1-9][0-9]*$ && $threads =~ ^[1-9][0-9]*$ && $seed =~ ^[0-9]+$ && $min_side =~ ^[1-9][0-9]*$ && $augment =~ ^[1-9][0-9]*$ ]] ||
+    { echo "sim2real: --count, --threads, --seed, --min-side and --augment take whole numbers" >&2; exit 2; }
 # Paths given relative to where the script was started from; the script then works from the checkout.
 absolute() { [[ $1 == /* ]] && echo "$1" || echo "$PWD/$1"; }
 photos=$(absolute "$photos")
@@ -74,6 +76,6 @@ fi
     "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \
     --set degrade.downscale_probability=0.3 --set degrade.gamma_probability=0.5 --set degrade.colour_jitter_probability=0.5
-"$facesynth" train --data "$work/train" --out "$out" --hog-cells 3 --stages 6 --augment 4 --threads "$threads" --lambda-factors 3,10,30,100 \
+"$facesynth" train --data "$work/train" --out "$out" --hog-cells 3 --stages 6 --augment "$augment" --threads "$threads" --lambda-factors 3,10,30,100 \
     --json "$work/train.json" $([[ ${#quiet[@]} -gt 0 ]] && echo --quiet)
 echo "sim2real: $out (work files in $work)"

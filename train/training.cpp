@@ -57,6 +57,9 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     };
     report["feature_pca"] = options.feature_components;
     report["mirror"] = options.mirror;
+    report["augment"] = options.augment;
+    report["stages"] = options.stages;
+    report["hog_cells"] = options.hog_cells;
     SdmModel model;
     if (views) {
         ViewCascadeCounts counts;

@@ -106,7 +106,9 @@ TEST(TextureMix, GreyscalePhotographsTexturesMakeGreyscalePictures) {
         const bool from_grey = textures.greyscale(*s.spec.texture_choice);
         EXPECT_EQ(s.spec.degradation.greyscale, from_grey) << "sample " << index;
         EXPECT_EQ(is_greyscale(s.image), from_grey) << "sample " << index;
-        if (!from_grey) EXPECT_NE(s.texture_mix, "grey.png") << "sample " << index;  // a grey mix would grey the face alone
+        if (!from_grey) {
+            EXPECT_NE(s.texture_mix, "grey.png") << "sample " << index;  // a grey mix would grey the face alone
+        }
         ++(from_grey ? grey : coloured);
     }
     EXPECT_GT(grey, 0);

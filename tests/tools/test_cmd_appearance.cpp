@@ -251,7 +251,9 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
         << out;
     EXPECT_TRUE(fs::exists(model));
     const auto train = read_json(dir / "sim2real-work" / "train.json");
-    EXPECT_TRUE(train.contains("stage6_nme"));  // the recipe's six stages (docs/results.md row 41)
+    EXPECT_EQ(train["stages"], 6);  // the recipe's six stages (docs/results.md row 41)
+    EXPECT_EQ(train["hog_cells"], 3);
+    EXPECT_EQ(train["augment"], 4);
     const auto meta = read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json");
     EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);  // rendered with the bank
     EXPECT_EQ(meta["background"]["type"], "wallpapers");                       // the default backgrounds
@@ -268,12 +270,14 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     // from (not the checkout it works in).
     fs::remove(model);
     ASSERT_EQ(run_command("cd " + dir.string() + " && " + env + "bash " + script + " --photos " + fs::relative(photos, dir).string() +
-                              " --out sim2real.sdm --count 20 --min-side 24 --backgrounds photos", &out), 0)
+                              " --out sim2real.sdm --count 20 --min-side 24 --backgrounds photos --augment 2", &out), 0)
         << out;
     EXPECT_TRUE(fs::exists(model));
+    EXPECT_EQ(read_json(dir / "sim2real-work" / "train.json")["augment"], 2);
     EXPECT_EQ(read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json")["background"]["type"], "images");
     EXPECT_TRUE(fs::exists(dir / "sim2real-work" / "backgrounds"));
     EXPECT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --backgrounds walls", &out), 2);
+    EXPECT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --augment 0", &out), 2);
     EXPECT_EQ(run_command("bash " + script + " --out " + model.string(), &out), 2);
     EXPECT_EQ(run_command(env + "bash " + script + " --photos " + (dir / "missing").string() + " --out " + model.string(), &out), 1);
 }

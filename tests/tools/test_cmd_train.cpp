@@ -49,6 +49,9 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
         EXPECT_TRUE(train_report.contains(key)) << key;
     EXPECT_EQ(train_report["detector"], "dlib");  // the default
     EXPECT_EQ(train_report["mirror"], false);
+    EXPECT_EQ(train_report["augment"], 3);
+    EXPECT_EQ(train_report["stages"], 3);
+    EXPECT_EQ(train_report["hog_cells"], 2);
     // --cascades auto: these near-frontal faces give the profile cascade too few faces, so one cascade.
     EXPECT_EQ(train_report["view_cascades"], false);
 
