@@ -10,9 +10,12 @@ hold for a sample (|yaw|, |pitch|, |roll|, fov, each degradation and lighting va
 directional lights, the inter-ocular distance in pixels): its Pearson
 correlation with the NME and the mean NME per quantile bin of it. For the texture (a categorical
 parameter) the split-half correlation: the NMEs of two renders of the same texture, over textures with
-at least two renders (near 0: the texture does not decide how hard a render is). The CSV's keys are
-matched to DATASET/meta by their last path component, so a folder of links to a dataset's images and
-.pts works too. Standard library only.
+at least two renders (near 0: the texture does not decide how hard a render is). With --bank (the
+texture bank the dataset was rendered from), each texture's mean NME over its renders (as the first
+texture, at least three renders) is related to the bank's numbers for it (fit_error, seen_share,
+face_coverage, ...: docs/textures.md), and the --worst N textures are listed with their photographs.
+The CSV's keys are matched to DATASET/meta by their last path component, so a folder of links to a
+dataset's images and .pts works too. Standard library only.
 """
 import argparse
 import json
@@ -67,9 +70,11 @@ def main():
     parser.add_argument("--column", type=int, default=1, help="which regressor's NME (1 = the first)")
     parser.add_argument("--bins", type=int, default=5, help="quantile bins per parameter")
     parser.add_argument("--max-yaw", type=float, default=None, help="only the faces with |yaw| up to this (degrees; the CSV's yaw_deg)")
+    parser.add_argument("--bank", help="the texture bank the dataset was rendered from: relate each texture's mean NME to its numbers")
+    parser.add_argument("--worst", type=int, default=10, help="with --bank: list this many textures with the highest mean NME")
     args = parser.parse_args()
-    if args.column < 1 or args.bins < 1:
-        parser.error("--column and --bins must be at least 1")
+    if args.column < 1 or args.bins < 1 or args.worst < 0:
+        parser.error("--column and --bins must be at least 1, --worst at least 0")
     if args.max_yaw is not None and not args.max_yaw >= 0:
         parser.error("--max-yaw must be a number of degrees, at least 0")
 
@@ -124,6 +129,29 @@ def main():
     if len(repeated) >= 3:
         print(f"texture: split-half r {pearson([v[0] for v in repeated], [v[1] for v in repeated]):+.3f} over {len(repeated)} textures "
               f"with two or more renders ({len(textures)} textures)")
+    if args.bank:
+        report_bank(args.bank, textures, args.worst)
+
+
+def report_bank(bank, textures, worst):
+    """Each texture's mean NME against the bank's per-texture numbers, and the worst textures."""
+    path = os.path.join(bank, "bank.json")
+    try:
+        with open(path) as f:
+            entries = {t["file"]: t for t in json.load(f)["textures"]}
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        sys.exit(f"{path}: cannot be read as a texture bank ({e})")
+    means = {t: sum(v) / len(v) for t, v in textures.items() if len(v) >= 3 and t in entries}
+    if len(means) < 3:
+        sys.exit(f"{path}: fewer than 3 of the bank's textures have three or more renders here")
+    print(f"bank: {len(means)} textures with three or more renders; r of their mean NME with")
+    names = sorted({k for t in means for k, v in entries[t].items() if isinstance(v, (int, float)) and not isinstance(v, bool)})
+    for name in names:
+        pairs = [(entries[t][name], m) for t, m in means.items() if isinstance(entries[t].get(name), (int, float))]
+        if len(pairs) >= 3:
+            print(f"  {name:30s} {pearson([p[0] for p in pairs], [p[1] for p in pairs]):+7.3f}")
+    for t, m in sorted(means.items(), key=lambda item: -item[1])[:worst]:
+        print(f"worst: {t} {m:.4f} ({len(textures[t])} renders) from {entries[t].get('source', '?')}")
 
 
 if __name__ == "__main__":

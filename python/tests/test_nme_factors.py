@@ -62,3 +62,29 @@ def test_directional_lights_counted_and_max_yaw_keeps_the_near_frontal_faces(tmp
     assert "0: 0.0600" in lines["lighting.directional_lights"] and "2: 0.0400" in lines["lighting.directional_lights"]
     result = run(tmp_path / "nme.csv", tmp_path, "--max-yaw", -1)
     assert result.returncode != 0 and "--max-yaw" in result.stderr
+
+
+def test_bank_relates_each_textures_mean_nme_to_its_numbers_and_lists_the_worst(tmp_path):
+    (tmp_path / "meta").mkdir()
+    rows = ["key,yaw_deg,detected,view,regressor1"]
+    for i in range(40):
+        texture = i % 8  # five renders each; texture t's renders are harder the higher its fit error
+        (tmp_path / "meta" / f"s{i:08d}.json").write_text(json.dumps({"yaw": 0, "texture": f"textures/{texture:06d}.png"}))
+        rows.append(f"d/s{i:08d},0,1,frontal,{0.03 + 0.01 * texture + 0.001 * (i % 3)}")
+    (tmp_path / "nme.csv").write_text("\n".join(rows) + "\n")
+    bank = tmp_path / "bank"
+    bank.mkdir()
+    textures = [{"file": f"textures/{t:06d}.png", "fit_error": 0.01 * t, "seen_share": 0.6 + 0.01 * ((t * 5) % 8),
+                 "source": f"photos/p{t}.jpg", "landmarks_source": "pts"} for t in range(8)]
+    (bank / "bank.json").write_text(json.dumps({"textures": textures}))
+    result = run(tmp_path / "nme.csv", tmp_path, "--bank", bank, "--worst", 2)
+    assert result.returncode == 0, result.stderr
+    lines = {line.split()[0]: line for line in result.stdout.splitlines() if line.startswith("  ")}
+    assert float(lines["fit_error"].split()[1]) > 0.99
+    assert abs(float(lines["seen_share"].split()[1])) < 0.9
+    assert "landmarks_source" not in lines  # not a number
+    worst = [line for line in result.stdout.splitlines() if line.startswith("worst:")]
+    assert len(worst) == 2 and "000007.png" in worst[0] and "photos/p7.jpg" in worst[0] and "000006.png" in worst[1]
+    (bank / "bank.json").write_text("{")
+    result = run(tmp_path / "nme.csv", tmp_path, "--bank", bank)
+    assert result.returncode != 0 and "bank.json" in result.stderr
