@@ -18,7 +18,9 @@ JawMode parse_jaw_mode(const std::string& text) {
     if (text == "contour") return JawMode::kContour;
     throw core::Error("jaw '" + text + "': expected fixed or contour");
 }
-namespace {
+// Not in the anonymous namespace: Fitter::LinearCache, a class with external linkage, holds BasisGrams,
+// and GCC warns of members of internal-linkage types wherever this file is included (unity builds).
+namespace gram_blocks {
 
 // Weighted Gram blocks of a basis restricted to landmark points, G_ab = Σ_i w_i B_i[a]ᵀ B_i[b] for the
 // rows a, b ∈ {x, y, z} of each point's 3 × K block B_i. For any affine camera matrix M (2 × 3),
@@ -71,6 +73,12 @@ public:
 private:
     std::array<Eigen::MatrixXd, 6> blocks_;  // xx, yy, zz, then xy + yx, xz + zx, yz + zy; lower triangles
 };
+
+}  // namespace gram_blocks
+
+using gram_blocks::BasisGram;
+
+namespace {
 
 // min ½ cᵀHc − gᵀc subject to c >= 0 (H's lower triangle holds the matrix).
 Eigen::VectorXd nonnegative_solve(Eigen::MatrixXd h, const Eigen::VectorXd& g, const Eigen::VectorXd& start);
