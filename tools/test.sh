@@ -5,7 +5,8 @@
 #      commands of a configured (not built) tree without unity, in build-tidy/, eight files of a target at a time;
 #   3. AddressSanitizer + UndefinedBehaviorSanitizer with leak detection on, in build-asan/ (unity build)
 #      (FACESYNTH_ASAN_BUILD_DIR), without the Python package and the few tests listed below that it cannot
-#      add to. tools/lsan.supp suppresses leaks inside Mesa's and HDF5's libraries only.
+#      add to, each test program run as GoogleTest shards of about 12 cases (CTest names them
+#      test_<module>.shard<k>of<n>). tools/lsan.supp suppresses leaks inside Mesa's and HDF5's libraries only.
 # --quick skips steps 2 and 3 (for local runs); CI runs all three.
 # Compiles through ccache when it is installed (tools/ccache.sh); clang-tidy keeps its own cache of
 # files that passed (tools/tidy.sh). Each step prints its wall time.
