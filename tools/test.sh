@@ -16,7 +16,7 @@ full=1
 for arg in "$@"; do
     case $arg in
         --quick) full=0 ;;
-        -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
         *) echo "usage: tools/test.sh [--quick]" >&2; exit 2 ;;
     esac
 done
