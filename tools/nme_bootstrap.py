@@ -12,7 +12,9 @@ frames of one clip from `facesynth eval track --nme-csv`), and whole clusters ar
 
 Targets stated as ratios ("within 1.2 x the reference") are read with --ratio R: every paired
 difference is then other - R x reference per face, so an interval below 0 means the target is met on
-these faces. --yaw-split D adds the faces with |yaw| <= D and > D as two more groups.
+these faces. --yaw-split D adds the faces with |yaw| <= D and > D as two more groups. With --fail-at T
+every NME is first replaced by 1 if it exceeds T, else 0, so that the means are failure rates over the
+detected faces and the paired differences differences in failure rate.
 
 Several CSV files are joined by the last path component of their keys, so that the same sample index of
 two datasets rendered with one setting changed (or the same photographs in two runs) pair up: their
@@ -20,7 +22,7 @@ regressor columns follow one another, a face counts as detected where every file
 and view are the first file's; faces missing from any file are left out.
 
     tools/nme_bootstrap.py F.csv [G.csv ...] [--reference 1] [--names ours,dlib,...] [--resamples 5000] [--seed 1] [--cluster-size N]
-                           [--ratio R] [--yaw-split D]
+                           [--ratio R] [--yaw-split D] [--fail-at T]
 """
 import argparse
 import math
@@ -95,11 +97,14 @@ def main():
     parser.add_argument("--cluster-size", type=int, default=0, help="resample clusters of this many consecutive rows (clips)")
     parser.add_argument("--ratio", type=float, default=1.0, help="compare each regressor with this multiple of the reference")
     parser.add_argument("--yaw-split", type=float, default=None, help="also compare the faces with |yaw| up to and beyond this")
+    parser.add_argument("--fail-at", type=float, default=None, help="compare failure rates: NME above this counts 1, else 0")
     args = parser.parse_args()
     if args.cluster_size < 0:
         sys.exit("--cluster-size must not be negative")
     if not math.isfinite(args.ratio) or args.ratio <= 0:
         sys.exit("--ratio must be a positive number")
+    if args.fail_at is not None and not (math.isfinite(args.fail_at) and args.fail_at > 0 and args.ratio == 1):
+        sys.exit("--fail-at must be a positive NME, and is not combined with --ratio")
     if args.yaw_split is not None and not (0 <= args.yaw_split <= 90):
         sys.exit("--yaw-split must be between 0 and 90 degrees")
 
@@ -116,13 +121,17 @@ def main():
     for position, row in enumerate(rows):
         row["_cluster"] = position // args.cluster_size if args.cluster_size else position
     found = [r for r in rows if r["detected"] == "1"]
+    if args.fail_at is not None:
+        for r in found:
+            r.update((c, "1" if float(r[c]) > args.fail_at else "0") for c in columns)
 
     def clusters_of(subset):
         return [r["_cluster"] for r in subset] if args.cluster_size else None
     ref = columns[args.reference - 1]
     rng = random.Random(args.seed)
     unit = f"; clusters of {args.cluster_size} rows resampled" if args.cluster_size else ""
-    print(f"{source}: {len(rows)} faces, {len(found)} detected; {args.resamples} resamples{unit}")
+    measure = f"; failure rates at {args.fail_at:g}" if args.fail_at is not None else ""
+    print(f"{source}: {len(rows)} faces, {len(found)} detected; {args.resamples} resamples{unit}{measure}")
     for column, name in zip(columns, names):
         values = [float(r[column]) for r in found]
         low, high = bootstrap_mean(values, args.resamples, rng, clusters_of(found))

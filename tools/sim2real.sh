@@ -16,7 +16,7 @@
 #                             σ 6.7° and σ 8°), long lenses (fov 4-20°), degradations, and the jaw labels evenly
 #                             spaced along the outline as annotators space them (landmarks.mode = even)
 #                             (into WORK/train, replacing a set made with other settings)
-#   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, 4 starts).
+#   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, --augment starts).
 #                             At 36000 renders on 2 cores the whole script takes about 51 minutes (renders 14,
 #                             training 36) and 7.5 GB on a quiet machine; docs/results.md rows 55, 59, 64
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]

@@ -87,3 +87,19 @@ def test_several_files_pair_by_sample_name(tmp_path):
     (tmp_path / "other.csv").write_text("key,yaw_deg,detected,view,regressor1\nz/q9,0,1,frontal,0.1\n")
     result = run(tmp_path / "a.csv", tmp_path / "other.csv")
     assert result.returncode != 0 and "no face is in every file" in result.stderr
+
+
+def test_fail_at_compares_failure_rates_over_the_detected_faces(tmp_path):
+    # ours fails (> 0.08) on faces 0-3, the reference on faces 0-9; face 10 is a miss and left out.
+    rows = [(f"f{i}", 0, 0 if i == 10 else 1, 0.09 if i < 4 else 0.03, 0.09 if i < 10 else 0.02) for i in range(20)]
+    write_csv(tmp_path / "nme.csv", rows)
+    result = run(tmp_path / "nme.csv", "--names", "ours,ref", "--reference", 2, "--fail-at", 0.08)
+    assert result.returncode == 0, result.stderr
+    assert "19 detected; 5000 resamples; failure rates at 0.08" in result.stdout
+    assert "ours: mean 0.2105" in result.stdout  # 4 of 19
+    line = line_of(result.stdout, "all", "ours")
+    assert "-0.3158" in line and "means 0.2105 vs 0.5263" in line  # (4 - 10) / 19
+    result = run(tmp_path / "nme.csv", "--fail-at", 0.08, "--ratio", 1.2)
+    assert result.returncode != 0 and "--fail-at" in result.stderr
+    result = run(tmp_path / "nme.csv", "--fail-at", -1)
+    assert result.returncode != 0 and "--fail-at" in result.stderr
