@@ -195,6 +195,9 @@ void MetricsSummary::add(const FitMetrics& m) {
     yaw += m.yaw_error_deg;
     pitch += m.pitch_error_deg;
     roll += m.roll_error_deg;
+    yaw_bias += m.yaw_signed_error_deg;
+    pitch_bias += m.pitch_signed_error_deg;
+    roll_bias += m.roll_signed_error_deg;
     vertex += m.vertex_rmse_mm;
     meanshape += m.vertex_rmse_mm_meanshape;
     alpha += m.alpha_rmse;
@@ -210,6 +213,9 @@ void MetricsSummary::write(nlohmann::json& j, const std::string& prefix) const {
     j[prefix + "yaw_mae_deg"] = yaw / n;
     j[prefix + "pitch_mae_deg"] = pitch / n;
     j[prefix + "roll_mae_deg"] = roll / n;
+    j[prefix + "yaw_bias_deg"] = yaw_bias / n;
+    j[prefix + "pitch_bias_deg"] = pitch_bias / n;
+    j[prefix + "roll_bias_deg"] = roll_bias / n;
     j[prefix + "vertex_rmse_mm"] = vertex / n;
     j[prefix + "vertex_rmse_mm_meanshape"] = meanshape / n;
     j[prefix + "alpha_rmse"] = alpha / n;

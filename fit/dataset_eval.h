@@ -72,9 +72,11 @@ struct DatasetEvalOptions {
 struct MetricsSummary {
     int count = 0;
     double yaw = 0, pitch = 0, roll = 0, vertex = 0, meanshape = 0, alpha = 0, reprojection = 0, ms = 0, cpu_ms = 0;
+    double yaw_bias = 0, pitch_bias = 0, roll_bias = 0;  // sums of the signed errors
     void add(const FitMetrics& m);
-    // Writes PREFIX + count, yaw_mae_deg, pitch_mae_deg, roll_mae_deg, vertex_rmse_mm,
-    // vertex_rmse_mm_meanshape, alpha_rmse, reprojection_px, ms_per_fit, cpu_ms_per_fit (means; 0 when empty).
+    // Writes PREFIX + count, yaw_mae_deg, pitch_mae_deg, roll_mae_deg, yaw_bias_deg, pitch_bias_deg,
+    // roll_bias_deg (mean fitted - true), vertex_rmse_mm, vertex_rmse_mm_meanshape, alpha_rmse,
+    // reprojection_px, ms_per_fit, cpu_ms_per_fit (means; 0 when empty).
     void write(nlohmann::json& j, const std::string& prefix) const;
 };
 

@@ -12,9 +12,10 @@
 namespace facesynth::fit {
 namespace {
 
-double angle_error(double a, double b) {
-    const double d = std::fmod(std::abs(a - b), 360.0);
-    return d > 180.0 ? 360.0 - d : d;
+// a - b wrapped to [-180, 180).
+double signed_angle_difference(double a, double b) {
+    const double d = std::fmod(a - b + 180.0, 360.0);
+    return (d < 0 ? d + 360.0 : d) - 180.0;
 }
 
 double thread_cpu_ms() {
@@ -50,9 +51,12 @@ FitMetrics evaluate_fit(const Fitter& fitter, const Eigen::Matrix2Xd& landmarks,
     m.cpu_ms = thread_cpu_ms() - cpu_start;
 
     m.truth = morph::euler_from_rotation(truth.rotation);
-    m.yaw_error_deg = angle_error(m.fitted.yaw, m.truth.yaw);
-    m.pitch_error_deg = angle_error(m.fitted.pitch, m.truth.pitch);
-    m.roll_error_deg = angle_error(m.fitted.roll, m.truth.roll);
+    m.yaw_signed_error_deg = signed_angle_difference(m.fitted.yaw, m.truth.yaw);
+    m.pitch_signed_error_deg = signed_angle_difference(m.fitted.pitch, m.truth.pitch);
+    m.roll_signed_error_deg = signed_angle_difference(m.fitted.roll, m.truth.roll);
+    m.yaw_error_deg = std::abs(m.yaw_signed_error_deg);
+    m.pitch_error_deg = std::abs(m.pitch_signed_error_deg);
+    m.roll_error_deg = std::abs(m.roll_signed_error_deg);
 
     const int k = model.num_shape_components();
     Eigen::VectorXf true_alpha = Eigen::VectorXf::Zero(k), fit_alpha = Eigen::VectorXf::Zero(k);

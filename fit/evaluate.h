@@ -26,6 +26,7 @@ struct EvalOptions {
 struct FitMetrics {
     morph::EulerAngles fitted, truth;
     double yaw_error_deg = 0, pitch_error_deg = 0, roll_error_deg = 0;  // absolute, wrapped to [0, 180]
+    double yaw_signed_error_deg = 0, pitch_signed_error_deg = 0, roll_signed_error_deg = 0;  // fitted - true, wrapped to [-180, 180)
     double vertex_rmse_mm = 0;            // fitted vs true identity shape, model space, expression zero
     double vertex_rmse_mm_meanshape = 0;  // the model's mean vs the true identity (the baseline)
     double alpha_rmse = 0;                // over the model's components, σ units

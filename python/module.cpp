@@ -511,7 +511,7 @@ py::dict eval_fit(const Model& model, const std::string& data, const std::string
 // `facesynth eval realism`: the same figures under the same keys as its --json; unreadable images
 // are Python warnings (the CLI's warning lines) and count as misses.
 py::dict eval_realism(const std::string& data, const std::string& photos, const std::string& regressor_spec, const std::string& detector_option,
-                      double max_yaw) {
+                      double max_yaw, bool match_face_size) {
     if (!(max_yaw >= 0 && max_yaw <= 90)) throw py::value_error("max_yaw must be in [0, 90] degrees, got " + std::to_string(max_yaw));
     const auto regressor = train::open_regressor(regressor_spec);
     const train::LandmarkRegressor* const regressors[] = {regressor.get()};
@@ -531,7 +531,7 @@ py::dict eval_realism(const std::string& data, const std::string& photos, const 
             fitter.emplace(*builtin);
         }
         const train::AnnotationYaw photo_yaw = [&](const Eigen::Matrix2Xd& annotation) { return fit::annotated_yaw(*fitter, annotation); };
-        report = train::evaluate_realism({data, photos, max_yaw}, *regressor, detector, photo_yaw);
+        report = train::evaluate_realism({data, photos, max_yaw, match_face_size}, *regressor, detector, photo_yaw);
     }
     const py::object warn = py::module_::import("warnings").attr("warn");
     for (const train::RealismSide* side : {&report.renders, &report.photos})
@@ -785,7 +785,7 @@ PYBIND11_MODULE(_facesynth, m) {
     m.def("eval_frontalise", &facesynth::python::eval_frontalise, py::arg("model"), py::arg("count"), py::arg("seed"), py::arg("isomap_size"),
           py::arg("size"), py::arg("image_size"), py::arg("fov"), py::arg("framing"), py::arg("lighting"));
     m.def("eval_realism", &facesynth::python::eval_realism, py::arg("data"), py::arg("photos"), py::arg("regressor"), py::arg("detector"),
-          py::arg("max_yaw"));
+          py::arg("max_yaw"), py::arg("match_face_size"));
     py::class_<Detector>(m, "Detector")
         .def(py::init<const std::string&, const std::string&>(), py::arg("regressor"), py::arg("detector"))
         .def("detect", &Detector::detect, py::arg("image"))

@@ -228,6 +228,7 @@ struct RealismArgs {
     std::string regressor = "dlib";
     std::string detector = "dlib";
     double max_yaw = 20;
+    bool match_face_size = false;
     std::string json;
     bool quiet = false;
 };
@@ -242,7 +243,7 @@ void run_realism(const RealismArgs& a) {
     const train::AnnotationYaw photo_yaw = [&](const Eigen::Matrix2Xd& annotation) { return fit::annotated_yaw(*fitter, annotation); };
     std::optional<Progress> progress;
     const train::RealismReport report = train::evaluate_realism(
-        {a.data, a.photos, a.max_yaw}, *regressor, detector, photo_yaw, [&](std::size_t total) { progress.emplace("realism", total, a.quiet); },
+        {a.data, a.photos, a.max_yaw, a.match_face_size}, *regressor, detector, photo_yaw, [&](std::size_t total) { progress.emplace("realism", total, a.quiet); },
         [&] { progress->advance(); });
     progress->finish();
     for (const train::RealismSide* side : {&report.renders, &report.photos})
@@ -259,6 +260,8 @@ void run_realism(const RealismArgs& a) {
         side_line("renders", report.renders);
         if (with_photos) {
             side_line("photographs", report.photos);
+            std::printf("  face size (outer eye corners, median): renders %.0f px, photographs %.0f px%s\n", report.renders.iod_px_median,
+                        report.photos.iod_px_median, a.match_face_size ? ", photographs scaled to the renders'" : "");
             std::printf("  NME ratio renders / photographs: %.2f\n", report.nme_ratio);
         }
         // The landmarks the predictor places most differently on renders than on photographs.
@@ -283,6 +286,9 @@ void register_appearance_commands(CLI::App& app) {
     realism->add_option("--regressor", r->regressor, "The real-trained predictor: dlib or a .sdm model")->capture_default_str();
     add_detector_option(*realism, r->detector);
     realism->add_option("--max-yaw", r->max_yaw, "Near-frontal: |yaw| at most this, degrees")->check(finite_range(0.0, 90.0))->capture_default_str();
+    realism->add_flag("--match-face-size", r->match_face_size,
+                      "Scale each photograph (image and annotation) so that its outer eye corners lie as far apart as the renders' median "
+                      "before reading it: the faces compared at one size");
     realism->add_option("--json", r->json, "Write the figures as flat JSON (per-landmark bias as <side>_bias_<x|y>_<NN>)");
     realism->add_flag("-q,--quiet", r->quiet, "No progress or summary");
     realism->callback([r] { run_realism(*r); });

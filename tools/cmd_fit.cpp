@@ -174,13 +174,14 @@ struct FitEvalArgs {
 
 void print_summary_row(const std::string& label, const fit::MetricsSummary& s) {
     const double n = std::max(s.count, 1);
-    std::printf("%-12s %5d %7.2f %7.2f %7.2f %9.2f %10.2f %7.3f %7.2f %7.3f %7.3f\n", label.c_str(), s.count, s.yaw / n, s.pitch / n,
-                s.roll / n, s.vertex / n, s.meanshape / n, s.alpha / n, s.reprojection / n, s.ms / n, s.cpu_ms / n);
+    std::printf("%-12s %5d %7.2f %7.2f %7.2f %+7.2f %+7.2f %+7.2f %9.2f %10.2f %7.3f %7.2f %7.3f %7.3f\n", label.c_str(), s.count, s.yaw / n,
+                s.pitch / n, s.roll / n, s.yaw_bias / n, s.pitch_bias / n, s.roll_bias / n, s.vertex / n, s.meanshape / n, s.alpha / n,
+                s.reprojection / n, s.ms / n, s.cpu_ms / n);
 }
 
 void print_summary(const fit::YawBinnedSummary& summary, bool skip_empty) {
-    std::printf("%-12s %5s %7s %7s %7s %9s %10s %7s %7s %7s %7s\n", "yaw bin", "n", "yaw", "pitch", "roll", "rmse_mm", "mean_mm", "alpha",
-                "repr_px", "ms", "cpu_ms");
+    std::printf("%-12s %5s %7s %7s %7s %7s %7s %7s %9s %10s %7s %7s %7s %7s\n", "yaw bin", "n", "yaw", "pitch", "roll", "yaw_b", "pitch_b",
+                "roll_b", "rmse_mm", "mean_mm", "alpha", "repr_px", "ms", "cpu_ms");
     for (std::size_t b = 0; b < summary.bins.size(); ++b)
         if (!skip_empty || summary.bins[b].count > 0) print_summary_row(summary.label(b), summary.bins[b]);
     print_summary_row("all", summary.all);

@@ -49,19 +49,41 @@ double grey_below_chin(const cv::Mat& gray, const Eigen::Matrix2Xd& label, doubl
     return cv::mean(gray(square), inside)[0] / 255.0;
 }
 
+// 0 for no values.
+double median_of(std::vector<double> values) {
+    if (values.empty()) return 0;
+    const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+    std::nth_element(values.begin(), middle, values.end());
+    if (values.size() % 2) return *middle;
+    return 0.5 * (*middle + *std::max_element(values.begin(), middle));
+}
+
 }  // namespace
 
 RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor, DetectorKind detector_kind,
-                            const std::function<void()>& on_image) {
+                            const std::function<void()>& on_image, std::optional<double> iod_px) {
+    if (iod_px && !(std::isfinite(*iod_px) && *iod_px > 0)) throw core::Error("eval realism: the face size to match must be a positive number of pixels");
     RealismSide side;
     side.bias = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks);
     const FaceDetector detector(detector_kind);
-    std::vector<double> greys, under_chin, neck;
+    std::vector<double> greys, under_chin, neck, iods, scales;
     for (const LabelledImage& image : images) {
         ++side.faces;
         double nme = std::numeric_limits<double>::infinity();
         try {
-            const auto [truth, gray] = load_labelled_face(image);
+            auto [truth, gray] = load_labelled_face(image);
+            const double iod = (truth.col(morph::kLeftEyeOuterCorner) - truth.col(morph::kRightEyeOuterCorner)).norm();
+            if (std::isfinite(iod) && iod > 0) {
+                iods.push_back(iod);
+                if (iod_px) {
+                    const double scale = *iod_px / iod;
+                    cv::Mat scaled;
+                    cv::resize(gray, scaled, cv::Size(), scale, scale, scale < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+                    gray = scaled;
+                    truth = ((truth.array() + 0.5) * scale - 0.5).matrix();  // pixel centres at integers, as cv::resize maps them
+                    scales.push_back(scale);
+                }
+            }
             if (const double grey = hull_grey(gray, truth); std::isfinite(grey)) {
                 greys.push_back(grey);
                 if (grey > 0) {
@@ -92,6 +114,8 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
     };
     side.under_chin_shade = mean(under_chin);
     side.neck_shade = mean(neck);
+    side.iod_px_median = median_of(iods);
+    side.scale_median = scales.empty() ? 1.0 : median_of(scales);
     side.nme = summarise_nme(side.nmes);
     return side;
 }
@@ -128,6 +152,8 @@ void add_side(nlohmann::json& j, const std::string& prefix, const RealismSide& s
     j[prefix + "_face_grey_stddev"] = side.face_grey_stddev;
     j[prefix + "_under_chin_shade"] = side.under_chin_shade;
     j[prefix + "_neck_shade"] = side.neck_shade;
+    j[prefix + "_iod_px_median"] = side.iod_px_median;
+    j[prefix + "_scale_median"] = side.scale_median;
     for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {
         char key[48];
         std::snprintf(key, sizeof key, "%s_bias_x_%02d", prefix.c_str(), i + 1);
@@ -156,7 +182,14 @@ RealismReport evaluate_realism(const RealismSettings& settings, const LandmarkRe
     if (on_start) on_start(renders.size() + photos.size());
     RealismReport report;
     report.renders = measure_realism(renders, regressor, detector, on_image);
-    if (!photos.empty()) report.photos = measure_realism(photos, regressor, detector, on_image);
+    if (!photos.empty()) {
+        std::optional<double> photo_iod_px;
+        if (settings.match_face_size) {
+            if (!(report.renders.iod_px_median > 0)) throw core::file_error(settings.data, "no readable render to take the face size from");
+            photo_iod_px = report.renders.iod_px_median;
+        }
+        report.photos = measure_realism(photos, regressor, detector, on_image, photo_iod_px);
+    }
     report.nme_ratio = photos.empty() || !(report.photos.nme.mean > 0) ? 0 : report.renders.nme.mean / report.photos.nme.mean;
 
     const Eigen::Matrix2Xd gap = photos.empty() ? report.renders.bias : Eigen::Matrix2Xd(report.renders.bias - report.photos.bias);
@@ -168,6 +201,7 @@ RealismReport evaluate_realism(const RealismSettings& settings, const LandmarkRe
     j["regressor"] = regressor.label();
     j["detector"] = detector_name(detector);
     j["max_yaw_deg"] = settings.max_yaw_deg;
+    j["match_face_size"] = settings.match_face_size;
     j["nme_ratio"] = report.nme_ratio;
     add_side(j, "renders", report.renders);
     if (!photos.empty()) add_side(j, "photos", report.photos);

@@ -36,17 +36,26 @@ struct RealismSide {
     // each over the face's grey as above; means over the images where the disc lies inside. Photographs
     // are darker there than lit skin (the chin and jaw hide the sky from the neck).
     double under_chin_shade = 0, neck_shade = 0;
+    // The labels' outer-eye-corner distance in pixels (median over the readable images, before any
+    // rescaling), and the median factor the images were scaled by (1 without rescaling).
+    double iod_px_median = 0, scale_median = 1;
 };
 
-// Runs `regressor` on the faces `detector` finds in `images` (the detection matching each label).
+// Runs `regressor` on the faces `detector` finds in `images` (the detection matching each label). With
+// `iod_px`, each image and its label are first scaled so that the label's outer eye corners lie iod_px
+// pixels apart (area averaging when shrinking): the face as if photographed at that size.
 [[nodiscard]] RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor,
-                                          DetectorKind detector, const std::function<void()>& on_image = {});
+                                          DetectorKind detector, const std::function<void()>& on_image = {},
+                                          std::optional<double> iod_px = std::nullopt);
 
 // `facesynth eval realism` as a function (the CLI and the Python package call it).
 struct RealismSettings {
     std::string data;     // a `facesynth synth` dataset (its meta/ gives each render's yaw)
     std::string photos;   // optional: photographs with .pts
     double max_yaw_deg = 20;  // near-frontal: |yaw| at most this
+    // Photographs scaled to the renders' median face size (outer-eye-corner distance) before they are
+    // read: a photograph's face is often twice a 256² render's, and a predictor reads larger faces better.
+    bool match_face_size = false;
 };
 // A photograph's yaw from its 68-point annotation (the built-in model fitted to it: fit::annotated_yaw,
 // passed in because train does not depend on fit); nullopt when it cannot be estimated.

@@ -276,13 +276,14 @@ def eval_frontalise(model="builtin", count=10, seed=20261122, isomap_size=512, s
                                       float(framing), lighting)
 
 
-def eval_realism(data, photos=None, regressor="dlib", detector="dlib", max_yaw=20.0):
+def eval_realism(data, photos=None, regressor="dlib", detector="dlib", max_yaw=20.0, match_face_size=False):
     """`facesynth eval realism` with the same options: a real-trained predictor (regressor) on the
-    near-frontal renders of a synth dataset and, with photos, on near-frontal annotated photographs.
+    near-frontal renders of a synth dataset and, with photos, on near-frontal annotated photographs
+    (with match_face_size, scaled to the renders' median face size first, as --match-face-size).
     Returns the keys of its --json (nme_ratio, renders_nme_mean, photos_nme_mean, per-landmark
     bias ...); unreadable images become warnings and count as misses."""
     return _facesynth.eval_realism(os.fspath(data), "" if photos is None else os.fspath(photos), os.fspath(regressor), detector,
-                                   float(max_yaw))
+                                   float(max_yaw), bool(match_face_size))
 
 
 def _index(value, name):

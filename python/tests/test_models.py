@@ -191,6 +191,12 @@ def test_eval_helpers_give_the_cli_figures(model, tmp_path):
     subprocess.run([cli, "eval", "realism", "--data", str(data), "--photos", str(data), "--json", str(tmp_path / "r.json"), "--quiet"], check=True)
     same_figures(realism, tmp_path / "r.json")
     assert realism["renders_faces"] == 5 and realism["nme_ratio"] == pytest.approx(1.0)
+    matched = facesynth.eval_realism(data, photos=data, match_face_size=True)
+    subprocess.run([cli, "eval", "realism", "--data", str(data), "--photos", str(data), "--match-face-size", "--json", str(tmp_path / "rm.json"),
+                    "--quiet"], check=True)
+    same_figures(matched, tmp_path / "rm.json")
+    assert matched["match_face_size"] and not realism["match_face_size"]
+    assert matched["photos_scale_median"] == pytest.approx(1.0)  # the same faces: already the renders' size
 
     # eval frontalise from true landmarks.
     frontalised = facesynth.eval_frontalise(model, count=1, isomap_size=128, size=96, image_size=160, lighting="sky")

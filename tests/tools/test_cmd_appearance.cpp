@@ -30,12 +30,12 @@ std::string read_file_bytes(const fs::path& path) {
 }
 
 // Near-frontal renders as "photographs": IMAGE.png with IMAGE.pts beside it.
-fs::path make_photo_folder(const fs::path& dir, int count) {
-    return facesynth::testkit::photo_folder_from_renders(
-        dir, "-n " + std::to_string(count) +
-                 " --seed 3 --set pose.yaw.min=-20 --set pose.yaw.max=20 --set pose.pitch.min=-5 --set pose.pitch.max=5"
-                 " --set camera.face_scale_min=0.3 --set camera.face_scale_max=0.35");
+std::string make_photo_folder_arguments(int count) {
+    return "-n " + std::to_string(count) +
+           " --seed 3 --set pose.yaw.min=-20 --set pose.yaw.max=20 --set pose.pitch.min=-5 --set pose.pitch.max=5"
+           " --set camera.face_scale_min=0.3 --set camera.face_scale_max=0.35";
 }
+fs::path make_photo_folder(const fs::path& dir, int count) { return facesynth::testkit::photo_folder_from_renders(dir, make_photo_folder_arguments(count)); }
 
 // Each test in its own folder: ctest runs them as separate processes, in parallel.
 class CmdAppearance : public ::testing::Test {
@@ -236,6 +236,26 @@ TEST_F(CmdAppearance, RealismComparesRendersWithPhotographs) {
     if (j["photos_faces"] == j["renders_faces"]) {
         EXPECT_DOUBLE_EQ(j["photos_face_grey_mean"].get<double>(), j["renders_face_grey_mean"].get<double>());
         EXPECT_DOUBLE_EQ(j["photos_under_chin_shade"].get<double>(), j["renders_under_chin_shade"].get<double>());
+    }
+    EXPECT_FALSE(j["match_face_size"].get<bool>());
+    EXPECT_DOUBLE_EQ(j["photos_scale_median"].get<double>(), 1.0);
+
+    // The same faces rendered at twice the size: twice the face, and with --match-face-size scaled back
+    // to the renders' face size, read as the renders are.
+    const fs::path big = facesynth::testkit::photo_folder_from_renders(dir / "big", make_photo_folder_arguments(6) + " --size 512");
+    const fs::path matched = dir / "realism_matched.json";
+    ASSERT_EQ(run_command(appearance_cli() + " eval realism -q --match-face-size --data " + (dir / "renders").string() + " --photos " + big.string() +
+                              " --json " + matched.string(),
+                          &out),
+              0)
+        << out;
+    const auto m = read_json(matched);
+    EXPECT_TRUE(m["match_face_size"].get<bool>());
+    EXPECT_NEAR(m["photos_iod_px_median"].get<double>(), 2 * m["renders_iod_px_median"].get<double>(), 0.02 * m["photos_iod_px_median"].get<double>());
+    EXPECT_NEAR(m["photos_scale_median"].get<double>(), 0.5, 0.01);
+    EXPECT_DOUBLE_EQ(m["renders_iod_px_median"].get<double>(), j["renders_iod_px_median"].get<double>());
+    if (m["photos_detected"] == m["renders_detected"] && m["renders_detected"].get<int>() > 0) {
+        EXPECT_NEAR(m["photos_nme_mean"].get<double>(), m["renders_nme_mean"].get<double>(), 0.01);
     }
     EXPECT_EQ(run_command(appearance_cli() + " eval realism -q --data " + (dir / "renders").string() + " --max-yaw nan", &out), 2);
     EXPECT_EQ(run_command(appearance_cli() + " eval realism -q --data " + photos.string(), &out), 1);  // no meta: no yaw

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -54,6 +55,12 @@ TEST(CmdEvalFitData, RefinedFitOfARenderedDatasetBeatsTheMeanShapeAndRecoversThe
     // (morph/jaw_contour.h: far side on the face region's outline, near side fixed), so the contour fit
     // recovers the pose and beats the mean shape clearly (measured 0.47 / 0.60 / 0.22°, 0.25 px, -49%).
     for (const char* key : {"yaw_mae_deg", "pitch_mae_deg", "roll_mae_deg"}) EXPECT_LT(contour[key].get<double>(), 1.0) << key;
+    // The signed mean (fitted - true) is no larger than the mean absolute error, per angle and per bin.
+    for (const char* angle : {"yaw", "pitch", "roll"}) {
+        const double bias = contour[std::string(angle) + "_bias_deg"].get<double>();
+        EXPECT_LE(std::abs(bias), contour[std::string(angle) + "_mae_deg"].get<double>() + 1e-12) << angle;
+        EXPECT_NE(bias, 0.0) << angle << ": a mean of 60 real-valued errors is not exactly 0";
+    }
     EXPECT_LT(contour["reprojection_px"].get<double>(), 1.0);
     EXPECT_LT(contour["vertex_rmse_mm"].get<double>(), 0.7 * contour["vertex_rmse_mm_meanshape"].get<double>());
     // Per 15° bins over ±90° (stable keys); a ±60° dataset leaves the outer bins empty.
