@@ -4,21 +4,25 @@
 #   1. facesynth textures     a texture bank from the photographs, each texture with the shape and expression
 #                             fitted to its photograph, its features warped onto the fitted model's
 #                             (--align-features; their labels are not training targets), hair and hands
-#                             across the upper face filled from the other side (--drop-occluders)
+#                             across the upper face filled from the other side (--drop-occluders), and the
+#                             photograph's own light left in it (--keep-shading)
 #   2. backgrounds            wallpapers (default): the photographs among Debian's wallpaper packages
 #                             (background.type = wallpapers); photos: `facesynth backgrounds`, the
 #                             photographs with their annotated face cut away
 #   3. facesynth synth        COUNT renders (default 36000): each texture on its own photograph's fitted shape and
 #                             expression, half of them mixed with a second texture's colour, on a whole head
 #                             (neck, shoulders, clothing, hair; head.body) whose skin the face and chin shade
-#                             (head.ambient_occlusion), one or two bright lights that cast shadows, the backgrounds, yaw normal
-#                             (σ 25°, within ±60°), pitch and roll as photographs have them (normal, mean +4.6°
-#                             σ 6.7° and σ 8°), long lenses (fov 4-20°), degradations, and the jaw labels evenly
-#                             spaced along the outline as annotators space them (landmarks.mode = even)
+#                             (head.ambient_occlusion), lit by an even white light only (the face keeps the
+#                             photograph's light: no synthetic shading, lights, highlights or shadows), the backgrounds,
+#                             the head turned as in the texture's photograph (pose.source = texture: yaw drawn
+#                             around it with σ 21.6°, so that with the photographs' own 12.6° the yaws spread as
+#                             a normal of σ 25°; pitch and roll within σ 1° of the photograph's), long lenses
+#                             (fov 4-20°), degradations, and the jaw labels evenly spaced along the outline as
+#                             annotators space them (landmarks.mode = even)
 #                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, --augment starts).
 #                             At 36000 renders on 2 cores the whole script takes about 51 minutes (renders 14,
-#                             training 36) and 7.5 GB on a quiet machine; docs/results.md rows 55, 59, 64
+#                             training 36: row 64's recipe, with synthetic lights) and 7.5 GB on a quiet machine; docs/results.md rows 55, 59, 64, 69
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 #                          [--augment A]  (training starts per render, default 4)
@@ -35,7 +39,7 @@ while [[ $# -gt 0 ]]; do
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
         --augment) augment=$2; shift 2 ;;
-        -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -60,18 +64,19 @@ quiet=()
 
 # The bank is rebuilt every time (a minute for 870 photographs): one made by another build may be for
 # another model or lack what synth now takes from it.
-"$facesynth" textures --photos "$photos" --out "$work/bank" --align-features --drop-occluders --json "$work/textures.json" "${quiet[@]}"
+"$facesynth" textures --photos "$photos" --out "$work/bank" --align-features --drop-occluders --keep-shading --json "$work/textures.json" "${quiet[@]}"
 background=(--set background.type=wallpapers)
 if [[ $backgrounds == photos ]]; then
     [[ -d $work/backgrounds ]] || "$facesynth" backgrounds --photos "$photos" --out "$work/backgrounds" --min-side "$min_side" --json "$work/backgrounds.json" "${quiet[@]}"
     background=(--set background.type=images --set background.folder="$work/backgrounds")
 fi
 "$facesynth" synth --out "$work/train" --overwrite --count "$count" --seed "$seed" --threads "$threads" "${quiet[@]}" \
-    --set pose.yaw.distribution=normal --set pose.yaw.stddev=25 --set pose.yaw.min=-60 --set pose.yaw.max=60 \
-    --set pose.pitch.distribution=normal --set pose.pitch.mean=4.6 --set pose.pitch.stddev=6.7 --set pose.roll.distribution=normal --set pose.roll.stddev=8 \
+    --set pose.source=texture --set pose.yaw.distribution=normal --set pose.yaw.stddev=21.6 --set pose.yaw.min=-60 --set pose.yaw.max=60 \
+    --set pose.pitch.distribution=normal --set pose.pitch.mean=0 --set pose.pitch.stddev=1 --set pose.roll.distribution=normal --set pose.roll.stddev=1 \
     --set albedo.texture_bank="$work/bank" --set identity.source=texture --set expression.source=texture --set albedo.texture_mix_probability=0.5 \
-    --set head.body=true --set head.ambient_occlusion=1 --set lighting.directional_min=1 --set lighting.intensity_min=0.4 --set lighting.intensity_max=0.8 \
-    --set lighting.shadow_probability=1 \
+    --set head.body=true --set head.ambient_occlusion=1 \
+    --set lighting.directional_min=0 --set lighting.directional_max=0 --set lighting.sh_strength=0 --set lighting.ambient_max=0 \
+    --set lighting.specular_max=0 --set lighting.shadow_probability=0 --set lighting.colour_temperature_min=6500 --set lighting.colour_temperature_max=6500 \
     --set camera.fov_min=4 --set camera.fov_max=20 --set landmarks.mode=even \
     "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \

@@ -280,11 +280,15 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_TRUE(meta["head_parts"].is_object());                                // on a whole head (row 55)
     EXPECT_TRUE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["align_features"].get<bool>());
     EXPECT_TRUE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["drop_occluders"].get<bool>());
+    // The photograph's own light (rows 68-69): kept in the texture, and no synthetic light on top.
+    EXPECT_FALSE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["remove_shading"].get<bool>());
     const auto config = read_json(dir / "sim2real-work" / "train" / "dataset.json")["config"];
     EXPECT_EQ(config["head"]["ambient_occlusion"], 1.0);
-    EXPECT_EQ(config["lighting"]["shadow_probability"], 1.0);
-    EXPECT_EQ(config["lighting"]["directional_min"], 1);
-    EXPECT_EQ(config["lighting"]["intensity_min"], 0.4);
+    EXPECT_EQ(config["lighting"]["shadow_probability"], 0.0);
+    EXPECT_EQ(config["lighting"]["directional_max"], 0);
+    EXPECT_EQ(config["lighting"]["sh_strength"], 0.0);
+    EXPECT_EQ(config["lighting"]["specular_max"], 0.0);
+    EXPECT_EQ(config["pose"]["source"], "texture");  // turned as the texture's photograph (row 69)
     EXPECT_EQ(config["albedo"]["texture_mix_probability"], 0.5);
     // The photographs' own backgrounds instead, with paths relative to the folder the script is started
     // from (not the checkout it works in).
