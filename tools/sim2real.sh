@@ -13,7 +13,8 @@
 #                             expression, half of them mixed with a second texture's colour, on a whole head
 #                             (neck, shoulders, clothing, hair; head.body) whose skin the face and chin shade
 #                             (head.ambient_occlusion), lit by an even white light only (the face keeps the
-#                             photograph's light: no synthetic shading, lights, highlights or shadows), the backgrounds,
+#                             photograph's light: no synthetic shading, lights, highlights or shadows) and exposed
+#                             for the face as photographs are (face grey level 0.49 ± 0.13), the backgrounds,
 #                             the head turned as in the texture's photograph (pose.source = texture: yaw drawn
 #                             around it with σ 21.6°, so that with the photographs' own 12.6° the yaws spread as
 #                             a normal of σ 25°; pitch and roll within σ 1° of the photograph's), long lenses
@@ -22,7 +23,7 @@
 #                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, --augment starts).
 #                             At 36000 renders on 2 cores the whole script takes about 51 minutes (renders 14,
-#                             training 36: row 64's recipe, with synthetic lights) and 7.5 GB on a quiet machine; docs/results.md rows 55, 59, 64, 69
+#                             training 36: row 64's recipe, with synthetic lights) and 7.5 GB on a quiet machine; docs/results.md rows 55, 59, 64, 70, 71
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 #                          [--augment A]  (training starts per render, default 4)
@@ -39,7 +40,7 @@ while [[ $# -gt 0 ]]; do
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
         --augment) augment=$2; shift 2 ;;
-        -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -77,6 +78,7 @@ fi
     --set head.body=true --set head.ambient_occlusion=1 \
     --set lighting.directional_min=0 --set lighting.directional_max=0 --set lighting.sh_strength=0 --set lighting.ambient_max=0 \
     --set lighting.specular_max=0 --set lighting.shadow_probability=0 --set lighting.colour_temperature_min=6500 --set lighting.colour_temperature_max=6500 \
+    --set lighting.face_luminance_mean=0.49 \
     --set camera.fov_min=4 --set camera.fov_max=20 --set landmarks.mode=even \
     "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \

@@ -289,6 +289,7 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_EQ(config["lighting"]["sh_strength"], 0.0);
     EXPECT_EQ(config["lighting"]["specular_max"], 0.0);
     EXPECT_EQ(config["pose"]["source"], "texture");  // turned as the texture's photograph (row 69)
+    EXPECT_EQ(config["lighting"]["face_luminance_mean"], 0.49);  // exposed for the face (row 71)
     EXPECT_EQ(config["albedo"]["texture_mix_probability"], 0.5);
     // The photographs' own backgrounds instead, with paths relative to the folder the script is started
     // from (not the checkout it works in).
