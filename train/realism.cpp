@@ -72,7 +72,7 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
         double nme = std::numeric_limits<double>::infinity();
         try {
             auto [truth, gray] = load_labelled_face(image);
-            const double iod = (truth.col(morph::kLeftEyeOuterCorner) - truth.col(morph::kRightEyeOuterCorner)).norm();
+            const double iod = morph::inter_ocular_distance(truth);
             if (std::isfinite(iod) && iod > 0) {
                 iods.push_back(iod);
                 if (iod_px) {
