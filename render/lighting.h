@@ -37,8 +37,15 @@ struct Lighting {
 
 // √(4π): the SH DC coefficient of a uniform environment of radiance 1.
 inline constexpr float kShUniformDc = 3.5449077f;
+// The irradiance-convolved SH coefficients divided by π (Ramamoorthi & Hanrahan): Â_l / π per coefficient.
+inline constexpr std::array<float, 9> kShBandScale{1.0f, 2.0f / 3.0f, 2.0f / 3.0f, 2.0f / 3.0f, 0.25f, 0.25f, 0.25f, 0.25f, 0.25f};
 
 [[nodiscard]] Lighting uniform_lighting(float radiance);
+
+// The factor a matte albedo is multiplied by (linear RGB, before gamma) at a surface whose unit normal
+// is `view_normal` (view space), unshadowed: ambient + max(E_sh(n) / π, 0) + Σ_i c_i max(0, n·l_i),
+// as the renderer shades it.
+[[nodiscard]] std::array<float, 3> diffuse_shading(const Lighting& lighting, const std::array<float, 3>& view_normal);
 
 void to_json(nlohmann::json& j, const DirectionalLight& light);
 void from_json(const nlohmann::json& j, DirectionalLight& light);

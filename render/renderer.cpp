@@ -260,9 +260,6 @@ std::vector<Eigen::Vector3d> light_directions_in_camera(const Lighting& lighting
     return directions;
 }
 
-// The irradiance-convolved SH coefficients divided by π (Ramamoorthi & Hanrahan): Â_l / π.
-constexpr std::array<float, 9> kShBandScale{1.0f, 2.0f / 3.0f, 2.0f / 3.0f, 2.0f / 3.0f, 0.25f, 0.25f, 0.25f, 0.25f, 0.25f};
-
 }  // namespace
 
 // RGBA8 to RGB8 + the alpha plane: cv::mixChannels' generic path cost ~18 instructions per pixel

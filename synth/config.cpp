@@ -213,6 +213,9 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"lighting.face_luminance_mean", &c.lighting.face_luminance_mean,
                  "face-metered exposure: mean grey level of the face in [0, 1] (0 = off)"});
     f.push_back({"lighting.face_luminance_stddev", &c.lighting.face_luminance_stddev, "face-metered exposure: its spread over samples"});
+    f.push_back({"lighting.face_light", &c.lighting.face_light,
+                 "\"sampled\" (the face lit as the rest) or \"even\" (the face under the environment's uniform light only, for textures "
+                 "with their photograph's light; the sampled lights shade the head parts)"});
     f.push_back({"background.type", &c.background.type,
                  "\"solid\", \"procedural\", \"images\" (background.folder) or \"wallpapers\" (the photographs among Debian's wallpaper packages)"});
     f.push_back({"background.folder", &c.background.folder, "folder of background images (type = \"images\")"});
@@ -402,6 +405,7 @@ void validate(const SynthConfig& c) {
     require(c.sequence.max_turn_deg >= 0 && c.sequence.max_turn_deg <= 180, "sequence.max_turn_deg", "must be in [0, 180]");
     require(c.sequence.drift >= 0 && c.sequence.drift <= 0.5, "sequence.drift", "must be in [0, 0.5]");
     require(c.occluders.max_size > 0 && c.occluders.max_size <= 1, "occluders.max_size", "must be in (0, 1]");
+    require(c.lighting.face_light == "sampled" || c.lighting.face_light == "even", "lighting.face_light", "must be \"sampled\" or \"even\"");
     require(c.landmarks.mode == "contour" || c.landmarks.mode == "even" || c.landmarks.mode == "fixed", "landmarks.mode", "must be \"contour\", \"even\" or \"fixed\"");
     // The method first (with its default count), then the count, so that the error names the key at fault.
     for (const auto& [key, samples] : {std::pair{"render.antialiasing", 0}, std::pair{"render.antialiasing_samples", c.render.antialiasing_samples}}) {

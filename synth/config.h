@@ -105,6 +105,11 @@ struct LightingConfig {
     // is as bright as the drawn light makes it).
     double face_luminance_mean = 0;
     double face_luminance_stddev = 0.13;
+    // "sampled": the face is lit as everything else. "even": the face gets the environment's uniform
+    // term alone, for textures that keep their photograph's light (textures --keep-shading), and the
+    // sampled lights (SH bands, directional lights, highlights, shadows) light the head parts only
+    // (hair, ears, neck, clothing), scaled so that a surface facing the camera receives the face's light.
+    std::string face_light = "sampled";
 };
 
 struct BackgroundConfig {

@@ -27,6 +27,22 @@ double thread_cpu_seconds() {
     return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
+// Where the head parts lie in `labels` (hair, ears, neck, clothing), `rgb` takes `parts_rgb`, their
+// render under their own light; the face keeps the render under its light (lighting.face_light = "even").
+void take_head_parts(cv::Mat& rgb, const cv::Mat& parts_rgb, const cv::Mat& labels) {
+    const auto is_part = [](std::uint8_t label) {
+        const auto region = static_cast<morph::Region>(label);
+        return region == morph::Region::kHair || region == morph::Region::kEars || region == morph::Region::kNeck || region == morph::Region::kClothing;
+    };
+    for (int y = 0; y < rgb.rows; ++y) {
+        auto* out = rgb.ptr<cv::Vec3b>(y);
+        const auto* lit = parts_rgb.ptr<cv::Vec3b>(y);
+        const auto* label = labels.ptr<std::uint8_t>(y);
+        for (int x = 0; x < rgb.cols; ++x)
+            if (is_part(label[x])) out[x] = lit[x];
+    }
+}
+
 cv::Scalar to_scalar(const Eigen::Vector3d& rgb01) { return {rgb01.x() * 255.0, rgb01.y() * 255.0, rgb01.z() * 255.0}; }
 
 void gradient(cv::Mat& out, const BackgroundSpec& b) {
@@ -337,6 +353,13 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     extras.vertex_labels = s.spec.head_parts ? std::span<const std::uint8_t>(dressed_labels_) : std::span<const std::uint8_t>(vertex_labels_);
     extras.texture = texture;
     renderer_.render(mesh, camera, settings, frame_, extras);
+    if (s.spec.lighting.head_parts && s.spec.head_parts) {
+        render::RenderSettings parts = settings;
+        parts.lighting = *s.spec.lighting.head_parts;
+        parts.geometry = false;
+        renderer_.render(mesh, camera, parts, head_parts_frame_, extras);
+        take_head_parts(frame_.rgb, head_parts_frame_.rgb, frame_.labels);
+    }
     clock.lap(local.render);
 
     // Landmarks in both jaw modes with self-occlusion from the depth buffer (render/landmarks.h).

@@ -146,6 +146,7 @@ private:
     std::vector<std::uint8_t> vertex_labels_;  // the model's, then the neck's
     render::Renderer renderer_;
     render::Frame frame_;
+    render::Frame head_parts_frame_;  // lighting.face_light = "even": the colour under the head parts' light
     morph::Mesh mesh_;  // the model's triangles and uv, set once; vertices and colours per sample
     cv::Mat background_, background_canvas_;  // per sample, in buffers kept between samples
     cv::Mat toned_texture_;  // the sample's texture times its albedo.texture_tone_jitter gains

@@ -118,6 +118,7 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const m
     lighting["environment_temperature"] = s.lighting.environment_temperature;
     lighting["light_temperatures"] = s.lighting.light_temperatures;
     lighting["white_balance_gain"] = s.lighting.white_balance_gain;
+    if (s.lighting.head_parts) lighting["head_parts"] = *s.lighting.head_parts;  // lighting.face_light = "even" only
     if (s.lighting.face_luminance > 0) {  // keys only with the metering, so that other datasets' meta is unchanged
         lighting["face_luminance_target"] = s.lighting.face_luminance;
         lighting["exposure_gain"] = sample.exposure_gain;

@@ -106,6 +106,30 @@ void white_balance(LightingSpec& spec, double share) {
     spec.white_balance_gain = {gain[0], gain[1], gain[2]};
 }
 
+// lighting.face_light = "even": the face keeps the environment's uniform term (and the grey ambient);
+// the whole drawn lighting goes to the head parts, scaled to give a camera-facing surface what the
+// face's light gives it, so that the parts are shaded around the face's brightness rather than
+// brightened by the lights added on top of it.
+void light_head_parts_only(LightingSpec& spec) {
+    render::Lighting even = spec.lighting;
+    for (std::size_t k = 1; k < even.sh.size(); ++k) even.sh[k] = {0, 0, 0};
+    even.lights.clear();
+    even.specular = 0;
+    even.shadows = false;
+    render::Lighting parts = spec.lighting;
+    const std::array<float, 3> toward_camera{0, 0, 1};
+    const auto mean = [](const std::array<float, 3>& rgb) { return (rgb[0] + rgb[1] + rgb[2]) / 3; };
+    const float drawn = mean(render::diffuse_shading(parts, toward_camera));
+    const float scale = drawn > 0 ? mean(render::diffuse_shading(even, toward_camera)) / drawn : 1.0f;
+    for (auto& coefficient : parts.sh)
+        for (float& value : coefficient) value *= scale;
+    for (float& value : parts.ambient) value *= scale;
+    for (auto& light : parts.lights)
+        for (float& value : light.colour) value *= scale;
+    spec.lighting = even;
+    spec.head_parts = parts;
+}
+
 LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
     const auto& c = config.lighting;
     core::Rng rng = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kLighting);
@@ -140,6 +164,7 @@ LightingSpec sample_lighting(const SynthConfig& config, std::int64_t index) {
         core::Rng exposure = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kExposure);
         spec.face_luminance = std::clamp(exposure.normal(c.face_luminance_mean, c.face_luminance_stddev), 0.1, 0.9);
     }
+    if (c.face_light == "even") light_head_parts_only(spec);
     return spec;
 }
 

@@ -29,6 +29,10 @@ struct LightingSpec {
     std::vector<double> light_temperatures;  // K, one per directional light
     std::array<double, 3> white_balance_gain{1, 1, 1};  // applied to every light colour above (already in `lighting`)
     double face_luminance = 0;  // face-metered exposure's target grey level, 0 = none (synth/exposure.h)
+    // With lighting.face_light = "even": the sampled lighting, which lights the head parts only, scaled so
+    // that a surface facing the camera receives what `lighting` (then the environment's uniform term,
+    // which lights the face) gives it.
+    std::optional<render::Lighting> head_parts;
 };
 
 struct BackgroundSpec {

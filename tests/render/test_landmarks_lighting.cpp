@@ -136,6 +136,40 @@ TEST(Lighting, WhiteFurnaceConservesEnergyAndBandOneFollowsTheNormal) {
     EXPECT_GT(frame.rgb.at<cv::Vec3b>(20, 48)[0], frame.rgb.at<cv::Vec3b>(76, 48)[0] + 20);
 }
 
+TEST(Lighting, DiffuseShadingIsWhatTheRendererShadesAWhiteSurfaceWith) {
+    morph::Mesh mesh = toy().instance({});
+    mesh.colours.setOnes();
+    render::RenderSettings settings;
+    settings.lighting = render::uniform_lighting(0.5f);
+    settings.lighting.sh[1] = {0.3f, 0.2f, 0.1f};
+    settings.lighting.sh[3] = {-0.2f, -0.2f, -0.2f};
+    settings.lighting.sh[6] = {0.15f, 0.15f, 0.15f};
+    settings.lighting.ambient = {0.05f, 0.05f, 0.05f};
+    settings.lighting.lights.push_back({{0.4f, 0.5f, 1.0f}, {0.3f, 0.25f, 0.2f}});
+    settings.lighting.gamma = 1.0f;
+    settings.antialiasing = render::Antialiasing::none();
+    const render::Frame frame = shared_renderer().render(mesh, make_camera(20, 10, 0, 128, 128), settings);
+    double total = 0, worst = 0;
+    int checked = 0;
+    for (int y = 0; y < 128; ++y)
+        for (int x = 0; x < 128; ++x) {
+            if (frame.mask.at<std::uint8_t>(y, x) != 255) continue;
+            const cv::Vec3f n = frame.normals.at<cv::Vec3f>(y, x);  // camera axes: view axes flip y and z
+            const auto expected = render::diffuse_shading(settings.lighting, {n[0], -n[1], -n[2]});
+            for (std::size_t k = 0; k < 3; ++k) {
+                const double error = std::abs(frame.rgb.at<cv::Vec3b>(y, x)[static_cast<int>(k)] - 255.0 * std::min(expected[k], 1.0f));
+                total += error, worst = std::max(worst, error);
+            }
+            ++checked;
+        }
+    ASSERT_GT(checked, 2000);
+    // The SH term is evaluated per vertex and interpolated; the directional light per pixel.
+    EXPECT_LT(total / (3 * checked), 1.0);
+    EXPECT_LT(worst, 6.0);
+    const auto furnace = render::diffuse_shading(render::uniform_lighting(0.7f), {0.0f, 0.6f, 0.8f});
+    for (const float value : furnace) EXPECT_NEAR(value, 0.7f, 1e-5f);
+}
+
 TEST(Lighting, JsonRoundTrip) {
     render::Lighting lighting;
     lighting.lights.push_back({{0.1f, 0.2f, 0.9f}, {0.5f, 0.4f, 0.3f}});

@@ -7,6 +7,7 @@
 #include "core/random.h"
 #include "core/srgb.h"
 #include "morph/regions.h"
+#include "render/lighting.h"
 #include "render/renderer.h"
 #include "synth/config.h"
 #include "synth/head_parts.h"
@@ -140,6 +141,64 @@ TEST(HeadParts, LeaveTheFacesLandmarksAndLabelsAndAddNeckClothingAndHair) {
     EXPECT_LT(face_pixels_relabelled_skin, face_pixels / 50) << "the body's skin shows through the face";
     EXPECT_LT(hidden_by_parts, 6 * 68 / 4) << "the parts hide too many landmarks";
     EXPECT_LE(revealed_jaw_points, 6);
+}
+
+// lighting.face_light = "even" (textures that keep their photograph's light): the face is exactly what
+// the environment's uniform light alone makes it, the neck is shaded by the drawn lights.
+TEST(HeadParts, AnEvenFaceLightLeavesTheFaceUnlitAndLightsTheNeck) {
+    const morph::MorphableModel model = morph::load_model("builtin");
+    SynthConfig lit;
+    lit.camera.width = lit.camera.height = 128;
+    lit.output.labels = true;
+    for (const char* key : {"head.body=true", "head.hair_probability=0", "lighting.face_light=even", "lighting.directional_min=1",
+                            "lighting.shadow_probability=1", "render.antialiasing=none"})
+        apply_override(lit, key);
+    lit.degrade.blur_probability = lit.degrade.jpeg_probability = lit.degrade.downscale_probability = 0;
+    validate(lit);
+    // The same draws with the face's light alone everywhere.
+    SynthConfig even = lit;
+    for (const char* key : {"lighting.face_light=sampled", "lighting.directional_min=0", "lighting.directional_max=0", "lighting.sh_strength=0",
+                            "lighting.specular_max=0"})
+        apply_override(even, key);
+    const ImageLibrary none;
+    const render::RendererOptions options{render::Backend::kEgl, false};
+    SampleGenerator a(lit, model, none, none, options), b(even, model, none, none, options);
+    double neck_change = 0;
+    int neck_pixels = 0, face_pixels = 0;
+    for (std::int64_t index = 0; index < 4; ++index) {
+        const Sample with = a.generate(index), without = b.generate(index);
+        ASSERT_TRUE(with.spec.lighting.head_parts.has_value());
+        EXPECT_FALSE(without.spec.lighting.head_parts.has_value());
+        EXPECT_TRUE(with.spec.lighting.lighting.lights.empty());
+        EXPECT_FALSE(with.spec.lighting.head_parts->lights.empty());
+        // Scaled so that a surface facing the camera gets the face's light.
+        const auto mean = [](const std::array<float, 3>& rgb) { return (rgb[0] + rgb[1] + rgb[2]) / 3; };
+        EXPECT_NEAR(mean(render::diffuse_shading(*with.spec.lighting.head_parts, {0, 0, 1})),
+                    mean(render::diffuse_shading(with.spec.lighting.lighting, {0, 0, 1})), 1e-4);
+        ASSERT_EQ(cv::norm(without.regions, with.regions, cv::NORM_INF), 0) << "sample " << index;
+        cv::Mat neck = with.regions == static_cast<std::uint8_t>(morph::Region::kNeck), face = cv::Mat::zeros(with.regions.size(), CV_8UC1);
+        for (int y = 0; y < face.rows; ++y)
+            for (int x = 0; x < face.cols; ++x)
+                face.at<std::uint8_t>(y, x) = is_face_region(static_cast<morph::Region>(with.regions.at<std::uint8_t>(y, x))) ? 255 : 0;
+        const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5));
+        cv::erode(neck, neck, kernel);
+        cv::erode(face, face, kernel);
+        for (int y = 0; y < face.rows; ++y)
+            for (int x = 0; x < face.cols; ++x) {
+                const double change = cv::norm(cv::Vec3d(with.image.at<cv::Vec3b>(y, x)) - cv::Vec3d(without.image.at<cv::Vec3b>(y, x)), cv::NORM_L1);
+                if (face.at<std::uint8_t>(y, x)) {
+                    ASSERT_EQ(change, 0.0) << "sample " << index << ": the face changed at " << x << "," << y;
+                    ++face_pixels;
+                }
+                if (neck.at<std::uint8_t>(y, x)) neck_change += change / 3, ++neck_pixels;
+            }
+    }
+    ASSERT_GT(face_pixels, 2000);
+    ASSERT_GT(neck_pixels, 100);
+    EXPECT_GT(neck_change / neck_pixels, 3.0) << "the drawn lights did not shade the neck";
+    SynthConfig wrong;
+    apply_override(wrong, "lighting.face_light=flat");
+    EXPECT_NE(testkit::error_message_of([&] { validate(wrong); }).find("lighting.face_light"), std::string::npos);
 }
 
 // A face-only model without labels or ears (the toy model) wears MakeHuman's head and ears too, and
