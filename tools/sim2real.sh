@@ -12,8 +12,9 @@
 #   3. facesynth synth        COUNT renders (default 36000): each texture on its own photograph's fitted shape and
 #                             expression, half of them mixed with a second texture's colour, on a whole head
 #                             (neck, shoulders, clothing, hair; head.body) whose skin the face and chin shade
-#                             (head.ambient_occlusion), lit by an even white light only (the face keeps the
-#                             photograph's light: no synthetic shading, lights, highlights or shadows) and exposed
+#                             (head.ambient_occlusion), the face under an even white light only (it keeps the
+#                             photograph's light) and the head parts under one or two white directional lights
+#                             with cast shadows and a soft environment (lighting.face_light = even), exposed
 #                             for the face as photographs are (face grey level 0.49 ± 0.13), the backgrounds,
 #                             the head turned as in the texture's photograph (pose.source = texture: yaw drawn
 #                             around it with σ 21.6°, so that with the photographs' own 12.6° the yaws spread as
@@ -40,7 +41,7 @@ while [[ $# -gt 0 ]]; do
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
         --augment) augment=$2; shift 2 ;;
-        -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -76,8 +77,8 @@ fi
     --set pose.pitch.distribution=normal --set pose.pitch.mean=0 --set pose.pitch.stddev=1 --set pose.roll.distribution=normal --set pose.roll.stddev=1 \
     --set albedo.texture_bank="$work/bank" --set identity.source=texture --set expression.source=texture --set albedo.texture_mix_probability=0.5 \
     --set head.body=true --set head.ambient_occlusion=1 \
-    --set lighting.directional_min=0 --set lighting.directional_max=0 --set lighting.sh_strength=0 --set lighting.ambient_max=0 \
-    --set lighting.specular_max=0 --set lighting.shadow_probability=0 --set lighting.colour_temperature_min=6500 --set lighting.colour_temperature_max=6500 \
+    --set lighting.face_light=even --set lighting.directional_min=1 --set lighting.intensity_min=0.4 --set lighting.intensity_max=0.8 \
+    --set lighting.shadow_probability=1 --set lighting.ambient_max=0 --set lighting.colour_temperature_min=6500 --set lighting.colour_temperature_max=6500 \
     --set lighting.face_luminance_mean=0.49 \
     --set camera.fov_min=4 --set camera.fov_max=20 --set landmarks.mode=even \
     "${background[@]}" \

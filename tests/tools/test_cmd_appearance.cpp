@@ -280,14 +280,16 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_TRUE(meta["head_parts"].is_object());                                // on a whole head (row 55)
     EXPECT_TRUE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["align_features"].get<bool>());
     EXPECT_TRUE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["drop_occluders"].get<bool>());
-    // The photograph's own light (rows 68-69): kept in the texture, and no synthetic light on top.
+    // The photograph's own light (rows 68-69): kept in the texture, and no synthetic light on the face;
+    // the head parts lit with shadows (row 73).
     EXPECT_FALSE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["remove_shading"].get<bool>());
     const auto config = read_json(dir / "sim2real-work" / "train" / "dataset.json")["config"];
     EXPECT_EQ(config["head"]["ambient_occlusion"], 1.0);
-    EXPECT_EQ(config["lighting"]["shadow_probability"], 0.0);
-    EXPECT_EQ(config["lighting"]["directional_max"], 0);
-    EXPECT_EQ(config["lighting"]["sh_strength"], 0.0);
-    EXPECT_EQ(config["lighting"]["specular_max"], 0.0);
+    EXPECT_EQ(config["lighting"]["face_light"], "even");
+    EXPECT_EQ(config["lighting"]["shadow_probability"], 1.0);
+    EXPECT_EQ(config["lighting"]["directional_min"], 1);
+    EXPECT_TRUE(meta["lighting"]["lights"].empty());  // the face's light
+    EXPECT_FALSE(meta["lighting"]["head_parts"]["lights"].empty());
     EXPECT_EQ(config["pose"]["source"], "texture");  // turned as the texture's photograph (row 69)
     EXPECT_EQ(config["lighting"]["face_luminance_mean"], 0.49);  // exposed for the face (row 71)
     EXPECT_EQ(config["albedo"]["texture_mix_probability"], 0.5);
