@@ -2,7 +2,8 @@
 # Trains a landmark regressor for real photographs on synthetic images only, with appearance taken from
 # annotated photographs (docs/textures.md; figures in docs/results.md):
 #   1. facesynth textures     a texture bank from the photographs, each texture with the shape and expression
-#                             fitted to its photograph, its features warped onto the fitted model's
+#                             fitted to its photograph (a weak identity prior, --fit-lambda 3, so that the
+#                             shape follows the annotated chin and outline), its features warped onto the fitted model's
 #                             (--align-features; their labels are not training targets), hair and hands
 #                             across the upper face filled from the other side (--drop-occluders), and the
 #                             photograph's own light left in it (--keep-shading)
@@ -41,7 +42,7 @@ while [[ $# -gt 0 ]]; do
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
         --augment) augment=$2; shift 2 ;;
-        -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -66,7 +67,7 @@ quiet=()
 
 # The bank is rebuilt every time (a minute for 870 photographs): one made by another build may be for
 # another model or lack what synth now takes from it.
-"$facesynth" textures --photos "$photos" --out "$work/bank" --align-features --drop-occluders --keep-shading --json "$work/textures.json" "${quiet[@]}"
+"$facesynth" textures --photos "$photos" --out "$work/bank" --align-features --drop-occluders --keep-shading --fit-lambda 3 --json "$work/textures.json" "${quiet[@]}"
 background=(--set background.type=wallpapers)
 if [[ $backgrounds == photos ]]; then
     [[ -d $work/backgrounds ]] || "$facesynth" backgrounds --photos "$photos" --out "$work/backgrounds" --min-side "$min_side" --json "$work/backgrounds.json" "${quiet[@]}"

@@ -280,6 +280,7 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_TRUE(meta["head_parts"].is_object());                                // on a whole head (row 55)
     EXPECT_TRUE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["align_features"].get<bool>());
     EXPECT_TRUE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["drop_occluders"].get<bool>());
+    EXPECT_EQ(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["fit_lambda"], 3.0);  // row 74
     // The photograph's own light (rows 68-69): kept in the texture, and no synthetic light on the face;
     // the head parts lit with shadows (row 73).
     EXPECT_FALSE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["remove_shading"].get<bool>());
