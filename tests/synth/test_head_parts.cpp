@@ -35,6 +35,22 @@ bool is_face_region(morph::Region r) {
            r == morph::Region::kMouthInterior;
 }
 
+// The neck's and the face's pixels at least `margin` pixels inside their regions (away from the
+// outlines, where anti-aliasing and the regions' borders mix surfaces).
+struct Interiors {
+    cv::Mat neck, face;
+};
+Interiors neck_and_face_interiors(const cv::Mat& regions, int margin) {
+    Interiors in{regions == static_cast<std::uint8_t>(morph::Region::kNeck), cv::Mat::zeros(regions.size(), CV_8UC1)};
+    for (int y = 0; y < regions.rows; ++y)
+        for (int x = 0; x < regions.cols; ++x)
+            in.face.at<std::uint8_t>(y, x) = is_face_region(static_cast<morph::Region>(regions.at<std::uint8_t>(y, x))) ? 255 : 0;
+    const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * margin + 1, 2 * margin + 1));
+    cv::erode(in.neck, in.neck, kernel);
+    cv::erode(in.face, in.face, kernel);
+    return in;
+}
+
 TEST(HeadParts, AssetHoldsTheBodyOutfitsAndHairStylesWithAnchors) {
     const HeadParts parts = read_head_parts(default_head_parts_file());
     EXPECT_EQ(parts.anchors.cols(), kNumHeadAnchors);
@@ -176,13 +192,7 @@ TEST(HeadParts, AnEvenFaceLightLeavesTheFaceUnlitAndLightsTheNeck) {
         EXPECT_NEAR(mean(render::diffuse_shading(*with.spec.lighting.head_parts, {0, 0, 1})),
                     mean(render::diffuse_shading(with.spec.lighting.lighting, {0, 0, 1})), 1e-4);
         ASSERT_EQ(cv::norm(without.regions, with.regions, cv::NORM_INF), 0) << "sample " << index;
-        cv::Mat neck = with.regions == static_cast<std::uint8_t>(morph::Region::kNeck), face = cv::Mat::zeros(with.regions.size(), CV_8UC1);
-        for (int y = 0; y < face.rows; ++y)
-            for (int x = 0; x < face.cols; ++x)
-                face.at<std::uint8_t>(y, x) = is_face_region(static_cast<morph::Region>(with.regions.at<std::uint8_t>(y, x))) ? 255 : 0;
-        const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5));
-        cv::erode(neck, neck, kernel);
-        cv::erode(face, face, kernel);
+        const auto [neck, face] = neck_and_face_interiors(with.regions, 2);
         for (int y = 0; y < face.rows; ++y)
             for (int x = 0; x < face.cols; ++x) {
                 const double change = cv::norm(cv::Vec3d(with.image.at<cv::Vec3b>(y, x)) - cv::Vec3d(without.image.at<cv::Vec3b>(y, x)), cv::NORM_L1);
@@ -309,14 +319,7 @@ TEST(HeadParts, AmbientOcclusionDarkensTheNeckOnlyWithVertexColoursAndInTheAtlas
         cv::Mat grey_without, grey_with;
         cv::cvtColor(without.image, grey_without, cv::COLOR_RGB2GRAY);
         cv::cvtColor(with.image, grey_with, cv::COLOR_RGB2GRAY);
-        // Pixels 3 or more from another region.
-        cv::Mat neck = with.regions == static_cast<std::uint8_t>(morph::Region::kNeck), face = cv::Mat::zeros(with.regions.size(), CV_8UC1);
-        for (int y = 0; y < face.rows; ++y)
-            for (int x = 0; x < face.cols; ++x)
-                face.at<std::uint8_t>(y, x) = is_face_region(static_cast<morph::Region>(with.regions.at<std::uint8_t>(y, x))) ? 255 : 0;
-        const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(7, 7));
-        cv::erode(neck, neck, kernel);
-        cv::erode(face, face, kernel);
+        const auto [neck, face] = neck_and_face_interiors(with.regions, 3);
         for (int y = 0; y < face.rows; ++y)
             for (int x = 0; x < face.cols; ++x) {
                 if (neck.at<std::uint8_t>(y, x)) neck_before += grey_without.at<std::uint8_t>(y, x), neck_after += grey_with.at<std::uint8_t>(y, x), ++neck_pixels;
