@@ -24,8 +24,8 @@
 #                             annotators space them (landmarks.mode = even)
 #                             (into WORK/train, replacing a set made with other settings)
 #   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, --augment starts).
-#                             At 36000 renders on 2 cores the whole script took 56 minutes for row 70 (renders 13,
-#                             training 43, other work beside it for 25) and 7.5 GB; docs/results.md rows 55, 59, 64, 70, 71
+#                             At 36000 renders on 2 cores the whole script took 61 minutes for row 75 (renders 22,
+#                             training 37, other work beside it for 20) and 7.4 GB; docs/results.md rows 55-75
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 #                          [--augment A]  (training starts per render, default 4)
