@@ -233,6 +233,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"degrade.colour_jitter", &c.degrade.colour_jitter, "per-channel gain in [1 - x, 1 + x]"});
     f.push_back({"degrade.downscale_probability", &c.degrade.downscale_probability, "share of images downscaled and scaled back up"});
     f.push_back({"degrade.downscale_min", &c.degrade.downscale_min, "smallest downscale factor"});
+    f.push_back({"degrade.sharpen_probability", &c.degrade.sharpen_probability, "share of images sharpened (unsharp mask, as cameras do before JPEG)"});
+    f.push_back({"degrade.sharpen_amount_max", &c.degrade.sharpen_amount_max, "unsharp-mask amount upper bound (lower bound 0.25)"});
     f.push_back({"occluders.probability", &c.occluders.probability, "share of samples with occluders"});
     f.push_back({"occluders.max_count", &c.occluders.max_count, "1..n occluding shapes"});
     f.push_back({"occluders.max_size", &c.occluders.max_size, "largest occluder extent, share of the face size"});
@@ -388,7 +390,8 @@ void validate(const SynthConfig& c) {
     for (const auto& [value, key] : {std::pair{d.blur_probability, "degrade.blur_probability"}, {d.noise_probability, "degrade.noise_probability"},
                                      {d.jpeg_probability, "degrade.jpeg_probability"}, {d.gamma_probability, "degrade.gamma_probability"},
                                      {d.colour_jitter_probability, "degrade.colour_jitter_probability"},
-                                     {d.downscale_probability, "degrade.downscale_probability"}, {c.occluders.probability, "occluders.probability"}})
+                                     {d.downscale_probability, "degrade.downscale_probability"},
+                                     {d.sharpen_probability, "degrade.sharpen_probability"}, {c.occluders.probability, "occluders.probability"}})
         validate_share(value, key);
     require(d.blur_sigma_max >= 0.3, "degrade.blur_sigma_max", "must be at least 0.3");
     require(d.noise_sigma_max >= 1, "degrade.noise_sigma_max", "must be at least 1");
@@ -397,6 +400,7 @@ void validate(const SynthConfig& c) {
     require(d.gamma_min > 0 && d.gamma_min <= d.gamma_max, "degrade.gamma_min", "must be positive and not exceed degrade.gamma_max");
     require(d.colour_jitter >= 0 && d.colour_jitter < 1, "degrade.colour_jitter", "must be in [0, 1)");
     require(d.downscale_min > 0 && d.downscale_min <= 1, "degrade.downscale_min", "must be in (0, 1]");
+    require(d.sharpen_amount_max >= 0.25 && d.sharpen_amount_max <= 5, "degrade.sharpen_amount_max", "must be in [0.25, 5]");
     require(c.occluders.max_count >= 1, "occluders.max_count", "must be at least 1");
     require(c.sequence.frames >= 0, "sequence.frames", "must not be negative");
     require(std::isfinite(c.sequence.fps) && c.sequence.fps > 0 && c.sequence.fps <= 1000, "sequence.fps", "must be in (0, 1000]");

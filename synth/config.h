@@ -133,6 +133,8 @@ struct DegradationConfig {
     double colour_jitter = 0.1;       // per-channel gain uniform in [1 - x, 1 + x]
     double downscale_probability = 0.3;
     double downscale_min = 0.3;       // downscale to this share of the size at least, then back up
+    double sharpen_probability = 0;
+    double sharpen_amount_max = 1.5;  // unsharp-mask amount uniform in [0.25, max] (radius: sigma 1 px)
 };
 
 struct OccluderConfig {

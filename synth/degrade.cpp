@@ -10,6 +10,9 @@
 
 namespace facesynth::synth {
 
+// The unsharp mask's radius: a camera's sharpening acts on edges a pixel or two wide.
+constexpr double kSharpenSigma = 1.0;
+
 // Gaussian noise of `sigma` 8-bit levels, rounded: the rounded offset's distribution depends on sigma
 // alone, so each channel value draws it from a 16-bit inverse-CDF table (four draws per 64-bit random
 // number) rather than by Box-Muller, which took a fifth of a sample's CPU. The table's resolution,
@@ -48,6 +51,11 @@ void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::
         cv::resize(small, image, image.size(), 0, 0, cv::INTER_LINEAR);
     }
     if (d.blur_sigma > 0) cv::GaussianBlur(image, image, cv::Size(0, 0), d.blur_sigma, d.blur_sigma, cv::BORDER_REFLECT);
+    if (d.sharpen_amount > 0) {
+        cv::Mat blurred;
+        cv::GaussianBlur(image, blurred, cv::Size(0, 0), kSharpenSigma, kSharpenSigma, cv::BORDER_REFLECT);
+        cv::addWeighted(image, 1 + d.sharpen_amount, blurred, -d.sharpen_amount, 0, image);  // saturating
+    }
     if (d.gamma != 1 || d.gains != Eigen::Vector3d::Ones()) {
         cv::Mat lut(1, 256, CV_8UC3);
         for (int v = 0; v < 256; ++v) {

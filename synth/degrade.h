@@ -1,6 +1,7 @@
 #pragma once
-// What a camera does to a rendered image: downscaling, defocus blur, gamma and white balance, sensor
-// noise and JPEG compression, in that order (DegradationSpec, drawn by synth/scene.h).
+// What a camera does to a rendered image: downscaling, defocus blur, the camera's own sharpening,
+// gamma and white balance, sensor noise and JPEG compression, in that order (DegradationSpec, drawn by
+// synth/scene.h).
 #include "core/random.h"
 #include "synth/scene.h"
 

@@ -149,6 +149,7 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const m
     if (!sample.texture.empty()) j.key("greyscale").raw(d.greyscale ? "true" : "false");  // only with textures: other datasets' meta unchanged
     j.key("jpeg_quality").integer(d.jpeg_quality);
     j.key("noise_sigma").number(d.noise_sigma);
+    j.key("sharpen_amount").number(d.sharpen_amount);
     j.end_object();
     j.key("fov").number(s.fov);
     j.key("head_parts");

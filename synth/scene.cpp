@@ -199,6 +199,9 @@ DegradationSpec sample_degradation(const SynthConfig& config, std::int64_t index
     if (chance(rng, c.gamma_probability)) d.gamma = gamma;
     if (chance(rng, c.colour_jitter_probability)) d.gains = gains;
     if (chance(rng, c.downscale_probability)) d.downscale = downscale;
+    // Drawn after the others, so that datasets made before sharpening existed keep every value.
+    const double sharpen = rng.uniform(0.25, c.sharpen_amount_max);
+    if (chance(rng, c.sharpen_probability)) d.sharpen_amount = sharpen;
     return d;
 }
 

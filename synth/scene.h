@@ -51,6 +51,7 @@ struct DegradationSpec {
     double gamma = 1;               // 1 = none
     Eigen::Vector3d gains = Eigen::Vector3d::Ones();  // per-channel RGB gains, 1 = none
     double downscale = 1;           // 1 = none
+    double sharpen_amount = 0;      // unsharp mask: image + amount (image - blurred), 0 = none
     // The whole image in grey, as the photograph the sample's texture came from was (a texture bank's
     // greyscale photographs: ImageLibrary::greyscale); set by the sample generator, not drawn.
     bool greyscale = false;

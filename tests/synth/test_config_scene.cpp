@@ -230,6 +230,33 @@ TEST(SynthScene, ShadowProbabilityOnlyAddsTheShadowFlag) {
     EXPECT_NE(testkit::error_message_of([&] { validate(half); }).find("render.shadow_map_size"), std::string::npos);
 }
 
+// Sharpening is drawn after every other degradation: turning it on changes no other value, so the
+// images of a dataset made before it existed stay as they were.
+TEST(SynthScene, SharpenProbabilityOnlyAddsTheSharpenAmount) {
+    const morph::MorphableModel model = testkit::make_toy_model();
+    SynthConfig off, on;
+    on.degrade.sharpen_probability = 1.0;
+    on.degrade.sharpen_amount_max = 3.0;
+    for (int i = 0; i < 40; ++i) {
+        const DegradationSpec a = sample_scene(off, model, i).degradation;
+        const DegradationSpec b = sample_scene(on, model, i).degradation;
+        EXPECT_EQ(a.sharpen_amount, 0.0) << i;
+        EXPECT_GE(b.sharpen_amount, 0.25) << i;
+        EXPECT_LE(b.sharpen_amount, 3.0) << i;
+        EXPECT_EQ(a.blur_sigma, b.blur_sigma) << i;
+        EXPECT_EQ(a.noise_sigma, b.noise_sigma) << i;
+        EXPECT_EQ(a.jpeg_quality, b.jpeg_quality) << i;
+        EXPECT_EQ(a.gamma, b.gamma) << i;
+        EXPECT_EQ(a.gains, b.gains) << i;
+        EXPECT_EQ(a.downscale, b.downscale) << i;
+    }
+    on.degrade.sharpen_amount_max = 0.1;
+    EXPECT_NE(testkit::error_message_of([&] { validate(on); }).find("degrade.sharpen_amount_max"), std::string::npos);
+    on.degrade.sharpen_amount_max = 3.0;
+    on.degrade.sharpen_probability = -0.5;
+    EXPECT_NE(testkit::error_message_of([&] { validate(on); }).find("degrade.sharpen_probability"), std::string::npos);
+}
+
 TEST(SynthScene, DirectionalMinLightsEverySample) {
     const morph::MorphableModel model = testkit::make_toy_model();
     SynthConfig by_default, at_least_one, exactly_two;

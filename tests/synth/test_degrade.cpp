@@ -1,5 +1,5 @@
 // The camera degradations (synth/degrade.h): the sensor noise's statistics, its clamping and its
-// dependence on (seed, index) only.
+// dependence on (seed, index) only; the sharpening's overshoot.
 #include "synth/degrade.h"
 
 #include <gtest/gtest.h>
@@ -57,6 +57,27 @@ TEST(Degrade, DependsOnlyOnSeedAndIndex) {
     EXPECT_EQ(cv::norm(degraded(5, 11), degraded(5, 11), cv::NORM_INF), 0);
     EXPECT_GT(cv::norm(degraded(5, 11), degraded(5, 12), cv::NORM_INF), 0);
     EXPECT_GT(cv::norm(degraded(5, 11), degraded(6, 11), cv::NORM_INF), 0);
+}
+
+// The unsharp mask: a soft edge gets the overshoot a camera's sharpening gives it (darker on the dark
+// side, brighter on the bright side, steeper between), flat areas away from it stay as they were.
+TEST(Degrade, SharpeningOvershootsAnEdgeAndLeavesFlatAreas) {
+    cv::Mat soft(32, 64, CV_8UC3);
+    for (int x = 0; x < 64; ++x) soft.col(x).setTo(cv::Scalar::all(x < 32 ? 80 : 160));
+    DegradationSpec blur_only;
+    blur_only.blur_sigma = 1.0;
+    degrade(soft, blur_only, 1, 0);
+    cv::Mat sharp = soft.clone();
+    DegradationSpec sharpen;
+    sharpen.sharpen_amount = 1.5;
+    degrade(sharp, sharpen, 1, 0);
+    const auto grey = [](const cv::Mat& m, int x) { return static_cast<int>(m.at<cv::Vec3b>(16, x)[0]); };
+    EXPECT_LT(grey(sharp, 30), grey(soft, 30));
+    EXPECT_GT(grey(sharp, 33), grey(soft, 33));
+    EXPECT_LT(grey(sharp, 30), 80);   // the overshoot
+    EXPECT_GT(grey(sharp, 33), 160);
+    EXPECT_GT(grey(sharp, 32) - grey(sharp, 31), grey(soft, 32) - grey(soft, 31));
+    for (const int x : {0, 8, 56, 63}) EXPECT_EQ(grey(sharp, x), grey(soft, x)) << x;
 }
 
 }  // namespace
