@@ -253,9 +253,9 @@ void run_realism(const RealismArgs& a) {
         std::printf("%s on near-frontal faces (|yaw| <= %.0f°), detector %s\n", regressor->label().c_str(), a.max_yaw, train::detector_name(detector));
         const auto side_line = [](const char* name, const train::RealismSide& side) {
             std::printf("  %-12s %4d faces, %4d found: NME mean %.4f, median %.4f, failure@0.08 %.3f; face grey level %.3f ± %.3f, "
-                        "under the chin %.2f and on the neck %.2f of it\n",
+                        "under the chin %.2f and on the neck %.2f of it; fine detail %.3f\n",
                         name, side.faces, side.detected, side.nme.mean, side.nme.median, side.nme.failure_rate_008, side.face_grey_mean,
-                        side.face_grey_stddev, side.under_chin_shade, side.neck_shade);
+                        side.face_grey_stddev, side.under_chin_shade, side.neck_shade, side.face_detail);
         };
         side_line("renders", report.renders);
         if (with_photos) {

@@ -16,16 +16,23 @@ namespace facesynth::train {
 
 namespace {
 
-// Mean grey level inside the convex hull of the label. synth meters the same quantity on the face layer
-// before it is composited (synth/exposure.h, through render::landmark_hull_mask, which train cannot
-// call: it does not link the renderer); here it is measured on finished images of any source.
-double hull_grey(const cv::Mat& gray, const Eigen::Matrix2Xd& label) {
+// The convex hull of the label as a mask of `size`, shrunk by `inset` pixels.
+cv::Mat hull_mask(cv::Size size, const Eigen::Matrix2Xd& label, int inset) {
     std::vector<cv::Point> points, hull;
     for (Eigen::Index i = 0; i < label.cols(); ++i)
         points.emplace_back(static_cast<int>(std::lround(label(0, i))), static_cast<int>(std::lround(label(1, i))));
     cv::convexHull(points, hull);
-    cv::Mat inside = cv::Mat::zeros(gray.size(), CV_8UC1);
+    cv::Mat inside = cv::Mat::zeros(size, CV_8UC1);
     cv::fillConvexPoly(inside, hull, cv::Scalar(255));
+    if (inset > 0) cv::erode(inside, inside, cv::Mat(), cv::Point(-1, -1), inset);
+    return inside;
+}
+
+// Mean grey level inside the convex hull of the label. synth meters the same quantity on the face layer
+// before it is composited (synth/exposure.h, through render::landmark_hull_mask, which train cannot
+// call: it does not link the renderer); here it is measured on finished images of any source.
+double hull_grey(const cv::Mat& gray, const Eigen::Matrix2Xd& label) {
+    const cv::Mat inside = hull_mask(gray.size(), label, 0);
     if (cv::countNonZero(inside) == 0) return std::numeric_limits<double>::quiet_NaN();
     return cv::mean(gray, inside)[0] / 255.0;
 }
@@ -60,13 +67,29 @@ double median_of(std::vector<double> values) {
 
 }  // namespace
 
+double face_detail(const cv::Mat& gray, const Eigen::Matrix2Xd& label) {
+    const double iod = morph::inter_ocular_distance(label);
+    if (!(std::isfinite(iod) && iod > 0)) return std::numeric_limits<double>::quiet_NaN();
+    const double scale = kDetailIodPx / iod;
+    cv::Mat scaled;
+    cv::resize(gray, scaled, cv::Size(), scale, scale, scale < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+    const cv::Mat inside = hull_mask(scaled.size(), ((label.array() + 0.5) * scale - 0.5).matrix(), 2);
+    if (cv::countNonZero(inside) == 0) return std::numeric_limits<double>::quiet_NaN();
+    cv::Mat grey, laplacian;
+    scaled.convertTo(grey, CV_32F, 1.0 / 255.0);
+    cv::Laplacian(grey, laplacian, CV_32F, 1);
+    cv::Scalar mean, spread;
+    cv::meanStdDev(laplacian, mean, spread, inside);
+    return spread[0];
+}
+
 RealismSide measure_realism(const std::vector<LabelledImage>& images, const LandmarkRegressor& regressor, DetectorKind detector_kind,
                             const std::function<void()>& on_image, std::optional<double> iod_px) {
     if (iod_px && !(std::isfinite(*iod_px) && *iod_px > 0)) throw core::Error("eval realism: the face size to match must be a positive number of pixels");
     RealismSide side;
     side.bias = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks);
     const FaceDetector detector(detector_kind);
-    std::vector<double> greys, under_chin, neck, iods, scales;
+    std::vector<double> greys, under_chin, neck, iods, scales, details;
     for (const LabelledImage& image : images) {
         ++side.faces;
         double nme = std::numeric_limits<double>::infinity();
@@ -84,6 +107,7 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
                     scales.push_back(scale);
                 }
             }
+            if (const double detail = face_detail(gray, truth); std::isfinite(detail)) details.push_back(detail);
             if (const double grey = hull_grey(gray, truth); std::isfinite(grey)) {
                 greys.push_back(grey);
                 if (grey > 0) {
@@ -114,6 +138,7 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
     };
     side.under_chin_shade = mean(under_chin);
     side.neck_shade = mean(neck);
+    side.face_detail = mean(details);
     side.iod_px_median = median_of(iods);
     side.scale_median = scales.empty() ? 1.0 : median_of(scales);
     side.nme = summarise_nme(side.nmes);
@@ -152,6 +177,7 @@ void add_side(nlohmann::json& j, const std::string& prefix, const RealismSide& s
     j[prefix + "_face_grey_stddev"] = side.face_grey_stddev;
     j[prefix + "_under_chin_shade"] = side.under_chin_shade;
     j[prefix + "_neck_shade"] = side.neck_shade;
+    j[prefix + "_face_detail"] = side.face_detail;
     j[prefix + "_iod_px_median"] = side.iod_px_median;
     j[prefix + "_scale_median"] = side.scale_median;
     for (int i = 0; i < morph::kNumIbugLandmarks; ++i) {

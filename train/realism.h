@@ -36,10 +36,20 @@ struct RealismSide {
     // each over the face's grey as above; means over the images where the disc lies inside. Photographs
     // are darker there than lit skin (the chin and jaw hide the sky from the neck).
     double under_chin_shade = 0, neck_shade = 0;
+    // Fine detail: face_detail (below) averaged over the readable images. Renders that are smoother
+    // than photographs at the size a detector reads them give its finest stages other gradients.
+    double face_detail = 0;
     // The labels' outer-eye-corner distance in pixels (median over the readable images, before any
     // rescaling), and the median factor the images were scaled by (1 without rescaling).
     double iod_px_median = 0, scale_median = 1;
 };
+
+// The face's fine detail: the spread (standard deviation) of the 3x3 Laplacian of the grey image, in
+// [0, 1] grey levels, inside the label's convex hull (2 px in from its border), the image first scaled
+// so that the label's outer eye corners lie kDetailIodPx apart (area averaging when shrinking). NaN
+// when the hull is empty or the label degenerate.
+inline constexpr double kDetailIodPx = 72;
+[[nodiscard]] double face_detail(const cv::Mat& gray, const Eigen::Matrix2Xd& label);
 
 // Runs `regressor` on the faces `detector` finds in `images` (the detection matching each label). With
 // `iod_px`, each image and its label are first scaled so that the label's outer eye corners lie iod_px

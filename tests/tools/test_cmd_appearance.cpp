@@ -233,8 +233,10 @@ TEST_F(CmdAppearance, RealismComparesRendersWithPhotographs) {
         EXPECT_GT(j[key].get<double>(), 0.05) << key;
         EXPECT_LT(j[key].get<double>(), 2.0) << key;
     }
+    EXPECT_GT(j["renders_face_detail"].get<double>(), 0.0);  // a rendered face has edges
     if (j["photos_faces"] == j["renders_faces"]) {
         EXPECT_DOUBLE_EQ(j["photos_face_grey_mean"].get<double>(), j["renders_face_grey_mean"].get<double>());
+        EXPECT_DOUBLE_EQ(j["photos_face_detail"].get<double>(), j["renders_face_detail"].get<double>());
         EXPECT_DOUBLE_EQ(j["photos_under_chin_shade"].get<double>(), j["renders_under_chin_shade"].get<double>());
     }
     EXPECT_FALSE(j["match_face_size"].get<bool>());

@@ -3,6 +3,7 @@
 #include "train/dlib_face_detector.h"
 #include "train/face_box.h"
 #include "train/metrics.h"
+#include "train/realism.h"
 #include "train/training_data.h"
 
 #include "cartoon_faces.h"
@@ -35,6 +36,24 @@ TEST(Metrics, SummaryByHand) {
     const std::string png = ced_png(curves);
     ASSERT_GT(png.size(), 8u);
     EXPECT_EQ(png.substr(1, 3), "PNG");
+}
+
+// The realism measure's fine detail: blur takes it away, and the same face photographed at twice the
+// size reads about the same, since it is measured at a fixed face size.
+TEST(Realism, FaceDetailFallsWithBlurAndHoldsAcrossFaceSizes) {
+    const testkit::CartoonFace face = testkit::make_cartoon_face(3, 1, 200);
+    const double sharp = face_detail(face.gray, face.landmarks);
+    cv::Mat blurred;
+    cv::GaussianBlur(face.gray, blurred, cv::Size(0, 0), 2.0);
+    const double soft = face_detail(blurred, face.landmarks);
+    cv::Mat twice;
+    cv::resize(face.gray, twice, cv::Size(), 2, 2, cv::INTER_CUBIC);
+    const double large = face_detail(twice, ((face.landmarks.array() + 0.5) * 2 - 0.5).matrix());
+    ASSERT_TRUE(std::isfinite(sharp) && std::isfinite(soft) && std::isfinite(large));
+    EXPECT_GT(sharp, 0);
+    EXPECT_LT(soft, 0.7 * sharp);
+    EXPECT_NEAR(large, sharp, 0.25 * sharp);
+    EXPECT_TRUE(std::isnan(face_detail(face.gray, Eigen::Matrix2Xd::Zero(2, 68))));  // degenerate label
 }
 
 TEST(Dataset, FindsSideBySideAndSynthLayouts) {
