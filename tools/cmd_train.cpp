@@ -56,6 +56,7 @@ struct TrainArgs {
     double validation_share = SdmTrainOptions{}.validation_share;
     std::vector<int> ranks = SdmTrainOptions{}.ranks;
     int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
+    std::vector<double> patch_sizes;  // empty: the defaults
     std::string shape_unit = "eyes";
     int feature_pca = SdmTrainOptions{}.feature_components;
     bool mirror = false;
@@ -105,6 +106,7 @@ void run_train(const TrainArgs& args) {
     sdm.validation_share = args.validation_share;
     sdm.ranks = args.ranks;
     sdm.jaw_features_from = args.jaw_features_from;
+    if (!args.patch_sizes.empty()) sdm.stage_settings = default_stage_settings(args.stages, args.jaw_features_from, args.patch_sizes);
     sdm.unit = args.shape_unit == "box" ? ShapeUnitKind::kFixed : ShapeUnitKind::kInterEyeCentres;
     sdm.feature_components = args.feature_pca;
     sdm.mirror = args.mirror;
@@ -447,6 +449,10 @@ void register_train_commands(CLI::App& app) {
                         "SDM: first stage (1-based) whose features include the 17 jaw points' HOG")
             ->check(CLI::Range(1, 9))
             ->capture_default_str();
+        cmd->add_option("--patch-sizes", args->patch_sizes,
+                        "SDM: each stage's patch side in inter-eye-centre distances, one per stage, comma-separated "
+                        "(default 1,0.7,0.4,0.25,0.2,0.15,...)")
+            ->delimiter(',');
         cmd->add_option("--shape-unit", args->shape_unit,
                         "SDM: the length patches and updates are measured in: eyes (the current shape's inter-eye-centre "
                         "distance, which shrinks with yaw) or box (fixed in the detector's box)")

@@ -107,13 +107,21 @@ Eigen::MatrixXd ridge_solution(const Eigen::MatrixXd& scatter, const std::option
 
 }  // namespace
 
-std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_features_from) {
+std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_features_from, std::span<const double> patch_sides) {
     static constexpr double kRelative[] = {1.0, 0.7, 0.4, 0.25, 0.2, 0.15, 0.12, 0.1};
     static constexpr int kCells[] = {8, 7, 6, 5, 5, 5, 5, 5};
     if (stages < 1 || stages > 8) throw core::Error("SDM: stages must be between 1 and 8, got " + std::to_string(stages));
     std::vector<SdmStageSettings> settings;
     settings.reserve(static_cast<std::size_t>(stages));
     for (int k = 0; k < stages; ++k) settings.push_back({kRelative[k], kCells[k], k + 1 >= jaw_features_from});
+    if (patch_sides.empty()) return settings;
+    if (patch_sides.size() != settings.size())
+        throw core::Error("SDM: --patch-sizes gives " + std::to_string(patch_sides.size()) + " patch sides for " + std::to_string(stages) + " stages");
+    for (std::size_t k = 0; k < settings.size(); ++k) {
+        if (!(patch_sides[k] > 0 && patch_sides[k] <= 2))
+            throw core::Error("SDM: --patch-sizes: stage " + std::to_string(k + 1) + "'s patch side must be in (0, 2] inter-eye-centre distances");
+        settings[k].patch_relative = patch_sides[k];
+    }
     return settings;
 }
 

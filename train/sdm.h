@@ -33,8 +33,10 @@ struct SdmStageSettings {
 [[nodiscard]] int feature_landmark_count(const SdmStageSettings& stage);
 
 // 1.0, 0.7, 0.4, 0.25 (extended by 0.2, 0.15, ... for more stages) with cells 8, 7, 6, 5, 5, ...;
-// jaw features from stage `jaw_features_from` (1-based) on.
-[[nodiscard]] std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_features_from = 1);
+// jaw features from stage `jaw_features_from` (1-based) on. Non-empty `patch_sides` replaces the
+// patch sides (one per stage, each in (0, 2]; core::Error naming `--patch-sizes` otherwise).
+[[nodiscard]] std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_features_from = 1,
+                                                                   std::span<const double> patch_sides = {});
 
 // The length a cascade measures shapes in: patch sides and updates are multiples of it. The
 // inter-eye-centre distance of the current shape (the SDM papers' choice) shrinks with |yaw| and

@@ -48,6 +48,22 @@ HeldOutErrors held_out_errors(const SdmModel& model, const std::vector<TrainingF
     return e;
 }
 
+// --patch-sizes: one patch side per stage replaces the defaults and keeps their cells and jaw features;
+// a wrong count or an empty or oversized patch is refused naming the option.
+TEST(Sdm, PatchSizesReplaceTheDefaultPatchSidesOnePerStage) {
+    const std::vector<double> sides = {0.9, 0.5, 0.3};
+    const auto defaults = default_stage_settings(3, 2);
+    const auto chosen = default_stage_settings(3, 2, sides);
+    ASSERT_EQ(chosen.size(), 3u);
+    for (std::size_t k = 0; k < 3; ++k) {
+        EXPECT_EQ(chosen[k].patch_relative, sides[k]);
+        EXPECT_EQ(chosen[k].cell_size, defaults[k].cell_size);
+        EXPECT_EQ(chosen[k].jaw_features, defaults[k].jaw_features);
+    }
+    for (const std::vector<double>& bad : {std::vector<double>{0.9, 0.5}, std::vector<double>{0.9, 0.0, 0.3}, std::vector<double>{0.9, 2.5, 0.3}})
+        EXPECT_NE(testkit::error_message_of([&] { (void)default_stage_settings(3, 2, bad); }).find("--patch-sizes"), std::string::npos);
+}
+
 TEST(Sdm, DualFormReducesErrorStageByStageAndGeneralises) {
     const auto train = cartoon_training_faces(1, 60);
     const auto test = cartoon_training_faces(2, 20);
