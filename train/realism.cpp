@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <limits>
 #include <numeric>
+#include <tuple>
+#include <utility>
 
 namespace facesynth::train {
 
@@ -65,15 +67,21 @@ double median_of(std::vector<double> values) {
     return 0.5 * (*middle + *std::max_element(values.begin(), middle));
 }
 
+// The image and its label scaled by `scale` (area averaging when shrinking); pixel centres stay at
+// integers, as cv::resize maps them.
+std::pair<cv::Mat, Eigen::Matrix2Xd> scaled_face(const cv::Mat& gray, const Eigen::Matrix2Xd& label, double scale) {
+    cv::Mat scaled;
+    cv::resize(gray, scaled, cv::Size(), scale, scale, scale < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+    return {scaled, ((label.array() + 0.5) * scale - 0.5).matrix()};
+}
+
 }  // namespace
 
 double face_detail(const cv::Mat& gray, const Eigen::Matrix2Xd& label) {
     const double iod = morph::inter_ocular_distance(label);
     if (!(std::isfinite(iod) && iod > 0)) return std::numeric_limits<double>::quiet_NaN();
-    const double scale = kDetailIodPx / iod;
-    cv::Mat scaled;
-    cv::resize(gray, scaled, cv::Size(), scale, scale, scale < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
-    const cv::Mat inside = hull_mask(scaled.size(), ((label.array() + 0.5) * scale - 0.5).matrix(), 2);
+    const auto [scaled, scaled_label] = scaled_face(gray, label, kDetailIodPx / iod);
+    const cv::Mat inside = hull_mask(scaled.size(), scaled_label, 2);
     if (cv::countNonZero(inside) == 0) return std::numeric_limits<double>::quiet_NaN();
     cv::Mat grey, laplacian;
     scaled.convertTo(grey, CV_32F, 1.0 / 255.0);
@@ -95,19 +103,17 @@ RealismSide measure_realism(const std::vector<LabelledImage>& images, const Land
         double nme = std::numeric_limits<double>::infinity();
         try {
             auto [truth, gray] = load_labelled_face(image);
+            // Before any matching of face sizes: face_detail sets its own.
+            if (const double detail = face_detail(gray, truth); std::isfinite(detail)) details.push_back(detail);
             const double iod = morph::inter_ocular_distance(truth);
             if (std::isfinite(iod) && iod > 0) {
                 iods.push_back(iod);
                 if (iod_px) {
                     const double scale = *iod_px / iod;
-                    cv::Mat scaled;
-                    cv::resize(gray, scaled, cv::Size(), scale, scale, scale < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
-                    gray = scaled;
-                    truth = ((truth.array() + 0.5) * scale - 0.5).matrix();  // pixel centres at integers, as cv::resize maps them
+                    std::tie(gray, truth) = scaled_face(gray, truth, scale);
                     scales.push_back(scale);
                 }
             }
-            if (const double detail = face_detail(gray, truth); std::isfinite(detail)) details.push_back(detail);
             if (const double grey = hull_grey(gray, truth); std::isfinite(grey)) {
                 greys.push_back(grey);
                 if (grey > 0) {
