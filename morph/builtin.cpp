@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "morph/landmarks.h"
 #include "morph/mesh.h"
+#include "morph/model_io.h"
 #include "morph/pca.h"
 #include "core/random.h"
 
@@ -15,6 +16,13 @@
 #include <span>
 #include <utility>
 #include <vector>
+
+// The build-time copy of the model (morph/builtin_model_data.S.in), its first byte and one past its
+// last. Weak: the generator that writes the copy links without it and finds them null.
+extern "C" {
+extern const unsigned char facesynth_builtin_model_fsm_begin[] __attribute__((weak));
+extern const unsigned char facesynth_builtin_model_fsm_end[] __attribute__((weak));
+}
 
 namespace facesynth::morph {
 namespace {
@@ -1053,7 +1061,7 @@ Eigen::Matrix3Xf random_colouring(core::Rng& rng, const ColourRegions& g) {
 
 }  // namespace
 
-MorphableModel builtin_model() {
+MorphableModel generate_builtin_model() {
     MorphableModel model;
     model.name = "builtin";
     model.triangles = grid_triangles();
@@ -1108,6 +1116,14 @@ MorphableModel builtin_model() {
 
     model.validate("builtin model");
     return model;
+}
+
+bool builtin_model_is_embedded() { return facesynth_builtin_model_fsm_begin != nullptr; }
+
+MorphableModel builtin_model() {
+    if (!builtin_model_is_embedded()) return generate_builtin_model();
+    const auto size = static_cast<std::size_t>(facesynth_builtin_model_fsm_end - facesynth_builtin_model_fsm_begin);
+    return parse_model({reinterpret_cast<const char*>(facesynth_builtin_model_fsm_begin), size}, "the built-in model's embedded copy");
 }
 
 }  // namespace facesynth::morph

@@ -16,9 +16,18 @@ namespace facesynth::morph {
 inline constexpr int kBuiltinColumns = 85;
 inline constexpr int kBuiltinRows = 88;
 
-// Builds the model. Deterministic (fixed seeds through core::Rng): every call returns the same
-// model, bit for bit. Nothing is cached: each call recomputes it (about 0.6 s of CPU time in a
-// Release build), so callers that need it repeatedly should keep the returned value.
+// The model, read from the copy that generate_builtin_model() wrote at build time and that is
+// embedded in the library (an .fsm, docs/model-format.md, checksum verified on reading): a few
+// milliseconds instead of the generation's 0.6 s (several seconds under the sanitizers), which every
+// command that uses the built-in model would otherwise pay. A program linked without the copy (the
+// build's own generator) generates it instead. Either way the same model, bit for bit.
 [[nodiscard]] MorphableModel builtin_model();
+
+// Builds the model from its procedural population. Deterministic (fixed seeds through core::Rng):
+// every call returns the same model, bit for bit; nothing is cached.
+[[nodiscard]] MorphableModel generate_builtin_model();
+
+// Whether this program carries the build-time copy that builtin_model() reads.
+[[nodiscard]] bool builtin_model_is_embedded();
 
 }  // namespace facesynth::morph

@@ -337,9 +337,9 @@ void write_model(const MorphableModel& model, const std::filesystem::path& path)
     core::write_file_atomically(path, serialise(model));
 }
 
-MorphableModel read_model(const std::filesystem::path& path) {
-    const std::string bytes = core::read_file(path);
-    const std::string name = path.string();
+MorphableModel read_model(const std::filesystem::path& path) { return parse_model(core::read_file(path), path.string()); }
+
+MorphableModel parse_model(std::string_view bytes, const std::string& name) {
     if (bytes.empty()) throw core::file_error(name, "empty file (expected a facesynth .fsm model)");
     if (bytes.size() < kMagic.size() || bytes.compare(0, kMagic.size(), kMagic.data(), kMagic.size()) != 0)
         throw core::file_error(name, "not a facesynth model (wrong magic bytes)");

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 namespace facesynth::morph {
 
@@ -17,5 +18,7 @@ namespace facesynth::morph {
 // Our own format (docs/model-format.md): versioned, checksummed, round-trips every field.
 void write_model(const MorphableModel& model, const std::filesystem::path& path);
 [[nodiscard]] MorphableModel read_model(const std::filesystem::path& path);
+// The same from the bytes of an .fsm file; `name` says where they came from in errors.
+[[nodiscard]] MorphableModel parse_model(std::string_view bytes, const std::string& name);
 
 }  // namespace facesynth::morph

@@ -36,16 +36,14 @@ SkinColourCheck::SkinColourCheck(const MorphableModel& model, const SkinColourLi
     if (skin.empty() || labels.size() != static_cast<std::size_t>(model.num_vertices()))
         throw core::Error("model '" + model.name +
                     "' has no skin vertices: it has no region labels and no 68 iBUG landmarks to derive them from");
-    const Eigen::MatrixXf basis = model.albedo->rescaled_basis();
-    const auto rows = static_cast<Eigen::Index>(3 * skin.size());
-    skin_mean_.resize(rows);
-    skin_basis_.resize(rows, basis.cols());
-    for (std::size_t k = 0; k < skin.size(); ++k)
-        for (Eigen::Index c = 0; c < 3; ++c) {
-            const auto row = static_cast<Eigen::Index>(3 * k) + c;
-            skin_mean_[row] = model.albedo->mean[3 * skin[k] + c];
-            skin_basis_.row(row) = basis.row(3 * skin[k] + c);
-        }
+    // Only the skin's rows of the rescaled basis: rescaling the whole basis first would cost a copy of
+    // the model's colour basis at every check made.
+    std::vector<Eigen::Index> rows;
+    rows.reserve(3 * skin.size());
+    for (const Eigen::Index v : skin)
+        for (Eigen::Index c = 0; c < 3; ++c) rows.push_back(3 * v + c);
+    skin_mean_ = model.albedo->mean(rows);
+    skin_basis_ = model.albedo->basis(rows, Eigen::all) * model.albedo->eigenvalues.cwiseSqrt().asDiagonal();
 }
 
 SkinColourVerdict SkinColourCheck::check(std::span<const float> beta) const {
