@@ -266,6 +266,71 @@ TEST(Sdm, MirroredTrainingFacesMakeTheStartSymmetricAndStillGeneralise) {
     EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
 }
 
+// Cross-fitting leaves the stored first stage as it was (the same rows, summed in another order) but
+// moves the training rows by stages that never saw them: their error after a stage is no longer far
+// below the held-out faces' (without it, they are fitted as well as the ridge can). In both forms,
+// whatever the thread count, and the cascade still generalises.
+TEST(Sdm, CrossFittingMovesEachHalfByTheOtherHalfsStageInPrimalAndDualForm) {
+    const auto train = cartoon_training_faces(3, 40);
+    const auto test = cartoon_training_faces(4, 15);
+    for (const int augment : {4, 32}) {  // 36 x 4 rows < 1088 features (dual form); 36 x 32 > 1088 (primal)
+        SCOPED_TRACE("augment " + std::to_string(augment));
+        SdmTrainOptions options;
+        options.augment = augment;
+        options.hog_cells = 1;
+        options.stages = 3;
+        options.lambda_factors = {3.0};
+        options.ranks = {136};
+        options.threads = 2;
+        std::vector<SdmStageReport> plain_reports, cross_reports;
+        options.on_stage = [&](const SdmStageReport& r) { plain_reports.push_back(r); };
+        const SdmModel plain = train_sdm(train, BoxStatistics{}, options);
+        options.cross_fit = true;
+        options.on_stage = [&](const SdmStageReport& r) { cross_reports.push_back(r); };
+        const SdmModel cross = train_sdm(train, BoxStatistics{}, options);
+        ASSERT_EQ(cross_reports.size(), 3u);
+        const Eigen::MatrixXf& w = plain.stages[0].weights;
+        EXPECT_LT((cross.stages[0].weights - w).cwiseAbs().maxCoeff(), 1e-3 * w.cwiseAbs().maxCoeff());
+        EXPECT_NEAR(cross_reports[0].nme_before, plain_reports[0].nme_before, 1e-12);  // the same rows, summed in another order
+        EXPECT_GT(cross_reports[0].nme_after, 1.5 * plain_reports[0].nme_after);
+        EXPECT_GT(cross_reports[0].nme_after, 0.7 * cross_reports[0].validation_nme_after);
+        const HeldOutErrors e = held_out_errors(cross, test);
+        EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+
+        options.threads = 1;
+        options.on_stage = nullptr;
+        const SdmModel one_thread = train_sdm(train, BoxStatistics{}, options);
+        for (std::size_t k = 0; k < cross.stages.size(); ++k) {
+            EXPECT_TRUE(one_thread.stages[k].weights == cross.stages[k].weights) << "stage " << k;
+            EXPECT_TRUE(one_thread.stages[k].bias == cross.stages[k].bias) << "stage " << k;
+        }
+    }
+}
+
+// Each half must hold at least two faces; with mirror images (each kept in its original's half) the
+// cascade trains and generalises.
+TEST(Sdm, CrossFittingNeedsFourTrainingFacesAndTakesMirrorImages) {
+    SdmTrainOptions options;
+    options.augment = 2;
+    options.stages = 1;
+    options.hog_cells = 1;
+    options.lambda_factors = {3.0};
+    options.ranks = {16};
+    options.validation_share = 0;
+    options.cross_fit = true;
+    const std::string message =
+        testkit::error_message_of([&] { (void)train_sdm(cartoon_training_faces(5, 3), BoxStatistics{}, options); });
+    EXPECT_NE(message.find("cross-fitting needs at least 4 training faces"), std::string::npos) << message;
+    options.mirror = true;
+    options.stages = 2;
+    options.validation_share = 0.1;
+    options.lambda_factors = {3.0, 30.0};
+    const auto train = cartoon_training_faces(9, 40);
+    const SdmModel model = train_sdm(train, BoxStatistics{}, options);
+    const HeldOutErrors e = held_out_errors(model, cartoon_training_faces(10, 15));
+    EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+}
+
 TEST(Sdm, MirrorAveragedDetectionTreatsAFaceAndItsMirrorImageAlike) {
     // Trained with mirrored faces, the start shape is its own mirror image; the averaged run on a
     // flipped crop must then be the mirror image of the averaged run on the crop, to rounding. A wrong
