@@ -60,7 +60,6 @@ struct TrainArgs {
     std::string shape_unit = "eyes";
     int feature_pca = SdmTrainOptions{}.feature_components;
     bool mirror = false;
-    bool cross_fit = false;
     std::string detector = "dlib";
     std::string cascades = "auto";  // auto, views or single
     std::vector<double> view_overlap;  // frontal max |yaw|, profile min |yaw|
@@ -81,7 +80,6 @@ void run_train(const TrainArgs& args) {
         throw CLI::ValidationError("--view-overlap", "only applies to view-specific cascades");
     if (args.feature_pca > 0 && args.method != "sdm") throw CLI::ValidationError("--feature-pca", "only applies to --method sdm");
     if (args.mirror && args.method != "sdm") throw CLI::ValidationError("--mirror", "only applies to --method sdm");
-    if (args.cross_fit && args.method != "sdm") throw CLI::ValidationError("--cross-fit", "only applies to --method sdm");
     if (const int dims = morph::kNumIbugLandmarks * hog_dims(args.hog_cells); args.feature_pca > dims)
         throw CLI::ValidationError("--feature-pca", std::to_string(args.feature_pca) + " is more than the feature dimension " +
                                                         std::to_string(dims) + " (68 * " + std::to_string(args.hog_cells) +
@@ -112,7 +110,6 @@ void run_train(const TrainArgs& args) {
     sdm.unit = args.shape_unit == "box" ? ShapeUnitKind::kFixed : ShapeUnitKind::kInterEyeCentres;
     sdm.feature_components = args.feature_pca;
     sdm.mirror = args.mirror;
-    sdm.cross_fit = args.cross_fit;
     request.ert.threads = args.threads;
     request.ert.oversampling = args.augment;
     request.ert.seed = args.seed;
@@ -469,9 +466,6 @@ void register_train_commands(CLI::App& app) {
         cmd->add_flag("--mirror", args->mirror,
                       "SDM: every training face also trains as its mirror image (the frontal cascade's faces with view "
                       "cascades; validation faces are not mirrored)");
-        cmd->add_flag("--cross-fit", args->cross_fit,
-                      "SDM: each stage moves the training faces with that stage learned on the other half of them, so "
-                      "that the next stage learns from residuals like a new face's (the stored stages still learn from all)");
         cmd->add_option("--ranks", args->ranks,
                         "SDM: candidate ranks of each stage's update (1-136, comma-separated); validation keeps the "
                         "smallest within 1% of the best NME")

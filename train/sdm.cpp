@@ -14,7 +14,6 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <limits>
 #include <cmath>
@@ -258,7 +257,6 @@ void validate_options(const SdmTrainOptions& options) {
 
 struct FaceSplit {
     std::vector<std::size_t> train, validation;
-    std::size_t first_fold_faces = 0;  // cross-fitting: train[0, this) is one half, the rest the other
 };
 
 // Held-out validation faces: every k-th one.
@@ -275,19 +273,6 @@ FaceSplit split_faces(std::size_t count, const SdmTrainOptions& options) {
                     std::to_string(options.ranks.size()) +
                     " ranks needs validation faces (more faces or a larger validation share)");
     return split;
-}
-
-// Cross-fitting's halves: alternate training faces, each mirror image (appended after the originals)
-// with its original, the first half first.
-void split_in_halves(FaceSplit& split, bool mirrored) {
-    const std::size_t originals = mirrored ? split.train.size() / 2 : split.train.size();
-    if (originals < 4)
-        throw core::Error("SDM training: cross-fitting needs at least 4 training faces, got " + std::to_string(originals));
-    std::array<std::vector<std::size_t>, 2> halves;
-    for (std::size_t i = 0; i < split.train.size(); ++i) halves[(i < originals ? i : i - originals) % 2].push_back(split.train[i]);
-    split.first_fold_faces = halves[0].size();
-    split.train = std::move(halves[0]);
-    split.train.insert(split.train.end(), halves[1].begin(), halves[1].end());
 }
 
 // The mean shape in the box frame is the learned box-to-shape alignment: averaged over the training
@@ -334,24 +319,6 @@ void learn_starts(std::span<const TrainingFace> faces, std::span<const std::size
     }
 }
 
-// Principal directions of a stage's targets (their scatter), largest variance first.
-Eigen::MatrixXf principal_directions(const Eigen::MatrixXd& target_scatter) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(target_scatter);
-    return eigen.eigenvectors().rowwise().reverse().cast<float>();
-}
-
-// The stage of the full-rank solution W, b restricted to the first `rank` principal directions P of
-// the targets: b_r = ȳ − P Pᵀ (ȳ − b), so that b_r + W_r x = ȳ + P Pᵀ (W x + b − ȳ).
-SdmStage reduced_rank_stage(const Eigen::MatrixXf& weights, const Eigen::VectorXf& bias, const Eigen::MatrixXf& principal,
-                            const Eigen::RowVectorXf& target_mean, int rank, const SdmStageSettings& settings) {
-    SdmStage stage;
-    stage.settings = settings;
-    stage.basis = principal.leftCols(rank);
-    stage.weights = stage.basis.transpose() * weights;
-    stage.bias = target_mean.transpose() - stage.basis * (stage.basis.transpose() * (target_mean.transpose() - bias));
-    return stage;
-}
-
 // One (λ factor, rank) pair of a stage and its validation NME.
 struct Candidate {
     double nme;
@@ -381,7 +348,6 @@ public:
         // A start depends only on (seed, face index, augmentation index).
         const auto augment = static_cast<std::size_t>(options.augment);
         train_rows_ = split.train.size() * augment;
-        fold_rows_ = split.first_fold_faces * augment;
         validation_rows_ = split.validation.size() * augment;
         const std::size_t rows = train_rows_ + validation_rows_;
         row_face_.resize(rows);
@@ -401,8 +367,6 @@ public:
             total_feature_rows_ +=
                 train_rows_ * (train_rows_ < static_cast<std::size_t>(model.feature_dims(stage)) ? 1 : 2) + validation_rows_;
     }
-
-    [[nodiscard]] bool cross_fitting() const { return fold_rows_ > 0; }
 
     // Learns stage k (0-based) with `settings`, applies it to every row and appends it to the model.
     void train_stage(std::size_t k, const SdmStageSettings& settings);
@@ -431,16 +395,6 @@ private:
         [[nodiscard]] FullSolution solve(double factor, double& lambda) const;
     };
 
-    // The primal form's sums over some training rows, their features shifted by a common offset.
-    struct PrimalSums {
-        double rows = 0;
-        Eigen::MatrixXf gram;          // lower triangle of Σ a aᵀ
-        Eigen::VectorXd sum_x;
-        Eigen::MatrixXd features_targets;  // Σ a yᵀ
-        Eigen::RowVectorXd sum_y;
-        Eigen::MatrixXd target_products;   // Σ y yᵀ
-    };
-
     // The chosen stage (λ factor and rank by held-out NME when there is a choice) and its report fields.
     struct ChosenStage {
         SdmStage stage;
@@ -448,31 +402,12 @@ private:
         int rank = 0;
     };
 
-    // The problem of the training rows and, when cross-fitting, of each half alone.
-    struct Problems {
-        RidgeProblem all;
-        std::vector<RidgeProblem> halves;
-    };
-
-    // Training rows [first, first + count) of half `h` (the whole training set without cross-fitting).
-    [[nodiscard]] std::pair<std::size_t, std::size_t> half_rows(std::size_t h) const {
-        return h == 0 ? std::pair{std::size_t{0}, fold_rows_} : std::pair{fold_rows_, train_rows_ - fold_rows_};
-    }
-    [[nodiscard]] std::size_t halves() const { return cross_fitting() ? 2 : 1; }
-
-    [[nodiscard]] Problems dual_problems(const SdmStageSettings& settings, std::uint64_t pca_seed);
-    [[nodiscard]] RidgeProblem dual_problem(RowMatrixXf features, const Eigen::MatrixXd& y, std::uint64_t pca_seed) const;
-    [[nodiscard]] Problems primal_problems(const SdmStageSettings& settings, std::uint64_t pca_seed);
-    [[nodiscard]] RidgeProblem primal_problem(PrimalSums sums, const Eigen::RowVectorXf& shift, std::uint64_t pca_seed) const;
+    [[nodiscard]] RidgeProblem dual_problem(const SdmStageSettings& settings, std::uint64_t pca_seed);
+    [[nodiscard]] RidgeProblem primal_problem(const SdmStageSettings& settings, std::uint64_t pca_seed);
     [[nodiscard]] ChosenStage choose_stage(std::size_t k, const RidgeProblem& problem, const RowMatrixXf& validation_features,
                                            const SdmStageSettings& settings) const;
-    // The stage learned on one half's problem alone, with the chosen λ factor and rank.
-    [[nodiscard]] SdmStage half_stage(std::size_t k, const RidgeProblem& half, double lambda_factor, int rank,
-                                      const SdmStageSettings& settings) const;
-    // Moves every row's shape by the stage (the training rows' features recomputed chunk by chunk in
-    // primal form); when cross-fitting, each half's training rows by `half_stages` of the other half.
-    void apply_stage(const SdmStage& stage, std::span<const SdmStage> half_stages, RidgeProblem& problem,
-                     const RowMatrixXf& validation_features, const SdmStageSettings& settings);
+    // Moves every row's shape by the stage (the training rows' features recomputed chunk by chunk in primal form).
+    void apply_stage(const SdmStage& stage, RidgeProblem& problem, const RowMatrixXf& validation_features, const SdmStageSettings& settings);
 
     [[nodiscard]] const TrainingFace& face_of(std::size_t row) const { return faces_[row_face_[row]]; }
 
@@ -504,7 +439,7 @@ private:
     }
 
     // Applies a stage to rows [first, first + features.rows()).
-    void update_rows(std::size_t first, const Eigen::Ref<const RowMatrixXf>& features, const SdmStage& stage) {
+    void update_rows(std::size_t first, const RowMatrixXf& features, const SdmStage& stage) {
         const RowMatrixXf delta = ((features * stage.weights.transpose()) * stage.basis.transpose()).rowwise() + stage.bias.transpose();
         for (Eigen::Index i = 0; i < delta.rows(); ++i) apply_update(shapes_[first + static_cast<std::size_t>(i)], delta.row(i).data(), model_.unit);
     }
@@ -528,7 +463,6 @@ private:
     std::vector<std::size_t> row_face_;
     std::vector<Eigen::Matrix2Xd> shapes_;  // every row's current shape
     std::size_t train_rows_ = 0, validation_rows_ = 0;
-    std::size_t fold_rows_ = 0;  // cross-fitting: the first half's training rows (0: not cross-fitting)
     int dims_ = 0;  // of the current stage's features
     std::size_t total_feature_rows_ = 0, feature_rows_done_ = 0;
 };
@@ -548,11 +482,12 @@ CascadeTrainer::FullSolution CascadeTrainer::RidgeProblem::solve(double factor, 
 }
 
 // Dual form: W = A_cᵀ (A_c A_cᵀ + λI)⁻¹ Y_c, cheaper when there are fewer rows than features.
-CascadeTrainer::RidgeProblem CascadeTrainer::dual_problem(RowMatrixXf features, const Eigen::MatrixXd& y, std::uint64_t pca_seed) const {
+CascadeTrainer::RidgeProblem CascadeTrainer::dual_problem(const SdmStageSettings& settings, std::uint64_t pca_seed) {
     RidgeProblem p;
     p.dual = true;
-    p.rows = static_cast<double>(features.rows());
-    p.features = std::move(features);
+    p.rows = static_cast<double>(train_rows_);
+    extract_rows(0, train_rows_, settings, p.features);
+    const Eigen::MatrixXd y = targets(0, train_rows_);
     p.feature_offset = p.features.colwise().mean();
     p.target_mean = y.colwise().mean();
     p.features.rowwise() -= p.feature_offset;
@@ -565,93 +500,51 @@ CascadeTrainer::RidgeProblem CascadeTrainer::dual_problem(RowMatrixXf features, 
     // The Gram matrix's leading eigenvectors are the features' principal components seen
     // from the rows, with the same eigenvalues (docs/train.md, "Feature PCA").
     if (options_.feature_components > 0)
-        p.feature_pca = leading_eigenpairs(p.scatter, std::min<int>(options_.feature_components, static_cast<int>(p.rows)), pca_seed);
+        p.feature_pca = leading_eigenpairs(p.scatter, std::min<int>(options_.feature_components, static_cast<int>(train_rows_)), pca_seed);
     return p;
 }
 
-CascadeTrainer::Problems CascadeTrainer::dual_problems(const SdmStageSettings& settings, std::uint64_t pca_seed) {
-    RowMatrixXf features;
-    extract_rows(0, train_rows_, settings, features);
-    const Eigen::MatrixXd y = targets(0, train_rows_);
-    Problems problems;
-    if (cross_fitting())
-        for (std::size_t h = 0; h < 2; ++h) {
-            const auto range = half_rows(h);
-            const auto first = static_cast<Eigen::Index>(range.first), count = static_cast<Eigen::Index>(range.second);
-            problems.halves.push_back(dual_problem(features.middleRows(first, count), y.middleRows(first, count), pca_seed));
-        }
-    problems.all = dual_problem(std::move(features), y, pca_seed);
-    return problems;
-}
-
-// Primal form: (A_cᵀA_c + λI) W = A_cᵀ Y_c from the sums of the shifted features (shifted so that
-// float sums keep their precision).
-CascadeTrainer::RidgeProblem CascadeTrainer::primal_problem(PrimalSums sums, const Eigen::RowVectorXf& shift, std::uint64_t pca_seed) const {
+// Primal form, streamed in chunks: (A_cᵀA_c + λI) W = A_cᵀ Y_c. Features are shifted by the first
+// chunk's mean before accumulating so that float sums keep their precision.
+CascadeTrainer::RidgeProblem CascadeTrainer::primal_problem(const SdmStageSettings& settings, std::uint64_t pca_seed) {
     RidgeProblem p;
-    p.rows = sums.rows;
+    p.rows = static_cast<double>(train_rows_);
     const double n = p.rows;
-    p.feature_offset = shift;
-    p.feature_mean = sums.sum_x / n;
-    p.target_mean = sums.sum_y / n;
-    p.target_scatter = std::move(sums.target_products);
+    Eigen::MatrixXf gram = Eigen::MatrixXf::Zero(dims_, dims_);
+    Eigen::VectorXd sum_x = Eigen::VectorXd::Zero(dims_);
+    p.right_side = Eigen::MatrixXd::Zero(dims_, kOutputs);
+    Eigen::RowVectorXd sum_y = Eigen::RowVectorXd::Zero(kOutputs);
+    p.target_scatter = Eigen::MatrixXd::Zero(kOutputs, kOutputs);
+    RowMatrixXf a;
+    for (std::size_t first = 0; first < train_rows_; first += kChunkRows) {
+        const std::size_t count = std::min(kChunkRows, train_rows_ - first);
+        extract_rows(first, count, settings, a);
+        if (first == 0) p.feature_offset = a.colwise().mean();
+        a.rowwise() -= p.feature_offset;
+        const Eigen::MatrixXd y = targets(first, count);
+        add_lower_gram(gram, dims_, options_.threads, [&](Eigen::Index begin, Eigen::Index n) { return a.middleCols(begin, n).transpose(); });
+        sum_x += a.colwise().sum().transpose().cast<double>();
+        p.right_side.noalias() += a.transpose().cast<double>() * y;
+        sum_y += y.colwise().sum();
+        p.target_scatter.noalias() += y.transpose() * y;
+    }
+    p.feature_mean = sum_x / n;
+    p.target_mean = sum_y / n;
     p.target_scatter.noalias() -= n * p.target_mean.transpose() * p.target_mean;
-    p.scatter = sums.gram.cast<double>().selfadjointView<Eigen::Lower>();
-    sums.gram.resize(0, 0);
+    p.scatter = gram.cast<double>().selfadjointView<Eigen::Lower>();
+    gram.resize(0, 0);
     p.scatter.noalias() -= n * p.feature_mean * p.feature_mean.transpose();
-    p.right_side = std::move(sums.features_targets);
     p.right_side.noalias() -= n * p.feature_mean * p.target_mean;
     if (options_.feature_components > 0) p.feature_pca = leading_eigenpairs(p.scatter, std::min(options_.feature_components, dims_), pca_seed);
     return p;
 }
 
-// Streamed in chunks of training rows; the features are shifted by the first chunk's mean.
-CascadeTrainer::Problems CascadeTrainer::primal_problems(const SdmStageSettings& settings, std::uint64_t pca_seed) {
-    std::vector<PrimalSums> sums(halves());
-    Eigen::RowVectorXf shift;
-    RowMatrixXf a;
-    for (std::size_t h = 0; h < sums.size(); ++h) {
-        PrimalSums& part = sums[h];
-        part.gram = Eigen::MatrixXf::Zero(dims_, dims_);
-        part.sum_x = Eigen::VectorXd::Zero(dims_);
-        part.features_targets = Eigen::MatrixXd::Zero(dims_, kOutputs);
-        part.sum_y = Eigen::RowVectorXd::Zero(kOutputs);
-        part.target_products = Eigen::MatrixXd::Zero(kOutputs, kOutputs);
-        const auto [begin, count] = cross_fitting() ? half_rows(h) : std::pair{std::size_t{0}, train_rows_};
-        part.rows = static_cast<double>(count);
-        for (std::size_t first = begin; first < begin + count; first += kChunkRows) {
-            const std::size_t chunk = std::min(kChunkRows, begin + count - first);
-            extract_rows(first, chunk, settings, a);
-            if (first == 0) shift = a.colwise().mean();
-            a.rowwise() -= shift;
-            const Eigen::MatrixXd y = targets(first, chunk);
-            add_lower_gram(part.gram, dims_, options_.threads, [&](Eigen::Index b, Eigen::Index n) { return a.middleCols(b, n).transpose(); });
-            part.sum_x += a.colwise().sum().transpose().cast<double>();
-            part.features_targets.noalias() += a.transpose().cast<double>() * y;
-            part.sum_y += y.colwise().sum();
-            part.target_products.noalias() += y.transpose() * y;
-        }
-    }
-    Problems problems;
-    if (!cross_fitting()) {
-        problems.all = primal_problem(std::move(sums[0]), shift, pca_seed);
-        return problems;
-    }
-    PrimalSums all = sums[0];
-    all.rows += sums[1].rows;
-    all.gram += sums[1].gram;
-    all.sum_x += sums[1].sum_x;
-    all.features_targets += sums[1].features_targets;
-    all.sum_y += sums[1].sum_y;
-    all.target_products += sums[1].target_products;
-    problems.all = primal_problem(std::move(all), shift, pca_seed);
-    for (auto& part : sums) problems.halves.push_back(primal_problem(std::move(part), shift, pca_seed));
-    return problems;
-}
-
 CascadeTrainer::ChosenStage CascadeTrainer::choose_stage(std::size_t k, const RidgeProblem& problem, const RowMatrixXf& validation_features,
                                                          const SdmStageSettings& settings) const {
     const bool choose = options_.lambda_factors.size() > 1 || options_.ranks.size() > 1;
-    const Eigen::MatrixXf principal = principal_directions(problem.target_scatter);
+    // Principal directions of the targets, largest variance first.
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(problem.target_scatter);
+    const Eigen::MatrixXf principal = eigen.eigenvectors().rowwise().reverse().cast<float>();
     const Eigen::RowVectorXf target_mean = problem.target_mean.cast<float>();
     std::vector<Candidate> candidates;
     // The λ candidates' solves (one Cholesky factorisation of the D×D system each) are independent:
@@ -678,43 +571,30 @@ CascadeTrainer::ChosenStage CascadeTrainer::choose_stage(std::size_t k, const Ri
     }
     if (candidates.empty()) throw core::Error("SDM training: stage " + std::to_string(k + 1) + " produced non-finite weights");
     const Candidate& chosen = choose_candidate(candidates, options_.rank_tolerance);
+    const FullSolution& full = solutions[chosen.factor_index];
     ChosenStage out;
-    out.stage = reduced_rank_stage(solutions[chosen.factor_index].weights, solutions[chosen.factor_index].bias, principal, target_mean,
-                                   chosen.rank, settings);
+    out.stage.settings = settings;
+    out.stage.basis = principal.leftCols(chosen.rank);
+    out.stage.weights = out.stage.basis.transpose() * full.weights;
+    // b_r = ȳ − P Pᵀ (ȳ − b), so that b_r + W_r x = ȳ + P Pᵀ (W x + b − ȳ).
+    out.stage.bias = target_mean.transpose() - out.stage.basis * (out.stage.basis.transpose() * (target_mean.transpose() - full.bias));
     out.lambda_factor = options_.lambda_factors[chosen.factor_index];
     out.lambda = lambdas[chosen.factor_index];
     out.rank = chosen.rank;
     return out;
 }
 
-SdmStage CascadeTrainer::half_stage(std::size_t k, const RidgeProblem& half, double lambda_factor, int rank,
-                                    const SdmStageSettings& settings) const {
-    double lambda = 0;
-    const FullSolution full = half.solve(lambda_factor, lambda);
-    if (!full.weights.allFinite() || !full.bias.allFinite())
-        throw core::Error("SDM training: stage " + std::to_string(k + 1) + " produced non-finite weights on half of the training faces");
-    return reduced_rank_stage(full.weights, full.bias, principal_directions(half.target_scatter), half.target_mean.cast<float>(), rank,
-                              settings);
-}
-
-void CascadeTrainer::apply_stage(const SdmStage& stage, std::span<const SdmStage> half_stages, RidgeProblem& problem,
-                                 const RowMatrixXf& validation_features, const SdmStageSettings& settings) {
-    // Half h's rows move by the stage learned on the other half.
-    const auto stage_for = [&](std::size_t h) -> const SdmStage& { return half_stages.empty() ? stage : half_stages[1 - h]; };
+void CascadeTrainer::apply_stage(const SdmStage& stage, RidgeProblem& problem, const RowMatrixXf& validation_features,
+                                 const SdmStageSettings& settings) {
     if (problem.dual) {
         problem.features.rowwise() += problem.feature_offset;  // the features themselves again
-        for (std::size_t h = 0; h < halves(); ++h) {
-            const auto [first, count] = cross_fitting() ? half_rows(h) : std::pair{std::size_t{0}, train_rows_};
-            update_rows(first, problem.features.middleRows(static_cast<Eigen::Index>(first), static_cast<Eigen::Index>(count)), stage_for(h));
-        }
+        update_rows(0, problem.features, stage);
     } else {
         RowMatrixXf a;
-        for (std::size_t h = 0; h < halves(); ++h) {
-            const auto [begin, count] = cross_fitting() ? half_rows(h) : std::pair{std::size_t{0}, train_rows_};
-            for (std::size_t first = begin; first < begin + count; first += kChunkRows) {
-                extract_rows(first, std::min(kChunkRows, begin + count - first), settings, a);
-                update_rows(first, a, stage_for(h));
-            }
+        for (std::size_t first = 0; first < train_rows_; first += kChunkRows) {
+            const std::size_t count = std::min(kChunkRows, train_rows_ - first);
+            extract_rows(first, count, settings, a);
+            update_rows(first, a, stage);
         }
     }
     if (validation_rows_) update_rows(train_rows_, validation_features, stage);
@@ -731,18 +611,13 @@ void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings
     RowMatrixXf validation_features;
     if (validation_rows_) extract_rows(train_rows_, validation_rows_, settings, validation_features);
     const std::uint64_t pca_seed = options_.seed + k;
-    Problems problems = train_rows_ < static_cast<std::size_t>(dims_) ? dual_problems(settings, pca_seed) : primal_problems(settings, pca_seed);
-    ChosenStage chosen = choose_stage(k, problems.all, validation_features, settings);
+    RidgeProblem problem = train_rows_ < static_cast<std::size_t>(dims_) ? dual_problem(settings, pca_seed) : primal_problem(settings, pca_seed);
+    ChosenStage chosen = choose_stage(k, problem, validation_features, settings);
     report.lambda_factor = chosen.lambda_factor;
     report.lambda = chosen.lambda;
     report.rank = chosen.rank;
-    report.feature_components = problems.all.feature_pca ? static_cast<int>(problems.all.feature_pca->values.size()) : 0;
-    std::vector<SdmStage> half_stages(problems.halves.size());
-    parallel_for(0, half_stages.size(), options_.threads, [&](std::size_t h) {
-        half_stages[h] = half_stage(k, problems.halves[h], chosen.lambda_factor, chosen.rank, settings);
-    });
-    problems.halves.clear();
-    apply_stage(chosen.stage, half_stages, problems.all, validation_features, settings);
+    report.feature_components = problem.feature_pca ? static_cast<int>(problem.feature_pca->values.size()) : 0;
+    apply_stage(chosen.stage, problem, validation_features, settings);
 
     report.nme_after = mean_nme(0, train_rows_);
     report.validation_nme_after = mean_nme(train_rows_, validation_rows_);
@@ -781,7 +656,6 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& box
     if (options.unit == ShapeUnitKind::kFixed)
         model.unit.fixed_length = options.fixed_unit_length > 0 ? options.fixed_unit_length : morph::inter_eye_centre_distance(model.mean_shape);
 
-    if (options.cross_fit) split_in_halves(split, options.mirror);  // after the mean shape: the same with or without
     CascadeTrainer trainer(rows, split, options, model, settings);
     for (std::size_t k = 0; k < settings.size(); ++k) trainer.train_stage(k, settings[k]);
     return model;

@@ -193,12 +193,6 @@ struct SdmTrainOptions {
     // training features (capped at the stage's feature dimension D and, in the dual form, at the
     // training rows) and folds the projection into its weights; 0: off (plain ridge on all D features).
     int feature_components = 0;
-    // Two-fold cross-fitting: the training faces are split in two halves (a face and its mirror image
-    // in the same one) and each stage moves every training row with that stage learned on the other
-    // half alone, so that the next stage learns from residuals like those of faces the cascade has not
-    // seen (on its own training rows a stage leaves residuals several times smaller). The model's
-    // stages are still learned on all training rows, λ and the rank chosen on the validation faces.
-    bool cross_fit = false;
     int jaw_features_from = 3;  // first stage (1-based) whose features include the jaw points
     ShapeUnitKind unit = ShapeUnitKind::kInterEyeCentres;
     // kFixed: the unit's length in canonical crop pixels; 0: the inter-eye-centre distance of the

@@ -57,7 +57,6 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     };
     report["feature_pca"] = options.feature_components;
     report["mirror"] = options.mirror;
-    report["cross_fit"] = options.cross_fit;
     report["augment"] = options.augment;
     report["stages"] = options.stages;
     report["hog_cells"] = options.hog_cells;
