@@ -238,6 +238,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"occluders.probability", &c.occluders.probability, "share of samples with occluders"});
     f.push_back({"occluders.max_count", &c.occluders.max_count, "1..n occluding shapes"});
     f.push_back({"occluders.max_size", &c.occluders.max_size, "largest occluder extent, share of the face size"});
+    f.push_back({"occluders.fill", &c.occluders.fill,
+                 "\"colour\" (one random flat colour per shape) or \"image\" (a random crop of a background image; background.type images or wallpapers)"});
     f.push_back({"head.neck", &c.head.neck, "a neck under the jaw (an elliptic cylinder placed by the face's landmarks, with the skin under the chin and region label neck); the model and its landmarks are unchanged"});
     f.push_back({"head.body", &c.head.body,
                  "neck, shoulders, clothing and hair meshes (MakeHuman's CC0 meshes) placed on the face; the model, its landmarks and face labels are unchanged"});
@@ -409,6 +411,9 @@ void validate(const SynthConfig& c) {
     require(c.sequence.max_turn_deg >= 0 && c.sequence.max_turn_deg <= 180, "sequence.max_turn_deg", "must be in [0, 180]");
     require(c.sequence.drift >= 0 && c.sequence.drift <= 0.5, "sequence.drift", "must be in [0, 0.5]");
     require(c.occluders.max_size > 0 && c.occluders.max_size <= 1, "occluders.max_size", "must be in (0, 1]");
+    require(c.occluders.fill == "colour" || c.occluders.fill == "image", "occluders.fill", "must be \"colour\" or \"image\"");
+    require(c.occluders.fill != "image" || c.background.type == "images" || c.background.type == "wallpapers", "occluders.fill",
+            "\"image\" takes its crops from the background images: needs background.type = \"images\" or \"wallpapers\"");
     require(c.lighting.face_light == "sampled" || c.lighting.face_light == "even", "lighting.face_light", "must be \"sampled\" or \"even\"");
     require(c.landmarks.mode == "contour" || c.landmarks.mode == "even" || c.landmarks.mode == "fixed", "landmarks.mode", "must be \"contour\", \"even\" or \"fixed\"");
     // The method first (with its default count), then the count, so that the error names the key at fault.

@@ -141,6 +141,9 @@ struct OccluderConfig {
     double probability = 0;  // share of samples with occluders
     int max_count = 2;       // 1..max_count random shapes
     double max_size = 0.35;  // largest shape extent, share of the face size
+    // "colour": each shape one random flat colour; "image": each shape filled with a random crop of
+    // one of the background images (background.type images or wallpapers), textured as real objects are.
+    std::string fill = "colour";
 };
 
 struct RenderConfig {

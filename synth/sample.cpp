@@ -143,26 +143,46 @@ void composite(const cv::Mat& face, const cv::Mat& mask, const cv::Mat& backgrou
     }
 }
 
-// `coverage` stays empty when there are no occluders (most samples by default).
-void draw_occluders(const std::vector<OccluderSpec>& occluders, cv::Mat& image, cv::Mat& coverage) {
+// Fills occluder `o`'s shape in `target` with `value` (anti-aliased or not).
+void fill_occluder_shape(const OccluderSpec& o, cv::Mat& target, const cv::Scalar& value, int line_type) {
+    const cv::RotatedRect box(cv::Point2f(static_cast<float>(o.centre.x()), static_cast<float>(o.centre.y())),
+                              cv::Size2f(static_cast<float>(2 * o.half_size.x()), static_cast<float>(2 * o.half_size.y())),
+                              static_cast<float>(o.angle));
+    if (o.shape == "ellipse") {
+        cv::ellipse(target, box, value, cv::FILLED, line_type);
+        return;
+    }
+    cv::Point2f corners[4];
+    box.points(corners);
+    std::vector<cv::Point> polygon;
+    for (const auto& p : corners) polygon.emplace_back(cvRound(p.x), cvRound(p.y));
+    cv::fillConvexPoly(target, polygon, value, line_type);
+}
+
+// `coverage` stays empty when there are no occluders (most samples by default). Image-filled
+// occluders take a crop of one of `library`'s images (as an image background does), blended in
+// through the shape's anti-aliased alpha.
+void draw_occluders(const std::vector<OccluderSpec>& occluders, const ImageLibrary& library, cv::Mat& image, cv::Mat& coverage) {
     coverage.release();
     if (occluders.empty()) return;
     coverage = cv::Mat::zeros(image.size(), CV_8UC1);
+    cv::Mat fill, alpha, alpha3;
     for (const auto& o : occluders) {
-        const cv::RotatedRect box(cv::Point2f(static_cast<float>(o.centre.x()), static_cast<float>(o.centre.y())),
-                                  cv::Size2f(static_cast<float>(2 * o.half_size.x()), static_cast<float>(2 * o.half_size.y())),
-                                  static_cast<float>(o.angle));
-        if (o.shape == "ellipse") {
-            cv::ellipse(image, box, to_scalar(o.colour), cv::FILLED, cv::LINE_AA);
-            cv::ellipse(coverage, box, cv::Scalar(255), cv::FILLED, cv::LINE_8);
-        } else {
-            cv::Point2f corners[4];
-            box.points(corners);
-            std::vector<cv::Point> polygon;
-            for (const auto& p : corners) polygon.emplace_back(cvRound(p.x), cvRound(p.y));
-            cv::fillConvexPoly(image, polygon, to_scalar(o.colour), cv::LINE_AA);
-            cv::fillConvexPoly(coverage, polygon, cv::Scalar(255), cv::LINE_8);
+        fill_occluder_shape(o, coverage, cv::Scalar(255), cv::LINE_8);
+        if (o.image_seed == 0) {
+            fill_occluder_shape(o, image, to_scalar(o.colour), cv::LINE_AA);
+            continue;
         }
+        fill.create(image.size(), CV_8UC3);
+        BackgroundSpec crop;
+        crop.type = "images";
+        crop.pattern_seed = o.image_seed;
+        image_crop(fill, crop, library);
+        alpha = cv::Mat::zeros(image.size(), CV_8UC1);
+        fill_occluder_shape(o, alpha, cv::Scalar(255), cv::LINE_AA);
+        cv::cvtColor(alpha, alpha3, cv::COLOR_GRAY2RGB);
+        const cv::Mat blended = fill.mul(alpha3, 1.0 / 255) + image.mul(cv::Scalar::all(255) - alpha3, 1.0 / 255);
+        blended.copyTo(image);
     }
 }
 
@@ -385,7 +405,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     composite(frame_.rgb, frame_.mask, background_, s.image);
     s.mask = frame_.mask.clone();
     cv::Mat occluder_coverage;
-    draw_occluders(s.spec.occluders, s.image, occluder_coverage);
+    draw_occluders(s.spec.occluders, backgrounds_, s.image, occluder_coverage);
     if (!occluder_coverage.empty()) s.mask.setTo(0, occluder_coverage);  // an empty mask would clear it all
     labels.occluded = occluded_by(chosen_landmarks(labels, config_.landmarks.mode), occluder_coverage);
     degrade(s.image, s.spec.degradation, s.spec.seed, index);

@@ -195,6 +195,7 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const m
         j.key("centre").point(o.centre);
         j.key("colour").point(o.colour);
         j.key("half_size").point(o.half_size);
+        if (o.image_seed != 0) j.key("image_seed").integer(o.image_seed);
         j.key("shape").string(o.shape);
         j.end_object();
     }

@@ -225,6 +225,9 @@ std::vector<OccluderSpec> sample_occluders(const SynthConfig& config, std::int64
         o.colour = random_colour(rng);
         out.push_back(o);
     }
+    // After every shape, so that the shapes are those of fill = "colour"; never 0, which means flat colour.
+    if (c.fill == "image")
+        for (auto& o : out) o.image_seed = rng.next_u64() | 1U;
     return out;
 }
 

@@ -63,6 +63,9 @@ struct OccluderSpec {
     Eigen::Vector2d half_size = Eigen::Vector2d::Zero();  // px
     double angle = 0;                                  // degrees
     Eigen::Vector3d colour = Eigen::Vector3d::Zero();  // sRGB in [0, 1]
+    // occluders.fill = "image": the seed of the background-image crop that fills the shape (as
+    // BackgroundSpec::pattern_seed); 0: the flat colour.
+    std::uint64_t image_seed = 0;
 };
 
 // The fit a texture bank's texture was taken with: the identity (empty in banks made before shapes

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <set>
 
 namespace facesynth::synth {
 namespace {
@@ -255,6 +256,40 @@ TEST(SynthScene, SharpenProbabilityOnlyAddsTheSharpenAmount) {
     on.degrade.sharpen_amount_max = 3.0;
     on.degrade.sharpen_probability = -0.5;
     EXPECT_NE(testkit::error_message_of([&] { validate(on); }).find("degrade.sharpen_probability"), std::string::npos);
+}
+
+// occluders.fill = "image" adds a crop seed to each occluder and changes nothing else that is drawn; it
+// needs background images to crop.
+TEST(SynthScene, ImageFilledOccludersOnlyAddTheImageSeed) {
+    const morph::MorphableModel model = testkit::make_toy_model();
+    SynthConfig flat;
+    flat.occluders.probability = 1.0;
+    flat.occluders.max_count = 3;
+    SynthConfig filled = flat;
+    filled.occluders.fill = "image";
+    filled.background.type = "wallpapers";
+    std::set<std::uint64_t> seeds;
+    for (int i = 0; i < 40; ++i) {
+        const SampleSpec a = sample_scene(flat, model, i), b = sample_scene(filled, model, i);
+        ASSERT_EQ(a.occluders.size(), b.occluders.size()) << i;
+        ASSERT_FALSE(a.occluders.empty()) << i;
+        for (std::size_t k = 0; k < a.occluders.size(); ++k) {
+            EXPECT_EQ(a.occluders[k].image_seed, 0U) << i;
+            EXPECT_NE(b.occluders[k].image_seed, 0U) << i;
+            seeds.insert(b.occluders[k].image_seed);
+            EXPECT_EQ(a.occluders[k].shape, b.occluders[k].shape) << i;
+            EXPECT_EQ(a.occluders[k].centre, b.occluders[k].centre) << i;
+            EXPECT_EQ(a.occluders[k].half_size, b.occluders[k].half_size) << i;
+            EXPECT_EQ(a.occluders[k].angle, b.occluders[k].angle) << i;
+            EXPECT_EQ(a.occluders[k].colour, b.occluders[k].colour) << i;
+        }
+    }
+    EXPECT_GT(seeds.size(), 60U);  // one crop per occluder, not one per sample
+    filled.background.type = "solid";
+    EXPECT_NE(testkit::error_message_of([&] { validate(filled); }).find("occluders.fill"), std::string::npos);
+    filled.background.type = "wallpapers";
+    filled.occluders.fill = "photo";
+    EXPECT_NE(testkit::error_message_of([&] { validate(filled); }).find("occluders.fill"), std::string::npos);
 }
 
 TEST(SynthScene, DirectionalMinLightsEverySample) {
