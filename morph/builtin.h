@@ -17,9 +17,9 @@ inline constexpr int kBuiltinColumns = 85;
 inline constexpr int kBuiltinRows = 88;
 
 // The model, read from the copy that generate_builtin_model() wrote at build time and that is
-// embedded in the library (an .fsm, docs/model-format.md, checksum verified on reading): a few
-// milliseconds instead of the generation's 0.6 s (several seconds under the sanitizers), which every
-// command that uses the built-in model would otherwise pay. A program linked without the copy (the
+// embedded in the library (an .fsm, docs/model-format.md, checksum verified on reading), so that a
+// command using the built-in model no longer pays the generation (`facesynth model info`: 0.2 CPU-s
+// instead of 0.6 in Release, 0.5 instead of 3.1 under the sanitizers; docs/builtin-model.md). A program linked without the copy (the
 // build's own generator) generates it instead. Either way the same model, bit for bit.
 [[nodiscard]] MorphableModel builtin_model();
 

@@ -13,7 +13,7 @@
 namespace facesynth {
 namespace {
 
-// The model takes a moment to build; the suite builds it once.
+// The suite reads the model once and shares it.
 class BuiltinModel : public ::testing::Test {
 protected:
     static void SetUpTestSuite() { model_ = new morph::MorphableModel(morph::builtin_model()); }
