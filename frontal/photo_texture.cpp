@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 namespace facesynth::frontal {
@@ -68,6 +69,18 @@ std::vector<cv::Point2f> trusted_face_polygon(const Eigen::Matrix2Xd& landmarks)
     std::vector<cv::Point2f> hull;
     cv::convexHull(points, hull);
     return hull;
+}
+
+// Distance from p to the annotated jaw line (the polyline through iBUG 1-17), pixels.
+double distance_to_jaw_line(const Eigen::Matrix2Xd& landmarks, const Eigen::Vector2d& p) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int i = 0; i + 1 < morph::kNumJawLandmarks; ++i) {
+        const Eigen::Vector2d a = landmarks.col(i), ab = landmarks.col(i + 1) - a;
+        const double length2 = ab.squaredNorm();
+        const double t = length2 > 0 ? std::clamp((p - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+        best = std::min(best, (p - (a + t * ab)).norm());
+    }
+    return best;
 }
 
 PhotoTexture rejected(PhotoTexture t, std::string why) {
@@ -238,7 +251,10 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
         return position;
     };
     // Face texels seen outside the face's polygon show something else in the photograph: not seen.
+    // Those within jaw_margin of the jaw line show its edge: dropped before the fill, below.
     const std::vector<cv::Point2f> face_polygon = trusted_face_polygon(landmarks);
+    const double jaw_margin_px = options.jaw_margin * iod;
+    std::vector<int> jaw_band;
     auto* isomap_px = isomap.ptr<cv::Vec4b>();
     for (const UvRaster::TriangleTexels& tri : raster.triangles)
         for (int k = tri.first; k < tri.first + tri.count; ++k) {
@@ -247,6 +263,8 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
             const Eigen::Vector2d p = fit.camera.project(texel_position(tri, t));
             if (cv::pointPolygonTest(face_polygon, cv::Point2f(static_cast<float>(p.x()), static_cast<float>(p.y())), false) < 0)
                 isomap_px[t.index][3] = 0;
+            else if (jaw_margin_px > 0 && distance_to_jaw_line(landmarks, p) < jaw_margin_px)
+                jaw_band.push_back(t.index);
         }
 
     // Linear colours of the seen texels, and the shading fit over the seen plain skin.
@@ -334,11 +352,15 @@ PhotoTexture extract_photo_texture(Frontaliser& frontaliser, const cv::Mat& imag
     for (int i = 0; i < skin_lab.cols; ++i) outliers += cv::norm(skin_lab.at<cv::Vec3f>(i) - median_lab) > kOutlierDeltaE ? 1 : 0;
     out.skin_outliers = static_cast<double>(outliers) / static_cast<double>(skin_lab.cols);
 
-    // Coverage says how much of the face the photograph showed: occluders dropped below still count.
+    // Coverage says how much of the face the photograph showed: occluders and the jaw band dropped
+    // below still count.
     cv::Mat shown = seen;
-    if (options.drop_occluders) {
+    if (options.drop_occluders || !jaw_band.empty()) {
         shown = seen.clone();
         frontaliser.mirror_fill(shown);
+    }
+    for (const int index : jaw_band) seen_px[index][3] = 0;
+    if (options.drop_occluders) {
         const Eigen::Matrix3Xf points = model.landmark_positions(vertices);
         const Eigen::Vector3d nose_base = points.col(morph::kNoseBaseLandmark).cast<double>();
         const Eigen::Vector3d up = (points.middleCols(17, 10).rowwise().mean() - points.col(morph::kChinLandmark)).cast<double>().normalized();

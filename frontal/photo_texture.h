@@ -54,6 +54,12 @@ struct PhotoTextureOptions {
     // unseen: its mirror texel or its neighbours fill it. Below the nose it is kept: beards and stubble
     // are the face's own (docs/textures.md "Occluders dropped").
     bool drop_occluders = false;
+    // Face texels that project within this share of the inter-ocular distance inside the annotated jaw
+    // line (iBUG 1-17) count as unseen and are filled from the skin further in: annotators put the jaw
+    // points on the face's edge, so the photograph's texels there carry that edge and the shadow or
+    // background beside it, which renders would otherwise show as a painted line inside the model's
+    // own silhouette (docs/textures.md step 3). 0: trusted up to the line.
+    double jaw_margin = 0;
 };
 
 // The photograph warped smoothly so that `annotated` points (iBUG 18-68 of 2 x 68, 0-based pixels; with

@@ -48,6 +48,7 @@ struct TexturesArgs {
     bool align_jaw = false;
     bool skin_beyond_face = false;
     bool drop_occluders = false;
+    double jaw_margin = 0;
     double max_yaw = 50;
     double min_coverage = 0.6;
     double max_outliers = 0.2;
@@ -77,6 +78,7 @@ void run_textures(const TexturesArgs& a) {
     options.align_jaw = a.align_jaw;
     options.skin_beyond_face = a.skin_beyond_face;
     options.drop_occluders = a.drop_occluders;
+    options.jaw_margin = a.jaw_margin;
     frontal::Frontaliser frontaliser(model);
     if (model.symmetry.size() != static_cast<std::size_t>(model.num_vertices()))
         throw core::Error("textures: model '" + model.name + "' (" + a.model + ") has no symmetry map to fill the hidden side with");
@@ -92,6 +94,7 @@ void run_textures(const TexturesArgs& a) {
                        {"max_fit_error", options.max_fit_error}, {"fit_lambda", options.fit_lambda}, {"outlier_delta_e", frontal::kOutlierDeltaE},
                        {"align_features", options.align_features || options.align_jaw}, {"align_jaw", options.align_jaw},
                        {"skin_beyond_face", options.skin_beyond_face}, {"drop_occluders", options.drop_occluders},
+                       {"jaw_margin", options.jaw_margin},
                        {"detector_for_photos_without_pts", a.regressor}};
     synth::TextureBankWriter bank(a.out, header);
 
@@ -316,6 +319,10 @@ void register_appearance_commands(CLI::App& app) {
     cmd->add_flag("--skin-beyond-face", a->skin_beyond_face, "Give the model's ears and neck the face's own skin colour, and fade unseen skin to it, instead of what surrounds the face in the photograph");
     cmd->add_flag("--drop-occluders", a->drop_occluders,
                   "Treat seen skin above the nose's base far from the skin's median colour (hair across the forehead, hands, frames) as unseen: filled from its mirror or its neighbours");
+    cmd->add_option("--jaw-margin", a->jaw_margin,
+                    "Treat the face within this share of the inter-ocular distance inside the annotated jaw line (its edge, the shadow beside it) as unseen: filled from the skin further in")
+        ->check(finite_range(0.0, 0.5))
+        ->capture_default_str();
     cmd->add_option("--max-yaw", a->max_yaw, "Reject faces turned further than this, degrees")->check(finite_range(0.0, 90.0))->capture_default_str();
     cmd->add_option("--min-coverage", a->min_coverage, "Reject faces with less of the face seen (with the mirror side)")->check(finite_range(0.0, 1.0))->capture_default_str();
     cmd->add_option("--max-outliers", a->max_outliers, "Reject faces with more of the seen skin far from its median colour (occlusion)")

@@ -2,10 +2,12 @@
 #include "frontal/evaluate.h"
 #include "frontal/photo_texture.h"
 #include "morph/builtin.h"
+#include "morph/landmarks.h"
 #include "core/error.h"
 #include "morph/regions.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -228,6 +230,40 @@ TEST_F(PhotoTextureTest, DroppedOccludersLeaveTheForeheadButNotTheBeard) {
             EXPECT_GT(dropped_off, 0.8 * kept_off);
         }
     }
+}
+
+TEST_F(PhotoTextureTest, JawMarginDropsAnEdgePaintedAlongTheJawLine) {
+    const SyntheticView v = view(0);
+    const Eigen::Matrix2Xd& l = v.landmarks;
+    std::vector<cv::Point> jaw;
+    for (int i = 0; i < morph::kNumJawLandmarks; ++i) jaw.emplace_back(static_cast<int>(std::lround(l(0, i))), static_cast<int>(std::lround(l(1, i))));
+    cv::Mat painted = v.image.clone();
+    cv::polylines(painted, jaw, false, cv::Scalar(20, 25, 35), 3);  // a dark edge on the annotated jaw line, as a shadow
+    PhotoTextureOptions keep = options(true), margin = keep;
+    margin.jaw_margin = 0.06;
+    // Each against the unpainted face's texture made with the same options: what the paint changed.
+    const PhotoTexture truth_kept = extract_photo_texture(*frontaliser_, v.image, l, keep);
+    const PhotoTexture truth_margin = extract_photo_texture(*frontaliser_, v.image, l, margin);
+    const PhotoTexture kept = extract_photo_texture(*frontaliser_, painted, l, keep);
+    const PhotoTexture dropped = extract_photo_texture(*frontaliser_, painted, l, margin);
+    ASSERT_TRUE(truth_kept.rejection.empty() && truth_margin.rejection.empty() && kept.rejection.empty() && dropped.rejection.empty())
+        << kept.rejection << dropped.rejection;
+    double kept_off = 0, dropped_off = 0;
+    int texels = 0;
+    for (int i = 0; i < kTextureSize * kTextureSize; ++i) {
+        const cv::Vec3b tk = truth_kept.texture.ptr<cv::Vec3b>()[i], tm = truth_margin.texture.ptr<cv::Vec3b>()[i];
+        const cv::Vec3b k = kept.texture.ptr<cv::Vec3b>()[i], d = dropped.texture.ptr<cv::Vec3b>()[i];
+        const double k_off = cv::norm(cv::Vec3d(k) - cv::Vec3d(tk), cv::NORM_L1) / 3, d_off = cv::norm(cv::Vec3d(d) - cv::Vec3d(tm), cv::NORM_L1) / 3;
+        if (k_off < 30) continue;
+        kept_off += k_off, dropped_off += d_off, ++texels;
+    }
+    ASSERT_GT(texels, 50);
+    kept_off /= texels, dropped_off /= texels;
+    std::printf("jaw edge: %d texels painted, %.1f levels off kept, %.1f with the margin\n", texels, kept_off, dropped_off);
+    EXPECT_LT(dropped_off, 0.2 * kept_off);
+    // The band is dropped after coverage and occlusion are counted: a bank keeps the same photographs.
+    EXPECT_DOUBLE_EQ(dropped.face_coverage, kept.face_coverage);
+    EXPECT_DOUBLE_EQ(dropped.skin_outliers, kept.skin_outliers);
 }
 
 TEST_F(PhotoTextureTest, UnusablePhotographsAreRejectedWithTheReason) {
