@@ -239,7 +239,9 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"occluders.max_count", &c.occluders.max_count, "1..n occluding shapes"});
     f.push_back({"occluders.max_size", &c.occluders.max_size, "largest occluder extent, share of the face size"});
     f.push_back({"occluders.fill", &c.occluders.fill,
-                 "\"colour\" (one random flat colour per shape) or \"image\" (a random crop of a background image; background.type images or wallpapers)"});
+                 "\"colour\" (one random flat colour per shape), \"image\" (a random crop of a background image; background.type images or wallpapers) or \"skin\" (the face's own skin colour, shaded, as hands)"});
+    f.push_back({"occluders.placement", &c.occluders.placement,
+                 "\"landmarks\" (each shape centred near a random landmark) or \"jaw\" (along the jaw line, its edge beside the face's outline, as scarves, collars and hands)"});
     f.push_back({"head.neck", &c.head.neck, "a neck under the jaw (an elliptic cylinder placed by the face's landmarks, with the skin under the chin and region label neck); the model and its landmarks are unchanged"});
     f.push_back({"head.body", &c.head.body,
                  "neck, shoulders, clothing and hair meshes (MakeHuman's CC0 meshes) placed on the face; the model, its landmarks and face labels are unchanged"});
@@ -411,7 +413,8 @@ void validate(const SynthConfig& c) {
     require(c.sequence.max_turn_deg >= 0 && c.sequence.max_turn_deg <= 180, "sequence.max_turn_deg", "must be in [0, 180]");
     require(c.sequence.drift >= 0 && c.sequence.drift <= 0.5, "sequence.drift", "must be in [0, 0.5]");
     require(c.occluders.max_size > 0 && c.occluders.max_size <= 1, "occluders.max_size", "must be in (0, 1]");
-    require(c.occluders.fill == "colour" || c.occluders.fill == "image", "occluders.fill", "must be \"colour\" or \"image\"");
+    require(c.occluders.fill == "colour" || c.occluders.fill == "image" || c.occluders.fill == "skin", "occluders.fill", "must be \"colour\", \"image\" or \"skin\"");
+    require(c.occluders.placement == "landmarks" || c.occluders.placement == "jaw", "occluders.placement", "must be \"landmarks\" or \"jaw\"");
     require(c.occluders.fill != "image" || c.background.type == "images" || c.background.type == "wallpapers", "occluders.fill",
             "\"image\" takes its crops from the background images: needs background.type = \"images\" or \"wallpapers\"");
     require(c.lighting.face_light == "sampled" || c.lighting.face_light == "even", "lighting.face_light", "must be \"sampled\" or \"even\"");

@@ -142,8 +142,13 @@ struct OccluderConfig {
     int max_count = 2;       // 1..max_count random shapes
     double max_size = 0.35;  // largest shape extent, share of the face size
     // "colour": each shape one random flat colour; "image": each shape filled with a random crop of
-    // one of the background images (background.type images or wallpapers), textured as real objects are.
+    // one of the background images (background.type images or wallpapers), textured as real objects are;
+    // "skin": the face's own median skin colour (as rendered) times a shade in [0.8, 1.1], as hands are.
     std::string fill = "colour";
+    // "landmarks": each shape centred near a random landmark; "jaw": on the jaw line (between two
+    // neighbouring jaw points), its long side along the line and shifted across it, so that its edge
+    // lies beside the face's own outline, as a headscarf's, a collar's or a hand's on the cheek does.
+    std::string placement = "landmarks";
 };
 
 struct RenderConfig {

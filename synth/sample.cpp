@@ -159,16 +159,45 @@ void fill_occluder_shape(const OccluderSpec& o, cv::Mat& target, const cv::Scala
     cv::fillConvexPoly(target, polygon, value, line_type);
 }
 
+// The median colour of the pixels labelled skin (R G B, 0-255); mid grey when none are.
+cv::Scalar median_skin_colour(const cv::Mat& image, const cv::Mat& labels) {
+    std::array<std::vector<uchar>, 3> channels;
+    if (labels.size() != image.size() || labels.type() != CV_8UC1) return cv::Scalar::all(128);
+    for (int y = 0; y < image.rows; ++y) {
+        const auto* px = image.ptr<cv::Vec3b>(y);
+        const auto* label = labels.ptr<std::uint8_t>(y);
+        for (int x = 0; x < image.cols; ++x)
+            if (label[x] == static_cast<std::uint8_t>(morph::Region::kSkin))
+                for (std::size_t c = 0; c < 3; ++c) channels[c].push_back(px[x][static_cast<int>(c)]);
+    }
+    cv::Scalar median = cv::Scalar::all(128);
+    for (std::size_t c = 0; c < 3; ++c) {
+        auto& v = channels[c];
+        if (v.empty()) continue;
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+        median[static_cast<int>(c)] = v[v.size() / 2];
+    }
+    return median;
+}
+
 // `coverage` stays empty when there are no occluders (most samples by default). Image-filled
 // occluders take a crop of one of `library`'s images (as an image background does), blended in
-// through the shape's anti-aliased alpha.
-void draw_occluders(const std::vector<OccluderSpec>& occluders, const ImageLibrary& library, cv::Mat& image, cv::Mat& coverage) {
+// through the shape's anti-aliased alpha; skin-filled ones the face's median skin colour in `image`
+// (`labels`: the render's regions), taken before any occluder is drawn.
+void draw_occluders(const std::vector<OccluderSpec>& occluders, const ImageLibrary& library, const cv::Mat& labels, cv::Mat& image,
+                    cv::Mat& coverage) {
     coverage.release();
     if (occluders.empty()) return;
     coverage = cv::Mat::zeros(image.size(), CV_8UC1);
+    const bool skin_filled = std::any_of(occluders.begin(), occluders.end(), [](const OccluderSpec& o) { return o.skin_shade > 0; });
+    const cv::Scalar skin = skin_filled ? median_skin_colour(image, labels) : cv::Scalar();
     cv::Mat fill, alpha, alpha3;
     for (const auto& o : occluders) {
         fill_occluder_shape(o, coverage, cv::Scalar(255), cv::LINE_8);
+        if (o.skin_shade > 0) {
+            fill_occluder_shape(o, image, skin * o.skin_shade, cv::LINE_AA);
+            continue;
+        }
         if (o.image_seed == 0) {
             fill_occluder_shape(o, image, to_scalar(o.colour), cv::LINE_AA);
             continue;
@@ -405,7 +434,7 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     composite(frame_.rgb, frame_.mask, background_, s.image);
     s.mask = frame_.mask.clone();
     cv::Mat occluder_coverage;
-    draw_occluders(s.spec.occluders, backgrounds_, s.image, occluder_coverage);
+    draw_occluders(s.spec.occluders, backgrounds_, frame_.labels, s.image, occluder_coverage);
     if (!occluder_coverage.empty()) s.mask.setTo(0, occluder_coverage);  // an empty mask would clear it all
     labels.occluded = occluded_by(chosen_landmarks(labels, config_.landmarks.mode), occluder_coverage);
     degrade(s.image, s.spec.degradation, s.spec.seed, index);

@@ -197,6 +197,7 @@ std::string sample_meta(const Sample& sample, const SynthConfig& config, const m
         j.key("half_size").point(o.half_size);
         if (o.image_seed != 0) j.key("image_seed").integer(o.image_seed);
         j.key("shape").string(o.shape);
+        if (o.skin_shade > 0) j.key("skin_shade").number(o.skin_shade);
         j.end_object();
     }
     j.end_array();

@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/random.h"
+#include "morph/landmarks.h"
 #include "morph/sampling.h"
 #include "core/srgb.h"
 
@@ -214,20 +215,37 @@ std::vector<OccluderSpec> sample_occluders(const SynthConfig& config, std::int64
     const Eigen::Vector2d high = landmarks.rowwise().maxCoeff();
     const double face_size = (high - low).norm();
     const int count = rng.uniform_int(1, c.max_count);
+    const Eigen::Vector2d face_centre = landmarks.rowwise().mean();
     for (int i = 0; i < count; ++i) {
         OccluderSpec o;
         o.shape = rng.uniform() < 0.5 ? "ellipse" : "rectangle";
-        // Centred on a random landmark so the occluder covers part of the face.
-        const int anchor = rng.uniform_int(0, static_cast<int>(landmarks.cols()) - 1);
-        o.centre = landmarks.col(anchor) + Eigen::Vector2d(rng.normal(0, 0.05 * face_size), rng.normal(0, 0.05 * face_size));
-        o.half_size = 0.5 * face_size * Eigen::Vector2d(rng.uniform(0.15, 1.0) * c.max_size, rng.uniform(0.15, 1.0) * c.max_size);
-        o.angle = rng.uniform(0.0, 180.0);
+        if (c.placement == "jaw") {
+            // A point of the jaw line, the shape's long side along it, shifted across it from half inside
+            // the face to wholly beside it: its edge runs near the face's own outline.
+            const int segment = rng.uniform_int(0, morph::kNumJawLandmarks - 2);
+            const Eigen::Vector2d a = landmarks.col(segment), b = landmarks.col(segment + 1);
+            const Eigen::Vector2d on_line = a + rng.uniform() * (b - a);
+            const Eigen::Vector2d along = (b - a).norm() > 0 ? Eigen::Vector2d((b - a).normalized()) : Eigen::Vector2d::UnitX();
+            Eigen::Vector2d outward(along.y(), -along.x());
+            if (outward.dot(on_line - face_centre) < 0) outward = -outward;
+            o.half_size = 0.5 * face_size * c.max_size * Eigen::Vector2d(rng.uniform(0.5, 1.0), rng.uniform(0.15, 0.5));
+            o.centre = on_line + rng.uniform(-0.5, 1.0) * o.half_size.y() * outward;
+            o.angle = std::atan2(along.y(), along.x()) * 180.0 / std::numbers::pi + rng.normal(0, 15.0);
+        } else {
+            // Centred on a random landmark so the occluder covers part of the face.
+            const int anchor = rng.uniform_int(0, static_cast<int>(landmarks.cols()) - 1);
+            o.centre = landmarks.col(anchor) + Eigen::Vector2d(rng.normal(0, 0.05 * face_size), rng.normal(0, 0.05 * face_size));
+            o.half_size = 0.5 * face_size * Eigen::Vector2d(rng.uniform(0.15, 1.0) * c.max_size, rng.uniform(0.15, 1.0) * c.max_size);
+            o.angle = rng.uniform(0.0, 180.0);
+        }
         o.colour = random_colour(rng);
         out.push_back(o);
     }
     // After every shape, so that the shapes are those of fill = "colour"; never 0, which means flat colour.
     if (c.fill == "image")
         for (auto& o : out) o.image_seed = rng.next_u64() | 1U;
+    if (c.fill == "skin")
+        for (auto& o : out) o.skin_shade = rng.uniform(0.8, 1.1);
     return out;
 }
 

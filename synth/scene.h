@@ -66,6 +66,8 @@ struct OccluderSpec {
     // occluders.fill = "image": the seed of the background-image crop that fills the shape (as
     // BackgroundSpec::pattern_seed); 0: the flat colour.
     std::uint64_t image_seed = 0;
+    // occluders.fill = "skin": the face's median skin colour as rendered, times this shade (0: the flat colour).
+    double skin_shade = 0;
 };
 
 // The fit a texture bank's texture was taken with: the identity (empty in banks made before shapes

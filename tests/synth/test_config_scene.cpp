@@ -292,6 +292,39 @@ TEST(SynthScene, ImageFilledOccludersOnlyAddTheImageSeed) {
     EXPECT_NE(testkit::error_message_of([&] { validate(filled); }).find("occluders.fill"), std::string::npos);
 }
 
+// occluders.fill = "skin" only adds a shade to each occluder; occluders.placement = "jaw" changes where
+// the shapes lie, and both keys name themselves when given a value they do not take.
+TEST(SynthScene, SkinFilledOccludersOnlyAddAShadeAndPlacementIsChecked) {
+    const morph::MorphableModel model = testkit::make_toy_model();
+    SynthConfig flat;
+    flat.occluders.probability = 1.0;
+    flat.occluders.max_count = 3;
+    SynthConfig skin = flat;
+    skin.occluders.fill = "skin";
+    SynthConfig jaw = flat;
+    jaw.occluders.placement = "jaw";
+    int moved = 0;
+    for (int i = 0; i < 20; ++i) {
+        const SampleSpec a = sample_scene(flat, model, i), b = sample_scene(skin, model, i), c = sample_scene(jaw, model, i);
+        ASSERT_EQ(a.occluders.size(), b.occluders.size()) << i;
+        ASSERT_EQ(a.occluders.size(), c.occluders.size()) << i;
+        for (std::size_t k = 0; k < a.occluders.size(); ++k) {
+            EXPECT_EQ(a.occluders[k].skin_shade, 0.0) << i;
+            EXPECT_GE(b.occluders[k].skin_shade, 0.8) << i;
+            EXPECT_LE(b.occluders[k].skin_shade, 1.1) << i;
+            EXPECT_EQ(a.occluders[k].centre, b.occluders[k].centre) << i;
+            EXPECT_EQ(a.occluders[k].half_size, b.occluders[k].half_size) << i;
+            EXPECT_EQ(a.occluders[k].angle, b.occluders[k].angle) << i;
+            moved += a.occluders[k].centre != c.occluders[k].centre ? 1 : 0;
+        }
+    }
+    EXPECT_GT(moved, 20);
+    validate(skin);
+    validate(jaw);
+    jaw.occluders.placement = "chin";
+    EXPECT_NE(testkit::error_message_of([&] { validate(jaw); }).find("occluders.placement"), std::string::npos);
+}
+
 TEST(SynthScene, DirectionalMinLightsEverySample) {
     const morph::MorphableModel model = testkit::make_toy_model();
     SynthConfig by_default, at_least_one, exactly_two;
