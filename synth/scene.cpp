@@ -220,8 +220,8 @@ std::vector<OccluderSpec> sample_occluders(const SynthConfig& config, std::int64
         OccluderSpec o;
         o.shape = rng.uniform() < 0.5 ? "ellipse" : "rectangle";
         if (c.placement == "jaw") {
-            // A point of the jaw line, the shape's long side along it, shifted across it from half inside
-            // the face to wholly beside it: its edge runs near the face's own outline.
+            // A point of the jaw line, the shape's long side along it, shifted across it from mostly inside
+            // the face to just beside it: an edge of the shape runs near the face's own outline.
             const int segment = rng.uniform_int(0, morph::kNumJawLandmarks - 2);
             const Eigen::Vector2d a = landmarks.col(segment), b = landmarks.col(segment + 1);
             const Eigen::Vector2d on_line = a + rng.uniform() * (b - a);
