@@ -373,14 +373,16 @@ void landmarks_section(const fs::path& evals, Context& context) {
         context.report.sections_missing.emplace_back("landmarks");
         return;
     }
-    page.paragraph("NME: mean point-to-point error over the 68 points divided by the outer-eye-corner distance; faces the Haar detector "
+    page.paragraph("NME: mean point-to-point error over the 68 points divided by the outer-eye-corner distance; faces the face detector "
                    "misses count as failures. The first regressor is ours; the others are baselines on the same face boxes.");
     std::vector<std::string> plots;
     for (const auto& file : files) {
         const auto j = load_json(file, context);
         if (!j) continue;
         const std::string name = name_between(file, layout::kLandmarksPrefix, ".json");
-        page.subheading("Test set: " + name + " (" + text_at(*j, "count") + " faces, " + text_at(*j, "detector_misses") + " detector misses)");
+        const std::string detector = j->contains("detector") ? text_at(*j, "detector") + " " : "";
+        page.subheading("Test set: " + name + " (" + text_at(*j, "count") + " faces, " + text_at(*j, "detector_misses") + " " + detector +
+                        "detector misses)");
         std::vector<std::vector<std::string>> rows;
         std::vector<std::string> labels;
         for (int r = 1; j->contains("regressor" + std::to_string(r)); ++r) {
