@@ -47,6 +47,13 @@ TEST(SampleRenderSettings, EdgeAntialiasingKeyBlendsTheOutlineOnly) {
     }
 }
 
+// No degradation of the images: drawn colours stay as drawn.
+void without_degradations(SynthConfig& config) {
+    for (auto* p : {&config.degrade.blur_probability, &config.degrade.noise_probability, &config.degrade.jpeg_probability,
+                    &config.degrade.gamma_probability, &config.degrade.colour_jitter_probability, &config.degrade.downscale_probability})
+        *p = 0;
+}
+
 // Spread of the image's grey values inside an occluder's shape, a few pixels in from its edge.
 double spread_inside(const cv::Mat& image, const OccluderSpec& o) {
     cv::Mat inside = cv::Mat::zeros(image.size(), CV_8UC1);
@@ -73,9 +80,7 @@ TEST(SampleRenderSettings, ImageFilledOccludersShowACropOfABackgroundImage) {
     flat.occluders.probability = 1;
     flat.occluders.max_count = 1;
     flat.occluders.max_size = 0.6;
-    for (auto* p : {&flat.degrade.blur_probability, &flat.degrade.noise_probability, &flat.degrade.jpeg_probability,
-                    &flat.degrade.gamma_probability, &flat.degrade.colour_jitter_probability, &flat.degrade.downscale_probability})
-        *p = 0;
+    without_degradations(flat);
     SynthConfig filled = flat;
     filled.occluders.fill = "image";
     cv::Mat stripes(200, 300, CV_8UC3);
@@ -103,9 +108,7 @@ TEST(SampleRenderSettings, JawOccludersLieOnTheJawLineInTheFacesSkinColour) {
     SynthConfig plain;
     plain.camera.width = plain.camera.height = 128;
     plain.output.labels = true;
-    for (auto* p : {&plain.degrade.blur_probability, &plain.degrade.noise_probability, &plain.degrade.jpeg_probability,
-                    &plain.degrade.gamma_probability, &plain.degrade.colour_jitter_probability, &plain.degrade.downscale_probability})
-        *p = 0;
+    without_degradations(plain);
     SynthConfig jaw = plain;
     jaw.occluders.probability = 1;
     jaw.occluders.max_count = 1;
