@@ -57,7 +57,6 @@ struct TrainArgs {
     std::vector<int> ranks = SdmTrainOptions{}.ranks;
     int jaw_features_from = SdmTrainOptions{}.jaw_features_from;
     std::vector<double> patch_sizes;  // empty: the defaults
-    std::vector<double> stage_jitter;  // empty: none
     std::string shape_unit = "eyes";
     int feature_pca = SdmTrainOptions{}.feature_components;
     bool mirror = false;
@@ -108,7 +107,6 @@ void run_train(const TrainArgs& args) {
     sdm.ranks = args.ranks;
     sdm.jaw_features_from = args.jaw_features_from;
     if (!args.patch_sizes.empty()) sdm.stage_settings = default_stage_settings(args.stages, args.jaw_features_from, args.patch_sizes);
-    sdm.stage_jitter = args.stage_jitter;
     sdm.unit = args.shape_unit == "box" ? ShapeUnitKind::kFixed : ShapeUnitKind::kInterEyeCentres;
     sdm.feature_components = args.feature_pca;
     sdm.mirror = args.mirror;
@@ -454,10 +452,6 @@ void register_train_commands(CLI::App& app) {
         cmd->add_option("--patch-sizes", args->patch_sizes,
                         "SDM: each stage's patch side in inter-eye-centre distances, one per stage, comma-separated "
                         "(default 1,0.7,0.4,0.25,0.2,0.15,...)")
-            ->delimiter(',');
-        cmd->add_option("--stage-jitter", args->stage_jitter,
-                        "SDM: per stage, one value per stage, comma-separated: the standard deviation in shape units of "
-                        "Gaussian noise added to every landmark of the training shapes before that stage (default: none)")
             ->delimiter(',');
         cmd->add_option("--shape-unit", args->shape_unit,
                         "SDM: the length patches and updates are measured in: eyes (the current shape's inter-eye-centre "

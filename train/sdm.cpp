@@ -27,7 +27,6 @@ namespace {
 
 // Rng streams local to training initialisations (one per augmentation index).
 constexpr std::uint64_t kInitStreamBase = 0x5344'4d00;  // "SDM"
-constexpr std::uint64_t kJitterStreamBase = 0x4A49'5454'0000;  // "JITT"; + stage << 16, + augmentation index
 constexpr std::size_t kChunkRows = 1024;
 
 using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -254,14 +253,6 @@ void validate_options(const SdmTrainOptions& options) {
             throw core::Error("SDM training: ranks must be between 1 and " + std::to_string(2 * morph::kNumIbugLandmarks));
     if (options.validation_share < 0 || options.validation_share >= 1)
         throw core::Error("SDM training: the validation share must be in [0, 1)");
-    if (!options.stage_jitter.empty()) {
-        const std::size_t stages = options.stage_settings.empty() ? static_cast<std::size_t>(options.stages) : options.stage_settings.size();
-        if (options.stage_jitter.size() != stages)
-            throw core::Error("SDM training: --stage-jitter gives " + std::to_string(options.stage_jitter.size()) + " values for " +
-                              std::to_string(stages) + " stages");
-        for (double sigma : options.stage_jitter)
-            if (!(sigma >= 0 && sigma <= 0.5)) throw core::Error("SDM training: --stage-jitter values must be in [0, 0.5] shape units");
-    }
 }
 
 struct FaceSplit {
@@ -372,33 +363,13 @@ public:
             s.translation = Eigen::Vector2d(rng.normal(), rng.normal()) * boxes.init_translation_std * kCanonicalBoxWidth;
             shapes_[r] = apply_similarity(model.initial_shape(faces[row_face_[r]].view), s);
         }
-        for (std::size_t k = 0; k < settings.size(); ++k) {
-            const bool dual = train_rows_ < static_cast<std::size_t>(model.feature_dims(settings[k]));
-            const bool jittered = k < options.stage_jitter.size() && options.stage_jitter[k] > 0;
-            // Learning reads every row once; applying reads the training rows again in primal form, and
-            // every row again after a jittered stage (from the rows' own shapes).
-            total_feature_rows_ += train_rows_ + validation_rows_ + (!dual || jittered ? train_rows_ : 0) + (jittered ? validation_rows_ : 0);
-        }
+        for (const auto& stage : settings)
+            total_feature_rows_ +=
+                train_rows_ * (train_rows_ < static_cast<std::size_t>(model.feature_dims(stage)) ? 1 : 2) + validation_rows_;
     }
 
     // Learns stage k (0-based) with `settings`, applies it to every row and appends it to the model.
     void train_stage(std::size_t k, const SdmStageSettings& settings);
-
-    // Adds independent Gaussian noise of `sigma` shape units to every landmark of every row; row r's
-    // noise depends only on (seed, its face, its augmentation index, the stage).
-    void jitter_rows(std::size_t k, double sigma) {
-        const auto augment = static_cast<std::size_t>(options_.augment);
-        for (std::size_t r = 0; r < shapes_.size(); ++r) {
-            core::Rng rng(options_.seed, row_face_[r], kJitterStreamBase + (static_cast<std::uint64_t>(k) << 16) + r % augment);
-            Eigen::Matrix2Xd& shape = shapes_[r];
-            const double step = sigma * model_.unit.of(shape);
-            for (Eigen::Index i = 0; i < shape.cols(); ++i) {
-                const double dx = rng.normal();  // drawn apart: x before y whatever the compiler's order
-                const double dy = rng.normal();
-                shape.col(i) += step * Eigen::Vector2d(dx, dy);
-            }
-        }
-    }
 
 private:
     // The full-rank ridge solution for one λ factor: W (2L x D) and b.
@@ -420,8 +391,6 @@ private:
         Eigen::RowVectorXd target_mean;
         Eigen::MatrixXd target_scatter;     // centred Yᵀ Y of the training rows, 2L x 2L
         std::optional<LeadingEigenpairs> feature_pca;
-        // dual: whether `features` are those of the rows' current shapes (not when the stage learned from jittered ones)
-        bool features_are_the_rows = true;
 
         [[nodiscard]] FullSolution solve(double factor, double& lambda) const;
     };
@@ -617,7 +586,7 @@ CascadeTrainer::ChosenStage CascadeTrainer::choose_stage(std::size_t k, const Ri
 
 void CascadeTrainer::apply_stage(const SdmStage& stage, RidgeProblem& problem, const RowMatrixXf& validation_features,
                                  const SdmStageSettings& settings) {
-    if (problem.dual && problem.features_are_the_rows) {
+    if (problem.dual) {
         problem.features.rowwise() += problem.feature_offset;  // the features themselves again
         update_rows(0, problem.features, stage);
     } else {
@@ -638,14 +607,6 @@ void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings
     report.stage = static_cast<int>(k + 1);
     report.nme_before = mean_nme(0, train_rows_);
     report.validation_nme_before = mean_nme(train_rows_, validation_rows_);
-    // With jitter the stage learns (and validation chooses λ and rank) on the rows' shapes plus noise;
-    // the rows then go on from their own shapes, so the noise never reaches the later stages.
-    std::vector<Eigen::Matrix2Xd> own_shapes;
-    const bool jittered = k < options_.stage_jitter.size() && options_.stage_jitter[k] > 0;
-    if (jittered) {
-        own_shapes = shapes_;
-        jitter_rows(k, options_.stage_jitter[k]);
-    }
 
     RowMatrixXf validation_features;
     if (validation_rows_) extract_rows(train_rows_, validation_rows_, settings, validation_features);
@@ -656,11 +617,6 @@ void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings
     report.lambda = chosen.lambda;
     report.rank = chosen.rank;
     report.feature_components = problem.feature_pca ? static_cast<int>(problem.feature_pca->values.size()) : 0;
-    if (jittered) {
-        shapes_ = std::move(own_shapes);
-        problem.features_are_the_rows = false;
-        if (validation_rows_) extract_rows(train_rows_, validation_rows_, settings, validation_features);
-    }
     apply_stage(chosen.stage, problem, validation_features, settings);
 
     report.nme_after = mean_nme(0, train_rows_);

@@ -199,12 +199,6 @@ struct SdmTrainOptions {
     // training faces' mean shape (view cascades give the profile cascade the frontal one's).
     double fixed_unit_length = 0;
     std::vector<SdmStageSettings> stage_settings;  // empty: default_stage_settings(stages, jaw_features_from)
-    // Per stage (one value per stage, or empty for none): the standard deviation, in shape units, of
-    // independent Gaussian noise added to every landmark of every row's current shape (training and
-    // validation rows) for learning that stage; the rows then go on from their own shapes. On renders
-    // the cascade's late stages see residuals far smaller than it leaves on photographs; the noise
-    // widens what they learn to correct.
-    std::vector<double> stage_jitter;
     std::function<void(const SdmStageReport&)> on_stage;
     std::function<void(std::size_t rows_done, std::size_t rows_total)> on_progress;  // feature extraction
 };

@@ -292,44 +292,6 @@ TEST(Sdm, MirrorAveragedDetectionTreatsAFaceAndItsMirrorImageAlike) {
     EXPECT_GT(single_asymmetry, 1e-3);
 }
 
-// --stage-jitter: noise added to the rows' shapes for learning a stage changes that stage only (the
-// rows go on from their own shapes), does not depend on the thread count, and a wrong count or value
-// is refused naming the option.
-TEST(Sdm, StageJitterChangesWhatItsStageLearnsButNotTheRowsItStartsFrom) {
-    const auto train = cartoon_training_faces(5, 40);
-    SdmTrainOptions options;
-    options.augment = 4;
-    options.stages = 3;
-    options.threads = 2;
-    std::vector<SdmStageReport> plain_reports, jitter_reports;
-    options.on_stage = [&](const SdmStageReport& r) { plain_reports.push_back(r); };
-    const SdmModel plain = train_sdm(train, BoxStatistics{}, options);
-    options.stage_jitter = {0, 0, 0.1};
-    options.on_stage = [&](const SdmStageReport& r) { jitter_reports.push_back(r); };
-    const SdmModel jittered = train_sdm(train, BoxStatistics{}, options);
-    ASSERT_EQ(jitter_reports.size(), 3u);
-    for (std::size_t k = 0; k < 2; ++k) {
-        EXPECT_TRUE(plain.stages[k].weights == jittered.stages[k].weights) << "stage " << k + 1;
-        EXPECT_EQ(plain_reports[k].nme_after, jitter_reports[k].nme_after) << "stage " << k + 1;
-    }
-    // The rows go on from their own shapes: the same start, another stage (learned from noisy
-    // shapes, it may well move clean ones less precisely: docs/results.md row 82).
-    EXPECT_EQ(jitter_reports[2].nme_before, plain_reports[2].nme_before);
-    EXPECT_FALSE(jittered.stages[2].weights == plain.stages[2].weights);
-
-    options.threads = 1;
-    options.on_stage = nullptr;
-    const SdmModel one_thread = train_sdm(train, BoxStatistics{}, options);
-    EXPECT_TRUE(one_thread.stages[2].weights == jittered.stages[2].weights);
-    EXPECT_TRUE(one_thread.stages[2].bias == jittered.stages[2].bias);
-
-    for (const std::vector<double>& bad : {std::vector<double>{0, 0.1}, std::vector<double>{0, 0, -0.1}, std::vector<double>{0, 0, 0.6}}) {
-        options.stage_jitter = bad;
-        EXPECT_NE(testkit::error_message_of([&] { (void)train_sdm(train, BoxStatistics{}, options); }).find("--stage-jitter"),
-                  std::string::npos);
-    }
-}
-
 TEST(Sdm, RejectsTooFewFaces) {
     const auto train = cartoon_training_faces(1, 1);
     EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, SdmTrainOptions{}), core::Error);
