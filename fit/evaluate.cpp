@@ -91,8 +91,11 @@ SyntheticCase make_synthetic_case(const morph::MorphableModel& model, std::uint6
     const double distance = c.intrinsics.fy * height / (0.6 * o.image_size);
     core::Rng camera = core::make_rng(seed, index, core::RandomStream::kCamera);
     c.pose.rotation = c.truth.rotation;
-    c.pose.translation = Eigen::Vector3d(camera.uniform(-0.05, 0.05) * height, camera.uniform(-0.05, 0.05) * height,
-                                         distance * camera.uniform(0.9, 1.1));
+    // One draw per statement, z, y, x: the order GCC drew them in when they were one expression.
+    const double depth = distance * camera.uniform(0.9, 1.1);
+    const double shift_y = camera.uniform(-0.05, 0.05) * height;
+    const double shift_x = camera.uniform(-0.05, 0.05) * height;
+    c.pose.translation = Eigen::Vector3d(shift_x, shift_y, depth);
     const Eigen::Matrix3Xf shape = model.shape_instance(c.truth.alpha, c.psi);
     c.landmarks = project(c.intrinsics, c.pose, model.landmark_positions(shape));
     core::Rng noise = core::make_rng(seed, index, core::RandomStream::kNoise);
@@ -102,7 +105,11 @@ SyntheticCase make_synthetic_case(const morph::MorphableModel& model, std::uint6
             c.landmarks.col(i).setConstant(std::numeric_limits<double>::quiet_NaN());
             continue;
         }
-        if (o.noise_px > 0) c.landmarks.col(i) += o.noise_px * Eigen::Vector2d(noise.normal(), noise.normal());
+        if (o.noise_px > 0) {
+            const double dy = noise.normal();  // y before x: GCC's order (see above)
+            const double dx = noise.normal();
+            c.landmarks.col(i) += o.noise_px * Eigen::Vector2d(dx, dy);
+        }
     }
     return c;
 }

@@ -72,8 +72,15 @@ void procedural(cv::Mat& out, const BackgroundSpec& b, cv::Mat& canvas) {
     const int shapes = rng.uniform_int(3, 12);
     const int side = std::max(out.cols, out.rows);
     for (int i = 0; i < shapes; ++i) {
-        const cv::Point centre(rng.uniform_int(0, out.cols - 1), rng.uniform_int(0, out.rows - 1));
-        const cv::Scalar colour(rng.uniform(0, 255), rng.uniform(0, 255), rng.uniform(0, 255));
+        // One draw per statement (the order of draws within one expression is the compiler's choice),
+        // in the order GCC drew them when they were one expression: GCC builds keep their backgrounds.
+        const int centre_y = rng.uniform_int(0, out.rows - 1);
+        const int centre_x = rng.uniform_int(0, out.cols - 1);
+        const cv::Point centre(centre_x, centre_y);
+        const double third = rng.uniform(0, 255);
+        const double second = rng.uniform(0, 255);
+        const double first = rng.uniform(0, 255);
+        const cv::Scalar colour(first, second, third);
         const int size = std::max(2, static_cast<int>(rng.uniform(0.03, 0.3) * side));
         switch (rng.uniform_int(0, 2)) {
             case 0: cv::circle(canvas, centre, size, colour, cv::FILLED, cv::LINE_AA, kHalf); break;
@@ -83,9 +90,11 @@ void procedural(cv::Mat& out, const BackgroundSpec& b, cv::Mat& canvas) {
                 cv::rectangle(canvas, corner, opposite, colour, cv::FILLED, cv::LINE_AA, kHalf);
                 break;
             }
-            default:
-                cv::line(canvas, centre, cv::Point(rng.uniform_int(0, out.cols - 1), rng.uniform_int(0, out.rows - 1)), colour,
-                         std::max(1, size / 12), cv::LINE_AA, kHalf);
+            default: {
+                const int end_y = rng.uniform_int(0, out.rows - 1);
+                const int end_x = rng.uniform_int(0, out.cols - 1);
+                cv::line(canvas, centre, cv::Point(end_x, end_y), colour, std::max(1, size / 12), cv::LINE_AA, kHalf);
+            }
         }
     }
     const double sigma = 0.5 * rng.uniform(0.5, 4.0) * side / 256.0;

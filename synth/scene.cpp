@@ -191,8 +191,12 @@ DegradationSpec sample_degradation(const SynthConfig& config, std::int64_t index
     const double noise = rng.uniform(1.0, c.noise_sigma_max);
     const int quality = rng.uniform_int(c.jpeg_quality_min, c.jpeg_quality_max);
     const double gamma = rng.uniform(c.gamma_min, c.gamma_max);
-    const Eigen::Vector3d gains(rng.uniform(1 - c.colour_jitter, 1 + c.colour_jitter), rng.uniform(1 - c.colour_jitter, 1 + c.colour_jitter),
-                                rng.uniform(1 - c.colour_jitter, 1 + c.colour_jitter));
+    // One draw per statement (the order of draws within one expression is the compiler's choice), in
+    // the order GCC drew them when they were one expression, so that GCC builds keep their datasets.
+    const double blue_gain = rng.uniform(1 - c.colour_jitter, 1 + c.colour_jitter);
+    const double green_gain = rng.uniform(1 - c.colour_jitter, 1 + c.colour_jitter);
+    const double red_gain = rng.uniform(1 - c.colour_jitter, 1 + c.colour_jitter);
+    const Eigen::Vector3d gains(red_gain, green_gain, blue_gain);
     const double downscale = rng.uniform(c.downscale_min, 1.0);
     if (chance(rng, c.blur_probability)) d.blur_sigma = blur;
     if (chance(rng, c.noise_probability)) d.noise_sigma = noise;
@@ -228,14 +232,20 @@ std::vector<OccluderSpec> sample_occluders(const SynthConfig& config, std::int64
             const Eigen::Vector2d along = (b - a).norm() > 0 ? Eigen::Vector2d((b - a).normalized()) : Eigen::Vector2d::UnitX();
             Eigen::Vector2d outward(along.y(), -along.x());
             if (outward.dot(on_line - face_centre) < 0) outward = -outward;
-            o.half_size = 0.5 * face_size * c.max_size * Eigen::Vector2d(rng.uniform(0.5, 1.0), rng.uniform(0.15, 0.5));
+            const double across = rng.uniform(0.15, 0.5);  // before `along_line`: GCC's order (see sample_degradation)
+            const double along_line = rng.uniform(0.5, 1.0);
+            o.half_size = 0.5 * face_size * c.max_size * Eigen::Vector2d(along_line, across);
             o.centre = on_line + rng.uniform(-0.5, 1.0) * o.half_size.y() * outward;
             o.angle = std::atan2(along.y(), along.x()) * 180.0 / std::numbers::pi + rng.normal(0, 15.0);
         } else {
             // Centred on a random landmark so the occluder covers part of the face.
             const int anchor = rng.uniform_int(0, static_cast<int>(landmarks.cols()) - 1);
-            o.centre = landmarks.col(anchor) + Eigen::Vector2d(rng.normal(0, 0.05 * face_size), rng.normal(0, 0.05 * face_size));
-            o.half_size = 0.5 * face_size * Eigen::Vector2d(rng.uniform(0.15, 1.0) * c.max_size, rng.uniform(0.15, 1.0) * c.max_size);
+            const double dy = rng.normal(0, 0.05 * face_size);  // y before x: GCC's order (see sample_degradation)
+            const double dx = rng.normal(0, 0.05 * face_size);
+            o.centre = landmarks.col(anchor) + Eigen::Vector2d(dx, dy);
+            const double height = rng.uniform(0.15, 1.0) * c.max_size;
+            const double width = rng.uniform(0.15, 1.0) * c.max_size;
+            o.half_size = 0.5 * face_size * Eigen::Vector2d(width, height);
             o.angle = rng.uniform(0.0, 180.0);
         }
         o.colour = random_colour(rng);
@@ -273,7 +283,9 @@ TrajectoryKey next_key(const SynthConfig& config, const morph::MorphableModel& m
     key.angles.pitch = step(previous.angles.pitch, config.pose.pitch, 0.5 * q.max_turn_deg);
     key.angles.roll = step(previous.angles.roll, config.pose.roll, 0.5 * q.max_turn_deg);
     key.psi = config.expression.source == "texture" ? previous.psi : sample_expression(config, model, rng);
-    key.drift = Eigen::Vector2d(rng.uniform(-q.drift, q.drift), rng.uniform(-q.drift, q.drift));
+    const double drift_y = rng.uniform(-q.drift, q.drift);  // y before x: GCC's order (see sample_degradation)
+    const double drift_x = rng.uniform(-q.drift, q.drift);
+    key.drift = Eigen::Vector2d(drift_x, drift_y);
     return key;
 }
 
@@ -369,8 +381,11 @@ HeadPartsSpec sample_head_parts(const SynthConfig& config, std::int64_t index, c
     h.hair_colour_from_texture = rng.uniform() < 0.5;
     const auto fabric = [&rng] {
         // Any hue; greys, darks and muted colours as often as bright ones.
-        cv::Mat3f hsv(1, 1, cv::Vec3f(static_cast<float>(rng.uniform(0, 360)), static_cast<float>(rng.uniform(0, 0.9)),
-                                      static_cast<float>(rng.uniform(0.08, 0.9))));
+        // Value, saturation, hue: GCC's order (see sample_degradation).
+        const auto value = static_cast<float>(rng.uniform(0.08, 0.9));
+        const auto saturation = static_cast<float>(rng.uniform(0, 0.9));
+        const auto hue = static_cast<float>(rng.uniform(0, 360));
+        cv::Mat3f hsv(1, 1, cv::Vec3f(hue, saturation, value));
         cv::Mat3f rgb;
         cv::cvtColor(hsv, rgb, cv::COLOR_HSV2RGB);
         const cv::Vec3f c = rgb(0, 0);
@@ -483,8 +498,10 @@ SampleSpec sample_scene(const SynthConfig& config, const morph::MorphableModel& 
     s.intrinsics.cy += cam.principal_point_jitter * cam.height * rng.uniform(-1.0, 1.0);
     const double face_scale = rng.uniform(cam.face_scale_min, cam.face_scale_max);
     const double jitter = config.pose.translation_jitter;
-    const Eigen::Vector2d target_centre(0.5 * (cam.width - 1) + jitter * cam.width * rng.uniform(-1.0, 1.0),
-                                        0.5 * (cam.height - 1) + jitter * cam.height * rng.uniform(-1.0, 1.0));
+    const double shift_y = rng.uniform(-1.0, 1.0);  // y before x: GCC's order (see sample_degradation)
+    const double shift_x = rng.uniform(-1.0, 1.0);
+    const Eigen::Vector2d target_centre(0.5 * (cam.width - 1) + jitter * cam.width * shift_x,
+                                        0.5 * (cam.height - 1) + jitter * cam.height * shift_y);
     const double target_size = face_scale * std::hypot(cam.width, cam.height);
 
     // Place the face: the landmarks' box in rotated camera axes gives the size in mm; a first

@@ -360,7 +360,11 @@ public:
             Similarity s;
             s.scale = 1 + boxes.init_scale_std * rng.normal();
             s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
-            s.translation = Eigen::Vector2d(rng.normal(), rng.normal()) * boxes.init_translation_std * kCanonicalBoxWidth;
+            // One draw per statement, y before x: the order GCC chose when they were one expression (the
+            // order of draws within one expression is the compiler's), so GCC builds keep their models.
+            const double dy = rng.normal();
+            const double dx = rng.normal();
+            s.translation = Eigen::Vector2d(dx, dy) * boxes.init_translation_std * kCanonicalBoxWidth;
             shapes_[r] = apply_similarity(model.initial_shape(faces[row_face_[r]].view), s);
         }
         for (const auto& stage : settings)

@@ -168,8 +168,9 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
             box.view = assign_view(item.truth);
             const BoxStatistics& placement = view_stats[static_cast<std::size_t>(box.view)];
             box.width = b.width * (placement.width_ratio_mean + placement.width_ratio_std * rng.normal());
-            box.centre = b.centre + b.width * (placement.offset_mean + placement.offset_std.cwiseProduct(
-                                                                           Eigen::Vector2d(rng.normal(), rng.normal())));
+            const double dy = rng.normal();  // y before x: GCC's order when they were one expression (train/sdm.cpp)
+            const double dx = rng.normal();
+            box.centre = b.centre + b.width * (placement.offset_mean + placement.offset_std.cwiseProduct(Eigen::Vector2d(dx, dy)));
             ++stats.detector_missed;
         }
         const FaceFrame frame{box};
