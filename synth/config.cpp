@@ -246,6 +246,8 @@ std::vector<ConfigField> config_fields(SynthConfig& c) {
     f.push_back({"head.body", &c.head.body,
                  "neck, shoulders, clothing and hair meshes (MakeHuman's CC0 meshes) placed on the face; the model, its landmarks and face labels are unchanged"});
     f.push_back({"head.hair_probability", &c.head.hair_probability, "with head.body: share of samples with a hair mesh (the others show the model's scalp)"});
+    f.push_back({"head.hair_styles", &c.head.hair_styles,
+                 "with head.body: the hair meshes a sample draws from, comma-separated (afro01, bob01, bob02, braid01, long01, ponytail01, short01-short04); empty = all"});
     f.push_back({"head.ambient_occlusion", &c.head.ambient_occlusion,
                  "with head.body: darkens the bare skin of neck and shoulders by the sky the face and chin hide from it (ambient occlusion), 0 = off, 1 = fully"});
     f.push_back({"head.parts_file", &c.head.parts_file, "with head.body: a head parts file from tools/makehuman_parts.py (empty = the project's assets/head_parts.bin)"});

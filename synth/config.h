@@ -171,6 +171,7 @@ struct HeadConfig {
     // Neck, shoulders, clothing and hair meshes from MakeHuman (synth/head_parts.h), placed on the face.
     bool body = false;
     double hair_probability = 0.8;  // with body: share of samples with a hair mesh
+    std::string hair_styles;        // with body: the hair meshes drawn from, comma-separated names; empty: all
     // With body: ambient occlusion on the parts' bare skin (synth/head_parts.h SkinOcclusion): 0 off, 1 the
     // full share of the sky that the face and chin hide from the neck.
     double ambient_occlusion = 0;

@@ -308,6 +308,13 @@ RunResult run_synth(const RunOptions& options, const morph::MorphableModel& mode
     if (options.threads < 1) throw core::Error("--threads must be at least 1");
     const std::string checksum = model.checksum();
     const fs::path& out = options.out;
+    // The workers load what the config names (backgrounds, texture bank, head parts) and throw on what
+    // is wrong there: they start before the folder is touched, so that such an error leaves no empty
+    // dataset and, with --overwrite, removes no earlier one.
+    const std::int64_t shard_samples = (config.count + options.shard.count - 1) / options.shard.count;
+    const int thread_count = static_cast<int>(std::clamp<std::int64_t>(shard_samples, 1, options.threads));
+    const auto start = Clock::now();
+    SampleStream stream(config, model, thread_count, options.renderer);
     prepare_folder(out, config, model, checksum, options.overwrite);
     const fs::path root = sample_root(out, config);
     const auto files = sample_files(config);
@@ -326,9 +333,6 @@ RunResult run_synth(const RunOptions& options, const morph::MorphableModel& mode
     result.already_done = scan.already_done;
     result.tars_written = outputs.write_unfinished_tars(scan);
 
-    const int thread_count = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(options.threads), std::max<std::size_t>(todo.size(), 1)));
-    const auto start = Clock::now();
-    SampleStream stream(config, model, thread_count, options.renderer);
     std::vector<PngEncoder> pngs;
     pngs.reserve(static_cast<std::size_t>(thread_count));
     for (int w = 0; w < thread_count; ++w) pngs.emplace_back(config.output.png_compression);

@@ -15,6 +15,8 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <sstream>
+#include <string>
 
 namespace facesynth::synth {
 namespace {
@@ -68,6 +70,26 @@ void add_back_side(HeadPart& part) {
 }  // namespace
 
 std::filesystem::path default_head_parts_file() { return std::filesystem::path(FACESYNTH_ASSET_DIR) / "head_parts.bin"; }
+
+std::vector<int> hair_parts_named(const HeadParts& parts, const std::string& names) {
+    const auto name_of = [&](int h) -> const std::string& { return parts.parts[static_cast<std::size_t>(h)].name; };
+    std::string available;
+    for (int h : parts.hair) available += (available.empty() ? "" : ", ") + name_of(h);
+    std::vector<std::string> wanted;
+    std::stringstream list(names);
+    for (std::string name; std::getline(list, name, ',');) {
+        name.erase(0, name.find_first_not_of(' '));
+        name.erase(name.find_last_not_of(' ') + 1);
+        if (std::none_of(parts.hair.begin(), parts.hair.end(), [&](int h) { return name_of(h) == name; }))
+            throw core::Error("head.hair_styles: no hair style '" + name + "' (there are: " + available + ")");
+        wanted.push_back(name);
+    }
+    std::vector<int> chosen;
+    for (int h : parts.hair)
+        if (std::find(wanted.begin(), wanted.end(), name_of(h)) != wanted.end()) chosen.push_back(h);
+    if (chosen.empty()) throw core::Error("head.hair_styles: no style named (there are: " + available + ")");
+    return chosen;
+}
 
 HeadParts read_head_parts(const std::filesystem::path& file) {
     const std::string bytes = core::read_file(file);

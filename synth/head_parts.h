@@ -48,6 +48,10 @@ struct HeadParts {
 [[nodiscard]] std::filesystem::path default_head_parts_file();
 // Throws core::Error naming the file when it is missing, truncated or not a parts file.
 [[nodiscard]] HeadParts read_head_parts(const std::filesystem::path& file);
+// The indices (into parts.parts, in parts.hair's order) of the hair meshes named in a comma-separated
+// list (synth's head.hair_styles); core::Error naming the key and the styles there are for an unknown
+// name or an empty list.
+[[nodiscard]] std::vector<int> hair_parts_named(const HeadParts& parts, const std::string& names);
 
 // What one sample wears (drawn by sample_scene from the kHead stream; choices modulo the counts).
 struct HeadPartsSpec {

@@ -329,6 +329,7 @@ SampleGenerator::SampleGenerator(const SynthConfig& config, const morph::Morphab
     }
     if (config.head.body) {
         head_parts_ = read_head_parts(config.head.parts_file.empty() ? default_head_parts_file() : std::filesystem::path(config.head.parts_file));
+        if (!config.head.hair_styles.empty()) head_parts_->hair = hair_parts_named(*head_parts_, config.head.hair_styles);
         head_placement_.emplace(model, *head_parts_);
         if (config.head.ambient_occlusion > 0) skin_visibility_ = skin_ambient_visibility(*head_parts_, *head_placement_);
     }

@@ -22,6 +22,8 @@
 #include <cstdio>
 #include <fstream>
 #include <numeric>
+#include <set>
+#include <string>
 
 namespace facesynth::synth {
 namespace {
@@ -258,6 +260,32 @@ TEST(HeadParts, ConfigErrorsNameTheKeyOrFile) {
     const ImageLibrary none;
     const std::string file_message = testkit::error_message_of([&] { SampleGenerator g(missing, model, none, none, {render::Backend::kEgl, false}); });
     EXPECT_NE(file_message.find("/nonexistent/parts.bin"), std::string::npos) << file_message;
+}
+
+// head.hair_styles: the samples wear only the named hair meshes; an unknown name is an error naming the
+// key and the styles there are.
+TEST(HeadParts, HairStylesRestrictTheMeshesDrawn) {
+    const HeadParts parts = read_head_parts(default_head_parts_file());
+    const std::vector<int> chosen = hair_parts_named(parts, "long01, bob01");
+    ASSERT_EQ(chosen.size(), 2u);
+    EXPECT_EQ(parts.parts[static_cast<std::size_t>(chosen[0])].name, "bob01");  // in the asset's order
+    EXPECT_EQ(parts.parts[static_cast<std::size_t>(chosen[1])].name, "long01");
+    const std::string message = testkit::error_message_of([&] { (void)hair_parts_named(parts, "bob01,mohawk"); });
+    EXPECT_NE(message.find("head.hair_styles: no hair style 'mohawk'"), std::string::npos) << message;
+    EXPECT_NE(message.find("short04"), std::string::npos) << message;
+    EXPECT_NE(testkit::error_message_of([&] { (void)hair_parts_named(parts, " , "); }).find("head.hair_styles"), std::string::npos);
+
+    const morph::MorphableModel model = morph::load_model("builtin");
+    SynthConfig config;
+    config.camera.width = config.camera.height = 64;
+    apply_override(config, "head.body=true");
+    apply_override(config, "head.hair_probability=1");
+    apply_override(config, "head.hair_styles=long01,bob02");
+    const ImageLibrary none;
+    SampleGenerator generator(config, model, none, none, {render::Backend::kEgl, false});
+    std::set<std::string> worn;
+    for (int index = 0; index < 12; ++index) worn.insert(generator.generate(index).hair);
+    EXPECT_EQ(worn, (std::set<std::string>{"bob02", "long01"}));
 }
 
 TEST(HeadParts, AmbientOcclusionShadesTheNeckUnderTheChinAndLeavesOpenSkinAlone) {

@@ -363,6 +363,25 @@ TEST(SynthCli, RefusesAFolderMadeWithAnotherConfigUnlessOverwrite) {
     EXPECT_FALSE(fs::exists(dir / "meta" / "s00000002.json"));
 }
 
+// A setting only the workers can check (a missing background folder, an unknown hair style) fails the
+// run before the output folder is touched: no empty dataset, and --overwrite removes no earlier one.
+TEST(SynthCli, ASettingTheWorkersRefuseLeavesNoEmptyDataset) {
+    const auto dir = testkit::fresh_temp_dir("synth_worker_error");
+    std::string log;
+    EXPECT_EQ(synth(" -o " + (dir / "a").string() + base_args(1) + " --set background.type=images --set background.folder=" +
+                        (dir / "none").string(), &log), 1);
+    EXPECT_NE(log.find((dir / "none").string()), std::string::npos) << log;
+    EXPECT_FALSE(std::filesystem::exists(dir / "a"));
+    EXPECT_EQ(synth(" -o " + (dir / "b").string() + " -n 1 --size 64 --quiet --set head.body=true --set head.hair_styles=bob1", &log), 1);
+    EXPECT_NE(log.find("head.hair_styles: no hair style 'bob1'"), std::string::npos) << log;
+    EXPECT_FALSE(std::filesystem::exists(dir / "b"));
+    ASSERT_EQ(synth(" -o " + (dir / "c").string() + base_args(1), &log), 0) << log;
+    const auto before = std::distance(std::filesystem::recursive_directory_iterator(dir / "c"), {});
+    EXPECT_EQ(synth(" -o " + (dir / "c").string() + base_args(1) + " --set background.type=images --set background.folder=" +
+                        (dir / "none").string() + " --overwrite", &log), 1);
+    EXPECT_EQ(std::distance(std::filesystem::recursive_directory_iterator(dir / "c"), {}), before);
+}
+
 TEST(SynthCli, UnknownConfigKeyIsAnErrorNamingIt) {
     const auto dir = testkit::fresh_temp_dir("synth_unknown_key");
     std::string log;
