@@ -64,7 +64,7 @@ def _part_of_longer_operator(text, i, sep):
 
 
 def groups(text):
-    """The bracketed groups directly inside text: (opening bracket, inner text)."""
+    """The bracketed groups directly inside text: (opening bracket, start, end) of each inner text."""
     out, depth, start, opener = [], 0, 0, ""
     for i, c in enumerate(text):
         if c in "([{":
@@ -74,7 +74,7 @@ def groups(text):
         elif c in ")]}":
             depth -= 1
             if depth == 0:
-                out.append((opener, text[start:i]))
+                out.append((opener, start, i))
     return out
 
 
@@ -85,16 +85,17 @@ def unordered(text, sequenced_commas):
     for separators in ((",",) if sequenced_commas else (), ("&&", "||"), ("?", ":"), ("<<",), ("=",)):
         pieces = [p for piece in pieces for p in split_top(piece, separators)] if separators else pieces
     for piece in pieces:
-        draws = 0
-        outside = piece
-        for opener, inner in groups(piece):
+        draws, outside, previous_end = 0, "", 0
+        for opener, start, end in groups(piece):
+            inner = piece[start:end]
             # A group that draws counts once here: the order inside it is checked on its own (a
             # braced list orders its elements, an argument list does not, `?:` draws one branch).
             draws += min(len(DRAW.findall("(" + inner + ")")), 1)
             if unordered(inner, opener == "{"):
                 return True
-            outside = outside.replace(inner, " ", 1)
-        draws += len(DRAW.findall(outside))
+            outside += piece[previous_end:start] + " "
+            previous_end = end
+        draws += len(DRAW.findall(outside + piece[previous_end:]))
         if draws >= 2:
             return True
     return False

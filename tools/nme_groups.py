@@ -4,6 +4,7 @@
     facesynth detect --regressor MODEL.sdm --detector dlib --out DET --quiet GT/*.jpg GT/*.png
     tools/nme_groups.py GT DET [DET2 ...]
     tools/nme_groups.py GT DET --write-offsets OFFSETS.json   # label adaptation: train --label-offsets
+    tools/nme_groups.py GT DET [DET2 ...] --points 1-3,15-17      # also the mean error over these points
 
 For every GT/NAME.pts with a detection DET/NAME_<k>.pts (the detection nearest the annotation when there
 are several), on the faces every DET folder found: the mean point error per group (jaw 1-17, brows 18-27,
@@ -39,12 +40,29 @@ def mean_of(points, indices):
     return (sum(points[i][0] for i in indices) / len(indices), sum(points[i][1] for i in indices) / len(indices))
 
 
+def parse_points(text):
+    """'1-3,15-17' -> 0-based indices of those 1-based iBUG points."""
+    indices = []
+    for part in text.split(","):
+        low, _, high = part.partition("-")
+        try:
+            first, last = int(low), int(high or low)
+        except ValueError:
+            sys.exit(f"--points: '{part}' is not a point or a range of points (1-68)")
+        if not 1 <= first <= last <= 68:
+            sys.exit(f"--points: '{part}' is not a point or a range of points (1-68)")
+        indices.extend(range(first - 1, last))
+    return indices
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("gt", help="folder of annotated images' .pts files")
     parser.add_argument("detections", nargs="+", help="`facesynth detect --out` folders")
     parser.add_argument("--write-offsets", metavar="FILE", help="with one DET folder: its mean (annotation - prediction) as label offsets")
+    parser.add_argument("--points", metavar="LIST", help="also print the mean error over these 1-based points, e.g. 1-3,15-17")
     args = parser.parse_args()
+    points = parse_points(args.points) if args.points else None
     if args.write_offsets and len(args.detections) != 1:
         sys.exit("--write-offsets takes exactly one detection folder")
     truth = {os.path.basename(p)[:-4]: read_pts(p) for p in sorted(glob.glob(os.path.join(args.gt, "*.pts")))}
@@ -82,6 +100,8 @@ def main():
         n = len(common)
         groups = "  ".join(f"{g} {sum(errors[i] for i in r) / (n * len(r)):.4f}" for g, r in GROUPS.items())
         print(f"{folder}: mean {sum(errors) / (68 * n):.4f}  {groups}")
+        if points:
+            print(f"  points {args.points}: {sum(errors[i] for i in points) / (n * len(points)):.4f}")
         biased = [f"{i + 1}:{o[0] / n:+.3f},{o[1] / n:+.3f}" for i, o in enumerate(offsets) if math.hypot(o[0] / n, o[1] / n) > 0.03]
         print("  offsets over 0.03 (x,y):", " ".join(biased) or "none")
         if args.write_offsets:
