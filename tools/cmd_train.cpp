@@ -525,7 +525,7 @@ void register_train_commands(CLI::App& app) {
     {
         auto args = std::make_shared<DetectArgs>();
         auto* cmd = app.add_subcommand("detect", "Find faces (cascade detector) and their 68 landmarks in images");
-        cmd->add_option("--regressor", args->regressor, "MODEL (SDM file), sdm@K:MODEL, mean:MODEL, mirror:MODEL, dlib, dlib:FILE, ert:FILE or lbf:FILE")
+        cmd->add_option("--regressor", args->regressor, "MODEL (SDM file), sdm@K:MODEL, mean:MODEL, mirror:MODEL, realign:MODEL, dlib, dlib:FILE, ert:FILE or lbf:FILE")
             ->required();
         cmd->add_option("images", args->images, "Images")->required();
         cmd->add_option("--out", args->out, "Output folder: <stem>_<k>.pts, <stem>_overlay.png, <stem>.json")->required();
@@ -537,7 +537,7 @@ void register_train_commands(CLI::App& app) {
         auto args = std::make_shared<LandmarkEvalArgs>();
         auto* cmd = eval_group(app).add_subcommand("landmarks", "Landmark NME on labelled images (inter-ocular)");
         cmd->add_option("--regressor", args->regressors,
-                        "MODEL (SDM file), mean:MODEL (its mean shape only), sdm@K:MODEL (its first K stages), mirror:MODEL (run on the face and its mirror image, averaged), dlib, dlib:FILE, ert:FILE "
+                        "MODEL (SDM file), mean:MODEL (its mean shape only), sdm@K:MODEL (its first K stages), mirror:MODEL (run on the face and its mirror image, averaged), realign:MODEL (run again on the crop realigned by the first run, averaged; the two prefixes combine), dlib, dlib:FILE, ert:FILE "
                         "or lbf:FILE; repeat to compare on the same boxes")
             ->required();
         cmd->add_option("--data", args->data, "Folders with images and .pts, comma-separated")->required();

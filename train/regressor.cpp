@@ -13,10 +13,9 @@ namespace {
 
 class SdmRegressor final : public LandmarkRegressor {
 public:
-    enum class Mirroring : bool { kOff, kAveraged };
     // Keeps the first `stages` stages (all when negative); 0 is the mean shape placed in the box.
-    SdmRegressor(std::string label, const std::string& path, int stages, Mirroring mirroring = Mirroring::kOff)
-        : LandmarkRegressor(std::move(label)), model_(read_sdm_model(path)), mirroring_(mirroring) {
+    SdmRegressor(std::string label, const std::string& path, int stages, SdmInference inference = {})
+        : LandmarkRegressor(std::move(label)), model_(read_sdm_model(path)), inference_(inference) {
         if (stages > static_cast<int>(model_.stages.size()))
             throw core::file_error(path, "has " + std::to_string(model_.stages.size()) + " stages, asked for " +
                                        std::to_string(stages));
@@ -25,14 +24,12 @@ public:
             if (model_.profile) model_.profile->stages.resize(static_cast<std::size_t>(stages));
         }
     }
-    Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override {
-        return mirroring_ == Mirroring::kAveraged ? sdm_detect_mirror_averaged(model_, gray, box) : sdm_detect(model_, gray, box);
-    }
+    Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override { return sdm_detect(model_, gray, box, inference_); }
     std::optional<DetectorKind> trained_detector() const override { return model_.boxes.detector; }
 
 private:
     SdmModel model_;
-    Mirroring mirroring_;
+    SdmInference inference_;
 };
 
 class DlibRegressor final : public LandmarkRegressor {
@@ -100,8 +97,21 @@ std::unique_ptr<LandmarkRegressor> open_regressor(const std::string& spec) {
         return std::make_unique<CanonicalBaselineRegressor<LbfPredictor>>("lbf:", spec.substr(4), BaselineMethod::kLbf);
     if (spec.rfind("sdm:", 0) == 0) return std::make_unique<SdmRegressor>(spec, spec.substr(4), -1);
     if (spec.rfind("mean:", 0) == 0) return std::make_unique<SdmRegressor>(spec, spec.substr(5), 0);
-    if (spec.rfind("mirror:", 0) == 0)
-        return std::make_unique<SdmRegressor>(spec, spec.substr(7), -1, SdmRegressor::Mirroring::kAveraged);
+    // Test-time modifiers of an SDM path, in either order (mirror:realign:F, realign:mirror:F).
+    SdmInference inference;
+    std::string path = spec;
+    for (;;) {
+        if (path.rfind("mirror:", 0) == 0) {
+            inference.mirror = true;
+            path.erase(0, 7);
+        } else if (path.rfind("realign:", 0) == 0) {
+            inference.realign = true;
+            path.erase(0, 8);
+        } else {
+            break;
+        }
+    }
+    if (inference.mirror || inference.realign) return std::make_unique<SdmRegressor>(spec, path, -1, inference);
     if (spec.rfind("sdm@", 0) == 0) {
         const auto colon = spec.find(':');
         int stages = -1;

@@ -8,6 +8,9 @@
 //   sdm@K:PATH    the SDM cascade cut after its first K stages (per-stage diagnosis)
 //   mirror:PATH   the SDM cascade run on the face and on its mirror image, averaged (frontal-view
 //                 boxes where the model has a profile cascade; twice the cost)
+//   realign:PATH  the SDM cascade run twice, the second time on the crop resampled so that the first
+//                 result sits on the start shape, the two averaged (twice the cost; train/sdm.h
+//                 SdmInference). mirror: and realign: combine in either order (four times the cost).
 //   lbf:PATH      an OpenCV LBF model from `facesynth train --method lbf` (runs on our canonical crop)
 #include "train/face_box.h"
 

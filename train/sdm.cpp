@@ -8,15 +8,18 @@
 #include "train/parallel.h"
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <chrono>
 #include <limits>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <optional>
 #include <utility>
@@ -177,33 +180,54 @@ Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::M
     return sdm_refine(model.stages, model.hog_cells, model.unit, crop, std::move(shape), after_each_stage);
 }
 
-Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view) {
-    if (!model.profile || view == FaceView::kFrontal) return sdm_refine(model, crop, model.initial_shape(view));
+namespace {
+
+using CascadeRun = std::function<Eigen::Matrix2Xd(std::span<const SdmStage> stages, const cv::Mat& crop, const Eigen::Matrix2Xd& start)>;
+
+// `run` with the cascade and start shape that serve `view`.
+Eigen::Matrix2Xd run_for_view(const SdmModel& model, const cv::Mat& crop, FaceView view, const CascadeRun& run) {
+    if (!model.profile || view == FaceView::kFrontal) return run(model.stages, crop, model.initial_shape(view));
     const ProfileCascade& profile = *model.profile;
-    if (view == FaceView::kNoseLeft) return sdm_refine(profile.stages, model.hog_cells, model.unit, crop, profile.mean_shape);
+    if (view == FaceView::kNoseLeft) return run(profile.stages, crop, profile.mean_shape);
     cv::Mat mirrored;
     cv::flip(crop, mirrored, 1);
-    return mirror_canonical_shape(sdm_refine(profile.stages, model.hog_cells, model.unit, mirrored, profile.mean_shape));
+    return mirror_canonical_shape(run(profile.stages, mirrored, profile.mean_shape));
 }
 
-Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box) {
-    const FaceFrame frame{box};
-    return frame.to_image(sdm_refine_view(model, canonical_crop(gray, frame), box.view));
+// SdmInference::realign.
+Eigen::Matrix2Xd refine_realigned(std::span<const SdmStage> stages, int hog_cells, const ShapeUnit& unit, const cv::Mat& crop,
+                                  const Eigen::Matrix2Xd& start) {
+    const Eigen::Matrix2Xd first = sdm_refine(stages, hog_cells, unit, crop, start);
+    const Eigen::Matrix3d start_to_first = Eigen::umeyama(start, first, true);
+    cv::Mat affine(2, 3, CV_64F);
+    for (int r = 0; r < 2; ++r)
+        for (int c = 0; c < 3; ++c) affine.at<double>(r, c) = start_to_first(r, c);
+    cv::Mat realigned;
+    cv::warpAffine(crop, realigned, affine, crop.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+    const Eigen::Matrix2Xd second = sdm_refine(stages, hog_cells, unit, realigned, start);
+    const Eigen::Matrix2Xd second_in_crop = (start_to_first.topLeftCorner<2, 2>() * second).colwise() + start_to_first.topRightCorner<2, 1>();
+    return 0.5 * (first + second_in_crop);
 }
 
-Eigen::Matrix2Xd sdm_refine_view_mirror_averaged(const SdmModel& model, const cv::Mat& crop, FaceView view) {
-    Eigen::Matrix2Xd direct = sdm_refine_view(model, crop, view);
-    if (model.profile && view != FaceView::kFrontal) return direct;
+}  // namespace
+
+Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view, const SdmInference& inference) {
+    const CascadeRun run = [&](std::span<const SdmStage> stages, const cv::Mat& c, const Eigen::Matrix2Xd& start) {
+        return inference.realign ? refine_realigned(stages, model.hog_cells, model.unit, c, start)
+                                 : sdm_refine(stages, model.hog_cells, model.unit, c, start);
+    };
+    Eigen::Matrix2Xd direct = run_for_view(model, crop, view, run);
+    if (!inference.mirror || (model.profile && view != FaceView::kFrontal)) return direct;
     cv::Mat mirrored;
     cv::flip(crop, mirrored, 1);
     const Eigen::Matrix2Xd from_mirror =
-        mirror_canonical_shape(sdm_refine(model, mirrored, mirror_canonical_shape(model.initial_shape(view))));
+        mirror_canonical_shape(run(model.stages, mirrored, mirror_canonical_shape(model.initial_shape(view))));
     return 0.5 * (direct + from_mirror);
 }
 
-Eigen::Matrix2Xd sdm_detect_mirror_averaged(const SdmModel& model, const cv::Mat& gray, const FaceBox& box) {
+Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box, const SdmInference& inference) {
     const FaceFrame frame{box};
-    return frame.to_image(sdm_refine_view_mirror_averaged(model, canonical_crop(gray, frame), box.view));
+    return frame.to_image(sdm_refine_view(model, canonical_crop(gray, frame), box.view, inference));
 }
 
 Eigen::Matrix2Xd mirror_canonical_shape(const Eigen::Matrix2Xd& shape) {

@@ -122,22 +122,29 @@ void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_ce
 [[nodiscard]] Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
                                           std::vector<Eigen::Matrix2Xd>* after_each_stage = nullptr);
 
+// How a cascade is run at test time (regressor specs `mirror:` and `realign:`, train/regressor.h).
+struct SdmInference {
+    // Also run on the mirror image of the crop (from the mirrored start shape, the result mirrored
+    // back) and average the two. Where the model has a profile cascade, profile-view crops are not
+    // mirrored: that cascade reads one orientation only. Twice the cost per face.
+    bool mirror = false;
+    // A second pass on the crop resampled by the similarity that takes the start shape onto the first
+    // pass's result (the face moved, scaled and turned upright to where the start expects it, which the
+    // detector's box does only roughly), mapped back and averaged with the first. Twice the cost.
+    bool realign = false;
+};
+
 // The landmarks (canonical crop coordinates) of the face in a canonical crop found by `view`: the
 // cascade that serves that view from its start shape (a nose-right crop is mirrored for the profile
 // cascade and the result mirrored back).
-[[nodiscard]] Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view);
-
-// Test-time mirroring: sdm_refine_view on the crop and on its mirror image (from the mirrored start
-// shape, the result mirrored back), averaged. Where the model has a profile cascade, profile-view
-// crops get sdm_refine_view alone: that cascade reads one orientation only. Twice the cost per face.
-[[nodiscard]] Eigen::Matrix2Xd sdm_refine_view_mirror_averaged(const SdmModel& model, const cv::Mat& crop, FaceView view);
+[[nodiscard]] Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view,
+                                               const SdmInference& inference = {});
 
 // Landmarks (0-based image pixels) of the face in `box` of an 8-bit grey image, starting from the
 // initial shape of the box's view; profile views go through the profile cascade where the model has
 // one (nose-right crops mirrored).
-[[nodiscard]] Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box);
-// The same with test-time mirroring (sdm_refine_view_mirror_averaged).
-[[nodiscard]] Eigen::Matrix2Xd sdm_detect_mirror_averaged(const SdmModel& model, const cv::Mat& gray, const FaceBox& box);
+[[nodiscard]] Eigen::Matrix2Xd sdm_detect(const SdmModel& model, const cv::Mat& gray, const FaceBox& box,
+                                          const SdmInference& inference = {});
 
 // One training face, already cut out around its box.
 struct TrainingFace {

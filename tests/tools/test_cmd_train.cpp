@@ -58,7 +58,8 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     const auto eval_json = dir / "eval.json";
     const std::string eval_cmd = cli_path().string() + " eval landmarks --regressor " + model.string() +
                                  " --regressor mean:" + model.string() + " --regressor sdm@1:" + model.string() +
-                                 " --regressor mirror:" + model.string() + " --data " + test.string() +
+                                 " --regressor mirror:" + model.string() + " --regressor realign:mirror:" + model.string() +
+                                 " --data " + test.string() +
                                  " --quiet --json " + eval_json.string() + " --ced " + (dir / "ced.svg").string() +
                                  " --nme-csv " + (dir / "nme.csv").string();
     ASSERT_EQ(run_command(eval_cmd, &out), 0) << out;
@@ -76,12 +77,15 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     // So must the cascade averaged with its run on the mirror image.
     EXPECT_EQ(j["regressor4"], "mirror:" + model.string());
     EXPECT_LT(j["regressor4_nme_mean"].get<double>(), j["regressor2_nme_mean"].get<double>());
+    // And the realigned second pass with mirroring: a spec whose modifiers stack.
+    EXPECT_EQ(j["regressor5"], "realign:mirror:" + model.string());
+    EXPECT_LT(j["regressor5_nme_mean"].get<double>(), j["regressor2_nme_mean"].get<double>());
     EXPECT_TRUE(fs::exists(dir / "ced.svg"));
     // --nme-csv: a header naming the regressors by position, then one row per face.
     std::ifstream nme_csv(dir / "nme.csv");
     std::string line;
     ASSERT_TRUE(std::getline(nme_csv, line));
-    EXPECT_EQ(line, "key,yaw_deg,detected,view,regressor1,regressor2,regressor3,regressor4");
+    EXPECT_EQ(line, "key,yaw_deg,detected,view,regressor1,regressor2,regressor3,regressor4,regressor5");
     int rows = 0;
     while (std::getline(nme_csv, line)) ++rows;
     EXPECT_EQ(rows, 30);
