@@ -198,15 +198,16 @@ Eigen::Matrix2Xd run_for_view(const SdmModel& model, const cv::Mat& crop, FaceVi
 Eigen::Matrix2Xd refine_realigned(std::span<const SdmStage> stages, int hog_cells, const ShapeUnit& unit, const cv::Mat& crop,
                                   const Eigen::Matrix2Xd& start) {
     const Eigen::Matrix2Xd first = sdm_refine(stages, hog_cells, unit, crop, start);
-    const Eigen::Matrix3d start_to_first = Eigen::umeyama(start, first, true);
-    cv::Mat affine(2, 3, CV_64F);
-    for (int r = 0; r < 2; ++r)
-        for (int c = 0; c < 3; ++c) affine.at<double>(r, c) = start_to_first(r, c);
+    // x -> linear·x + offset takes the start onto the first result (fit_similarity turns about the centroid).
+    const Similarity to_first = fit_similarity(start, first);
+    const Eigen::Matrix2d linear = to_first.scale * Eigen::Rotation2Dd(to_first.rotation).toRotationMatrix();
+    const Eigen::Vector2d start_centre = start.rowwise().mean();
+    const Eigen::Vector2d offset = start_centre + to_first.translation - linear * start_centre;
+    const cv::Mat affine = (cv::Mat_<double>(2, 3) << linear(0, 0), linear(0, 1), offset.x(), linear(1, 0), linear(1, 1), offset.y());
     cv::Mat realigned;
     cv::warpAffine(crop, realigned, affine, crop.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
     const Eigen::Matrix2Xd second = sdm_refine(stages, hog_cells, unit, realigned, start);
-    const Eigen::Matrix2Xd second_in_crop = (start_to_first.topLeftCorner<2, 2>() * second).colwise() + start_to_first.topRightCorner<2, 1>();
-    return 0.5 * (first + second_in_crop);
+    return 0.5 * (first + ((linear * second).colwise() + offset));
 }
 
 }  // namespace
