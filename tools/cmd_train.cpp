@@ -60,6 +60,9 @@ struct TrainArgs {
     std::string shape_unit = "eyes";
     int feature_pca = SdmTrainOptions{}.feature_components;
     bool mirror = false;
+    int realign_stages = SdmTrainOptions{}.realign_stages;
+    double realign_spread = SdmTrainOptions{}.realign_spread;
+    std::filesystem::path base;
     std::string detector = "dlib";
     std::string cascades = "auto";  // auto, views or single
     std::vector<double> view_overlap;  // frontal max |yaw|, profile min |yaw|
@@ -80,6 +83,10 @@ void run_train(const TrainArgs& args) {
         throw CLI::ValidationError("--view-overlap", "only applies to view-specific cascades");
     if (args.feature_pca > 0 && args.method != "sdm") throw CLI::ValidationError("--feature-pca", "only applies to --method sdm");
     if (args.mirror && args.method != "sdm") throw CLI::ValidationError("--mirror", "only applies to --method sdm");
+    if (args.realign_stages > 0 && args.method != "sdm") throw CLI::ValidationError("--realign-stages", "only applies to --method sdm");
+    if (args.realign_stages > args.stages && args.base.empty())
+        throw CLI::ValidationError("--realign-stages", "is more than --stages " + std::to_string(args.stages));
+    if (!args.base.empty() && args.realign_stages == 0) throw CLI::ValidationError("--base", "needs --realign-stages (it trains only those)");
     if (const int dims = morph::kNumIbugLandmarks * hog_dims(args.hog_cells); args.feature_pca > dims)
         throw CLI::ValidationError("--feature-pca", std::to_string(args.feature_pca) + " is more than the feature dimension " +
                                                         std::to_string(dims) + " (68 * " + std::to_string(args.hog_cells) +
@@ -110,6 +117,9 @@ void run_train(const TrainArgs& args) {
     sdm.unit = args.shape_unit == "box" ? ShapeUnitKind::kFixed : ShapeUnitKind::kInterEyeCentres;
     sdm.feature_components = args.feature_pca;
     sdm.mirror = args.mirror;
+    sdm.realign_stages = args.realign_stages;
+    sdm.realign_spread = args.realign_spread;
+    request.base = args.base;
     request.ert.threads = args.threads;
     request.ert.oversampling = args.augment;
     request.ert.seed = args.seed;
@@ -148,10 +158,12 @@ void run_train(const TrainArgs& args) {
     };
     observer.on_stage = [&](const std::string& cascade, const SdmStageReport& r) {
         if (args.quiet) return;
+        const bool realigned = cascade.ends_with("_realigned");
+        const std::string name = cascade == "single" || cascade == "frontal" ? "" : cascade + " cascade ";
         std::fprintf(stderr,
                      "\n%sstage %d/%d: training NME %.4f -> %.4f, validation NME %.4f -> %.4f (lambda factor %g, "
                      "lambda %.4g, rank %d, feature components %d, %.1f s)\n",
-                     cascade == "profile" ? "profile cascade " : "", r.stage, args.stages, r.nme_before, r.nme_after,
+                     name.c_str(), r.stage, realigned ? args.realign_stages : args.stages, r.nme_before, r.nme_after,
                      r.validation_nme_before, r.validation_nme_after, r.lambda_factor, r.lambda, r.rank, r.feature_components, r.seconds);
     };
     nlohmann::json report = train_regressor(images, request, observer);
@@ -466,6 +478,21 @@ void register_train_commands(CLI::App& app) {
         cmd->add_flag("--mirror", args->mirror,
                       "SDM: every training face also trains as its mirror image (the frontal cascade's faces with view "
                       "cascades; validation faces are not mirrored)");
+        cmd->add_option("--realign-stages", args->realign_stages,
+                        "SDM: also train a cascade of this many stages for the realigned second pass (regressor spec "
+                        "realign:), on crops turned upright by the truth with starts spread as the main cascade's residual; "
+                        "0 = none (realign: then runs the main cascade twice)")
+            ->check(CLI::Range(0, 8))
+            ->capture_default_str();
+        cmd->add_option("--realign-spread", args->realign_spread,
+                        "SDM: the realigned cascade's training starts are spread this many times the main cascade's "
+                        "residual on the validation faces")
+            ->check(CLI::Range(0.1, 10.0))
+            ->capture_default_str();
+        cmd->add_option("--base", args->base,
+                        "SDM with --realign-stages: keep this model's main cascades instead of training them and train only "
+                        "the realigned ones (it must have been trained on the same --data, --detector, --seed, --augment, "
+                        "--validation-share and --mirror)");
         cmd->add_option("--ranks", args->ranks,
                         "SDM: candidate ranks of each stage's update (1-136, comma-separated); validation keeps the "
                         "smallest within 1% of the best NME")

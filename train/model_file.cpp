@@ -118,6 +118,14 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
     }
     payload.write(static_cast<std::uint32_t>(model.unit.kind));
     payload.write(model.unit.fixed_length);
+    const auto write_realigned = [&](const std::vector<SdmStage>& realigned) {
+        if (realigned.size() > model.stages.size())
+            throw core::file_error(path.string(), "cannot write a model whose realigned cascade has more stages than its main one");
+        payload.write(static_cast<std::uint32_t>(realigned.size()));
+        for (const auto& stage : realigned) write_stage(payload, model, stage, path);
+    };
+    write_realigned(model.realigned_stages);
+    if (model.profile) write_realigned(model.profile->realigned_stages);
 
     core::ByteWriter file;
     file.write_bytes(kSdmMagic, sizeof(kSdmMagic));
@@ -237,6 +245,17 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
         model.unit.fixed_length = r.read<double>("shape unit length");
         if (model.unit.kind == ShapeUnitKind::kFixed && !(model.unit.fixed_length > 0 && model.unit.fixed_length < 1e4))
             throw r.error("implausible shape unit length " + std::to_string(model.unit.fixed_length));
+    }
+    if (version >= 6) {
+        const auto read_realigned = [&](const std::string& which) {
+            const auto count = r.read<std::uint32_t>((which + " stage count").c_str());
+            if (count > stages) throw r.error(which + " has " + std::to_string(count) + " stages, more than the main cascade's " + std::to_string(stages));
+            std::vector<SdmStage> realigned;
+            for (std::uint32_t k = 0; k < count; ++k) realigned.push_back(read_stage(r, model, version, which + " stage " + std::to_string(k + 1)));
+            return realigned;
+        };
+        model.realigned_stages = read_realigned("realigned cascade");
+        if (model.profile) model.profile->realigned_stages = read_realigned("profile realigned cascade");
     }
     if (!r.at_end()) throw r.error("unexpected bytes after the last stage");
     return model;

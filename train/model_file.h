@@ -12,10 +12,12 @@
 namespace facesynth::train {
 
 // 2: reduced-rank stages; 3: the face detector and per-view mean shapes; 4: an optional profile
-// cascade (view-specific cascades); 5: the shape unit (kind and length) after the cascades. Versions 1
+// cascade (view-specific cascades); 5: the shape unit (kind and length) after the cascades; 6: the
+// realigned cascades after the unit (a stage count, 0 for none, and the stages; the main cascade's,
+// then the profile cascade's where there is one). Versions 1
 // and 2 are still read, as models of the frontal detector with one mean shape, version 3 as a model
 // with one cascade for all views, and versions up to 4 as measuring shapes in inter-eye-centre distances.
-inline constexpr std::uint32_t kSdmModelVersion = 5;
+inline constexpr std::uint32_t kSdmModelVersion = 6;
 
 // FNV-1a 64, the checksum of the model files' payloads.
 [[nodiscard]] std::uint64_t fnv1a_64(std::string_view bytes);

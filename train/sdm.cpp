@@ -31,6 +31,8 @@ namespace {
 // Rng streams local to training initialisations (one per augmentation index).
 constexpr std::uint64_t kInitStreamBase = 0x5344'4d00;  // "SDM"
 constexpr std::size_t kChunkRows = 1024;
+// Added to the seed for the realigned cascade's training starts.
+constexpr std::uint64_t kRealignSeedOffset = 0x7265'616c;  // "real"
 
 using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
@@ -73,6 +75,52 @@ Eigen::Matrix2Xd apply_similarity(const Eigen::Matrix2Xd& shape, const Similarit
     Eigen::Matrix2d r;
     r << std::cos(s.rotation), -std::sin(s.rotation), std::sin(s.rotation), std::cos(s.rotation);
     return ((s.scale * r) * (shape.colwise() - centre)).colwise() + (centre + s.translation);
+}
+
+// x -> linear·x + offset: the similarity from `from` to `to` as a map of points (fit_similarity turns
+// about the centroid of `from`).
+struct SimilarityMap {
+    Eigen::Matrix2d linear;
+    Eigen::Vector2d offset;
+
+    [[nodiscard]] Eigen::Matrix2Xd apply(const Eigen::Matrix2Xd& shape) const { return (linear * shape).colwise() + offset; }
+    [[nodiscard]] Eigen::Matrix2Xd apply_inverse(const Eigen::Matrix2Xd& shape) const {
+        return linear.inverse() * (shape.colwise() - offset);
+    }
+    // The crop resampled so that its pixel at x shows what `crop` has at linear·x + offset: a shape that
+    // `from` reaches in `crop` through the map sits where `from` is in the result.
+    [[nodiscard]] cv::Mat resample(const cv::Mat& crop) const {
+        const cv::Mat affine = (cv::Mat_<double>(2, 3) << linear(0, 0), linear(0, 1), offset.x(), linear(1, 0), linear(1, 1), offset.y());
+        cv::Mat out;
+        cv::warpAffine(crop, out, affine, crop.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+        return out;
+    }
+};
+
+SimilarityMap similarity_map(const Eigen::Matrix2Xd& from, const Eigen::Matrix2Xd& to) {
+    const Similarity s = fit_similarity(from, to);
+    SimilarityMap map;
+    map.linear = s.scale * Eigen::Rotation2Dd(s.rotation).toRotationMatrix();
+    const Eigen::Vector2d centre = from.rowwise().mean();
+    map.offset = centre + s.translation - map.linear * centre;
+    return map;
+}
+
+// A training start: the cascade's start for the face's view moved by a similarity drawn from the box
+// statistics' spreads; depends only on (seed, face, augmentation index).
+Eigen::Matrix2Xd perturbed_start(const SdmModel& model, const TrainingFace& face, std::uint64_t seed, std::size_t face_index,
+                                 std::size_t augmentation) {
+    const BoxStatistics& boxes = model.boxes;
+    core::Rng rng(seed, face_index, kInitStreamBase + augmentation);
+    Similarity s;
+    s.scale = 1 + boxes.init_scale_std * rng.normal();
+    s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
+    // One draw per statement, y before x: the order GCC chose when they were one expression (the
+    // order of draws within one expression is the compiler's), so GCC builds keep their models.
+    const double dy = rng.normal();
+    const double dx = rng.normal();
+    s.translation = Eigen::Vector2d(dx, dy) * boxes.init_translation_std * kCanonicalBoxWidth;
+    return apply_similarity(model.initial_shape(face.view), s);
 }
 
 double standard_deviation(const std::vector<double>& values) {
@@ -182,47 +230,46 @@ Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::M
 
 namespace {
 
-using CascadeRun = std::function<Eigen::Matrix2Xd(std::span<const SdmStage> stages, const cv::Mat& crop, const Eigen::Matrix2Xd& start)>;
+// One view's cascade: its main stages and those of its realigned second pass (empty: none).
+struct CascadeStages {
+    std::span<const SdmStage> main, realigned;
+};
+using CascadeRun = std::function<Eigen::Matrix2Xd(const CascadeStages& stages, const cv::Mat& crop, const Eigen::Matrix2Xd& start)>;
 
 // `run` with the cascade and start shape that serve `view`.
 Eigen::Matrix2Xd run_for_view(const SdmModel& model, const cv::Mat& crop, FaceView view, const CascadeRun& run) {
-    if (!model.profile || view == FaceView::kFrontal) return run(model.stages, crop, model.initial_shape(view));
+    if (!model.profile || view == FaceView::kFrontal) return run({model.stages, model.realigned_stages}, crop, model.initial_shape(view));
     const ProfileCascade& profile = *model.profile;
-    if (view == FaceView::kNoseLeft) return run(profile.stages, crop, profile.mean_shape);
+    const CascadeStages stages{profile.stages, profile.realigned_stages};
+    if (view == FaceView::kNoseLeft) return run(stages, crop, profile.mean_shape);
     cv::Mat mirrored;
     cv::flip(crop, mirrored, 1);
-    return mirror_canonical_shape(run(profile.stages, mirrored, profile.mean_shape));
+    return mirror_canonical_shape(run(stages, mirrored, profile.mean_shape));
 }
 
-// SdmInference::realign.
-Eigen::Matrix2Xd refine_realigned(std::span<const SdmStage> stages, int hog_cells, const ShapeUnit& unit, const cv::Mat& crop,
-                                  const Eigen::Matrix2Xd& start) {
+// SdmInference::realign: `second` runs on the realigned crop (the main cascade again where the model
+// has no realigned one).
+Eigen::Matrix2Xd refine_realigned(std::span<const SdmStage> stages, std::span<const SdmStage> second, int hog_cells, const ShapeUnit& unit,
+                                  const cv::Mat& crop, const Eigen::Matrix2Xd& start) {
     const Eigen::Matrix2Xd first = sdm_refine(stages, hog_cells, unit, crop, start);
-    // x -> linear·x + offset takes the start onto the first result (fit_similarity turns about the centroid).
-    const Similarity to_first = fit_similarity(start, first);
-    const Eigen::Matrix2d linear = to_first.scale * Eigen::Rotation2Dd(to_first.rotation).toRotationMatrix();
-    const Eigen::Vector2d start_centre = start.rowwise().mean();
-    const Eigen::Vector2d offset = start_centre + to_first.translation - linear * start_centre;
-    const cv::Mat affine = (cv::Mat_<double>(2, 3) << linear(0, 0), linear(0, 1), offset.x(), linear(1, 0), linear(1, 1), offset.y());
-    cv::Mat realigned;
-    cv::warpAffine(crop, realigned, affine, crop.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
-    const Eigen::Matrix2Xd second = sdm_refine(stages, hog_cells, unit, realigned, start);
-    return 0.5 * (first + ((linear * second).colwise() + offset));
+    const SimilarityMap to_first = similarity_map(start, first);
+    const Eigen::Matrix2Xd realigned = sdm_refine(second.empty() ? stages : second, hog_cells, unit, to_first.resample(crop), start);
+    return 0.5 * (first + to_first.apply(realigned));
 }
 
 }  // namespace
 
 Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view, const SdmInference& inference) {
-    const CascadeRun run = [&](std::span<const SdmStage> stages, const cv::Mat& c, const Eigen::Matrix2Xd& start) {
-        return inference.realign ? refine_realigned(stages, model.hog_cells, model.unit, c, start)
-                                 : sdm_refine(stages, model.hog_cells, model.unit, c, start);
+    const CascadeRun run = [&](const CascadeStages& stages, const cv::Mat& c, const Eigen::Matrix2Xd& start) {
+        return inference.realign ? refine_realigned(stages.main, stages.realigned, model.hog_cells, model.unit, c, start)
+                                 : sdm_refine(stages.main, model.hog_cells, model.unit, c, start);
     };
     Eigen::Matrix2Xd direct = run_for_view(model, crop, view, run);
     if (!inference.mirror || (model.profile && view != FaceView::kFrontal)) return direct;
     cv::Mat mirrored;
     cv::flip(crop, mirrored, 1);
     const Eigen::Matrix2Xd from_mirror =
-        mirror_canonical_shape(run(model.stages, mirrored, mirror_canonical_shape(model.initial_shape(view))));
+        mirror_canonical_shape(run({model.stages, model.realigned_stages}, mirrored, mirror_canonical_shape(model.initial_shape(view))));
     return 0.5 * (direct + from_mirror);
 }
 
@@ -298,6 +345,30 @@ FaceSplit split_faces(std::size_t count, const SdmTrainOptions& options) {
                     std::to_string(options.ranks.size()) +
                     " ranks needs validation faces (more faces or a larger validation share)");
     return split;
+}
+
+// The rows a cascade trains on: the faces, split, and (options.mirror) the training faces' mirror images
+// appended as further training faces.
+struct TrainingRows {
+    FaceSplit split;
+    std::vector<TrainingFace> with_mirrors;  // options.mirror: the faces, then the mirror images
+
+    [[nodiscard]] std::span<const TrainingFace> faces(std::span<const TrainingFace> originals) const {
+        return with_mirrors.empty() ? originals : std::span<const TrainingFace>(with_mirrors);
+    }
+};
+
+TrainingRows training_rows(std::span<const TrainingFace> faces, const SdmTrainOptions& options) {
+    TrainingRows rows;
+    rows.split = split_faces(faces.size(), options);
+    if (!options.mirror) return rows;
+    rows.with_mirrors.assign(faces.begin(), faces.end());
+    const std::size_t originals = rows.split.train.size();
+    for (std::size_t i = 0; i < originals; ++i) {
+        rows.with_mirrors.push_back(mirror_training_face(faces[rows.split.train[i]]));
+        rows.split.train.push_back(rows.with_mirrors.size() - 1);
+    }
+    return rows;
 }
 
 // The mean shape in the box frame is the learned box-to-shape alignment: averaged over the training
@@ -379,19 +450,8 @@ public:
         for (std::size_t r = 0; r < rows; ++r)
             row_face_[r] = r < train_rows_ ? split.train[r / augment] : split.validation[(r - train_rows_) / augment];
         shapes_.resize(rows);
-        const BoxStatistics& boxes = model.boxes;
-        for (std::size_t r = 0; r < rows; ++r) {
-            core::Rng rng(options.seed, row_face_[r], kInitStreamBase + r % augment);
-            Similarity s;
-            s.scale = 1 + boxes.init_scale_std * rng.normal();
-            s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
-            // One draw per statement, y before x: the order GCC chose when they were one expression (the
-            // order of draws within one expression is the compiler's), so GCC builds keep their models.
-            const double dy = rng.normal();
-            const double dx = rng.normal();
-            s.translation = Eigen::Vector2d(dx, dy) * boxes.init_translation_std * kCanonicalBoxWidth;
-            shapes_[r] = apply_similarity(model.initial_shape(faces[row_face_[r]].view), s);
-        }
+        for (std::size_t r = 0; r < rows; ++r)
+            shapes_[r] = perturbed_start(model, faces[row_face_[r]], options.seed, row_face_[r], r % augment);
         for (const auto& stage : settings)
             total_feature_rows_ +=
                 train_rows_ * (train_rows_ < static_cast<std::size_t>(model.feature_dims(stage)) ? 1 : 2) + validation_rows_;
@@ -663,17 +723,9 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& box
     validate_options(options);
     const auto settings = options.stage_settings.empty() ? default_stage_settings(options.stages, options.jaw_features_from)
                                                          : options.stage_settings;
-    FaceSplit split = split_faces(faces.size(), options);
-    std::vector<TrainingFace> with_mirrors;  // the faces, then the training faces' mirror images
-    if (options.mirror) {
-        with_mirrors.assign(faces.begin(), faces.end());
-        const std::size_t originals = split.train.size();
-        for (std::size_t i = 0; i < originals; ++i) {
-            with_mirrors.push_back(mirror_training_face(faces[split.train[i]]));
-            split.train.push_back(with_mirrors.size() - 1);
-        }
-    }
-    const std::span<const TrainingFace> rows = options.mirror ? std::span<const TrainingFace>(with_mirrors) : faces;
+    const TrainingRows training = training_rows(faces, options);
+    const FaceSplit& split = training.split;
+    const std::span<const TrainingFace> rows = training.faces(faces);
 
     SdmModel model;
     model.num_landmarks = morph::kNumIbugLandmarks;
@@ -688,6 +740,61 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& box
     CascadeTrainer trainer(rows, split, options, model, settings);
     for (std::size_t k = 0; k < settings.size(); ++k) trainer.train_stage(k, settings[k]);
     return model;
+}
+
+RealignResidual train_realigned_cascade(std::span<const TrainingFace> faces, const SdmTrainOptions& options, SdmModel& model) {
+    validate_options(options);
+    if (options.realign_stages < 1 || options.realign_stages > static_cast<int>(model.stages.size()))
+        throw core::Error("SDM training: the realigned cascade's stages must be between 1 and the main cascade's " +
+                          std::to_string(model.stages.size()) + ", got " + std::to_string(options.realign_stages));
+    if (!(options.realign_spread > 0) || !std::isfinite(options.realign_spread))
+        throw core::Error("SDM training: the realigned cascade's start spread must be positive");
+    const TrainingRows training = training_rows(faces, options);
+    const std::span<const TrainingFace> rows = training.faces(faces);
+
+    // The main cascade's residual as a similarity in the realigned frame, from the starts it trained on.
+    const std::vector<std::size_t>& measured = training.split.validation.empty() ? training.split.train : training.split.validation;
+    const auto augment = static_cast<std::size_t>(options.augment);
+    std::vector<double> dx(measured.size() * augment), dy(dx.size()), scales(dx.size()), rotations(dx.size());
+    parallel_for(0, dx.size(), options.threads, [&](std::size_t i) {
+        const std::size_t f = measured[i / augment];
+        const TrainingFace& face = rows[f];
+        const Eigen::Matrix2Xd& start = model.initial_shape(face.view);
+        const Eigen::Matrix2Xd first = sdm_refine(model, face.crop, perturbed_start(model, face, options.seed, f, i % augment));
+        const Similarity residual = fit_similarity(start, similarity_map(start, first).apply_inverse(face.truth));
+        dx[i] = residual.translation.x() / kCanonicalBoxWidth;
+        dy[i] = residual.translation.y() / kCanonicalBoxWidth;
+        scales[i] = residual.scale;
+        rotations[i] = residual.rotation * 180.0 / std::numbers::pi;
+    });
+    RealignResidual spread;
+    spread.faces = static_cast<int>(measured.size());
+    spread.translation_std = std::sqrt(0.5 * (std::pow(standard_deviation(dx), 2) + std::pow(standard_deviation(dy), 2)));
+    spread.scale_std = standard_deviation(scales);
+    spread.rotation_std_deg = standard_deviation(rotations);
+
+    // Every face upright where the start expects it: the similarity from the start to the truth undone.
+    std::vector<TrainingFace> upright(rows.begin(), rows.end());
+    parallel_for(0, upright.size(), options.threads, [&](std::size_t f) {
+        const SimilarityMap to_truth = similarity_map(model.initial_shape(upright[f].view), upright[f].truth);
+        upright[f].crop = to_truth.resample(upright[f].crop);
+        upright[f].truth = to_truth.apply_inverse(upright[f].truth);
+    });
+
+    SdmModel second = model;
+    second.stages.clear();
+    second.realigned_stages.clear();
+    second.boxes.init_translation_std = options.realign_spread * spread.translation_std;
+    second.boxes.init_scale_std = options.realign_spread * spread.scale_std;
+    second.boxes.init_rotation_std_deg = options.realign_spread * spread.rotation_std_deg;
+    SdmTrainOptions second_options = options;
+    second_options.seed = options.seed + kRealignSeedOffset;  // starts drawn apart from the main cascade's
+    std::vector<SdmStageSettings> settings(static_cast<std::size_t>(options.realign_stages));
+    for (std::size_t k = 0; k < settings.size(); ++k) settings[k] = model.stages[k].settings;
+    CascadeTrainer trainer(upright, training.split, second_options, second, settings);
+    for (std::size_t k = 0; k < settings.size(); ++k) trainer.train_stage(k, settings[k]);
+    model.realigned_stages = std::move(second.stages);
+    return spread;
 }
 
 }  // namespace facesynth::train

@@ -80,6 +80,7 @@ struct BoxStatistics {
 struct ProfileCascade {
     Eigen::Matrix2Xd mean_shape;  // nose-left orientation, canonical crop coordinates
     std::vector<SdmStage> stages;
+    std::vector<SdmStage> realigned_stages;  // as SdmModel::realigned_stages
     int faces = 0;  // training faces (held-out validation faces included), mirrored ones counted once
     double init_translation_std = 0, init_scale_std = 0, init_rotation_std_deg = 0;
 };
@@ -95,6 +96,9 @@ struct SdmModel {
     std::array<Eigen::Matrix2Xd, kFaceViews> view_mean_shapes;
     std::array<int, kFaceViews> view_faces{};  // training faces (all boxes) per view
     std::vector<SdmStage> stages;  // with a profile cascade: the frontal view's cascade
+    // The cascade of the realigned second pass (SdmInference::realign; format version 6), trained on crops
+    // turned upright by the truth: empty where the model has none, and the second pass runs `stages` again.
+    std::vector<SdmStage> realigned_stages;
     std::optional<ProfileCascade> profile;
     ShapeUnit unit;                // of every cascade (format version 5; earlier files: inter-eye centres)
     BoxStatistics boxes;
@@ -130,7 +134,8 @@ struct SdmInference {
     bool mirror = false;
     // A second pass on the crop resampled by the similarity that takes the start shape onto the first
     // pass's result (the face moved, scaled and turned upright to where the start expects it, which the
-    // detector's box does only roughly), mapped back and averaged with the first. Twice the cost.
+    // detector's box does only roughly), mapped back and averaged with the first. The second pass runs the
+    // model's realigned cascade where it has one, else the same cascade again. Twice the cost.
     bool realign = false;
 };
 
@@ -206,6 +211,10 @@ struct SdmTrainOptions {
     // training faces' mean shape (view cascades give the profile cascade the frontal one's).
     double fixed_unit_length = 0;
     std::vector<SdmStageSettings> stage_settings;  // empty: default_stage_settings(stages, jaw_features_from)
+    // train_realigned_cascade: its stages (the first `realign_stages` of the main cascade's settings), and
+    // its starts' spread as a multiple of the main cascade's residual similarity on the validation faces.
+    int realign_stages = 0;
+    double realign_spread = 1.5;
     std::function<void(const SdmStageReport&)> on_stage;
     std::function<void(std::size_t rows_done, std::size_t rows_total)> on_progress;  // feature extraction
 };
@@ -217,6 +226,21 @@ struct SdmTrainOptions {
 // faces.
 [[nodiscard]] SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& boxes,
                                  const SdmTrainOptions& options);
+
+// The spread of the main cascade's result around the truth as a similarity (translation in box widths,
+// scale factor, rotation in degrees), measured on the validation faces from perturbed starts: where the
+// realigned second pass starts.
+struct RealignResidual {
+    int faces = 0;
+    double translation_std = 0, scale_std = 0, rotation_std_deg = 0;
+};
+
+// Trains `model.realigned_stages` (options.realign_stages of them) on `faces`, which must be the faces
+// (and `options` the options) that trained the model's main cascade: each crop is resampled so that the
+// similarity from the model's start shape to the truth becomes the identity (the face upright where the
+// start expects it), and training starts are spread by the main cascade's residual (measured here)
+// times options.realign_spread. Ignores the model's profile cascade (train_view_cascades trains both).
+RealignResidual train_realigned_cascade(std::span<const TrainingFace> faces, const SdmTrainOptions& options, SdmModel& model);
 
 // Point-to-point error / inter-ocular distance (outer eye corners) of 68-point shapes.
 [[nodiscard]] double landmark_nme(const Eigen::Matrix2Xd& predicted, const Eigen::Matrix2Xd& truth);

@@ -38,17 +38,20 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
                       nlohmann::json& report) {
     SdmTrainOptions options = request.sdm;
     double first_nme = 0, last_nme = 0;
-    // Stage reports; with view-specific cascades the profile cascade's keys are prefixed "profile_".
+    // Stage reports; with view-specific cascades the profile cascade's keys are prefixed "profile_", and
+    // the realigned cascades' "realign_" (after "profile_").
     const auto on_stage = [&](const std::string& cascade, const SdmStageReport& r) {
-        const bool profile = cascade == "profile";
-        if (!profile) {
+        const bool profile = cascade.starts_with("profile");
+        const bool realigned = cascade.ends_with("_realigned");
+        if (!profile && !realigned) {
             if (r.stage == 1) first_nme = r.nme_before;
             last_nme = r.nme_after;
         }
         if (observer.on_stage) observer.on_stage(cascade, r);
-        const std::string stage = std::string(profile ? "profile_" : "") + "stage" + std::to_string(r.stage);
-        if (profile && r.stage == 1) report["profile_train_nme_initial"] = r.nme_before;
-        if (profile) report["profile_train_nme_final"] = r.nme_after;
+        const std::string prefix = std::string(profile ? "profile_" : "") + (realigned ? "realign_" : "");
+        const std::string stage = prefix + "stage" + std::to_string(r.stage);
+        if (!prefix.empty() && r.stage == 1) report[prefix + "train_nme_initial"] = r.nme_before;
+        if (!prefix.empty()) report[prefix + "train_nme_final"] = r.nme_after;
         report[stage + "_nme"] = r.nme_after;
         report[stage + "_validation_nme"] = r.validation_nme_after;
         report[stage + "_lambda_factor"] = r.lambda_factor;
@@ -61,7 +64,21 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     report["stages"] = options.stages;
     report["hog_cells"] = options.hog_cells;
     SdmModel model;
-    if (views) {
+    if (!request.base.empty()) {
+        model = read_sdm_model(request.base);
+        if (model.training_checksum != prepared.checksum)
+            throw core::file_error(request.base.string(), "was trained on other faces than --data's (training checksums differ)");
+        if (model.boxes.detector != prepared.boxes.detector)
+            throw core::file_error(request.base.string(), std::string("was trained with the ") + detector_name(model.boxes.detector) +
+                                                              " detector, not " + detector_name(prepared.boxes.detector));
+        if (model.augment != static_cast<std::uint32_t>(options.augment))
+            throw core::file_error(request.base.string(), "was trained with --augment " + std::to_string(model.augment) + ", not " +
+                                                              std::to_string(options.augment));
+        report["stages"] = model.stages.size();
+        report["view_cascades"] = model.profile.has_value();
+        if (observer.on_message)
+            observer.on_message(line("kept the main cascades of %s; training the realigned ones", request.base.string().c_str()));
+    } else if (views) {
         ViewCascadeCounts counts;
         model = train_view_cascades(prepared.faces, prepared.boxes, options, request.split, &counts,
                                     [&](const char* cascade, const SdmStageReport& r) { on_stage(cascade, r); });
@@ -79,8 +96,33 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
         options.on_stage = [&](const SdmStageReport& r) { on_stage("single", r); };
         model = train_sdm(prepared.faces, prepared.boxes, options);
     }
+    if (options.realign_stages > 0) {
+        const auto report_residual = [&](const std::string& prefix, const RealignResidual& residual) {
+            report[prefix + "realign_residual_faces"] = residual.faces;
+            report[prefix + "realign_residual_translation_std"] = residual.translation_std;
+            report[prefix + "realign_residual_scale_std"] = residual.scale_std;
+            report[prefix + "realign_residual_rotation_std_deg"] = residual.rotation_std_deg;
+            if (observer.on_message)
+                observer.on_message(line("%srealigned cascade: the main cascade's residual on %d faces: translation %.4f box widths, "
+                                         "scale %.4f, rotation %.2f deg (training starts spread %g x that)",
+                                         prefix.empty() ? "" : "profile ", residual.faces, residual.translation_std, residual.scale_std,
+                                         residual.rotation_std_deg, options.realign_spread));
+        };
+        if (model.profile) {
+            const ViewRealignResiduals residuals = train_realigned_view_cascades(
+                prepared.faces, options, request.split, model, [&](const char* cascade, const SdmStageReport& r) { on_stage(cascade, r); });
+            report_residual("", residuals.frontal);
+            report_residual("profile_", residuals.profile);
+        } else {
+            options.on_stage = [&](const SdmStageReport& r) { on_stage("single_realigned", r); };
+            report_residual("", train_realigned_cascade(prepared.faces, options, model));
+        }
+    }
+    report["realign_stages"] = options.realign_stages;
+    report["realign_spread"] = options.realign_spread;
     model.training_checksum = prepared.checksum;
     write_sdm_model(request.out, model);
+    if (!request.base.empty()) return;
     report["train_nme_initial"] = first_nme;
     report["train_nme_final"] = last_nme;
     if (observer.on_message)

@@ -31,12 +31,17 @@ struct TrainingRequest {
     ErtTrainOptions ert;     // with kErt
     LbfTrainOptions lbf;     // with kLbf
     std::filesystem::path out;
+    // kSdm with sdm.realign_stages: keep this model's main cascades (and starts, and its choice of view
+    // cascades) instead of training them, and train only the realigned ones. It must have been trained on
+    // the same faces (its training checksum) with the same seed, augment, validation share and mirroring.
+    std::filesystem::path base;
 };
 
 struct TrainingObserver {
     std::function<void(const std::string&)> on_message;  // one line for a person, no newline
     std::function<void(const std::string&)> on_warning;   // an image skipped, and why
-    // SDM stage reports; `cascade` is "single", "frontal" or "profile".
+    // SDM stage reports; `cascade` is "single", "frontal" or "profile", or one of them followed by
+    // "_realigned" for the realigned cascades.
     std::function<void(const std::string& cascade, const SdmStageReport&)> on_stage;
 };
 

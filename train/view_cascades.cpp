@@ -101,4 +101,37 @@ SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStati
     return model;
 }
 
+ViewRealignResiduals train_realigned_view_cascades(std::span<const TrainingFace> faces, const SdmTrainOptions& options,
+                                                   const ViewSplit& split, SdmModel& model,
+                                                   const std::function<void(const char* cascade, const SdmStageReport&)>& on_stage) {
+    if (!model.profile) throw core::Error("realigned view cascades: the model has no profile cascade");
+    const ViewFaceSets sets = split_view_faces(faces, split);
+    const auto train_one = [&](const char* name, const std::vector<TrainingFace>& set, bool mirror, SdmModel& cascade) {
+        SdmTrainOptions o = options;
+        o.mirror = mirror;
+        if (on_stage) o.on_stage = [&](const SdmStageReport& r) { on_stage(name, r); };
+        try {
+            return train_realigned_cascade(set, o, cascade);
+        } catch (const core::Error& e) {
+            throw core::Error(std::string("view-specific cascades: the ") + name + " cascade (" + std::to_string(set.size()) +
+                              " faces): " + e.what());
+        }
+    };
+    ViewRealignResiduals residuals;
+    residuals.frontal = train_one("frontal_realigned", sets.frontal, options.mirror, model);
+    // The profile cascade as the model train_view_cascades made it from (its faces are all nose-left).
+    ProfileCascade& profile = *model.profile;
+    SdmModel profile_model;
+    profile_model.hog_cells = model.hog_cells;
+    profile_model.unit = model.unit;
+    profile_model.mean_shape = profile.mean_shape;
+    profile_model.stages = profile.stages;
+    profile_model.boxes.init_translation_std = profile.init_translation_std;
+    profile_model.boxes.init_scale_std = profile.init_scale_std;
+    profile_model.boxes.init_rotation_std_deg = profile.init_rotation_std_deg;
+    residuals.profile = train_one("profile_realigned", sets.profile, false, profile_model);
+    profile.realigned_stages = std::move(profile_model.realigned_stages);
+    return residuals;
+}
+
 }  // namespace facesynth::train

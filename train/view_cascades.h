@@ -53,4 +53,15 @@ struct ViewFaceSets {
                                            ViewCascadeCounts* counts = nullptr,
                                            const std::function<void(const char* cascade, const SdmStageReport&)>& on_stage = {});
 
+struct ViewRealignResiduals {
+    RealignResidual frontal, profile;
+};
+
+// Trains the realigned cascades (train_realigned_cascade) of a model that train_view_cascades made from
+// the same `faces`, `options` and `split`: one for its frontal cascade and one for its profile cascade.
+// `on_stage` (optional) gets the stage reports as "frontal_realigned" and "profile_realigned".
+ViewRealignResiduals train_realigned_view_cascades(std::span<const TrainingFace> faces, const SdmTrainOptions& options,
+                                                   const ViewSplit& split, SdmModel& model,
+                                                   const std::function<void(const char* cascade, const SdmStageReport&)>& on_stage = {});
+
 }  // namespace facesynth::train

@@ -55,10 +55,35 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     // --cascades auto: these near-frontal faces give the profile cascade too few faces, so one cascade.
     EXPECT_EQ(train_report["view_cascades"], false);
 
+    // A realigned cascade added to the model (--base keeps its cascades): trained on the same data only.
+    const auto realigned = dir / "realigned.sdm";
+    const std::string base_cmd = cli_path().string() + " train --data " + train.string() + " --stages 3 --augment 3 --hog-cells 2 --quiet" +
+                                 " --base " + model.string() + " --realign-stages 2 --out ";
+    ASSERT_EQ(run_command(base_cmd + realigned.string() + " --json " + (dir / "realigned.json").string(), &out), 0) << out;
+    const auto realigned_report = read_json(dir / "realigned.json");
+    for (const char* key : {"realign_stage1_nme", "realign_stage2_validation_nme", "realign_residual_translation_std",
+                            "realign_residual_rotation_std_deg", "realign_stages", "realign_spread"})
+        EXPECT_TRUE(realigned_report.contains(key)) << key;
+    EXPECT_EQ(realigned_report["realign_stages"], 2);
+    EXPECT_FALSE(realigned_report.contains("stage1_nme"));  // the main cascade was kept, not trained
+    EXPECT_EQ(run_command(cli_path().string() + " train --data " + test.string() + " --stages 3 --augment 3 --hog-cells 2 --quiet --base " +
+                              model.string() + " --realign-stages 2 --out " + (dir / "other.sdm").string(),
+                          &out),
+              1);
+    EXPECT_NE(out.find("training checksums differ"), std::string::npos) << out;
+    EXPECT_NE(out.find(model.string()), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(dir / "other.sdm"));
+    EXPECT_EQ(run_command(cli_path().string() + " train --data " + train.string() + " --base " + model.string() + " --out " +
+                              (dir / "other.sdm").string(),
+                          &out),
+              2);
+    EXPECT_NE(out.find("--realign-stages"), std::string::npos) << out;
+
     const auto eval_json = dir / "eval.json";
     const std::string eval_cmd = cli_path().string() + " eval landmarks --regressor " + model.string() +
                                  " --regressor mean:" + model.string() + " --regressor sdm@1:" + model.string() +
                                  " --regressor mirror:" + model.string() + " --regressor realign:mirror:" + model.string() +
+                                 " --regressor realign:" + realigned.string() +
                                  " --data " + test.string() +
                                  " --quiet --json " + eval_json.string() + " --ced " + (dir / "ced.svg").string() +
                                  " --nme-csv " + (dir / "nme.csv").string();
@@ -80,12 +105,14 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     // And the realigned second pass with mirroring: a spec whose modifiers stack.
     EXPECT_EQ(j["regressor5"], "realign:mirror:" + model.string());
     EXPECT_LT(j["regressor5_nme_mean"].get<double>(), j["regressor2_nme_mean"].get<double>());
+    // And the second pass with its own trained cascade.
+    EXPECT_LT(j["regressor6_nme_mean"].get<double>(), j["regressor2_nme_mean"].get<double>());
     EXPECT_TRUE(fs::exists(dir / "ced.svg"));
     // --nme-csv: a header naming the regressors by position, then one row per face.
     std::ifstream nme_csv(dir / "nme.csv");
     std::string line;
     ASSERT_TRUE(std::getline(nme_csv, line));
-    EXPECT_EQ(line, "key,yaw_deg,detected,view,regressor1,regressor2,regressor3,regressor4,regressor5");
+    EXPECT_EQ(line, "key,yaw_deg,detected,view,regressor1,regressor2,regressor3,regressor4,regressor5,regressor6");
     int rows = 0;
     while (std::getline(nme_csv, line)) ++rows;
     EXPECT_EQ(rows, 30);

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <string>
 #include <vector>
 
 namespace facesynth::train {
@@ -188,7 +189,7 @@ TEST(ViewCascades, FilesRoundTripBothCascades) {
     const SdmModel model = small_view_model();
     const auto dir = testkit::fresh_temp_dir("sdm_view_cascades");
     write_sdm_model(dir / "views.sdm", model);
-    EXPECT_EQ(core::read_file(dir / "views.sdm")[8], 5);
+    EXPECT_EQ(core::read_file(dir / "views.sdm")[8], 6);
     const SdmModel back = read_sdm_model(dir / "views.sdm");
     ASSERT_TRUE(back.profile.has_value());
     EXPECT_EQ(back.profile->faces, model.profile->faces);
@@ -209,17 +210,44 @@ TEST(ViewCascades, FilesRoundTripBothCascades) {
         EXPECT_TRUE(sdm_refine_view(back, face.crop, view) == sdm_refine_view(model, face.crop, view));
 }
 
+TEST(ViewCascades, RealignedCascadesAreTrainedForBothViewsAndRoundTrip) {
+    SdmModel model = small_view_model();
+    SdmTrainOptions options = small_options();
+    options.stages = 2;
+    options.jaw_features_from = 2;
+    options.realign_stages = 1;
+    std::vector<std::string> names;
+    const ViewRealignResiduals residuals = train_realigned_view_cascades(
+        three_view_faces(70, 10), options, ViewSplit{}, model, [&](const char* cascade, const SdmStageReport&) { names.emplace_back(cascade); });
+    EXPECT_EQ(names, (std::vector<std::string>{"frontal_realigned", "profile_realigned"}));
+    ASSERT_EQ(model.realigned_stages.size(), 1u);
+    ASSERT_EQ(model.profile->realigned_stages.size(), 1u);
+    EXPECT_GT(residuals.frontal.faces, 0);
+    EXPECT_GT(residuals.profile.faces, 0);
+    EXPECT_FALSE(model.profile->realigned_stages[0].weights == model.realigned_stages[0].weights);
+    const auto dir = testkit::fresh_temp_dir("sdm_view_cascades_realigned");
+    write_sdm_model(dir / "views.sdm", model);
+    const SdmModel back = read_sdm_model(dir / "views.sdm");
+    ASSERT_EQ(back.profile->realigned_stages.size(), 1u);
+    EXPECT_TRUE(back.profile->realigned_stages[0].weights == model.profile->realigned_stages[0].weights);
+    EXPECT_TRUE(back.realigned_stages[0].weights == model.realigned_stages[0].weights);
+    const auto face = cartoon_training_faces(71, 1, 45).front();
+    for (FaceView view : {FaceView::kFrontal, FaceView::kNoseLeft, FaceView::kNoseRight})
+        EXPECT_TRUE(sdm_refine_view(back, face.crop, view, {.realign = true}) == sdm_refine_view(model, face.crop, view, {.realign = true}));
+}
+
 TEST(ViewCascades, Version3FilesAreReadAsSingleCascadeModels) {
-    // A single-cascade model written as version 5 ends with the profile flag 0 and the shape unit
-    // (12 bytes); without them and with version 3 in the header it is what a version 3 build wrote.
+    // A single-cascade model written as version 6 ends with the profile flag 0, the shape unit (12 bytes)
+    // and the realigned cascade's stage count 0; without them and with version 3 in the header it is what
+    // a version 3 build wrote.
     auto faces = three_view_faces(72, 8);
     SdmTrainOptions options = small_options();
     options.stages = 1;
     const SdmModel model = train_sdm(faces, BoxStatistics{}, options);
     const auto dir = testkit::fresh_temp_dir("sdm_view_cascades_v3");
-    write_sdm_model(dir / "v5.sdm", model);
-    std::string v3 = core::read_file(dir / "v5.sdm");
-    v3.resize(v3.size() - 12);
+    write_sdm_model(dir / "v6.sdm", model);
+    std::string v3 = core::read_file(dir / "v6.sdm");
+    v3.resize(v3.size() - 16);
     ASSERT_EQ(v3.substr(v3.size() - 4), std::string(4, '\0'));
     v3.resize(v3.size() - 4);
     rewrite_sdm_header(v3, 3);
@@ -234,9 +262,10 @@ TEST(ViewCascades, CorruptProfileBlocksGiveErrorsNamingTheFile) {
     const SdmModel model = small_view_model();
     const auto dir = testkit::fresh_temp_dir("sdm_view_cascades_corrupt");
     write_sdm_model(dir / "good.sdm", model);
-    // As version 4 (no shape unit after the profile block), so that the block ends the file.
+    // As version 4 (no shape unit and realigned stage counts after the profile block), so that the
+    // block ends the file.
     std::string good = core::read_file(dir / "good.sdm");
-    good.resize(good.size() - 12);
+    good.resize(good.size() - 20);
     rewrite_sdm_header(good, 4);
     // The profile block starts after the frontal stages: find it from the end (faces, 3 spreads, mean
     // shape, stages) by its size.
