@@ -49,6 +49,23 @@ ViewFaceSets split_faces(std::span<const TrainingFace> faces, const ViewSplit& s
     return out;
 }
 
+using StageObserver = std::function<void(const char* cascade, const SdmStageReport&)>;
+
+// `train(options)` for one view's cascade: `options` with its mirroring and its stage reports named
+// `name`, and errors that name the cascade.
+template <typename Train>
+auto train_view_cascade(const char* name, const std::vector<TrainingFace>& set, SdmTrainOptions options, bool mirror,
+                        const StageObserver& on_stage, const Train& train) {
+    options.mirror = mirror;
+    if (on_stage) options.on_stage = [&on_stage, name](const SdmStageReport& r) { on_stage(name, r); };
+    try {
+        return train(options);
+    } catch (const core::Error& e) {
+        throw core::Error(std::string("view-specific cascades: the ") + name + " cascade (" + std::to_string(set.size()) +
+                          " faces): " + e.what());
+    }
+}
+
 }  // namespace
 
 ViewCascadeCounts count_view_split(std::span<const TrainingFace> faces, const ViewSplit& split) {
@@ -69,14 +86,8 @@ SdmModel train_view_cascades(std::span<const TrainingFace> faces, const BoxStati
     const auto train_one = [&](const char* name, const std::vector<TrainingFace>& set, bool mirror, double fixed_unit_length = 0) {
         SdmTrainOptions o = options;
         if (fixed_unit_length > 0) o.fixed_unit_length = fixed_unit_length;
-        o.mirror = mirror;
-        if (on_stage) o.on_stage = [&](const SdmStageReport& r) { on_stage(name, r); };
-        try {
-            return train_sdm(set, boxes, o);
-        } catch (const core::Error& e) {
-            throw core::Error(std::string("view-specific cascades: the ") + name + " cascade (" + std::to_string(set.size()) +
-                        " faces): " + e.what());
-        }
+        return train_view_cascade(name, set, o, mirror, on_stage,
+                                  [&](const SdmTrainOptions& view_options) { return train_sdm(set, boxes, view_options); });
     };
     SdmModel model = train_one("frontal", sets.frontal, options.mirror);
     // Both cascades measure shapes in the same unit (with a fixed one, the frontal faces').
@@ -107,15 +118,8 @@ ViewRealignResiduals train_realigned_view_cascades(std::span<const TrainingFace>
     if (!model.profile) throw core::Error("realigned view cascades: the model has no profile cascade");
     const ViewFaceSets sets = split_view_faces(faces, split);
     const auto train_one = [&](const char* name, const std::vector<TrainingFace>& set, bool mirror, SdmModel& cascade) {
-        SdmTrainOptions o = options;
-        o.mirror = mirror;
-        if (on_stage) o.on_stage = [&](const SdmStageReport& r) { on_stage(name, r); };
-        try {
-            return train_realigned_cascade(set, o, cascade);
-        } catch (const core::Error& e) {
-            throw core::Error(std::string("view-specific cascades: the ") + name + " cascade (" + std::to_string(set.size()) +
-                              " faces): " + e.what());
-        }
+        return train_view_cascade(name, set, options, mirror, on_stage,
+                                  [&](const SdmTrainOptions& view_options) { return train_realigned_cascade(set, view_options, cascade); });
     };
     ViewRealignResiduals residuals;
     residuals.frontal = train_one("frontal_realigned", sets.frontal, options.mirror, model);
