@@ -23,9 +23,11 @@
 #                             (fov 4-20°), degradations, and the jaw labels evenly spaced along the outline as
 #                             annotators space them (landmarks.mode = even)
 #                             (into WORK/train, replacing a set made with other settings)
-#   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, --augment starts).
-#                             At 36000 renders on 2 cores the whole script took 61 minutes for row 75 (renders 22,
-#                             training 37, other work beside it for 20) and 7.4 GB; docs/results.md rows 55-75
+#   4. facesynth train        the SDM regressor on those renders alone (3×3 HOG cells, 6 stages, --augment starts),
+#                             with a 4-stage realigned cascade for `realign:MODEL`'s second pass (docs/results.md
+#                             row 85). At 36000 renders on 2 cores the whole script took 61 minutes for row 75
+#                             (renders 22, training 37, other work beside it for 20) and 7.4 GB; the realigned
+#                             cascades add 33 minutes and take 8.7 GB; docs/results.md rows 55-85
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seed S]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 #                          [--augment A]  (training starts per render, default 4)
@@ -85,6 +87,6 @@ fi
     "${background[@]}" \
     --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \
     --set degrade.downscale_probability=0.3 --set degrade.gamma_probability=0.5 --set degrade.colour_jitter_probability=0.5
-"$facesynth" train --data "$work/train" --out "$out" --hog-cells 3 --stages 6 --augment "$augment" --threads "$threads" --lambda-factors 3,10,30,100 \
+"$facesynth" train --data "$work/train" --out "$out" --hog-cells 3 --stages 6 --augment "$augment" --threads "$threads" --lambda-factors 3,10,30,100 --realign-stages 4 \
     --json "$work/train.json" $([[ ${#quiet[@]} -gt 0 ]] && echo --quiet)
 echo "sim2real: $out (work files in $work)"

@@ -276,6 +276,7 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_EQ(train["stages"], 6);  // the recipe's six stages (docs/results.md row 41)
     EXPECT_EQ(train["hog_cells"], 3);
     EXPECT_EQ(train["augment"], 4);
+    EXPECT_EQ(train["realign_stages"], 4);  // the realigned cascade that realign:MODEL runs (row 85)
     const auto meta = read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json");
     EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);  // rendered with the bank
     EXPECT_EQ(meta["background"]["type"], "wallpapers");                       // the default backgrounds

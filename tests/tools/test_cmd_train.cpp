@@ -2,6 +2,7 @@
 // trained cascade must beat its own mean-shape start on held-out faces, the JSON keys are the
 // documented stable ones, and bad inputs give one-line errors with the right exit codes.
 #include "common/test_data.h"
+#include "core/atomic_file.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -66,6 +67,14 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
         EXPECT_TRUE(realigned_report.contains(key)) << key;
     EXPECT_EQ(realigned_report["realign_stages"], 2);
     EXPECT_FALSE(realigned_report.contains("stage1_nme"));  // the main cascade was kept, not trained
+    // Trained in one go, the model is the same file byte for byte.
+    const auto at_once = dir / "at_once.sdm";
+    ASSERT_EQ(run_command(cli_path().string() + " train --data " + train.string() + " --stages 3 --augment 3 --hog-cells 2 --quiet" +
+                              " --realign-stages 2 --out " + at_once.string(),
+                          &out),
+              0)
+        << out;
+    EXPECT_EQ(facesynth::core::read_file(at_once), facesynth::core::read_file(realigned));
     EXPECT_EQ(run_command(cli_path().string() + " train --data " + test.string() + " --stages 3 --augment 3 --hog-cells 2 --quiet --base " +
                               model.string() + " --realign-stages 2 --out " + (dir / "other.sdm").string(),
                           &out),
