@@ -492,7 +492,7 @@ void register_train_commands(CLI::App& app) {
         cmd->add_option("--base", args->base,
                         "SDM with --realign-stages: keep this model's main cascades instead of training them and train only "
                         "the realigned ones (it must have been trained on the same --data, --detector, --seed, --augment, "
-                        "--validation-share and --mirror)");
+                        "--validation-share, --mirror and --view-overlap)");
         cmd->add_option("--ranks", args->ranks,
                         "SDM: candidate ranks of each stage's update (1-136, comma-separated); validation keeps the "
                         "smallest within 1% of the best NME")

@@ -10,6 +10,8 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <optional>
+#include <utility>
 
 namespace facesynth::train {
 namespace {
@@ -34,8 +36,9 @@ const char* method_name(TrainingMethod method) {
     return "?";
 }
 
-void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& request, bool views, const TrainingObserver& observer,
-                      nlohmann::json& report) {
+// `base`: request.base's model, read before the faces were prepared.
+void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& request, std::optional<SdmModel> base, bool views,
+                      const TrainingObserver& observer, nlohmann::json& report) {
     SdmTrainOptions options = request.sdm;
     double first_nme = 0, last_nme = 0;
     // Stage reports; with view-specific cascades the profile cascade's keys are prefixed "profile_", and
@@ -64,8 +67,8 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     report["stages"] = options.stages;
     report["hog_cells"] = options.hog_cells;
     SdmModel model;
-    if (!request.base.empty()) {
-        model = read_sdm_model(request.base);
+    if (base) {
+        model = std::move(*base);
         if (model.training_checksum != prepared.checksum)
             throw core::file_error(request.base.string(), "was trained on other faces than --data's (training checksums differ)");
         if (model.boxes.detector != prepared.boxes.detector)
@@ -122,7 +125,7 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     report["realign_spread"] = options.realign_spread;
     model.training_checksum = prepared.checksum;
     write_sdm_model(request.out, model);
-    if (!request.base.empty()) return;
+    if (!request.base.empty()) return;  // the main cascades were not trained here
     report["train_nme_initial"] = first_nme;
     report["train_nme_final"] = last_nme;
     if (observer.on_message)
@@ -186,6 +189,8 @@ void train_baseline_models(const PreparedFaces& prepared, const TrainingRequest&
 
 nlohmann::json train_regressor(const std::vector<LabelledImage>& images, const TrainingRequest& request, const TrainingObserver& observer) {
     if (request.method == TrainingMethod::kLbf) check_lbf_options(request.lbf);  // before the long preparation
+    std::optional<SdmModel> base;
+    if (request.method == TrainingMethod::kSdm && !request.base.empty()) base = read_sdm_model(request.base);
     const PreparedFaces prepared = prepare_training_faces(images, request.prepare);
     if (observer.on_warning)
         for (const auto& w : prepared.warnings) observer.on_warning(w);
@@ -216,7 +221,7 @@ nlohmann::json train_regressor(const std::vector<LabelledImage>& images, const T
     }
     report["view_cascades"] = views;
     if (request.method == TrainingMethod::kSdm)
-        train_sdm_models(prepared, request, views, observer, report);
+        train_sdm_models(prepared, request, std::move(base), views, observer, report);
     else
         train_baseline_models(prepared, request, views, observer, report);
     return report;

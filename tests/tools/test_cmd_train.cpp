@@ -87,6 +87,12 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
                           &out),
               2);
     EXPECT_NE(out.find("--realign-stages"), std::string::npos) << out;
+    // A missing base is named before the faces are prepared.
+    EXPECT_EQ(run_command(base_cmd.substr(0, base_cmd.find(" --base ")) + " --base " + (dir / "missing.sdm").string() +
+                              " --realign-stages 2 --out " + (dir / "other.sdm").string(),
+                          &out),
+              1);
+    EXPECT_NE(out.find("missing.sdm: model file not found"), std::string::npos) << out;
 
     const auto eval_json = dir / "eval.json";
     const std::string eval_cmd = cli_path().string() + " eval landmarks --regressor " + model.string() +
