@@ -135,7 +135,8 @@ struct SdmInference {
     // A second pass on the crop resampled by the similarity that takes the start shape onto the first
     // pass's result (the face moved, scaled and turned upright to where the start expects it, which the
     // detector's box does only roughly), mapped back and averaged with the first. The second pass runs the
-    // model's realigned cascade where it has one, else the same cascade again. Twice the cost.
+    // model's realigned cascade where it has one (1.7 x one pass with four of six stages), else the same
+    // cascade again (twice the cost).
     bool realign = false;
 };
 
