@@ -234,7 +234,9 @@ public:
         nose_half_width_ = Profile({{l_.y_sn - 2, 7.0}, {l_.y_sn, 8.5}, {l_.y_prn, 11.0 * a_.nose_tip}, {l_.y_prn + 12, 10.0},
                                     {l_.y_eye, 9.5}, {l_.y_n, 9.5}, {l_.y_n + 8, 11.0}});
         l_.z_nasion = depth(l_.y_n) + 1.0;
-        l_.z_cornea = l_.z_nasion - 12.0 * a_.eye_depth;
+        // 17 mm, not 12: with 12 every eye point sat 0.03-0.06 inter-ocular distances in front of where
+        // helen_train's annotations put it as the head turns (docs/builtin-model.md "Depth").
+        l_.z_cornea = l_.z_nasion - 17.0 * a_.eye_depth;
         l_.z_prn = depth(l_.y_sn) + 0.95 * a_.nose_protrusion + 2.0;
     }
 
@@ -489,6 +491,7 @@ private:
         dz += nose_height(x, y);
         // Lips, mouth line, philtrum, chin.
         dz += lips_depth(r, x, y);
+        dz -= dental_arch_depth(x, y);
         dz += 3.5 * a_.chin * gauss2(x, y - (l_.y_gn + 13), 14.0, 9.0);
         // Eyes: eyeball shell and lids replace the surface inside the lids' reach.
         const double w = eye_weight(r, x);
@@ -511,7 +514,10 @@ private:
     // Eyeball front surface plus lid thickness outside the opening.
     [[nodiscard]] double eye_shell(int r, double x, double y) const {
         const double dx = std::abs(x) - l_.x_ec, dy = y - l_.y_eye;
-        const double ball = l_.z_cornea - dx * dx / (2.0 * 13.0) - dy * dy / (2.0 * 12.0);
+        // The inner canthus sits forward of the ball's sphere, on the nose's side of the socket: on the sphere
+        // it was 0.05 inter-ocular distances behind the annotated one relative to the other eye points
+        // (docs/builtin-model.md "Depth").
+        const double ball = l_.z_cornea - dx * dx / (2.0 * 13.0) - dy * dy / (2.0 * 12.0) + 4.5 * gauss(eye_t(x) + 1.0, 0.35);
         const int k = r - kRowEye;
         double lid = 0;
         if (std::abs(k) >= kFissureRows) lid = 1.0 + 0.45 * (std::abs(k) - kFissureRows);
@@ -548,6 +554,19 @@ private:
         h -= 1.2 * gauss2(std::hypot(ax - ala_x, (y - ala_y) * 0.9) - 6.0, 0.0, 1.2, 1.0);  // alar crease
         h -= 3.0 * gauss2(ax - 0.42 * l_.x_al, y - (y_base + 2.2), 2.6, 1.5);                 // nostrils
         return h;
+    }
+
+    // The lips and the skin around them wrap round the teeth: the mouth corners lie about 30 mm behind the
+    // lips' midline, not the 20 mm the head's section gives. Seen in how far each point moves sideways as
+    // the head turns (`facesynth eval conventions`' depth on helen_train's annotations, docs/builtin-model.md
+    // "Depth"): without this the corners sat 0.13 inter-ocular distances in front of the annotated ones,
+    // the inner corners 0.18 (the Surrey model, from 3D scans, puts its corners near the annotated depth
+    // when rendered). The fades above the upper lip and beside the corners are wide: a narrow one shades
+    // as a ring round the mouth.
+    [[nodiscard]] double dental_arch_depth(double x, double y) const {
+        const double across = (1.0 - gauss(x, 12.0)) * smoothstep(l_.x_ch + 34.0, l_.x_ch + 6.0, std::abs(x));
+        const double down = smoothstep(l_.y_sn + 2.0, l_.y_sto + 7.0, y) * smoothstep(l_.y_gn + 6.0, l_.y_sto - 14.0, y);
+        return 13.0 * across * down;
     }
 
     [[nodiscard]] double lips_depth(int r, double x, double y) const {

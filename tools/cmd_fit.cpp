@@ -267,6 +267,16 @@ void run_conventions(const ConventionsArgs& a) {
             const int i = order[static_cast<std::size_t>(k)];
             std::printf("  iBUG %2d: x %+.3f (sd %.3f), y %+.3f (sd %.3f)\n", i + 1, study.mean(0, i), study.stddev(0, i), study.mean(1, i), study.stddev(1, i));
         }
+        if (study.depth.size() == 0) {
+            std::printf("depth: not measured (sin(yaw) spreads %.3f, under %.2f)\n", study.sin_yaw_stddev, fit::kMinDepthYawSpread);
+        } else {
+            // The jaw points are on the outline, whose surface point changes with the yaw: no depth of their own.
+            std::printf("depth of points 18-68 (annotated point in front of the model's: x offset against sin(yaw)), inter-ocular distances; largest first:\n");
+            std::vector<int> inner(order.size() - 17);
+            for (std::size_t i = 0; i < inner.size(); ++i) inner[i] = static_cast<int>(i) + 17;
+            std::sort(inner.begin(), inner.end(), [&](int x, int y) { return std::abs(study.depth(x)) > std::abs(study.depth(y)); });
+            for (int k = 0; k < 12; ++k) std::printf("  iBUG %2d: %+.3f\n", inner[static_cast<std::size_t>(k)] + 1, study.depth(inner[static_cast<std::size_t>(k)]));
+        }
     }
     if (!a.json.empty()) {
         nlohmann::json j;
@@ -286,7 +296,11 @@ void run_conventions(const ConventionsArgs& a) {
                 std::snprintf(key, sizeof key, "sd_%c_%02d", axis == 0 ? 'x' : 'y', i + 1);
                 j[key] = study.stddev(axis, i);
             }
+            std::snprintf(key, sizeof key, "depth_%02d", i + 1);
+            j[key] = study.depth.size() == 0 ? nlohmann::json(nullptr) : nlohmann::json(study.depth(i));
         }
+        j["depth_measured"] = study.depth.size() != 0;
+        j["sin_yaw_sd"] = study.sin_yaw_stddev;
         write_json_file(a.json, j);
     }
 }
@@ -348,7 +362,7 @@ void register_fit_commands(CLI::App& app) {
     });
 
     auto conventions_args = std::make_shared<ConventionsArgs>();
-    auto* conventions = eval->add_subcommand("conventions", "Where annotators put each landmark against the model's definition: the model fitted to manual .pts files, mean residual per landmark");
+    auto* conventions = eval->add_subcommand("conventions", "Where annotators put each landmark against the model's definition: the model fitted to manual .pts files, mean residual per landmark and its depth (x offset against sin(yaw))");
     conventions->add_option("--photos", conventions_args->photos, "Folder of manual 68-point .pts files (images are not read)")->required();
     conventions->add_option("--model", conventions_args->model, "Model: builtin, a model file or folder")->capture_default_str();
     conventions->add_option("--jaw", conventions_args->jaw, "Jaw correspondences: contour (the outline, as 300-W annotates) or fixed vertices")
@@ -358,7 +372,7 @@ void register_fit_commands(CLI::App& app) {
     conventions->add_option("--lambda", conventions_args->lambda, "Identity prior weight of the fits (as textures' --fit-lambda)")
         ->capture_default_str()
         ->check(finite_range(0.0, 1e6));
-    conventions->add_option("--json", conventions_args->json, "Write counts and per-landmark mean_<x|y>_NN, sd_<x|y>_NN as flat JSON");
+    conventions->add_option("--json", conventions_args->json, "Write counts and per-landmark mean_<x|y>_NN, sd_<x|y>_NN, depth_NN (null unless depth_measured) as flat JSON");
     conventions->add_flag("-q,--quiet", conventions_args->quiet, "Only the JSON");
     conventions->callback([conventions_args] { run_conventions(*conventions_args); });
 }

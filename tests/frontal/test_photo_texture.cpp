@@ -184,8 +184,10 @@ TEST_F(PhotoTextureTest, EarsAndNeckTakeTheFacesSkinNotWhatSurroundsIt) {
         // Within 10 levels: texels on a triangle's edge blend with the neighbouring region's.
         for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(c[ch], clean.skin_srgb[static_cast<std::size_t>(ch)], 10.0) << ch;
         if (region == morph::Region::kNeck) {
-            // Without it, the green shows (G - R rises; measured 29 levels, the neck being part green part skin).
-            EXPECT_GT((s[1] - s[0]) - (c[1] - c[0]), 20.0);
+            // Without it, the green shows (G - R rises, the neck being part green part skin: measured 9 levels;
+            // 29 before the lower face wrapped round the teeth, 2026-12-06, which turns the jaw's sides away
+            // from the camera, so fewer neck texels are seen against the background).
+            EXPECT_GT((s[1] - s[0]) - (c[1] - c[0]), 5.0);
         }
     }
 }

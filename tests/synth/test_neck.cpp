@@ -48,7 +48,9 @@ TEST(Neck, LeavesTheFacesLandmarksAndLabelsAndAddsNeckPixelsBelowTheChin) {
                 const auto l = static_cast<morph::Region>(without.regions.at<std::uint8_t>(y, x));
                 if (l != morph::Region::kBackground && l != morph::Region::kNeck) changed_face_pixels += with.regions.at<std::uint8_t>(y, x) != without.regions.at<std::uint8_t>(y, x);
             }
-        EXPECT_LT(changed_face_pixels, 25) << "sample " << index;  // anti-aliased outline pixels at the jaw only (21 at most)
+        // Outline pixels at the jaw only: 25 at most (sample 4, turned away: the neck's top edge in front of
+        // the far jaw's angle, which sits further back since the lower face wraps round the teeth; 21 before).
+        EXPECT_LT(changed_face_pixels, 32) << "sample " << index;
         // The neck lies below the chin in the image (y grows downward).
         double neck_y = 0;
         int n = 0;
