@@ -268,7 +268,8 @@ void run_conventions(const ConventionsArgs& a) {
             std::printf("  iBUG %2d: x %+.3f (sd %.3f), y %+.3f (sd %.3f)\n", i + 1, study.mean(0, i), study.stddev(0, i), study.mean(1, i), study.stddev(1, i));
         }
         if (study.depth.size() == 0) {
-            std::printf("depth: not measured (sin(yaw) spreads %.3f, under %.2f)\n", study.sin_yaw_stddev, fit::kMinDepthYawSpread);
+            std::printf("depth: not measured (%d faces, sin(yaw) spreads %.3f: it takes 3 faces and a spread of %.2f)\n", study.faces,
+                        study.sin_yaw_stddev, fit::kMinDepthYawSpread);
         } else {
             // The jaw points are on the outline, whose surface point changes with the yaw: no depth of their own.
             std::printf("depth of points 18-68 (annotated point in front of the model's: x offset against sin(yaw)), inter-ocular distances; largest first:\n");

@@ -319,7 +319,11 @@ TEST_F(CmdAppearance, ConventionsWriteOffsetsThatTrainReadsAndBadOffsetFilesAreN
     ASSERT_EQ(run_command(appearance_cli() + " eval conventions -q --photos " + photos.string() + " --json " + conventions.string(), &out), 0) << out;
     const auto j = read_json(conventions);
     EXPECT_EQ(j["faces"], 6);
-    for (const char* key : {"mean_x_01", "mean_y_68", "sd_x_18", "skipped_pose", "failed"}) EXPECT_TRUE(j.contains(key)) << key;
+    for (const char* key : {"mean_x_01", "mean_y_68", "sd_x_18", "skipped_pose", "failed", "depth_measured", "sin_yaw_sd", "depth_34"})
+        EXPECT_TRUE(j.contains(key)) << key;
+    // Depth is a number per landmark where the yaws spread enough, null otherwise (keys stay the same).
+    EXPECT_EQ(j["depth_34"].is_number(), j["depth_measured"].get<bool>());
+    EXPECT_EQ(j["depth_measured"].get<bool>(), j["sin_yaw_sd"].get<double>() >= 0.05);
     // The renders' own labels: the model's definitions, so small offsets (the fit's own error).
     EXPECT_LT(std::abs(j["mean_y_18"].get<double>()), 0.05);
     EXPECT_EQ(j["lambda"], 30);
