@@ -20,6 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <numeric>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -273,8 +274,8 @@ void run_conventions(const ConventionsArgs& a) {
         } else {
             // The jaw points are on the outline, whose surface point changes with the yaw: no depth of their own.
             std::printf("depth of points 18-68 (annotated point in front of the model's: x offset against sin(yaw)), inter-ocular distances; largest first:\n");
-            std::vector<int> inner(order.size() - 17);
-            for (std::size_t i = 0; i < inner.size(); ++i) inner[i] = static_cast<int>(i) + 17;
+            std::vector<int> inner(morph::kNumIbugLandmarks - 17);
+            std::iota(inner.begin(), inner.end(), 17);
             std::sort(inner.begin(), inner.end(), [&](int x, int y) { return std::abs(study.depth(x)) > std::abs(study.depth(y)); });
             for (int k = 0; k < 12; ++k) std::printf("  iBUG %2d: %+.3f\n", inner[static_cast<std::size_t>(k)] + 1, study.depth(inner[static_cast<std::size_t>(k)]));
         }

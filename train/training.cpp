@@ -66,8 +66,9 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     report["augment"] = options.augment;
     report["stages"] = options.stages;
     report["hog_cells"] = options.hog_cells;
+    const bool from_base = base.has_value();
     SdmModel model;
-    if (base) {
+    if (from_base) {
         model = std::move(*base);
         if (model.training_checksum != prepared.checksum)
             throw core::file_error(request.base.string(), "was trained on other faces than --data's (training checksums differ)");
@@ -125,7 +126,7 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     report["realign_spread"] = options.realign_spread;
     model.training_checksum = prepared.checksum;
     write_sdm_model(request.out, model);
-    if (!request.base.empty()) return;  // the main cascades were not trained here
+    if (from_base) return;  // the main cascades were not trained here
     report["train_nme_initial"] = first_nme;
     report["train_nme_final"] = last_nme;
     if (observer.on_message)
