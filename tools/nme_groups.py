@@ -13,6 +13,11 @@ mean offset (prediction - annotation, face frame: x along the eye line, y down) 
 --write-offsets writes, for one DET folder, the mean (annotation - prediction) per landmark in the keys
 `train --label-offsets` reads (mean_x_NN, mean_y_NN, as `eval conventions --json`): the training labels
 then move by the detector's mean bias on these annotations (docs/results.md, "Label adaptation").
+--turn-trend also prints, per folder, the landmarks whose x offset changes with the head's turn: the
+least-squares slope of the offset along the eye line on the annotation's eye-width asymmetry
+(wl - wr) / (wl + wr) (outer to inner corner, each eye; about 0.05 per 10 degrees of yaw, a measure that
+needs no model), per 0.1 of asymmetry, where it exceeds 0.01 inter-ocular distances. A point whose
+offset grows toward the turn is one that the detector holds in front of where annotators put it.
 """
 import argparse
 import glob
@@ -40,6 +45,19 @@ def mean_of(points, indices):
     return (sum(points[i][0] for i in indices) / len(indices), sum(points[i][1] for i in indices) / len(indices))
 
 
+def eye_asymmetry(points):
+    """(wl - wr) / (wl + wr) of the two eyes' corner-to-corner widths: grows with the head's turn."""
+    left, right = math.dist(points[36], points[39]), math.dist(points[42], points[45])
+    return (left - right) / (left + right)
+
+
+def slope(xs, ys):
+    """Least-squares slope of ys on xs (0 when xs do not vary)."""
+    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
+    sxx = sum((x - mx) ** 2 for x in xs)
+    return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx if sxx > 0 else 0.0
+
+
 def parse_points(text):
     """'1-3,15-17' -> 0-based indices of those 1-based iBUG points."""
     indices = []
@@ -61,6 +79,7 @@ def main():
     parser.add_argument("detections", nargs="+", help="`facesynth detect --out` folders")
     parser.add_argument("--write-offsets", metavar="FILE", help="with one DET folder: its mean (annotation - prediction) as label offsets")
     parser.add_argument("--points", metavar="LIST", help="also print the mean error over these 1-based points, e.g. 1-3,15-17")
+    parser.add_argument("--turn-trend", action="store_true", help="also print the landmarks whose x offset changes with the head's turn")
     args = parser.parse_args()
     points = parse_points(args.points) if args.points else None
     if args.write_offsets and len(args.detections) != 1:
@@ -85,6 +104,7 @@ def main():
     for folder, best in found.items():
         errors = [0.0] * 68
         offsets = [[0.0, 0.0] for _ in range(68)]
+        turns, x_offsets = [], []
         for name in common:
             gt, p = truth[name], best[name][1]
             iod = math.dist(gt[36], gt[45])
@@ -92,11 +112,14 @@ def main():
             norm = math.dist(left, right)
             ex = ((right[0] - left[0]) / norm, (right[1] - left[1]) / norm)
             ey = (-ex[1], ex[0])
+            x_offsets.append([0.0] * 68)
             for i in range(68):
                 d = (p[i][0] - gt[i][0], p[i][1] - gt[i][1])
                 errors[i] += math.hypot(*d) / iod
-                offsets[i][0] += (d[0] * ex[0] + d[1] * ex[1]) / iod
+                x_offsets[-1][i] = (d[0] * ex[0] + d[1] * ex[1]) / iod
+                offsets[i][0] += x_offsets[-1][i]
                 offsets[i][1] += (d[0] * ey[0] + d[1] * ey[1]) / iod
+            turns.append(eye_asymmetry(gt))
         n = len(common)
         groups = "  ".join(f"{g} {sum(errors[i] for i in r) / (n * len(r)):.4f}" for g, r in GROUPS.items())
         print(f"{folder}: mean {sum(errors) / (68 * n):.4f}  {groups}")
@@ -104,6 +127,10 @@ def main():
             print(f"  points {args.points}: {sum(errors[i] for i in points) / (n * len(points)):.4f}")
         biased = [f"{i + 1}:{o[0] / n:+.3f},{o[1] / n:+.3f}" for i, o in enumerate(offsets) if math.hypot(o[0] / n, o[1] / n) > 0.03]
         print("  offsets over 0.03 (x,y):", " ".join(biased) or "none")
+        if args.turn_trend:
+            slopes = [0.1 * slope(turns, [row[i] for row in x_offsets]) for i in range(68)]
+            trending = [f"{i + 1}:{s:+.3f}" for i, s in enumerate(slopes) if abs(s) > 0.01]
+            print("  x offset per 0.1 eye asymmetry, over 0.01:", " ".join(trending) or "none")
         if args.write_offsets:
             written = {"faces": n}
             for i, o in enumerate(offsets):
