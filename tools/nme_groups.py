@@ -5,6 +5,7 @@
     tools/nme_groups.py GT DET [DET2 ...]
     tools/nme_groups.py GT DET --write-offsets OFFSETS.json   # label adaptation: train --label-offsets
     tools/nme_groups.py GT DET [DET2 ...] --points 1-3,15-17      # also the mean error over these points
+    tools/nme_groups.py GT DET [DET2 ...] --turn-trend            # offsets that grow with the head's turn
 
 For every GT/NAME.pts with a detection DET/NAME_<k>.pts (the detection nearest the annotation when there
 are several), on the faces every DET folder found: the mean point error per group (jaw 1-17, brows 18-27,
@@ -16,8 +17,11 @@ then move by the detector's mean bias on these annotations (docs/results.md, "La
 --turn-trend also prints, per folder, the landmarks whose x offset changes with the head's turn: the
 least-squares slope of the offset along the eye line on the annotation's eye-width asymmetry
 (wl - wr) / (wl + wr) (outer to inner corner, each eye; about 0.05 per 10 degrees of yaw, a measure that
-needs no model), per 0.1 of asymmetry, where it exceeds 0.01 inter-ocular distances. A point whose
-offset grows toward the turn is one that the detector holds in front of where annotators put it.
+needs no model; positive when the nose points to the image's right), per 0.1 of asymmetry, where it
+exceeds 0.01 inter-ocular distances. A positive slope is a point that moves with the turn further than
+the annotation does, as a point in front of the annotators' would (or one the detector turns too far). It
+also prints the mean error left once each landmark's mean offset, and then its trend too, are taken off
+(fitted on the same faces: a bound on what label conventions can be worth to that detector there).
 """
 import argparse
 import glob
@@ -56,6 +60,19 @@ def slope(xs, ys):
     mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
     sxx = sum((x - mx) ** 2 for x in xs)
     return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx if sxx > 0 else 0.0
+
+
+def bias_free_error(turns, x_offsets, y_offsets, with_trend):
+    """Mean point error (inter-ocular) once each landmark's mean offset (and, with_trend, its x offset's
+    linear trend on the eye asymmetry) is taken off, both fitted on the same faces."""
+    mean_turn = sum(turns) / len(turns)
+    total = 0.0
+    for i in range(68):
+        xs, ys = [row[i] for row in x_offsets], [row[i] for row in y_offsets]
+        trend = slope(turns, xs) if with_trend else 0.0
+        mean_x, mean_y = sum(xs) / len(xs), sum(ys) / len(ys)
+        total += sum(math.hypot(x - mean_x - trend * (t - mean_turn), y - mean_y) for t, x, y in zip(turns, xs, ys))
+    return total / (68 * len(turns))
 
 
 def parse_points(text):
@@ -104,7 +121,7 @@ def main():
     for folder, best in found.items():
         errors = [0.0] * 68
         offsets = [[0.0, 0.0] for _ in range(68)]
-        turns, x_offsets = [], []
+        turns, x_offsets, y_offsets = [], [], []
         for name in common:
             gt, p = truth[name], best[name][1]
             iod = math.dist(gt[36], gt[45])
@@ -113,12 +130,14 @@ def main():
             ex = ((right[0] - left[0]) / norm, (right[1] - left[1]) / norm)
             ey = (-ex[1], ex[0])
             x_offsets.append([0.0] * 68)
+            y_offsets.append([0.0] * 68)
             for i in range(68):
                 d = (p[i][0] - gt[i][0], p[i][1] - gt[i][1])
                 errors[i] += math.hypot(*d) / iod
                 x_offsets[-1][i] = (d[0] * ex[0] + d[1] * ex[1]) / iod
+                y_offsets[-1][i] = (d[0] * ey[0] + d[1] * ey[1]) / iod
                 offsets[i][0] += x_offsets[-1][i]
-                offsets[i][1] += (d[0] * ey[0] + d[1] * ey[1]) / iod
+                offsets[i][1] += y_offsets[-1][i]
             turns.append(eye_asymmetry(gt))
         n = len(common)
         groups = "  ".join(f"{g} {sum(errors[i] for i in r) / (n * len(r)):.4f}" for g, r in GROUPS.items())
@@ -131,6 +150,8 @@ def main():
             slopes = [0.1 * slope(turns, [row[i] for row in x_offsets]) for i in range(68)]
             trending = [f"{i + 1}:{s:+.3f}" for i, s in enumerate(slopes) if abs(s) > 0.01]
             print("  x offset per 0.1 eye asymmetry, over 0.01:", " ".join(trending) or "none")
+            print(f"  mean error with each landmark's mean offset taken off {bias_free_error(turns, x_offsets, y_offsets, False):.4f}, "
+                  f"its turn trend too {bias_free_error(turns, x_offsets, y_offsets, True):.4f} (fitted on these faces: a bound)")
         if args.write_offsets:
             written = {"faces": n}
             for i, o in enumerate(offsets):

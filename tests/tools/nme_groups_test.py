@@ -57,6 +57,8 @@ def main():
         trend = next((line for line in out.splitlines() if "per 0.1 eye asymmetry" in line), "")
         if trend.split(":", 1)[1].split() != ["9:+0.030"]:
             sys.exit(f"expected point 9's trend of +0.030 per 0.1 and no other:\n{out}")
+        if "its turn trend too 0.0000" not in out:
+            sys.exit(f"with the mean offsets and the trend taken off, nothing is left:\n{out}")
         without = run(gt, det)
         if "eye asymmetry" in without:
             sys.exit(f"the trend is printed only with --turn-trend:\n{without}")
