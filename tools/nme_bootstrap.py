@@ -10,6 +10,10 @@ and per detector view. Standard library only.
 With --cluster-size N the rows come in clusters of N consecutive rows that are not independent (the
 frames of one clip from `facesynth eval track --nme-csv`), and whole clusters are resampled.
 
+--average K,L adds a column: the per-face mean NME of regressor columns K and L (and more), compared as
+any other. For models trained alike with different seeds it is what one training run makes on these
+faces, on average over those runs (the interval is over the faces, not over the seeds).
+
 Targets stated as ratios ("within 1.2 x the reference") are read with --ratio R: every paired
 difference is then other - R x reference per face, so an interval below 0 means the target is met on
 these faces. --yaw-split D adds the faces with |yaw| <= D and > D as two more groups. With --fail-at T
@@ -22,7 +26,7 @@ regressor columns follow one another, a face counts as detected where every file
 and view are the first file's; faces missing from any file are left out.
 
     tools/nme_bootstrap.py F.csv [G.csv ...] [--reference 1] [--names ours,dlib,...] [--resamples 5000] [--seed 1] [--cluster-size N]
-                           [--ratio R] [--yaw-split D] [--fail-at T]
+                           [--ratio R] [--yaw-split D] [--fail-at T] [--average K,L]
 """
 import argparse
 import math
@@ -98,6 +102,7 @@ def main():
     parser.add_argument("--ratio", type=float, default=1.0, help="compare each regressor with this multiple of the reference")
     parser.add_argument("--yaw-split", type=float, default=None, help="also compare the faces with |yaw| up to and beyond this")
     parser.add_argument("--fail-at", type=float, default=None, help="compare failure rates: NME above this counts 1, else 0")
+    parser.add_argument("--average", default="", help="comma-separated regressor columns (1-based) whose per-face mean is added as one more column")
     args = parser.parse_args()
     if args.cluster_size < 0:
         sys.exit("--cluster-size must not be negative")
@@ -114,6 +119,18 @@ def main():
     names = args.names.split(",") if args.names else columns
     if len(names) != len(columns):
         sys.exit(f"{source}: {len(columns)} regressor columns, {len(names)} names")
+    if args.average:
+        try:
+            averaged = [int(k) for k in args.average.split(",")]
+        except ValueError:
+            sys.exit(f"--average: '{args.average}' is not a list of regressor columns")
+        if len(averaged) < 2 or len(set(averaged)) != len(averaged) or not all(1 <= k <= len(columns) for k in averaged):
+            sys.exit(f"--average: two or more different regressor columns of 1-{len(columns)}")
+        label = "mean(" + ",".join(names[k - 1] for k in averaged) + ")"
+        for r in rows:
+            r["_average"] = str(sum(float(r[columns[k - 1]]) for k in averaged) / len(averaged)) if r["detected"] == "1" else ""
+        columns.append("_average")
+        names.append(label)
     if not 1 <= args.reference <= len(columns):
         sys.exit(f"{source}: --reference {args.reference}, but the file has {len(columns)} regressor columns")
     if args.yaw_split is not None and not rows[0]["yaw_deg"]:
