@@ -116,7 +116,7 @@ def main():
     rows = joined_rows(args.csv)
     source = " + ".join(args.csv)
     columns = [c for c in rows[0].keys() if c.startswith("regressor")]
-    names = args.names.split(",") if args.names else columns
+    names = args.names.split(",") if args.names else list(columns)
     if len(names) != len(columns):
         sys.exit(f"{source}: {len(columns)} regressor columns, {len(names)} names")
     if args.average:
@@ -126,11 +126,9 @@ def main():
             sys.exit(f"--average: '{args.average}' is not a list of regressor columns")
         if len(averaged) < 2 or len(set(averaged)) != len(averaged) or not all(1 <= k <= len(columns) for k in averaged):
             sys.exit(f"--average: two or more different regressor columns of 1-{len(columns)}")
-        label = "mean(" + ",".join(names[k - 1] for k in averaged) + ")"
-        for r in rows:
-            r["_average"] = str(sum(float(r[columns[k - 1]]) for k in averaged) / len(averaged)) if r["detected"] == "1" else ""
+        averaged_columns = [columns[k - 1] for k in averaged]
         columns.append("_average")
-        names.append(label)
+        names.append("mean(" + ",".join(names[k - 1] for k in averaged) + ")")
     if not 1 <= args.reference <= len(columns):
         sys.exit(f"{source}: --reference {args.reference}, but the file has {len(columns)} regressor columns")
     if args.yaw_split is not None and not rows[0]["yaw_deg"]:
@@ -140,7 +138,10 @@ def main():
     found = [r for r in rows if r["detected"] == "1"]
     if args.fail_at is not None:
         for r in found:
-            r.update((c, "1" if float(r[c]) > args.fail_at else "0") for c in columns)
+            r.update((c, "1" if float(r[c]) > args.fail_at else "0") for c in columns if c != "_average")
+    if args.average:  # after --fail-at: the mean of the runs' failures, not the failure of their mean NME
+        for r in found:
+            r["_average"] = str(sum(float(r[c]) for c in averaged_columns) / len(averaged_columns))
 
     def clusters_of(subset):
         return [r["_cluster"] for r in subset] if args.cluster_size else None

@@ -36,6 +36,14 @@ def main():
         ratio = run(csv, "--names", "s1,s2,ref", "--reference", "3", "--average", "1,2", "--ratio", "1.5")
         if "mean(s1,s2) - 1.5 x ref: -0.0000" not in ratio and "mean(s1,s2) - 1.5 x ref: +0.0000" not in ratio:
             sys.exit(f"expected the average at 1.5 x the reference:\n{ratio}")
+        # Failure rates at 0.065: the first seed fails on no face, the second on three of four (not on
+        # the average NME, which would fail on one).
+        failures = run(csv, "--names", "s1,s2,ref", "--average", "1,2", "--fail-at", "0.065")
+        if "mean(s1,s2): mean 0.3750" not in failures:
+            sys.exit(f"expected the two runs' mean failure rate, 0.375:\n{failures}")
+        unnamed = run(csv, "--average", "1,2")
+        if "mean(regressor1,regressor2): mean 0.0600" not in unnamed:
+            sys.exit(f"expected the average named after its columns:\n{unnamed}")
         for bad in ("1", "1,1", "1,4", "x,2"):
             message = run(csv, "--average", bad, expect_failure=True)
             if "--average" not in message:
