@@ -120,8 +120,7 @@ def main():
         sys.exit("no face was found in every folder (do they hold `facesynth detect` output for these images?)")
     for folder, best in found.items():
         errors = [0.0] * 68
-        offsets = [[0.0, 0.0] for _ in range(68)]
-        turns, x_offsets, y_offsets = [], [], []
+        turns, x_offsets, y_offsets = [], [], []  # per face: eye asymmetry, per landmark x and y offsets
         for name in common:
             gt, p = truth[name], best[name][1]
             iod = math.dist(gt[36], gt[45])
@@ -136,15 +135,14 @@ def main():
                 errors[i] += math.hypot(*d) / iod
                 x_offsets[-1][i] = (d[0] * ex[0] + d[1] * ex[1]) / iod
                 y_offsets[-1][i] = (d[0] * ey[0] + d[1] * ey[1]) / iod
-                offsets[i][0] += x_offsets[-1][i]
-                offsets[i][1] += y_offsets[-1][i]
             turns.append(eye_asymmetry(gt))
         n = len(common)
+        offsets = [(sum(row[i] for row in x_offsets) / n, sum(row[i] for row in y_offsets) / n) for i in range(68)]
         groups = "  ".join(f"{g} {sum(errors[i] for i in r) / (n * len(r)):.4f}" for g, r in GROUPS.items())
         print(f"{folder}: mean {sum(errors) / (68 * n):.4f}  {groups}")
         if points:
             print(f"  points {args.points}: {sum(errors[i] for i in points) / (n * len(points)):.4f}")
-        biased = [f"{i + 1}:{o[0] / n:+.3f},{o[1] / n:+.3f}" for i, o in enumerate(offsets) if math.hypot(o[0] / n, o[1] / n) > 0.03]
+        biased = [f"{i + 1}:{o[0]:+.3f},{o[1]:+.3f}" for i, o in enumerate(offsets) if math.hypot(*o) > 0.03]
         print("  offsets over 0.03 (x,y):", " ".join(biased) or "none")
         if args.turn_trend:
             slopes = [0.1 * slope(turns, [row[i] for row in x_offsets]) for i in range(68)]
@@ -155,8 +153,8 @@ def main():
         if args.write_offsets:
             written = {"faces": n}
             for i, o in enumerate(offsets):
-                written[f"mean_x_{i + 1:02d}"] = -o[0] / n
-                written[f"mean_y_{i + 1:02d}"] = -o[1] / n
+                written[f"mean_x_{i + 1:02d}"] = -o[0]
+                written[f"mean_y_{i + 1:02d}"] = -o[1]
             with open(args.write_offsets, "w") as f:
                 json.dump(written, f, indent=1)
                 f.write("\n")
