@@ -115,7 +115,8 @@ def main():
 
     rows = joined_rows(args.csv)
     source = " + ".join(args.csv)
-    columns = [c for c in rows[0].keys() if c.startswith("regressor")]
+    measured = [c for c in rows[0].keys() if c.startswith("regressor")]
+    columns = list(measured)  # and, with --average, the mean column after them
     names = args.names.split(",") if args.names else list(columns)
     if len(names) != len(columns):
         sys.exit(f"{source}: {len(columns)} regressor columns, {len(names)} names")
@@ -138,7 +139,7 @@ def main():
     found = [r for r in rows if r["detected"] == "1"]
     if args.fail_at is not None:
         for r in found:
-            r.update((c, "1" if float(r[c]) > args.fail_at else "0") for c in columns if c != "_average")
+            r.update((c, "1" if float(r[c]) > args.fail_at else "0") for c in measured)
     if args.average:  # after --fail-at: the mean of the runs' failures, not the failure of their mean NME
         for r in found:
             r["_average"] = str(sum(float(r[c]) for c in averaged_columns) / len(averaged_columns))
