@@ -11,11 +11,32 @@
 #include <cmath>
 #include <filesystem>
 #include <numbers>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 namespace facesynth::fit {
 namespace {
+
+// The model's own landmarks of `count` cases of the synthetic set `seed`, and the same as an annotator
+// who places one point elsewhere would have them: `move(case, landmarks)` moves it.
+struct Annotations {
+    std::vector<Eigen::Matrix2Xd> own, moved;
+};
+template <typename Move>
+Annotations synthetic_annotations(const morph::MorphableModel& model, std::uint64_t seed, int count, const SyntheticOptions& cases,
+                                  const Move& move) {
+    Annotations out;
+    for (int i = 0; i < count; ++i) {
+        const SyntheticCase c = make_synthetic_case(model, seed, static_cast<std::uint64_t>(i), cases);
+        out.own.push_back(c.landmarks);
+        Eigen::Matrix2Xd moved = c.landmarks;
+        move(c, moved);
+        out.moved.push_back(std::move(moved));
+    }
+    return out;
+}
 
 TEST(Conventions, ModelsOwnLandmarksHaveNoOffsetAndAShiftedPointIsFound) {
     const morph::MorphableModel model = morph::builtin_model();
@@ -24,15 +45,10 @@ TEST(Conventions, ModelsOwnLandmarksHaveNoOffsetAndAShiftedPointIsFound) {
     cases.max_yaw_deg = 20;
     cases.max_pitch_deg = 10;
     cases.fov_deg = 5;  // a long lens: the affine fit has no perspective to absorb
-    std::vector<Eigen::Matrix2Xd> own, shifted;
-    for (int i = 0; i < 30; ++i) {
-        const SyntheticCase c = make_synthetic_case(model, 4, static_cast<std::uint64_t>(i), cases);
-        own.push_back(c.landmarks);
-        // The outer end of the right brow (iBUG 18) 0.1 inter-ocular distances lower, as if annotated so.
-        Eigen::Matrix2Xd moved = c.landmarks;
-        moved(1, 17) += 0.1 * morph::inter_ocular_distance(c.landmarks);
-        shifted.push_back(moved);
-    }
+    // The outer end of the right brow (iBUG 18) 0.1 inter-ocular distances lower, as if annotated so.
+    const auto [own, shifted] = synthetic_annotations(model, 4, 30, cases, [](const SyntheticCase& c, Eigen::Matrix2Xd& points) {
+        points(1, 17) += 0.1 * morph::inter_ocular_distance(c.landmarks);
+    });
     FitOptions options;  // fixed jaw: the synthetic cases' jaw points are the model's fixed ones
     const ConventionStudy a = study_conventions(fitter, own, options, 30);
     EXPECT_EQ(a.faces, 30);
@@ -57,18 +73,13 @@ TEST(Conventions, APointAnnotatedInFrontOfTheModelsShowsInItsDepth) {
     cases.max_pitch_deg = 5;
     cases.max_roll_deg = 5;
     cases.fov_deg = 5;
-    std::vector<Eigen::Matrix2Xd> own, forward;
-    for (int i = 0; i < 40; ++i) {
-        const SyntheticCase c = make_synthetic_case(model, 5, static_cast<std::uint64_t>(i), cases);
-        own.push_back(c.landmarks);
-        // Subnasale (iBUG 34) annotated 0.1 inter-ocular distances nearer the camera: at yaw θ it
-        // sits 0.1 · sin θ further toward the side the face turns to.
+    // Subnasale (iBUG 34) annotated 0.1 inter-ocular distances nearer the camera: at yaw θ it sits
+    // 0.1 · sin θ further toward the side the face turns to.
+    const auto [own, forward] = synthetic_annotations(model, 5, 40, cases, [](const SyntheticCase& c, Eigen::Matrix2Xd& points) {
         const double yaw = morph::euler_from_rotation(c.truth.rotation).yaw * std::numbers::pi / 180.0;
-        Eigen::Matrix2Xd moved = c.landmarks;
         const Eigen::Vector2d eye_line = (c.landmarks.col(45) - c.landmarks.col(36)).normalized();
-        moved.col(33) += 0.1 * morph::inter_ocular_distance(c.landmarks) * std::sin(yaw) * eye_line;
-        forward.push_back(moved);
-    }
+        points.col(33) += 0.1 * morph::inter_ocular_distance(c.landmarks) * std::sin(yaw) * eye_line;
+    });
     FitOptions options;
     const ConventionStudy a = study_conventions(fitter, own, options, 30);
     ASSERT_EQ(a.depth.size(), morph::kNumIbugLandmarks);
@@ -99,6 +110,7 @@ TEST(Conventions, BuiltinPointsSitWhereHelenAnnotatorsPutThem) {
     std::sort(files.begin(), files.end());
     ASSERT_GT(files.size(), 800u);
     std::vector<Eigen::Matrix2Xd> annotations;
+    annotations.reserve(files.size());
     for (const auto& file : files) annotations.push_back(morph::read_pts(file));
     const morph::MorphableModel model = morph::builtin_model();
     FitOptions options;
