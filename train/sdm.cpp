@@ -58,6 +58,13 @@ void add_lower_gram(Eigen::MatrixXf& product, Eigen::Index size, int threads, co
 struct Similarity {
     double scale = 1, rotation = 0;  // rotation in radians
     Eigen::Vector2d translation = Eigen::Vector2d::Zero();
+
+    [[nodiscard]] Eigen::Matrix2d linear() const { return scale * Eigen::Rotation2Dd(rotation).toRotationMatrix(); }
+    // `shape` turned and scaled about its centroid, then moved.
+    [[nodiscard]] Eigen::Matrix2Xd apply_about_centroid(const Eigen::Matrix2Xd& shape) const {
+        const Eigen::Vector2d centre = shape.rowwise().mean();
+        return (linear() * (shape.colwise() - centre)).colwise() + (centre + translation);
+    }
 };
 
 // Least-squares similarity taking `from` onto `to` (about their centroids).
@@ -68,13 +75,6 @@ Similarity fit_similarity(const Eigen::Matrix2Xd& from, const Eigen::Matrix2Xd& 
     const double a = (f.array() * t.array()).sum() / norm;
     const double b = (f.row(0).array() * t.row(1).array() - f.row(1).array() * t.row(0).array()).sum() / norm;
     return {std::hypot(a, b), std::atan2(b, a), ct - cf};
-}
-
-Eigen::Matrix2Xd apply_similarity(const Eigen::Matrix2Xd& shape, const Similarity& s) {
-    const Eigen::Vector2d centre = shape.rowwise().mean();
-    Eigen::Matrix2d r;
-    r << std::cos(s.rotation), -std::sin(s.rotation), std::sin(s.rotation), std::cos(s.rotation);
-    return ((s.scale * r) * (shape.colwise() - centre)).colwise() + (centre + s.translation);
 }
 
 // x -> linear·x + offset: the similarity from `from` to `to` as a map of points (fit_similarity turns
@@ -100,7 +100,7 @@ struct SimilarityMap {
 SimilarityMap similarity_map(const Eigen::Matrix2Xd& from, const Eigen::Matrix2Xd& to) {
     const Similarity s = fit_similarity(from, to);
     SimilarityMap map;
-    map.linear = s.scale * Eigen::Rotation2Dd(s.rotation).toRotationMatrix();
+    map.linear = s.linear();
     const Eigen::Vector2d centre = from.rowwise().mean();
     map.offset = centre + s.translation - map.linear * centre;
     return map;
@@ -120,7 +120,7 @@ Eigen::Matrix2Xd perturbed_start(const SdmModel& model, const TrainingFace& face
     const double dy = rng.normal();
     const double dx = rng.normal();
     s.translation = Eigen::Vector2d(dx, dy) * boxes.init_translation_std * kCanonicalBoxWidth;
-    return apply_similarity(model.initial_shape(face.view), s);
+    return s.apply_about_centroid(model.initial_shape(face.view));
 }
 
 double standard_deviation(const std::vector<double>& values) {
