@@ -72,6 +72,23 @@ struct TrainArgs {
     bool quiet = false;
 };
 
+struct MergeArgs {
+    std::vector<std::string> models;
+    std::filesystem::path out;
+    bool quiet = false;
+};
+
+void run_merge(const MergeArgs& args) {
+    std::vector<SdmModel> members;
+    for (const auto& path : args.models) {
+        auto read = read_sdm_members(path);
+        for (auto& m : read) members.push_back(std::move(m));
+    }
+    if (members.size() < 2) throw CLI::ValidationError("models", "an ensemble needs at least two models");
+    write_sdm_ensemble(args.out, members);
+    if (!args.quiet) std::printf("train merge: %zu models in %s\n", members.size(), args.out.c_str());
+}
+
 void run_train(const TrainArgs& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::clock_t cpu_start = std::clock();
@@ -430,9 +447,10 @@ void register_train_commands(CLI::App& app) {
     {
         auto args = std::make_shared<TrainArgs>();
         auto* cmd = app.add_subcommand("train", "Train a 68-point landmark regressor on folders of images with .pts files");
-        cmd->add_option("--data", args->data, "Training folders, comma-separated (X.png + X.pts, or images/ + landmarks/)")
-            ->required();
-        cmd->add_option("--out", args->out, "Model file to write")->required();
+        // Required unless `train merge` runs instead (checked in the callback: a parent's required options
+        // would also be demanded of its subcommand).
+        cmd->add_option("--data", args->data, "Training folders, comma-separated (X.png + X.pts, or images/ + landmarks/); required");
+        cmd->add_option("--out", args->out, "Model file to write; required");
         cmd->add_option("--method", args->method, "sdm (our HOG cascade), ert (dlib's trainer) or lbf (OpenCV FacemarkLBF)")
             ->check(CLI::IsMember({"sdm", "ert", "lbf"}))
             ->capture_default_str();
@@ -547,7 +565,21 @@ void register_train_commands(CLI::App& app) {
             ->check(CLI::ExistingFile);
         cmd->add_option("--json", args->json, "Write a JSON summary here");
         cmd->add_flag("-q,--quiet", args->quiet, "No progress output");
-        cmd->callback([args] { run_train(*args); });
+        cmd->require_subcommand(0, 1);
+        cmd->callback([args, cmd] {
+            if (!cmd->get_subcommands().empty()) return;
+            if (args->data.empty()) throw CLI::RequiredError("--data");
+            if (args->out.empty()) throw CLI::RequiredError("--out");
+            run_train(*args);
+        });
+
+        auto merge = std::make_shared<MergeArgs>();
+        auto* merge_cmd = cmd->add_subcommand(
+            "merge", "Join SDM models into one ensemble file whose regressor averages their landmarks (for example models trained on renders of different seeds)");
+        merge_cmd->add_option("models", merge->models, "SDM model files (an ensemble's members join as members)")->required()->check(CLI::ExistingFile);
+        merge_cmd->add_option("--out", merge->out, "Ensemble file to write")->required();
+        merge_cmd->add_flag("-q,--quiet", merge->quiet, "No summary line");
+        merge_cmd->callback([merge] { run_merge(*merge); });
     }
     {
         auto args = std::make_shared<DetectArgs>();

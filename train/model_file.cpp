@@ -82,7 +82,17 @@ SdmStage read_stage(core::ByteReader& r, const SdmModel& model, std::uint32_t ve
 
 }  // namespace
 
-void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
+namespace {
+
+constexpr char kEnsembleMagic[8] = {'F', 'S', 'Y', 'N', 'S', 'D', 'M', 'E'};
+constexpr std::uint32_t kMaxEnsembleMembers = 64;
+
+bool has_magic(std::string_view bytes, const char (&magic)[8]) {
+    return bytes.size() >= sizeof(magic) && std::memcmp(bytes.data(), magic, sizeof(magic)) == 0;
+}
+
+// One model as the bytes of a model file; `path` names it in errors.
+std::string sdm_model_bytes(const SdmModel& model, const std::filesystem::path& path) {
     core::ByteWriter payload;
     write_doubles(payload, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()));
     const BoxStatistics& b = model.boxes;
@@ -143,19 +153,18 @@ void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
     file.write(static_cast<std::uint64_t>(payload.bytes().size()));
     file.write(fnv1a_64(payload.bytes()));
     file.bytes() += payload.bytes();
-    core::write_file_atomically(path, file.bytes());
+    return file.bytes();
 }
 
-SdmModel read_sdm_model(const std::filesystem::path& path) {
-    if (!std::filesystem::exists(path)) throw core::file_error(path.string(), "model file not found");
-    const std::string bytes = core::read_file(path);
-    core::ByteReader r(bytes, path.string());
-    if (bytes.size() < sizeof(kSdmMagic) || std::memcmp(bytes.data(), kSdmMagic, sizeof(kSdmMagic)) != 0)
-        throw core::file_error(path.string(), "not a facesynth SDM model (bad magic)");
+// One model from the bytes of a model file; `path` names it in errors (for an ensemble's member, the
+// file and the member).
+SdmModel parse_sdm_model(std::string_view bytes, const std::string& path) {
+    core::ByteReader r(bytes, path);
+    if (!has_magic(bytes, kSdmMagic)) throw core::file_error(path, "not a facesynth SDM model (bad magic)");
     r.skip(sizeof(kSdmMagic), "magic");
     const auto version = r.read<std::uint32_t>("version");
     if (version < 1 || version > kSdmModelVersion)
-        throw core::file_error(path.string(), "unsupported SDM model version " + std::to_string(version) + " (this build reads 1 to " +
+        throw core::file_error(path, "unsupported SDM model version " + std::to_string(version) + " (this build reads 1 to " +
                                             std::to_string(kSdmModelVersion) + ")");
     SdmModel model;
     model.num_landmarks = static_cast<int>(r.read<std::uint32_t>("landmark count"));
@@ -166,22 +175,22 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
     const auto crop_side = r.read<std::uint32_t>("crop side");
     const auto box_width = r.read<double>("box width");
     if (model.num_landmarks != 68 || stages < 1 || stages > 16 || model.hog_cells < 1 || model.hog_cells > 16)
-        throw core::file_error(path.string(), "implausible header (landmarks " + std::to_string(model.num_landmarks) +
+        throw core::file_error(path, "implausible header (landmarks " + std::to_string(model.num_landmarks) +
                                             ", stages " + std::to_string(stages) + ", HOG cells " +
                                             std::to_string(model.hog_cells) + "): corrupt file");
     if (orientations != kHogOrientations || dims_per_cell != kHogDimsPerCell ||
         crop_side != static_cast<std::uint32_t>(kCanonicalCropSide) || box_width != kCanonicalBoxWidth)
-        throw core::file_error(path.string(), "HOG layout or face frame differs from this build's; retrain the model");
+        throw core::file_error(path, "HOG layout or face frame differs from this build's; retrain the model");
     model.training_checksum = r.read<std::uint64_t>("training checksum");
     model.training_faces = r.read<std::uint32_t>("training faces");
     model.augment = r.read<std::uint32_t>("augment");
     const auto payload_size = r.read<std::uint64_t>("payload size");
     const auto payload_checksum = r.read<std::uint64_t>("payload checksum");
     if (payload_size != r.remaining())
-        throw core::file_error(path.string(), "payload is " + std::to_string(r.remaining()) + " bytes, header says " +
+        throw core::file_error(path, "payload is " + std::to_string(r.remaining()) + " bytes, header says " +
                                             std::to_string(payload_size) + " (truncated or corrupt)");
     if (fnv1a_64(std::string_view(bytes).substr(r.offset())) != payload_checksum)
-        throw core::file_error(path.string(), "payload checksum mismatch (corrupt file)");
+        throw core::file_error(path, "payload checksum mismatch (corrupt file)");
 
     model.mean_shape.resize(2, model.num_landmarks);
     read_doubles(r, model.mean_shape.data(), static_cast<std::size_t>(model.mean_shape.size()), "mean shape");
@@ -259,6 +268,67 @@ SdmModel read_sdm_model(const std::filesystem::path& path) {
     }
     if (!r.at_end()) throw r.error("unexpected bytes after the last stage");
     return model;
+}
+
+std::string read_model_bytes(const std::filesystem::path& path) {
+    if (!std::filesystem::exists(path)) throw core::file_error(path.string(), "model file not found");
+    return core::read_file(path);
+}
+
+}  // namespace
+
+void write_sdm_model(const std::filesystem::path& path, const SdmModel& model) {
+    core::write_file_atomically(path, sdm_model_bytes(model, path));
+}
+
+SdmModel read_sdm_model(const std::filesystem::path& path) {
+    const std::string bytes = read_model_bytes(path);
+    if (has_magic(bytes, kEnsembleMagic))
+        throw core::file_error(path.string(), "is an ensemble of SDM models (train merge); one model is needed here");
+    return parse_sdm_model(bytes, path.string());
+}
+
+void write_sdm_ensemble(const std::filesystem::path& path, std::span<const SdmModel> members) {
+    if (members.size() < 2 || members.size() > kMaxEnsembleMembers)
+        throw core::file_error(path.string(), "an ensemble holds 2 to " + std::to_string(kMaxEnsembleMembers) + " models, got " +
+                                                  std::to_string(members.size()));
+    core::ByteWriter file;
+    file.write_bytes(kEnsembleMagic, sizeof(kEnsembleMagic));
+    file.write(kSdmEnsembleVersion);
+    file.write(static_cast<std::uint32_t>(members.size()));
+    for (const SdmModel& member : members) {
+        if (member.boxes.detector != members.front().boxes.detector || member.num_landmarks != members.front().num_landmarks)
+            throw core::file_error(path.string(), "cannot join models trained with different face detectors or landmark counts");
+        const std::string bytes = sdm_model_bytes(member, path);
+        file.write(static_cast<std::uint64_t>(bytes.size()));
+        file.bytes() += bytes;
+    }
+    core::write_file_atomically(path, file.bytes());
+}
+
+std::vector<SdmModel> read_sdm_members(const std::filesystem::path& path) {
+    const std::string bytes = read_model_bytes(path);
+    if (!has_magic(bytes, kEnsembleMagic)) return {parse_sdm_model(bytes, path.string())};
+    core::ByteReader r(bytes, path.string());
+    r.skip(sizeof(kEnsembleMagic), "magic");
+    const auto version = r.read<std::uint32_t>("ensemble version");
+    if (version != kSdmEnsembleVersion)
+        throw core::file_error(path.string(), "unsupported SDM ensemble version " + std::to_string(version) + " (this build reads " +
+                                                  std::to_string(kSdmEnsembleVersion) + ")");
+    const auto count = r.read<std::uint32_t>("member count");
+    if (count < 2 || count > kMaxEnsembleMembers) throw r.error("implausible member count " + std::to_string(count) + ": corrupt file");
+    std::vector<SdmModel> members;
+    for (std::uint32_t m = 0; m < count; ++m) {
+        const std::string which = "member " + std::to_string(m + 1);
+        const auto size = r.read<std::uint64_t>((which + " size").c_str());
+        r.check_fits(size, 1, (which + " bytes").c_str());
+        members.push_back(parse_sdm_model(std::string_view(bytes).substr(r.offset(), size), path.string() + " (" + which + ")"));
+        r.skip(size, (which + " bytes").c_str());
+        if (members.back().boxes.detector != members.front().boxes.detector)
+            throw r.error(which + " was trained with another face detector than member 1");
+    }
+    if (!r.at_end()) throw r.error("unexpected bytes after the last member");
+    return members;
 }
 
 }  // namespace facesynth::train

@@ -7,7 +7,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <string_view>
+#include <vector>
 
 namespace facesynth::train {
 
@@ -25,7 +27,19 @@ inline constexpr std::uint32_t kSdmModelVersion = 6;
 // Atomic write; throws core::Error naming the file.
 void write_sdm_model(const std::filesystem::path& path, const SdmModel& model);
 // Throws core::Error naming the file for a missing, foreign, wrong-version, truncated or corrupt
-// file, or one whose HOG layout this build does not produce.
+// file, or one whose HOG layout this build does not produce, and for an ensemble file.
 [[nodiscard]] SdmModel read_sdm_model(const std::filesystem::path& path);
+
+// An ensemble (`facesynth train merge`; regressors average their members' landmarks): 8-byte magic
+// "FSYNSDME", uint32 ensemble version, uint32 member count (2-64), then per member a uint64 size and
+// that many bytes of a complete model file as above. The members share one face detector.
+inline constexpr std::uint32_t kSdmEnsembleVersion = 1;
+
+// Atomic write; throws core::Error naming the file for fewer than 2 members or members of different
+// face detectors.
+void write_sdm_ensemble(const std::filesystem::path& path, std::span<const SdmModel> members);
+// The members of an ensemble file, or the one model of a model file. Errors name the file and, inside
+// an ensemble, the member.
+[[nodiscard]] std::vector<SdmModel> read_sdm_members(const std::filesystem::path& path);
 
 }  // namespace facesynth::train

@@ -8,27 +8,35 @@
 
 #include "core/error.h"
 
+#include <vector>
+
 namespace facesynth::train {
 namespace {
 
+// One SDM model, or an ensemble's members (train/model_file.h) whose landmarks are averaged.
 class SdmRegressor final : public LandmarkRegressor {
 public:
-    // Keeps the first `stages` stages (all when negative); 0 is the mean shape placed in the box.
+    // Keeps the first `stages` stages of every member (all when negative); 0 is the mean shape placed in the box.
     SdmRegressor(std::string label, const std::string& path, int stages, SdmInference inference = {})
-        : LandmarkRegressor(std::move(label)), model_(read_sdm_model(path)), inference_(inference) {
-        if (stages > static_cast<int>(model_.stages.size()))
-            throw core::file_error(path, "has " + std::to_string(model_.stages.size()) + " stages, asked for " +
-                                       std::to_string(stages));
-        if (stages >= 0) {
-            model_.stages.resize(static_cast<std::size_t>(stages));
-            if (model_.profile) model_.profile->stages.resize(static_cast<std::size_t>(stages));
+        : LandmarkRegressor(std::move(label)), members_(read_sdm_members(path)), inference_(inference) {
+        if (stages < 0) return;
+        for (SdmModel& model : members_) {
+            if (stages > static_cast<int>(model.stages.size()))
+                throw core::file_error(path, "has " + std::to_string(model.stages.size()) + " stages, asked for " +
+                                                 std::to_string(stages));
+            model.stages.resize(static_cast<std::size_t>(stages));
+            if (model.profile) model.profile->stages.resize(static_cast<std::size_t>(stages));
         }
     }
-    Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override { return sdm_detect(model_, gray, box, inference_); }
-    std::optional<DetectorKind> trained_detector() const override { return model_.boxes.detector; }
+    Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override {
+        Eigen::Matrix2Xd sum = sdm_detect(members_.front(), gray, box, inference_);
+        for (std::size_t m = 1; m < members_.size(); ++m) sum += sdm_detect(members_[m], gray, box, inference_);
+        return sum / static_cast<double>(members_.size());
+    }
+    std::optional<DetectorKind> trained_detector() const override { return members_.front().boxes.detector; }
 
 private:
-    SdmModel model_;
+    std::vector<SdmModel> members_;
     SdmInference inference_;
 };
 

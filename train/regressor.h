@@ -1,6 +1,7 @@
 #pragma once
 // The landmark regressors behind one interface, chosen by a spec string:
-//   PATH          our SDM cascade (train/model_file.h)
+//   PATH          our SDM cascade (train/model_file.h), or an ensemble of them (`train merge`): the
+//                 members' landmarks averaged; every SDM spec below applies to each member
 //   dlib          dlib's pretrained 68-point predictor from libdlib-data, run on the image and box
 //   dlib:PATH     any dlib shape predictor file, run the same way
 //   ert:PATH      a dlib ERT model from `facesynth train --method ert` (runs on our canonical crop)

@@ -1,6 +1,7 @@
 // `facesynth textures`, `backgrounds`, synth with albedo.texture_bank and `eval realism` end to end on
 // renders standing in for photographs, with the bad inputs each must refuse.
 #include "common/test_data.h"
+#include "core/atomic_file.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -271,13 +272,15 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     const std::string env = "FACESYNTH=" + appearance_cli() + " ";
     ASSERT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --count 60 --threads 2 --min-side 24", &out), 0)
         << out;
-    EXPECT_TRUE(fs::exists(model));
-    const auto train = read_json(dir / "sim2real-work" / "train.json");
+    // The default two seeds: a render set and a model each, joined into one ensemble file (row 91).
+    EXPECT_EQ(facesynth::core::read_file(model).substr(0, 8), "FSYNSDME");
+    for (const char* seed : {"seed-101", "seed-202"}) EXPECT_TRUE(fs::exists(dir / "sim2real-work" / seed / "model.sdm")) << seed;
+    const auto train = read_json(dir / "sim2real-work" / "seed-101" / "train.json");
     EXPECT_EQ(train["stages"], 6);  // the recipe's six stages (docs/results.md row 41)
     EXPECT_EQ(train["hog_cells"], 3);
     EXPECT_EQ(train["augment"], 4);
     EXPECT_EQ(train["realign_stages"], 4);  // the realigned cascade that realign:MODEL runs (row 85)
-    const auto meta = read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json");
+    const auto meta = read_json(dir / "sim2real-work" / "seed-101" / "train" / "meta" / "s00000000.json");
     EXPECT_EQ(meta["texture"].get<std::string>().rfind("textures/", 0), 0u);  // rendered with the bank
     EXPECT_EQ(meta["background"]["type"], "wallpapers");                       // the default backgrounds
     EXPECT_TRUE(meta["head_parts"].is_object());                                // on a whole head (row 55)
@@ -287,7 +290,7 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     // The photograph's own light (rows 68-69): kept in the texture, and no synthetic light on the face;
     // the head parts lit with shadows (row 73).
     EXPECT_FALSE(read_json(dir / "sim2real-work" / "bank" / "bank.json")["settings"]["remove_shading"].get<bool>());
-    const auto config = read_json(dir / "sim2real-work" / "train" / "dataset.json")["config"];
+    const auto config = read_json(dir / "sim2real-work" / "seed-101" / "train" / "dataset.json")["config"];
     EXPECT_EQ(config["head"]["ambient_occlusion"], 1.0);
     EXPECT_EQ(config["lighting"]["face_light"], "even");
     EXPECT_EQ(config["lighting"]["shadow_probability"], 1.0);
@@ -297,18 +300,19 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_EQ(config["pose"]["source"], "texture");  // turned as the texture's photograph (row 69)
     EXPECT_EQ(config["lighting"]["face_luminance_mean"], 0.49);  // exposed for the face (row 71)
     EXPECT_EQ(config["albedo"]["texture_mix_probability"], 0.5);
-    // The photographs' own backgrounds instead, with paths relative to the folder the script is started
-    // from (not the checkout it works in).
+    // One seed, the photographs' own backgrounds, paths relative to the folder the script is started
+    // from (not the checkout it works in): a plain model file.
     fs::remove(model);
     ASSERT_EQ(run_command("cd " + dir.string() + " && " + env + "bash " + script + " --photos " + fs::relative(photos, dir).string() +
-                              " --out sim2real.sdm --count 20 --min-side 24 --backgrounds photos --augment 2", &out), 0)
+                              " --out sim2real.sdm --count 20 --min-side 24 --backgrounds photos --augment 2 --seeds 7", &out), 0)
         << out;
-    EXPECT_TRUE(fs::exists(model));
-    EXPECT_EQ(read_json(dir / "sim2real-work" / "train.json")["augment"], 2);
-    EXPECT_EQ(read_json(dir / "sim2real-work" / "train" / "meta" / "s00000000.json")["background"]["type"], "images");
+    EXPECT_EQ(facesynth::core::read_file(model).substr(0, 8), std::string("FSYNSDM\0", 8));
+    EXPECT_EQ(read_json(dir / "sim2real-work" / "seed-7" / "train.json")["augment"], 2);
+    EXPECT_EQ(read_json(dir / "sim2real-work" / "seed-7" / "train" / "meta" / "s00000000.json")["background"]["type"], "images");
     EXPECT_TRUE(fs::exists(dir / "sim2real-work" / "backgrounds"));
     EXPECT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --backgrounds walls", &out), 2);
     EXPECT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --augment 0", &out), 2);
+    EXPECT_EQ(run_command(env + "bash " + script + " --photos " + photos.string() + " --out " + model.string() + " --seeds 3,3", &out), 2);
     EXPECT_EQ(run_command("bash " + script + " --out " + model.string(), &out), 2);
     EXPECT_EQ(run_command(env + "bash " + script + " --photos " + (dir / "missing").string() + " --out " + model.string(), &out), 1);
 }

@@ -132,6 +132,25 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     while (std::getline(nme_csv, line)) ++rows;
     EXPECT_EQ(rows, 30);
 
+    // Models joined into an ensemble (`train merge`) are one regressor to every command.
+    const auto ensemble = dir / "ensemble.sdm";
+    const std::string merge_cmd = cli_path().string() + " train merge " + model.string() + " ";
+    ASSERT_EQ(run_command(merge_cmd + realigned.string() + " --out " + ensemble.string() + " --quiet", &out), 0) << out;
+    ASSERT_EQ(run_command(cli_path().string() + " eval landmarks --regressor realign:" + ensemble.string() + " --data " + test.string() +
+                              " --quiet --json " + (dir / "ensemble.json").string(),
+                          &out),
+              0)
+        << out;
+    EXPECT_LT(read_json(dir / "ensemble.json")["nme_mean"].get<double>(), j["regressor2_nme_mean"].get<double>());
+    const auto other = dir / "other.sdm";
+    EXPECT_EQ(run_command(merge_cmd + "--out " + other.string(), &out), 2);
+    EXPECT_NE(out.find("at least two"), std::string::npos) << out;
+    EXPECT_EQ(run_command(merge_cmd + (dir / "nme.csv").string() + " --out " + other.string(), &out), 1);
+    EXPECT_NE(out.find("nme.csv: not a facesynth SDM model"), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(other));
+    EXPECT_EQ(run_command(cli_path().string() + " train --out " + other.string(), &out), 2);
+    EXPECT_NE(out.find("--data is required"), std::string::npos) << out;
+
     // Photographs (image and .pts side by side, no meta): their yaw comes from fitting the built-in
     // model to the annotations, close to the renders' true yaw.
     const fs::path photos = dir / "photos";

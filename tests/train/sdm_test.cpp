@@ -611,6 +611,64 @@ TEST(SdmModelFile, WrongTruncatedAndCorruptFilesGiveErrorsNamingTheFile) {
     expect_sdm_error_naming(future, "version");
 }
 
+// `train merge`'s ensemble file: the members round-trip in order, the regressor averages their
+// landmarks with every SDM spec applied to each member, the one-model reader refuses it, and a broken
+// member is named.
+TEST(SdmModelFile, EnsemblesAverageTheirMembersAndNameABrokenMember) {
+    const auto dir = testkit::fresh_temp_dir("sdm_ensemble");
+    const SdmModel first = small_model();
+    const SdmModel second = small_cartoon_cascade(9, 2, false);  // other faces, 3x3 HOG cells
+    write_sdm_model(dir / "first.sdm", first);
+    write_sdm_model(dir / "second.sdm", second);
+    const auto both = dir / "both.sdm";
+    write_sdm_ensemble(both, std::vector<SdmModel>{first, second});
+    const auto back = read_sdm_members(both);
+    ASSERT_EQ(back.size(), 2u);
+    EXPECT_EQ(back[0].hog_cells, first.hog_cells);
+    EXPECT_TRUE(back[1].stages.back().weights == second.stages.back().weights);
+    EXPECT_EQ(read_sdm_members(dir / "first.sdm").size(), 1u);
+    expect_sdm_error_naming(both, "ensemble");
+
+    const auto face = cartoon_training_faces(10, 1).front();
+    const FaceBox box = canonical_face_box();
+    for (const std::string prefix : {"", "realign:", "mirror:", "mean:", "sdm@1:"}) {
+        const auto predict = [&](const std::filesystem::path& path) { return open_regressor(prefix + path.string())->predict(face.crop, box); };
+        const Eigen::Matrix2Xd a = predict(dir / "first.sdm");
+        const Eigen::Matrix2Xd b = predict(dir / "second.sdm");
+        EXPECT_GT((a - b).cwiseAbs().maxCoeff(), 0.1) << prefix;
+        EXPECT_LT((predict(both) - 0.5 * (a + b)).cwiseAbs().maxCoeff(), 1e-9) << prefix;
+    }
+
+    const std::string bytes = read_all(both);
+    const auto read_error = [](const std::filesystem::path& path) {
+        try {
+            (void)read_sdm_members(path);
+        } catch (const core::Error& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    const auto corrupt = dir / "corrupt.sdm";
+    std::string flipped = bytes;
+    flipped[flipped.size() - 100] ^= 0x5a;
+    write_all(corrupt, flipped);
+    const std::string corrupt_message = read_error(corrupt);
+    EXPECT_NE(corrupt_message.find(corrupt.string() + " (member 2)"), std::string::npos) << corrupt_message;
+    EXPECT_NE(corrupt_message.find("checksum"), std::string::npos) << corrupt_message;
+    const auto truncated = dir / "truncated.sdm";
+    write_all(truncated, bytes.substr(0, bytes.size() - 10));
+    const std::string truncated_message = read_error(truncated);
+    EXPECT_NE(truncated_message.find(truncated.string()), std::string::npos) << truncated_message;
+    EXPECT_NE(truncated_message.find("member 2"), std::string::npos) << truncated_message;
+
+    // Members must share the face detector that finds the box they all start from; one model is no ensemble.
+    SdmModel other_detector = second;
+    other_detector.boxes.detector = DetectorKind::kDlib;
+    EXPECT_THROW(write_sdm_ensemble(dir / "mixed.sdm", std::vector<SdmModel>{first, other_detector}), core::Error);
+    EXPECT_THROW(write_sdm_ensemble(dir / "one.sdm", std::vector<SdmModel>{first}), core::Error);
+    EXPECT_FALSE(std::filesystem::exists(dir / "mixed.sdm"));
+}
+
 // A version 2 file (no detector, one mean shape), made from a version 3 one by dropping the view
 // block: read as a frontal-detector model whose views all start from the mean shape.
 TEST(SdmModelFile, ReadsVersion2FilesAsFrontalDetectorModels) {
