@@ -30,7 +30,8 @@
 #                             cascades add 33 minutes and take 8.7 GB; docs/results.md rows 55-85
 #   5. facesynth train merge  with several seeds (default two: 101,202), steps 3 and 4 run once per seed and the
 #                             models are joined into one ensemble file whose regressor averages their landmarks
-#                             (docs/results.md row 91); each seed's renders take 4.4 GB in WORK at 36000
+#                             (docs/results.md row 91: afw 0.0541 against 0.0552 and 0.0542 for the seeds alone);
+#                             each seed takes 1 h 40 min on 2 cores (row 89) and its renders 4.4 GB in WORK
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seeds S1,S2,...]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 #                          [--augment A]  (training starts per render, default 4)
