@@ -28,10 +28,13 @@ public:
             if (model.profile) model.profile->stages.resize(static_cast<std::size_t>(stages));
         }
     }
+    // One crop for all members; the crop-to-image map is affine, so averaging in the crop is the same.
     Eigen::Matrix2Xd predict(const cv::Mat& gray, const FaceBox& box) const override {
-        Eigen::Matrix2Xd sum = sdm_detect(members_.front(), gray, box, inference_);
-        for (std::size_t m = 1; m < members_.size(); ++m) sum += sdm_detect(members_[m], gray, box, inference_);
-        return sum / static_cast<double>(members_.size());
+        const FaceFrame frame{box};
+        const cv::Mat crop = canonical_crop(gray, frame);
+        Eigen::Matrix2Xd sum = sdm_refine_view(members_.front(), crop, box.view, inference_);
+        for (std::size_t m = 1; m < members_.size(); ++m) sum += sdm_refine_view(members_[m], crop, box.view, inference_);
+        return frame.to_image(sum / static_cast<double>(members_.size()));
     }
     std::optional<DetectorKind> trained_detector() const override { return members_.front().boxes.detector; }
 

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace facesynth::testkit {
@@ -26,13 +27,18 @@ inline void rewrite_sdm_header(std::string& bytes, std::uint32_t version) {
     std::memcpy(bytes.data() + 68, &hash, 8);
 }
 
-inline void expect_sdm_error_naming(const std::filesystem::path& path, const std::string& fragment) {
+// `read` is the reader under test (default: the one-model reader); `name` what the message must name
+// (default: the file).
+inline void expect_sdm_error_naming(const std::filesystem::path& path, const std::string& fragment,
+                                    const std::function<void(const std::filesystem::path&)>& read =
+                                        [](const std::filesystem::path& p) { (void)train::read_sdm_model(p); },
+                                    const std::string& name = {}) {
     try {
-        (void)train::read_sdm_model(path);
+        read(path);
         FAIL() << "no error for " << path;
     } catch (const core::Error& e) {
         const std::string message = e.what();
-        EXPECT_NE(message.find(path.string()), std::string::npos) << message;
+        EXPECT_NE(message.find(name.empty() ? path.string() : name), std::string::npos) << message;
         EXPECT_NE(message.find(fragment), std::string::npos) << message;
     }
 }
