@@ -42,7 +42,7 @@ const SdmModel& model(int hog_cells = 3, int rank = 136) {
     if (m.stages.empty()) {
         SdmTrainOptions options;
         options.augment = 2;
-        options.hog_cells = hog_cells;
+        options.hog.cells = hog_cells;
         options.ranks = {rank};
         options.lambda_factors = {3.0};
         options.validation_share = 0;
@@ -75,7 +75,7 @@ void BM_SdmFeaturesAllStages(benchmark::State& state) {
     for (auto _ : state)
         for (const auto& stage : m.stages) {
             features.resize(m.feature_dims(stage.settings));
-            sdm_features(face.crop, m.mean_shape, m.hog_cells, stage.settings, m.unit,
+            sdm_features(face.crop, m.mean_shape, m.hog, stage.settings, m.unit,
                          {features.data(), static_cast<std::size_t>(features.size())});
         }
 }
@@ -94,17 +94,19 @@ void BM_SdmRegressionAllStages(benchmark::State& state) {
 }
 BENCHMARK(BM_SdmRegressionAllStages)->Args({2, 136})->Args({2, 32})->Args({3, 136})->Unit(benchmark::kMillisecond);
 
+// Arguments: cell size in pixels, orientations.
 void BM_HogPatch(benchmark::State& state) {
-    const int cells = 3, cell_size = static_cast<int>(state.range(0));
-    cv::Mat patch(cells * cell_size + 2, cells * cell_size + 2, CV_8UC1);
+    const HogLayout layout{.cells = 3, .orientations = static_cast<int>(state.range(1))};
+    const int cell_size = static_cast<int>(state.range(0));
+    cv::Mat patch(layout.cells * cell_size + 2, layout.cells * cell_size + 2, CV_8UC1);
     cv::randu(patch, 0, 255);
-    std::vector<float> out(hog_dims(cells));
+    std::vector<float> out(static_cast<std::size_t>(layout.dims()));
     for (auto _ : state) {
-        compute_hog(patch, cells, cell_size, out);
+        compute_hog(patch, layout, cell_size, out);
         benchmark::DoNotOptimize(out.data());
     }
 }
-BENCHMARK(BM_HogPatch)->Arg(5)->Arg(8)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_HogPatch)->Args({5, 4})->Args({8, 4})->Args({8, 9})->Unit(benchmark::kMicrosecond);
 
 void BM_DlibPretrainedPerFace(benchmark::State& state) {
     std::unique_ptr<LandmarkRegressor> dlib;

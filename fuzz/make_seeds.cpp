@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
 
         train::SdmModel sdm;
         sdm.num_landmarks = morph::kNumIbugLandmarks;
-        sdm.hog_cells = 1;
+        sdm.hog.cells = 1;
         sdm.mean_shape = Eigen::Matrix2Xd::Zero(2, morph::kNumIbugLandmarks);
         train::SdmStage stage;
         stage.settings.patch_relative = 0.5;

@@ -51,7 +51,7 @@ struct TrainArgs {
     int augment = 10;
     int threads = default_threads();
     std::uint64_t seed = 1;
-    int hog_cells = 3;
+    HogLayout hog;
     std::vector<double> lambda_factors = SdmTrainOptions{}.lambda_factors;
     double validation_share = SdmTrainOptions{}.validation_share;
     std::vector<int> ranks = SdmTrainOptions{}.ranks;
@@ -104,10 +104,12 @@ void run_train(const TrainArgs& args) {
     if (args.realign_stages > args.stages && args.base.empty())
         throw CLI::ValidationError("--realign-stages", "is more than --stages " + std::to_string(args.stages));
     if (!args.base.empty() && args.realign_stages == 0) throw CLI::ValidationError("--base", "needs --realign-stages (it trains only those)");
-    if (const int dims = morph::kNumIbugLandmarks * hog_dims(args.hog_cells); args.feature_pca > dims)
+    if (args.hog.orientations != kDefaultHogOrientations && args.method != "sdm")
+        throw CLI::ValidationError("--hog-orientations", "only applies to --method sdm");
+    if (const int dims = morph::kNumIbugLandmarks * args.hog.dims(); args.feature_pca > dims)
         throw CLI::ValidationError("--feature-pca", std::to_string(args.feature_pca) + " is more than the feature dimension " +
-                                                        std::to_string(dims) + " (68 * " + std::to_string(args.hog_cells) +
-                                                        "^2 cells * 16)");
+                                                        std::to_string(dims) + " (68 * " + std::to_string(args.hog.cells) +
+                                                        "^2 cells * " + std::to_string(args.hog.dims_per_cell()) + ")");
     TrainingRequest request;
     request.method = args.method == "ert" ? TrainingMethod::kErt : args.method == "lbf" ? TrainingMethod::kLbf : TrainingMethod::kSdm;
     request.cascades = args.cascades == "views" ? CascadeChoice::kViews : args.cascades == "single" ? CascadeChoice::kSingle : CascadeChoice::kAuto;
@@ -125,7 +127,7 @@ void run_train(const TrainArgs& args) {
     sdm.augment = args.augment;
     sdm.threads = args.threads;
     sdm.seed = args.seed;
-    sdm.hog_cells = args.hog_cells;
+    sdm.hog = args.hog;
     sdm.lambda_factors = args.lambda_factors;
     sdm.validation_share = args.validation_share;
     sdm.ranks = args.ranks;
@@ -462,8 +464,12 @@ void register_train_commands(CLI::App& app) {
             ->check(CLI::Range(1, 256))
             ->capture_default_str();
         cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
-        cmd->add_option("--hog-cells", args->hog_cells, "SDM: HOG cells per patch side")
+        cmd->add_option("--hog-cells", args->hog.cells, "SDM: HOG cells per patch side")
             ->check(CLI::Range(1, 8))
+            ->capture_default_str();
+        cmd->add_option("--hog-orientations", args->hog.orientations,
+                        "SDM: HOG orientations O (3·O + 4 values per cell: 2·O signed, O unsigned, 4 texture)")
+            ->check(CLI::Range(1, kMaxHogOrientations))
             ->capture_default_str();
         cmd->add_option("--lambda-factors", args->lambda_factors,
                         "SDM: ridge lambda = factor * ||A'A||_F / N; with several (comma-separated), each stage keeps "
@@ -490,7 +496,7 @@ void register_train_commands(CLI::App& app) {
             ->capture_default_str();
         cmd->add_option("--feature-pca", args->feature_pca,
                         "SDM: regress each stage on this many leading principal components of its features (folded "
-                        "into the stored weights; at most 68 * hog-cells^2 * 16); 0 = off")
+                        "into the stored weights; at most 68 * hog-cells^2 * (3 * hog-orientations + 4)); 0 = off")
             ->check(CLI::NonNegativeNumber)
             ->capture_default_str();
         cmd->add_flag("--mirror", args->mirror,

@@ -12,44 +12,54 @@
 namespace facesynth::train {
 namespace {
 
-constexpr int kSignedBins = 2 * kHogOrientations;
 constexpr float kClamp = 0.2f;
-// VLFeat's texture scale: 1 / sqrt(2 · O) · ... keeps texture values in the range of the others.
+// VLFeat's texture scale (1 / sqrt(18), the same for every O): keeps texture values in the range of the others.
 constexpr float kTextureScale = 0.2357f;
 
 }  // namespace
 
-void compute_hog(const cv::Mat& patch, int cells, int cell_size, std::span<float> out) {
+void compute_hog(const cv::Mat& patch, const HogLayout& layout, int cell_size, std::span<float> out) {
+    const int cells = layout.cells;
+    const int orientations = layout.orientations;
+    if (orientations < 1 || orientations > kMaxHogOrientations)
+        throw core::Error("compute_hog: " + std::to_string(orientations) + " orientations (1-" + std::to_string(kMaxHogOrientations) + ")");
     const int side = cells * cell_size + 2;
     if (patch.type() != CV_8UC1 || patch.rows != side || patch.cols != side)
         throw core::Error("compute_hog: expected an 8-bit grey patch of " + std::to_string(side) + " pixels square");
-    if (static_cast<int>(out.size()) != hog_dims(cells)) throw core::Error("compute_hog: output size mismatch");
+    if (static_cast<int>(out.size()) != layout.dims()) throw core::Error("compute_hog: output size mismatch");
 
-    constexpr float kTan22_5 = 0.41421356f;
+    // Unsigned direction k lies at k·180°/O; the signed bin is k where the gradient points along it
+    // and k + O where it points against it: the nearest of the 2·O signed directions.
+    std::array<float, kMaxHogOrientations> cos_k{}, sin_k{};
+    for (int k = 0; k < orientations; ++k) {
+        const double angle = k * 3.14159265358979323846 / orientations;
+        cos_k[static_cast<std::size_t>(k)] = static_cast<float>(std::cos(angle));
+        sin_k[static_cast<std::size_t>(k)] = static_cast<float>(std::sin(angle));
+    }
+    const int signed_bins = 2 * orientations;
+    const int dims_per_cell = layout.dims_per_cell();
     const int num_cells = cells * cells;
-    std::vector<float> hist(static_cast<std::size_t>(num_cells) * kSignedBins, 0.f);
+    std::vector<float> hist(static_cast<std::size_t>(num_cells) * signed_bins, 0.f);
     for (int y = 1; y <= side - 2; ++y) {
         const std::uint8_t* above = patch.ptr<std::uint8_t>(y - 1);
         const std::uint8_t* row = patch.ptr<std::uint8_t>(y);
         const std::uint8_t* below = patch.ptr<std::uint8_t>(y + 1);
-        float* cell_row = hist.data() + static_cast<std::size_t>((y - 1) / cell_size) * cells * kSignedBins;
+        float* cell_row = hist.data() + static_cast<std::size_t>((y - 1) / cell_size) * cells * signed_bins;
         for (int x = 1; x <= side - 2; ++x) {
             const float gx = static_cast<float>(row[x + 1]) - static_cast<float>(row[x - 1]);
             const float gy = static_cast<float>(below[x]) - static_cast<float>(above[x]);
             if (gx == 0.f && gy == 0.f) continue;
-            // Nearest of the 8 directions k·45°: sectors are split at 22.5° (tan = 0.41421356).
-            const float ax = std::abs(gx), ay = std::abs(gy);
-            int bin;
-            if (ay < kTan22_5 * ax) {
-                bin = gx > 0.f ? 0 : 4;
-            } else if (ax < kTan22_5 * ay) {
-                bin = gy > 0.f ? 2 : 6;
-            } else if ((gx > 0.f) == (gy > 0.f)) {
-                bin = gx > 0.f ? 1 : 5;
-            } else {
-                bin = gy > 0.f ? 3 : 7;
+            int best = 0;
+            float best_dot = 0.f;
+            for (int k = 0; k < orientations; ++k) {
+                const float dot = gx * cos_k[static_cast<std::size_t>(k)] + gy * sin_k[static_cast<std::size_t>(k)];
+                if (std::abs(dot) > std::abs(best_dot)) {
+                    best = k;
+                    best_dot = dot;
+                }
             }
-            cell_row[((x - 1) / cell_size) * kSignedBins + bin] += std::sqrt(gx * gx + gy * gy);
+            const int bin = best_dot > 0.f ? best : best + orientations;
+            cell_row[((x - 1) / cell_size) * signed_bins + bin] += std::sqrt(gx * gx + gy * gy);
         }
     }
 
@@ -57,8 +67,8 @@ void compute_hog(const cv::Mat& patch, int cells, int cell_size, std::span<float
     std::vector<float> energy(static_cast<std::size_t>(num_cells));
     for (int c = 0; c < num_cells; ++c) {
         float e = 0.f;
-        for (int k = 0; k < kHogOrientations; ++k) {
-            const float u = hist[c * kSignedBins + k] + hist[c * kSignedBins + k + kHogOrientations];
+        for (int k = 0; k < orientations; ++k) {
+            const float u = hist[c * signed_bins + k] + hist[c * signed_bins + k + orientations];
             e += u * u;
         }
         energy[c] = e;
@@ -82,17 +92,17 @@ void compute_hog(const cv::Mat& patch, int cells, int cell_size, std::span<float
                     factor[b++] = 1.f / std::sqrt(block + 1e-4f);
                 }
             }
-            const float* h = hist.data() + static_cast<std::size_t>(c) * kSignedBins;
-            float* f = out.data() + static_cast<std::size_t>(c) * kHogDimsPerCell;
-            std::fill(f, f + kHogDimsPerCell, 0.f);
-            for (int k = 0; k < kSignedBins; ++k)
+            const float* h = hist.data() + static_cast<std::size_t>(c) * signed_bins;
+            float* f = out.data() + static_cast<std::size_t>(c) * dims_per_cell;
+            std::fill(f, f + dims_per_cell, 0.f);
+            for (int k = 0; k < signed_bins; ++k)
                 for (int n = 0; n < 4; ++n) f[k] += 0.5f * std::min(h[k] * factor[n], kClamp);
-            for (int k = 0; k < kHogOrientations; ++k) {
-                const float u = h[k] + h[k + kHogOrientations];
+            for (int k = 0; k < orientations; ++k) {
+                const float u = h[k] + h[k + orientations];
                 for (int n = 0; n < 4; ++n) {
                     const float clamped = std::min(u * factor[n], kClamp);
-                    f[kSignedBins + k] += 0.5f * clamped;
-                    f[kSignedBins + kHogOrientations + n] += kTextureScale * clamped;
+                    f[signed_bins + k] += 0.5f * clamped;
+                    f[signed_bins + orientations + n] += kTextureScale * clamped;
                 }
             }
         }

@@ -142,9 +142,9 @@ std::string sdm_model_bytes(const SdmModel& model, const std::filesystem::path& 
     file.write(kSdmModelVersion);
     file.write(static_cast<std::uint32_t>(model.num_landmarks));
     file.write(static_cast<std::uint32_t>(model.stages.size()));
-    file.write(static_cast<std::uint32_t>(model.hog_cells));
-    file.write(static_cast<std::uint32_t>(kHogOrientations));
-    file.write(static_cast<std::uint32_t>(kHogDimsPerCell));
+    file.write(static_cast<std::uint32_t>(model.hog.cells));
+    file.write(static_cast<std::uint32_t>(model.hog.orientations));
+    file.write(static_cast<std::uint32_t>(model.hog.dims_per_cell()));
     file.write(static_cast<std::uint32_t>(kCanonicalCropSide));
     file.write(kCanonicalBoxWidth);
     file.write(model.training_checksum);
@@ -169,18 +169,24 @@ SdmModel parse_sdm_model(std::string_view bytes, const std::string& path) {
     SdmModel model;
     model.num_landmarks = static_cast<int>(r.read<std::uint32_t>("landmark count"));
     const auto stages = r.read<std::uint32_t>("stage count");
-    model.hog_cells = static_cast<int>(r.read<std::uint32_t>("HOG cells"));
+    model.hog.cells = static_cast<int>(r.read<std::uint32_t>("HOG cells"));
     const auto orientations = r.read<std::uint32_t>("HOG orientations");
     const auto dims_per_cell = r.read<std::uint32_t>("HOG dims per cell");
     const auto crop_side = r.read<std::uint32_t>("crop side");
     const auto box_width = r.read<double>("box width");
-    if (model.num_landmarks != 68 || stages < 1 || stages > 16 || model.hog_cells < 1 || model.hog_cells > 16)
+    if (model.num_landmarks != 68 || stages < 1 || stages > 16 || model.hog.cells < 1 || model.hog.cells > kMaxHogCells ||
+        orientations < 1 || orientations > kMaxHogOrientations)
         throw core::file_error(path, "implausible header (landmarks " + std::to_string(model.num_landmarks) +
                                             ", stages " + std::to_string(stages) + ", HOG cells " +
-                                            std::to_string(model.hog_cells) + "): corrupt file");
-    if (orientations != kHogOrientations || dims_per_cell != kHogDimsPerCell ||
-        crop_side != static_cast<std::uint32_t>(kCanonicalCropSide) || box_width != kCanonicalBoxWidth)
-        throw core::file_error(path, "HOG layout or face frame differs from this build's; retrain the model");
+                                            std::to_string(model.hog.cells) + ", HOG orientations " +
+                                            std::to_string(orientations) + "): corrupt file");
+    model.hog.orientations = static_cast<int>(orientations);
+    if (dims_per_cell != static_cast<std::uint32_t>(model.hog.dims_per_cell()))
+        throw core::file_error(path, "HOG values per cell " + std::to_string(dims_per_cell) + " do not match " +
+                                         std::to_string(orientations) + " orientations (3·O + 4 = " +
+                                         std::to_string(model.hog.dims_per_cell()) + "): corrupt file");
+    if (crop_side != static_cast<std::uint32_t>(kCanonicalCropSide) || box_width != kCanonicalBoxWidth)
+        throw core::file_error(path, "face frame differs from this build's; retrain the model");
     model.training_checksum = r.read<std::uint64_t>("training checksum");
     model.training_faces = r.read<std::uint32_t>("training faces");
     model.augment = r.read<std::uint32_t>("augment");

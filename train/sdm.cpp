@@ -185,7 +185,7 @@ double ShapeUnit::of(const Eigen::Matrix2Xd& shape) const {
 }
 
 int SdmModel::feature_dims(const SdmStageSettings& stage) const {
-    return feature_landmark_count(stage) * hog_dims(hog_cells);
+    return feature_landmark_count(stage) * hog.dims();
 }
 
 const Eigen::Matrix2Xd& SdmModel::initial_shape(FaceView view) const {
@@ -193,27 +193,27 @@ const Eigen::Matrix2Xd& SdmModel::initial_shape(FaceView view) const {
     return own.size() ? own : mean_shape;
 }
 
-void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
+void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, const HogLayout& hog, const SdmStageSettings& stage,
                   const ShapeUnit& unit, std::span<float> out) {
-    const int per_landmark = hog_dims(hog_cells);
+    const int per_landmark = hog.dims();
     const Eigen::Index first = stage.jaw_features ? 0 : morph::kNumJawLandmarks;  // the jaw points are iBUG 1-17
     if (out.size() != static_cast<std::size_t>((shape.cols() - first) * per_landmark))
         throw core::Error("sdm_features: output size mismatch");
     const double side = stage.patch_relative * unit.of(shape);
     cv::Mat patch;
     for (Eigen::Index i = first; i < shape.cols(); ++i) {
-        extract_patch(crop, shape.col(i), side, hog_cells, stage.cell_size, patch);
-        compute_hog(patch, hog_cells, stage.cell_size,
+        extract_patch(crop, shape.col(i), side, hog.cells, stage.cell_size, patch);
+        compute_hog(patch, hog, stage.cell_size,
                     out.subspan(static_cast<std::size_t>(i - first) * per_landmark, static_cast<std::size_t>(per_landmark)));
     }
 }
 
-Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, const ShapeUnit& unit, const cv::Mat& crop, Eigen::Matrix2Xd shape,
+Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, const HogLayout& hog, const ShapeUnit& unit, const cv::Mat& crop, Eigen::Matrix2Xd shape,
                             std::vector<Eigen::Matrix2Xd>* after_each_stage) {
     Eigen::VectorXf features, reduced, delta;
     for (const auto& stage : stages) {
-        features.resize(feature_landmark_count(stage.settings) * hog_dims(hog_cells));
-        sdm_features(crop, shape, hog_cells, stage.settings, unit, {features.data(), static_cast<std::size_t>(features.size())});
+        features.resize(feature_landmark_count(stage.settings) * hog.dims());
+        sdm_features(crop, shape, hog, stage.settings, unit, {features.data(), static_cast<std::size_t>(features.size())});
         reduced.noalias() = stage.weights * features;
         delta.noalias() = stage.basis * reduced;
         delta += stage.bias;
@@ -225,7 +225,7 @@ Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, con
 
 Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
                             std::vector<Eigen::Matrix2Xd>* after_each_stage) {
-    return sdm_refine(model.stages, model.hog_cells, model.unit, crop, std::move(shape), after_each_stage);
+    return sdm_refine(model.stages, model.hog, model.unit, crop, std::move(shape), after_each_stage);
 }
 
 namespace {
@@ -249,11 +249,11 @@ Eigen::Matrix2Xd run_for_view(const SdmModel& model, const cv::Mat& crop, FaceVi
 
 // SdmInference::realign: `second` runs on the realigned crop (the main cascade again where the model
 // has no realigned one).
-Eigen::Matrix2Xd refine_realigned(std::span<const SdmStage> stages, std::span<const SdmStage> second, int hog_cells, const ShapeUnit& unit,
+Eigen::Matrix2Xd refine_realigned(std::span<const SdmStage> stages, std::span<const SdmStage> second, const HogLayout& hog, const ShapeUnit& unit,
                                   const cv::Mat& crop, const Eigen::Matrix2Xd& start) {
-    const Eigen::Matrix2Xd first = sdm_refine(stages, hog_cells, unit, crop, start);
+    const Eigen::Matrix2Xd first = sdm_refine(stages, hog, unit, crop, start);
     const SimilarityMap to_first = similarity_map(start, first);
-    const Eigen::Matrix2Xd realigned = sdm_refine(second.empty() ? stages : second, hog_cells, unit, to_first.resample(crop), start);
+    const Eigen::Matrix2Xd realigned = sdm_refine(second.empty() ? stages : second, hog, unit, to_first.resample(crop), start);
     return 0.5 * (first + to_first.apply(realigned));
 }
 
@@ -261,8 +261,8 @@ Eigen::Matrix2Xd refine_realigned(std::span<const SdmStage> stages, std::span<co
 
 Eigen::Matrix2Xd sdm_refine_view(const SdmModel& model, const cv::Mat& crop, FaceView view, const SdmInference& inference) {
     const CascadeRun run = [&](const CascadeStages& stages, const cv::Mat& c, const Eigen::Matrix2Xd& start) {
-        return inference.realign ? refine_realigned(stages.main, stages.realigned, model.hog_cells, model.unit, c, start)
-                                 : sdm_refine(stages.main, model.hog_cells, model.unit, c, start);
+        return inference.realign ? refine_realigned(stages.main, stages.realigned, model.hog, model.unit, c, start)
+                                 : sdm_refine(stages.main, model.hog, model.unit, c, start);
     };
     Eigen::Matrix2Xd direct = run_for_view(model, crop, view, run);
     if (!inference.mirror || (model.profile && view != FaceView::kFrontal)) return direct;
@@ -313,12 +313,17 @@ namespace {
 void validate_options(const SdmTrainOptions& options) {
     if (options.augment < 1) throw core::Error("SDM training: --augment must be at least 1");
     if (options.lambda_factors.empty()) throw core::Error("SDM training: no λ factor given");
+    if (options.hog.cells < 1 || options.hog.cells > kMaxHogCells || options.hog.orientations < 1 ||
+        options.hog.orientations > kMaxHogOrientations)
+        throw core::Error("SDM training: HOG cells must be 1-" + std::to_string(kMaxHogCells) + " and orientations 1-" +
+                          std::to_string(kMaxHogOrientations) + ", got " + std::to_string(options.hog.cells) + " and " +
+                          std::to_string(options.hog.orientations));
     for (double f : options.lambda_factors)
         if (!(f > 0) || !std::isfinite(f)) throw core::Error("SDM training: λ factors must be positive");
     if (options.ranks.empty()) throw core::Error("SDM training: no rank candidate given");
-    if (options.feature_components < 0 || options.feature_components > morph::kNumIbugLandmarks * hog_dims(options.hog_cells))
+    if (options.feature_components < 0 || options.feature_components > morph::kNumIbugLandmarks * options.hog.dims())
         throw core::Error("SDM training: --feature-pca must be between 0 and the feature dimension " +
-                    std::to_string(morph::kNumIbugLandmarks * hog_dims(options.hog_cells)) + ", got " +
+                    std::to_string(morph::kNumIbugLandmarks * options.hog.dims()) + ", got " +
                     std::to_string(options.feature_components));
     for (int r : options.ranks)
         if (r < 1 || r > 2 * morph::kNumIbugLandmarks)
@@ -509,7 +514,7 @@ private:
     void extract_rows(std::size_t first, std::size_t count, const SdmStageSettings& stage, RowMatrixXf& out) {
         out.resize(static_cast<Eigen::Index>(count), dims_);
         parallel_for(0, count, options_.threads, [&](std::size_t i) {
-            sdm_features(face_of(first + i).crop, shapes_[first + i], model_.hog_cells, stage, model_.unit,
+            sdm_features(face_of(first + i).crop, shapes_[first + i], model_.hog, stage, model_.unit,
                          {out.row(static_cast<Eigen::Index>(i)).data(), static_cast<std::size_t>(dims_)});
         });
         feature_rows_done_ += count;
@@ -729,7 +734,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& box
 
     SdmModel model;
     model.num_landmarks = morph::kNumIbugLandmarks;
-    model.hog_cells = options.hog_cells;
+    model.hog = options.hog;
     model.training_faces = static_cast<std::uint32_t>(faces.size());
     model.augment = static_cast<std::uint32_t>(options.augment);
     learn_starts(rows, split.train, boxes, model);

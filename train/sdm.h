@@ -7,6 +7,7 @@
 // with W_k, b_k from ridge regression on perturbed training initialisations. All shapes here are in
 // canonical crop coordinates (train/face_box.h).
 #include "train/face_box.h"
+#include "train/hog.h"
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -87,7 +88,7 @@ struct ProfileCascade {
 
 struct SdmModel {
     int num_landmarks = 68;
-    int hog_cells = 3;                 // HOG cells per patch side
+    HogLayout hog;                     // HOG cells per patch side and orientations
     // The learned box-to-shape alignment: the mean shape (canonical crop coordinates) of the training
     // faces whose box came from the detector, and per detector view (train/face_box.h) the mean of
     // that view's faces: the pose-indexed initialisation. A view with too few training faces
@@ -114,13 +115,13 @@ struct SdmModel {
 // Fewest detector-boxed training faces of one view for that view to get its own mean shape.
 inline constexpr int kMinViewFaces = 10;
 
-// Features of one shape for one stage: feature_landmark_count(stage) · hog_dims(hog_cells) floats.
-void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, int hog_cells, const SdmStageSettings& stage,
+// Features of one shape for one stage: feature_landmark_count(stage) · hog.dims() floats.
+void sdm_features(const cv::Mat& crop, const Eigen::Matrix2Xd& shape, const HogLayout& hog, const SdmStageSettings& stage,
                   const ShapeUnit& unit, std::span<float> out);
 
 // Runs `stages` from `shape` on a canonical crop; `after_each_stage` (optional) receives the shape
 // after every stage.
-[[nodiscard]] Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, int hog_cells, const ShapeUnit& unit, const cv::Mat& crop,
+[[nodiscard]] Eigen::Matrix2Xd sdm_refine(std::span<const SdmStage> stages, const HogLayout& hog, const ShapeUnit& unit, const cv::Mat& crop,
                                           Eigen::Matrix2Xd shape, std::vector<Eigen::Matrix2Xd>* after_each_stage = nullptr);
 // The same with the model's main (single or frontal) cascade.
 [[nodiscard]] Eigen::Matrix2Xd sdm_refine(const SdmModel& model, const cv::Mat& crop, Eigen::Matrix2Xd shape,
@@ -190,7 +191,7 @@ struct SdmTrainOptions {
     bool mirror = false;
     int threads = 1;
     std::uint64_t seed = 1;
-    int hog_cells = 3;
+    HogLayout hog;
     // Ridge λ = factor · ‖A_cᵀA_c‖_F / N (A_c: centred features). With several candidates each stage
     // keeps the one with the lowest NME on the validation faces after the update.
     std::vector<double> lambda_factors = {3.0, 10.0, 30.0, 100.0};

@@ -65,7 +65,8 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     report["mirror"] = options.mirror;
     report["augment"] = options.augment;
     report["stages"] = options.stages;
-    report["hog_cells"] = options.hog_cells;
+    report["hog_cells"] = options.hog.cells;
+    report["hog_orientations"] = options.hog.orientations;
     const bool from_base = base.has_value();
     SdmModel model;
     if (from_base) {

@@ -126,7 +126,7 @@ ViewRealignResiduals train_realigned_view_cascades(std::span<const TrainingFace>
     // The profile cascade as the model train_view_cascades made it from (its faces are all nose-left).
     ProfileCascade& profile = *model.profile;
     SdmModel profile_model;
-    profile_model.hog_cells = model.hog_cells;
+    profile_model.hog = model.hog;
     profile_model.unit = model.unit;
     profile_model.mean_shape = profile.mean_shape;
     profile_model.stages = profile.stages;

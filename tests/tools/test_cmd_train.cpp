@@ -53,6 +53,7 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
     EXPECT_EQ(train_report["augment"], 3);
     EXPECT_EQ(train_report["stages"], 3);
     EXPECT_EQ(train_report["hog_cells"], 2);
+    EXPECT_EQ(train_report["hog_orientations"], 4);  // the default
     // --cascades auto: these near-frontal faces give the profile cascade too few faces, so one cascade.
     EXPECT_EQ(train_report["view_cascades"], false);
 
@@ -274,6 +275,13 @@ TEST(CmdTrain, BadRegressorFileAndUsageErrors) {
     EXPECT_NE(out.find("--feature-pca"), std::string::npos) << out;
     EXPECT_EQ(run_command(train_here + " --method ert --mirror", &out), 2) << out;  // the SDM's option
     EXPECT_NE(out.find("--mirror"), std::string::npos) << out;
+    EXPECT_EQ(run_command(train_here + " --hog-orientations 0", &out), 2) << out;
+    EXPECT_NE(out.find("--hog-orientations"), std::string::npos) << out;
+    EXPECT_EQ(run_command(train_here + " --hog-orientations 17", &out), 2) << out;
+    EXPECT_EQ(run_command(train_here + " --method lbf --hog-orientations 9", &out), 2) << out;  // the SDM's option
+    EXPECT_NE(out.find("--hog-orientations"), std::string::npos) << out;
+    EXPECT_EQ(run_command(train_here + " --hog-cells 2 --hog-orientations 9 --feature-pca 8433", &out), 2) << out;  // 68 * 4 * 31 = 8432
+    EXPECT_NE(out.find("--feature-pca"), std::string::npos) << out;
     EXPECT_FALSE(fs::exists(dir / "m.sdm"));
     EXPECT_EQ(run_command(cli_path().string() + " eval landmarks --regressor sdm@x:" + (dir / "bad.sdm").string() +
                               " --data " + dir.string(),

@@ -88,7 +88,7 @@ TEST(Sdm, PrimalFormReducesErrorAndIsThreadIndependent) {
     const auto test = cartoon_training_faces(4, 15);
     SdmTrainOptions options;
     options.augment = 32;   // 36 training faces (4 held out) x 32 = 1152 rows > 68·16 = 1088 features: the streamed primal solve
-    options.hog_cells = 1;
+    options.hog.cells = 1;
     options.stages = 3;
     options.lambda_factors = {0.3, 3.0};
     options.threads = 1;
@@ -180,7 +180,7 @@ TEST(Sdm, FeaturePcaWithAllComponentsGivesThePlainStagesInPrimalAndDualForm) {
     {
         const auto train = cartoon_training_faces(3, 40);
         options.augment = 32;  // 1280 rows > 1088 features: the primal form
-        options.hog_cells = 1;
+        options.hog.cells = 1;
         const SdmModel plain = train_sdm(train, BoxStatistics{}, options);
         options.feature_components = 68 * 16;
         std::vector<SdmStageReport> reports;
@@ -196,7 +196,7 @@ TEST(Sdm, FeaturePcaWithAllComponentsGivesThePlainStagesInPrimalAndDualForm) {
     {
         const auto train = cartoon_training_faces(1, 30);
         options.augment = 3;  // 90 rows < 3264 features: the dual form, capped at the 90 rows
-        options.hog_cells = 2;
+        options.hog.cells = 2;
         options.feature_components = 0;
         options.on_stage = nullptr;
         const SdmModel plain = train_sdm(train, BoxStatistics{}, options);
@@ -213,7 +213,7 @@ TEST(Sdm, FewFeatureComponentsStillReduceErrorStageByStageAndGeneralise) {
     const auto test = cartoon_training_faces(4, 15);
     SdmTrainOptions options;
     options.augment = 32;
-    options.hog_cells = 1;
+    options.hog.cells = 1;
     options.stages = 3;
     options.lambda_factors = {0.3, 3.0};
     options.feature_components = 24;  // randomised solver: 4 · (24 + 16) < 816
@@ -234,7 +234,7 @@ TEST(Sdm, FewFeatureComponentsStillReduceErrorStageByStageAndGeneralise) {
 TEST(Sdm, RejectsFeatureComponentsOutsideTheFeatureDimension) {
     const auto train = cartoon_training_faces(1, 8);
     SdmTrainOptions options;
-    options.hog_cells = 1;
+    options.hog.cells = 1;
     for (int bad : {-1, 68 * 16 + 1}) {
         options.feature_components = bad;
         try {
@@ -419,7 +419,7 @@ TEST(Sdm, ReducedRankStagesHaveOrthonormalBasesAndStillGeneralise) {
     SdmTrainOptions options;
     options.augment = 3;
     options.stages = 2;
-    options.hog_cells = 2;
+    options.hog.cells = 2;
     options.ranks = {4};
     options.lambda_factors = {1.0};
     const SdmModel model = train_sdm(train, BoxStatistics{}, options);
@@ -438,7 +438,7 @@ TEST(Sdm, ValidationChoosesTheLambdaWithTheLowestHeldOutError) {
     SdmTrainOptions options;
     options.augment = 3;
     options.stages = 1;
-    options.hog_cells = 2;
+    options.hog.cells = 2;
     options.validation_share = 0.2;  // faces 4, 9, 14, ... are held out
     options.ranks = {136};
     const auto stage_one = [&](std::vector<double> factors) {
@@ -469,7 +469,7 @@ SdmModel small_model() {
     SdmTrainOptions options;
     options.augment = 2;
     options.stages = 2;
-    options.hog_cells = 2;
+    options.hog.cells = 2;
     options.jaw_features_from = 2;  // stage 1 without the jaw points' HOG
     SdmModel model = train_sdm(train, BoxStatistics{}, options);
     model.training_checksum = 0x1234'5678'9abc'def0ULL;
@@ -480,14 +480,14 @@ TEST(SdmModelFile, RoundTripsExactly) {
     const SdmModel model = small_model();
     ASSERT_FALSE(model.stages[0].settings.jaw_features);
     ASSERT_TRUE(model.stages[1].settings.jaw_features);
-    EXPECT_EQ(model.stages[0].weights.cols(), 51 * hog_dims(2));
-    EXPECT_EQ(model.stages[1].weights.cols(), 68 * hog_dims(2));
+    EXPECT_EQ(model.stages[0].weights.cols(), 51 * HogLayout{.cells = 2}.dims());
+    EXPECT_EQ(model.stages[1].weights.cols(), 68 * HogLayout{.cells = 2}.dims());
     const auto dir = testkit::fresh_temp_dir("sdm_model_round_trip");
     const auto path = dir / "model.sdm";
     write_sdm_model(path, model);
     const SdmModel back = read_sdm_model(path);
     EXPECT_EQ(back.num_landmarks, model.num_landmarks);
-    EXPECT_EQ(back.hog_cells, model.hog_cells);
+    EXPECT_EQ(back.hog, model.hog);
     EXPECT_EQ(back.training_checksum, model.training_checksum);
     EXPECT_EQ(back.training_faces, model.training_faces);
     EXPECT_EQ(back.augment, model.augment);
@@ -524,7 +524,7 @@ SdmModel model_with_views() {
     SdmTrainOptions options;
     options.augment = 2;
     options.stages = 1;
-    options.hog_cells = 2;
+    options.hog.cells = 2;
     BoxStatistics boxes;
     boxes.detector = DetectorKind::kMultiView;
     boxes.view_matched = {22, 22, 0};
@@ -609,6 +609,46 @@ TEST(SdmModelFile, WrongTruncatedAndCorruptFilesGiveErrorsNamingTheFile) {
     newer[8] = 99;
     write_all(future, newer);
     expect_sdm_error_naming(future, "version");
+
+    // The header's HOG orientations (uint32 at byte 24) must be 1-16 and match its values per cell
+    // (3·O + 4, at byte 28).
+    const auto no_orientations = dir / "no_orientations.sdm";
+    std::string zero = bytes;
+    zero[24] = 0;
+    write_all(no_orientations, zero);
+    expect_sdm_error_naming(no_orientations, "HOG orientations 0");
+    const auto mismatched = dir / "mismatched.sdm";
+    std::string nine = bytes;
+    nine[24] = 9;
+    write_all(mismatched, nine);
+    expect_sdm_error_naming(mismatched, "do not match 9 orientations");
+}
+
+// Nine orientations: 31 values per cell; the model trains, round-trips with its layout, detects
+// with it, and a detection differs from the same faces' 4-orientation model.
+TEST(SdmModelFile, NineOrientationsTrainRoundTripAndDetect) {
+    const auto train = cartoon_training_faces(5, 12);
+    SdmTrainOptions options;
+    options.augment = 2;
+    options.stages = 2;
+    options.hog = {.cells = 2, .orientations = 9};
+    const SdmModel nine = train_sdm(train, BoxStatistics{}, options);
+    EXPECT_EQ(nine.stages[1].weights.cols(), 51 * 2 * 2 * 31);  // 68 points less the jaw (features from stage 3)
+    const auto dir = testkit::fresh_temp_dir("sdm_model_nine_orientations");
+    write_sdm_model(dir / "nine.sdm", nine);
+    const SdmModel back = read_sdm_model(dir / "nine.sdm");
+    EXPECT_EQ(back.hog, nine.hog);
+    options.hog.orientations = 4;
+    write_sdm_model(dir / "four.sdm", train_sdm(train, BoxStatistics{}, options));
+
+    const HeldOutErrors e = held_out_errors(back, cartoon_training_faces(4, 15));
+    EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
+    const auto face = cartoon_training_faces(10, 1).front();
+    const auto predict = [&](const std::string& name) { return open_regressor((dir / name).string())->predict(face.crop, canonical_face_box()); };
+    EXPECT_GT((predict("nine.sdm") - predict("four.sdm")).cwiseAbs().maxCoeff(), 0.01);
+
+    options.hog.orientations = kMaxHogOrientations + 1;
+    EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, options), core::Error);
 }
 
 // `train merge`'s ensemble file: the members round-trip in order, the regressor averages their
@@ -624,7 +664,7 @@ TEST(SdmModelFile, EnsemblesAverageTheirMembersAndNameABrokenMember) {
     write_sdm_ensemble(both, std::vector<SdmModel>{first, second});
     const auto back = read_sdm_members(both);
     ASSERT_EQ(back.size(), 2u);
-    EXPECT_EQ(back[0].hog_cells, first.hog_cells);
+    EXPECT_EQ(back[0].hog, first.hog);
     EXPECT_TRUE(back[1].stages.back().weights == second.stages.back().weights);
     EXPECT_EQ(read_sdm_members(dir / "first.sdm").size(), 1u);
     expect_sdm_error_naming(both, "ensemble");

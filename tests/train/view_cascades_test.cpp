@@ -27,7 +27,7 @@ SdmTrainOptions small_options() {
     SdmTrainOptions options;
     options.augment = 3;
     options.stages = 3;
-    options.hog_cells = 2;
+    options.hog.cells = 2;
     options.threads = 2;
     return options;
 }
