@@ -60,7 +60,6 @@ struct TrainArgs {
     std::string shape_unit = "eyes";
     int feature_pca = SdmTrainOptions{}.feature_components;
     bool mirror = false;
-    bool match_residuals = false;
     int realign_stages = SdmTrainOptions{}.realign_stages;
     double realign_spread = SdmTrainOptions{}.realign_spread;
     std::filesystem::path base;
@@ -101,9 +100,6 @@ void run_train(const TrainArgs& args) {
         throw CLI::ValidationError("--view-overlap", "only applies to view-specific cascades");
     if (args.feature_pca > 0 && args.method != "sdm") throw CLI::ValidationError("--feature-pca", "only applies to --method sdm");
     if (args.mirror && args.method != "sdm") throw CLI::ValidationError("--mirror", "only applies to --method sdm");
-    if (args.match_residuals && args.method != "sdm") throw CLI::ValidationError("--match-residuals", "only applies to --method sdm");
-    if (args.match_residuals && args.validation_share == 0)
-        throw CLI::ValidationError("--match-residuals", "needs validation faces (--validation-share above 0)");
     if (args.realign_stages > 0 && args.method != "sdm") throw CLI::ValidationError("--realign-stages", "only applies to --method sdm");
     if (args.realign_stages > args.stages && args.base.empty())
         throw CLI::ValidationError("--realign-stages", "is more than --stages " + std::to_string(args.stages));
@@ -140,7 +136,6 @@ void run_train(const TrainArgs& args) {
     sdm.unit = args.shape_unit == "box" ? ShapeUnitKind::kFixed : ShapeUnitKind::kInterEyeCentres;
     sdm.feature_components = args.feature_pca;
     sdm.mirror = args.mirror;
-    sdm.match_residuals = args.match_residuals;
     sdm.realign_stages = args.realign_stages;
     sdm.realign_spread = args.realign_spread;
     request.base = args.base;
@@ -504,9 +499,6 @@ void register_train_commands(CLI::App& app) {
                         "into the stored weights; at most 68 * hog-cells^2 * (3 * hog-orientations + 4)); 0 = off")
             ->check(CLI::NonNegativeNumber)
             ->capture_default_str();
-        cmd->add_flag("--match-residuals", args->match_residuals,
-                      "SDM: after each stage, scale the training rows' residuals up to the validation faces' median "
-                      "(at most 20 x), so that later stages learn errors as large as on unseen faces");
         cmd->add_flag("--mirror", args->mirror,
                       "SDM: every training face also trains as its mirror image (the frontal cascade's faces with view "
                       "cascades; validation faces are not mirrored)");

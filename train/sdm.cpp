@@ -330,8 +330,6 @@ void validate_options(const SdmTrainOptions& options) {
             throw core::Error("SDM training: ranks must be between 1 and " + std::to_string(2 * morph::kNumIbugLandmarks));
     if (options.validation_share < 0 || options.validation_share >= 1)
         throw core::Error("SDM training: the validation share must be in [0, 1)");
-    if (options.match_residuals && options.validation_share == 0)
-        throw core::Error("SDM training: matching residuals needs validation faces (a validation share above 0)");
 }
 
 struct FaceSplit {
@@ -459,7 +457,6 @@ public:
         shapes_.resize(rows);
         for (std::size_t r = 0; r < rows; ++r)
             shapes_[r] = perturbed_start(model, faces[row_face_[r]], options.seed, row_face_[r], r % augment);
-        stage_count_ = settings.size();
         for (const auto& stage : settings)
             total_feature_rows_ +=
                 train_rows_ * (train_rows_ < static_cast<std::size_t>(model.feature_dims(stage)) ? 1 : 2) + validation_rows_;
@@ -541,28 +538,6 @@ private:
         for (Eigen::Index i = 0; i < delta.rows(); ++i) apply_update(shapes_[first + static_cast<std::size_t>(i)], delta.row(i).data(), model_.unit);
     }
 
-    // SdmTrainOptions::match_residuals; returns the scale applied.
-    double match_residuals() {
-        if (validation_rows_ == 0 || train_rows_ == 0) return 1.0;
-        std::vector<double> train_nme(train_rows_), validation_nme(validation_rows_);
-        for (std::size_t r = 0; r < train_rows_; ++r) train_nme[r] = landmark_nme(shapes_[r], face_of(r).truth);
-        for (std::size_t i = 0; i < validation_rows_; ++i)
-            validation_nme[i] = landmark_nme(shapes_[train_rows_ + i], face_of(train_rows_ + i).truth);
-        const double largest = *std::max_element(validation_nme.begin(), validation_nme.end());
-        const auto median = [](std::vector<double> v) {
-            std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-            return v[v.size() / 2];
-        };
-        const double train_median = median(train_nme);
-        const double scale = train_median > 0 ? std::clamp(median(validation_nme) / train_median, 1.0, kMaxResidualScale) : 1.0;
-        for (std::size_t r = 0; r < train_rows_; ++r) {
-            const double row_scale = train_nme[r] > 0 ? std::min(scale, std::max(1.0, largest / train_nme[r])) : 1.0;
-            const Eigen::Matrix2Xd& truth = face_of(r).truth;
-            shapes_[r] = truth + row_scale * (shapes_[r] - truth);
-        }
-        return scale;
-    }
-
     // Held-out NME after applying the (centred, projected) predictions to the validation starts.
     [[nodiscard]] double validation_nme(const RowMatrixXf& delta) const {
         double sum = 0;
@@ -582,7 +557,6 @@ private:
     std::vector<std::size_t> row_face_;
     std::vector<Eigen::Matrix2Xd> shapes_;  // every row's current shape
     std::size_t train_rows_ = 0, validation_rows_ = 0;
-    std::size_t stage_count_ = 0;
     int dims_ = 0;  // of the current stage's features
     std::size_t total_feature_rows_ = 0, feature_rows_done_ = 0;
 };
@@ -741,7 +715,6 @@ void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings
 
     report.nme_after = mean_nme(0, train_rows_);
     report.validation_nme_after = mean_nme(train_rows_, validation_rows_);
-    if (options_.match_residuals && k + 1 < stage_count_) report.residual_scale = match_residuals();
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     model_.stages.push_back(std::move(chosen.stage));
     if (options_.on_stage) options_.on_stage(report);

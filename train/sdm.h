@@ -180,14 +180,8 @@ struct SdmStageReport {
     int rank = 0;
     double lambda = 0;
     int feature_components = 0;  // principal components of the features regressed on (0: PCA off)
-    // SdmTrainOptions::match_residuals: the factor the training rows' residuals were scaled by after
-    // this stage (1: not scaled; 0: option off or the last stage).
-    double residual_scale = 0;
     double seconds = 0;
 };
-
-// SdmTrainOptions::match_residuals scales the training rows' residuals by at most this.
-inline constexpr double kMaxResidualScale = 20;
 
 struct SdmTrainOptions {
     int stages = 4;
@@ -223,11 +217,6 @@ struct SdmTrainOptions {
     // its starts' spread as a multiple of the main cascade's residual similarity on the validation faces.
     int realign_stages = 0;
     double realign_spread = 1.5;
-    // After each stage but the last, the training rows' residuals (shape − truth) are scaled by the ratio
-    // of the validation rows' median NME to the training rows' (at least 1, at most
-    // kMaxResidualScale, no row beyond the validation rows' largest NME), so that the next stage learns
-    // to correct errors as large as those it meets on faces it has not seen. Needs validation faces.
-    bool match_residuals = false;
     std::function<void(const SdmStageReport&)> on_stage;
     std::function<void(std::size_t rows_done, std::size_t rows_total)> on_progress;  // feature extraction
 };

@@ -60,11 +60,9 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
         report[stage + "_lambda_factor"] = r.lambda_factor;
         report[stage + "_rank"] = r.rank;
         report[stage + "_feature_components"] = r.feature_components;
-        if (options.match_residuals) report[stage + "_residual_scale"] = r.residual_scale;
     };
     report["feature_pca"] = options.feature_components;
     report["mirror"] = options.mirror;
-    report["match_residuals"] = options.match_residuals;
     report["augment"] = options.augment;
     report["stages"] = options.stages;
     report["hog_cells"] = options.hog.cells;

@@ -433,45 +433,6 @@ TEST(Sdm, ReducedRankStagesHaveOrthonormalBasesAndStillGeneralise) {
     EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
 }
 
-// --match-residuals: after each stage but the last the training rows' residuals grow to the held-out
-// faces' size (the next stage starts from them: its training NME before is the scaled one), the
-// validation rows are left alone, and the cascade still generalises.
-TEST(Sdm, MatchedResidualsScaleTheTrainingRowsUpToTheHeldOutOnes) {
-    const auto faces = cartoon_training_faces(6, 50);
-    SdmTrainOptions options;
-    options.augment = 4;
-    options.stages = 3;
-    options.hog.cells = 2;
-    options.validation_share = 0.2;
-    std::vector<SdmStageReport> plain, matched;
-    options.on_stage = [&](const SdmStageReport& r) { plain.push_back(r); };
-    (void)train_sdm(faces, BoxStatistics{}, options);
-    options.match_residuals = true;
-    options.on_stage = [&](const SdmStageReport& r) { matched.push_back(r); };
-    const SdmModel model = train_sdm(faces, BoxStatistics{}, options);
-    ASSERT_EQ(matched.size(), 3u);
-    EXPECT_EQ(matched[0].validation_nme_before, plain[0].validation_nme_before);
-    EXPECT_EQ(matched[0].nme_after, plain[0].nme_after);  // the first stage is the same
-    for (std::size_t k = 0; k + 1 < matched.size(); ++k) {
-        EXPECT_GE(matched[k].residual_scale, 1.0) << "stage " << k + 1;
-        EXPECT_LE(matched[k].residual_scale, kMaxResidualScale);
-        // The training rows held fewer error than the held-out ones, so they were scaled up.
-        ASSERT_LT(matched[k].nme_after, matched[k].validation_nme_after) << "stage " << k + 1;
-        EXPECT_GT(matched[k].residual_scale, 1.0) << "stage " << k + 1;
-        EXPECT_GT(matched[k + 1].nme_before, matched[k].nme_after * 1.05) << "stage " << k + 2;
-        EXPECT_LE(matched[k + 1].nme_before, matched[k].nme_after * matched[k].residual_scale * (1 + 1e-9));
-        EXPECT_EQ(matched[k + 1].validation_nme_before, matched[k].validation_nme_after);
-    }
-    EXPECT_EQ(matched.back().residual_scale, 0.0);  // nothing after the last stage
-    const HeldOutErrors e = held_out_errors(model, cartoon_training_faces(7, 15));
-    EXPECT_LT(e.after_stage.back(), 0.8 * e.initial) << "initial " << e.initial << " final " << e.after_stage.back();
-
-    options.validation_share = 0;
-    options.lambda_factors = {3.0};
-    options.ranks = {136};
-    EXPECT_THROW((void)train_sdm(faces, BoxStatistics{}, options), core::Error);
-}
-
 TEST(Sdm, ValidationChoosesTheLambdaWithTheLowestHeldOutError) {
     const auto faces = cartoon_training_faces(6, 50);
     SdmTrainOptions options;
