@@ -35,8 +35,10 @@
 # usage: tools/sim2real.sh --photos DIR --out MODEL.sdm [--count N] [--threads T] [--work DIR] [--seeds S1,S2,...]
 #                          [--backgrounds wallpapers|photos] [--min-side PX]  (photo strips' shorter side, default 96)
 #                          [--augment A]  (training starts per render, default 4)
+#        tools/sim2real.sh --photos DIR --renders-only --work DIR [...]   steps 1-3 only: the renders in WORK/seed-S/train,
+#                          no model (tools/joined.sh trains on them beside the photographs)
 set -euo pipefail
-photos="" out="" count=36000 threads=2 work="" seed_list=101,202 min_side=96 backgrounds=wallpapers augment=4
+photos="" out="" count=36000 threads=2 work="" seed_list=101,202 min_side=96 backgrounds=wallpapers augment=4 renders_only=0
 while [[ $# -gt 0 ]]; do
     case $1 in
         --photos) photos=$2; shift 2 ;;
@@ -48,11 +50,16 @@ while [[ $# -gt 0 ]]; do
         --min-side) min_side=$2; shift 2 ;;
         --backgrounds) backgrounds=$2; shift 2 ;;
         --augment) augment=$2; shift 2 ;;
+        --renders-only) renders_only=1; shift ;;
         -h|--help) awk 'NR > 1 && !/^#/ { exit } NR > 1' "$0"; exit 0 ;;
         *) echo "sim2real: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
-[[ -n $photos && -n $out ]] || { echo "sim2real: --photos DIR and --out MODEL are required (see --help)" >&2; exit 2; }
+if [[ $renders_only -eq 1 ]]; then
+    [[ -n $photos && -n $work && -z $out ]] || { echo "sim2real: --renders-only takes --photos DIR and --work DIR, and no --out (see --help)" >&2; exit 2; }
+else
+    [[ -n $photos && -n $out ]] || { echo "sim2real: --photos DIR and --out MODEL are required (see --help)" >&2; exit 2; }
+fi
 [[ $backgrounds == wallpapers || $backgrounds == photos ]] || { echo "sim2real: --backgrounds takes wallpapers or photos" >&2; exit 2; }
 [[ -d $photos ]] || { echo "sim2real: $photos: photo folder not found" >&2; exit 1; }
 [[ $count =~ ^[1-9][0-9]*$ && $threads =~ ^[1-9][0-9]*$ && $min_side =~ ^[1-9][0-9]*$ && $augment =~ ^[1-9][0-9]*$ ]] ||
@@ -63,7 +70,7 @@ IFS=, read -r -a seeds <<< "$seed_list"
 # Paths given relative to where the script was started from; the script then works from the checkout.
 absolute() { [[ $1 == /* ]] && echo "$1" || echo "$PWD/$1"; }
 photos=$(absolute "$photos")
-out=$(absolute "$out")
+[[ -z $out ]] || out=$(absolute "$out")
 [[ -z $work ]] || work=$(absolute "$work")
 [[ ${FACESYNTH:-} != */* ]] || FACESYNTH=$(absolute "$FACESYNTH")
 cd "$(dirname "$0")/.."
@@ -103,9 +110,14 @@ for s in "${seeds[@]}"; do
         "${background[@]}" \
         --set degrade.noise_probability=0.5 --set degrade.blur_probability=0.5 --set degrade.jpeg_probability=0.5 \
         --set degrade.downscale_probability=0.3 --set degrade.gamma_probability=0.5 --set degrade.colour_jitter_probability=0.5
+    [[ $renders_only -eq 0 ]] || continue
     "$facesynth" train --data "$member_work/train" --out "$member" --hog-cells 3 --stages 6 --augment "$augment" --threads "$threads" --lambda-factors 3,10,30,100 --realign-stages 4 \
         --json "$member_work/train.json" $([[ ${#quiet[@]} -gt 0 ]] && echo --quiet)
     members+=("$member")
 done
+if [[ $renders_only -eq 1 ]]; then
+    echo "sim2real: renders in $work/seed-*/train"
+    exit 0
+fi
 [[ ${#seeds[@]} -eq 1 ]] || "$facesynth" train merge "${members[@]}" --out "$out" "${quiet[@]}"
 echo "sim2real: $out (work files in $work)"

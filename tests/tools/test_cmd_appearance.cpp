@@ -317,6 +317,45 @@ TEST_F(CmdAppearance, Sim2realRecipeTrainsARegressorOnRendersAlone) {
     EXPECT_EQ(run_command(env + "bash " + script + " --photos " + (dir / "missing").string() + " --out " + model.string(), &out), 1);
 }
 
+// tools/joined.sh: the renders (sim2real.sh --renders-only), the profiled views and three members trained
+// on different data from one photo folder, joined into one ensemble file.
+TEST_F(CmdAppearance, JoinedRecipeTrainsThreeMembersOnDifferentDataAndJoinsThem) {
+    const fs::path twelve = make_photo_folder(dir / "twelve", 12);  // enough for a validation face at share 0.1
+    std::string out;
+    const fs::path model = dir / "joined.sdm";
+    const fs::path work = dir / "joined-work";
+    const std::string script = (facesynth::testkit::source_dir() / "tools" / "joined.sh").string();
+    const std::string env = "FACESYNTH=" + appearance_cli() + " ";
+    ASSERT_EQ(run_command(env + "bash " + script + " --photos " + twelve.string() + " --out " + model.string() + " --count 20 --threads 2 --hog-cells 2", &out), 0)
+        << out;
+    EXPECT_EQ(facesynth::core::read_file(model).substr(0, 8), "FSYNSDME");
+    const auto photographs = read_json(work / "photographs.json");
+    const auto mix = read_json(work / "mix.json");
+    const auto mix_profiled = read_json(work / "mix_profiled.json");
+    EXPECT_EQ(photographs["augment"], 20);
+    EXPECT_EQ(mix["augment"], 4);
+    for (const auto* j : {&photographs, &mix, &mix_profiled}) {
+        EXPECT_EQ((*j)["hog_cells"], 2);
+        EXPECT_EQ((*j)["stages"], 6);
+        EXPECT_EQ((*j)["realign_stages"], 4);
+    }
+    const int photos = photographs["faces"].get<int>();
+    EXPECT_EQ(photos, 12);
+    EXPECT_EQ(mix["faces"].get<int>(), 20 + 5 * photos);  // the renders and the photographs five times
+    const auto views = std::distance(fs::directory_iterator(work / "profiled" / "images"), fs::directory_iterator{});
+    EXPECT_GT(views, 8 * photos / 2);  // 8 views per photograph, a few may fail
+    EXPECT_EQ(mix_profiled["faces"].get<int>(), mix["faces"].get<int>() + views);
+    EXPECT_EQ(read_json(work / "profiled" / "profile.json")["views_per_photo"], 8);
+    EXPECT_EQ(read_json(work / "sim2real" / "seed-101" / "train" / "dataset.json")["count"], 20);
+    EXPECT_FALSE(fs::exists(work / "sim2real" / "seed-101" / "model.sdm"));  // --renders-only trains nothing
+
+    EXPECT_EQ(run_command("bash " + script + " --out " + model.string(), &out), 2);
+    EXPECT_EQ(run_command(env + "bash " + script + " --photos " + twelve.string() + " --out " + model.string() + " --hog-cells 9", &out), 2);
+    EXPECT_EQ(run_command(env + "bash " + script + " --photos " + (dir / "missing").string() + " --out " + model.string(), &out), 1);
+    const std::string sim2real = (facesynth::testkit::source_dir() / "tools" / "sim2real.sh").string();
+    EXPECT_EQ(run_command(env + "bash " + sim2real + " --photos " + twelve.string() + " --renders-only --work " + work.string() + " --out x.sdm", &out), 2);
+}
+
 TEST_F(CmdAppearance, ConventionsWriteOffsetsThatTrainReadsAndBadOffsetFilesAreNamed) {
     std::string out;
     const fs::path conventions = dir / "conventions.json";
