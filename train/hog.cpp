@@ -16,6 +16,33 @@ constexpr float kClamp = 0.2f;
 // VLFeat's texture scale (1 / sqrt(18), the same for every O): keeps texture values in the range of the others.
 constexpr float kTextureScale = 0.2357f;
 
+// The signed bin of gradient (gx, gy) among 2·O directions k·180°/O: the largest |projection| on the O
+// unsigned directions, its sign picking k or k + O.
+int nearest_of(float gx, float gy, int orientations, const std::array<float, kMaxHogOrientations>& cos_k,
+               const std::array<float, kMaxHogOrientations>& sin_k) {
+    int best = 0;
+    float best_dot = 0.f;
+    for (int k = 0; k < orientations; ++k) {
+        const float dot = gx * cos_k[static_cast<std::size_t>(k)] + gy * sin_k[static_cast<std::size_t>(k)];
+        if (std::abs(dot) > std::abs(best_dot)) {
+            best = k;
+            best_dot = dot;
+        }
+    }
+    return best_dot > 0.f ? best : best + orientations;
+}
+
+// The same for O = 4 (directions k·45°) by sectors split at 22.5°: the same bins (models trained with
+// either are byte-identical) and detection a few per cent faster than with the loop, so the default keeps it.
+int nearest_of_eight(float gx, float gy) {
+    constexpr float kTan22_5 = 0.41421356f;
+    const float ax = std::abs(gx), ay = std::abs(gy);
+    if (ay < kTan22_5 * ax) return gx > 0.f ? 0 : 4;
+    if (ax < kTan22_5 * ay) return gy > 0.f ? 2 : 6;
+    if ((gx > 0.f) == (gy > 0.f)) return gx > 0.f ? 1 : 5;
+    return gy > 0.f ? 3 : 7;
+}
+
 }  // namespace
 
 void compute_hog(const cv::Mat& patch, const HogLayout& layout, int cell_size, std::span<float> out) {
@@ -49,16 +76,7 @@ void compute_hog(const cv::Mat& patch, const HogLayout& layout, int cell_size, s
             const float gx = static_cast<float>(row[x + 1]) - static_cast<float>(row[x - 1]);
             const float gy = static_cast<float>(below[x]) - static_cast<float>(above[x]);
             if (gx == 0.f && gy == 0.f) continue;
-            int best = 0;
-            float best_dot = 0.f;
-            for (int k = 0; k < orientations; ++k) {
-                const float dot = gx * cos_k[static_cast<std::size_t>(k)] + gy * sin_k[static_cast<std::size_t>(k)];
-                if (std::abs(dot) > std::abs(best_dot)) {
-                    best = k;
-                    best_dot = dot;
-                }
-            }
-            const int bin = best_dot > 0.f ? best : best + orientations;
+            const int bin = orientations == kDefaultHogOrientations ? nearest_of_eight(gx, gy) : nearest_of(gx, gy, orientations, cos_k, sin_k);
             cell_row[((x - 1) / cell_size) * signed_bins + bin] += std::sqrt(gx * gx + gy * gy);
         }
     }
