@@ -57,8 +57,10 @@ void compute_hog(const cv::Mat& patch, const HogLayout& layout, int cell_size, s
 
     // Unsigned direction k lies at k·180°/O; the signed bin is k where the gradient points along it
     // and k + O where it points against it: the nearest of the 2·O signed directions.
+    // (O = 4 bins by its sector tests and needs no table: this runs once per landmark and stage.)
     std::array<float, kMaxHogOrientations> cos_k{}, sin_k{};
-    for (int k = 0; k < orientations; ++k) {
+    const bool sectors = orientations == kDefaultHogOrientations;
+    for (int k = 0; k < (sectors ? 0 : orientations); ++k) {
         const double angle = k * 3.14159265358979323846 / orientations;
         cos_k[static_cast<std::size_t>(k)] = static_cast<float>(std::cos(angle));
         sin_k[static_cast<std::size_t>(k)] = static_cast<float>(std::sin(angle));
@@ -76,7 +78,7 @@ void compute_hog(const cv::Mat& patch, const HogLayout& layout, int cell_size, s
             const float gx = static_cast<float>(row[x + 1]) - static_cast<float>(row[x - 1]);
             const float gy = static_cast<float>(below[x]) - static_cast<float>(above[x]);
             if (gx == 0.f && gy == 0.f) continue;
-            const int bin = orientations == kDefaultHogOrientations ? nearest_of_eight(gx, gy) : nearest_of(gx, gy, orientations, cos_k, sin_k);
+            const int bin = sectors ? nearest_of_eight(gx, gy) : nearest_of(gx, gy, orientations, cos_k, sin_k);
             cell_row[((x - 1) / cell_size) * signed_bins + bin] += std::sqrt(gx * gx + gy * gy);
         }
     }

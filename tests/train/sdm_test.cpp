@@ -604,24 +604,18 @@ TEST(SdmModelFile, WrongTruncatedAndCorruptFilesGiveErrorsNamingTheFile) {
     write_all(corrupt, flipped);
     expect_sdm_error_naming(corrupt, "checksum");
 
-    const auto future = dir / "future.sdm";
-    std::string newer = bytes;
-    newer[8] = 99;
-    write_all(future, newer);
-    expect_sdm_error_naming(future, "version");
-
+    // The good file with one header byte set to `value`, written as `name`.
+    const auto with_byte = [&](const char* name, std::size_t offset, char value) {
+        std::string patched = bytes;
+        patched[offset] = value;
+        write_all(dir / name, patched);
+        return dir / name;
+    };
+    expect_sdm_error_naming(with_byte("future.sdm", 8, 99), "version");
     // The header's HOG orientations (uint32 at byte 24) must be 1-16 and match its values per cell
     // (3·O + 4, at byte 28).
-    const auto no_orientations = dir / "no_orientations.sdm";
-    std::string zero = bytes;
-    zero[24] = 0;
-    write_all(no_orientations, zero);
-    expect_sdm_error_naming(no_orientations, "HOG orientations 0");
-    const auto mismatched = dir / "mismatched.sdm";
-    std::string nine = bytes;
-    nine[24] = 9;
-    write_all(mismatched, nine);
-    expect_sdm_error_naming(mismatched, "do not match 9 orientations");
+    expect_sdm_error_naming(with_byte("no_orientations.sdm", 24, 0), "HOG orientations 0");
+    expect_sdm_error_naming(with_byte("mismatched.sdm", 24, 9), "do not match 9 orientations");
 }
 
 // Nine orientations: 31 values per cell; the model trains, round-trips with its layout, detects
