@@ -396,6 +396,103 @@ TEST(Sdm, RealignedCascadeOptionsAreChecked) {
     EXPECT_THROW((void)train_realigned_cascade(train, options, model), core::Error);
 }
 
+// Stage 1's out-of-fold training NME computed directly (rank 136, one λ factor, no validation faces):
+// every training row's start and features, and for each fold a ridge regression on the other folds'
+// rows, in double precision, applied to the fold's rows.
+double direct_out_of_fold_nme(const SdmModel& model, const std::vector<TrainingFace>& faces, const SdmTrainOptions& options) {
+    const SdmStageSettings& settings = model.stages.front().settings;
+    const int dims = model.feature_dims(settings);
+    const auto augment = static_cast<std::size_t>(options.augment);
+    const std::size_t rows = faces.size() * augment;
+    constexpr int kOutputs = 2 * morph::kNumIbugLandmarks;
+    Eigen::MatrixXd x(static_cast<Eigen::Index>(rows), dims), y(static_cast<Eigen::Index>(rows), kOutputs);
+    std::vector<Eigen::Matrix2Xd> starts(rows);
+    std::vector<float> features(static_cast<std::size_t>(dims));
+    for (std::size_t r = 0; r < rows; ++r) {
+        const TrainingFace& face = faces[r / augment];
+        starts[r] = perturbed_start(model, face, options.seed, r / augment, r % augment);
+        sdm_features(face.crop, starts[r], model.hog, settings, model.unit, features);
+        x.row(static_cast<Eigen::Index>(r)) = Eigen::Map<const Eigen::RowVectorXf>(features.data(), dims).cast<double>();
+        const Eigen::Matrix2Xd delta = (face.truth - starts[r]) / model.unit.of(starts[r]);
+        y.row(static_cast<Eigen::Index>(r)) = Eigen::Map<const Eigen::RowVectorXd>(delta.data(), kOutputs);
+    }
+    const auto folds = static_cast<std::uint64_t>(options.out_of_fold);
+    double nme = 0;
+    for (std::uint64_t fold = 0; fold < folds; ++fold) {
+        std::vector<Eigen::Index> kept, held;
+        for (std::size_t r = 0; r < rows; ++r) (faces[r / augment].source % folds == fold ? held : kept).push_back(static_cast<Eigen::Index>(r));
+        if (held.empty()) continue;
+        const Eigen::MatrixXd xk = x(kept, Eigen::all), yk = y(kept, Eigen::all);
+        const Eigen::RowVectorXd x_mean = xk.colwise().mean(), y_mean = yk.colwise().mean();
+        const Eigen::MatrixXd xc = xk.rowwise() - x_mean, yc = yk.rowwise() - y_mean;
+        Eigen::MatrixXd system = xc.transpose() * xc;
+        system.diagonal().array() += options.lambda_factors.front() * system.norm() / static_cast<double>(kept.size());
+        const Eigen::MatrixXd w = system.llt().solve(xc.transpose() * yc);
+        for (Eigen::Index r : held) {
+            const Eigen::RowVectorXd update = (x.row(r) - x_mean) * w + y_mean;
+            const Eigen::Matrix2Xd& start = starts[static_cast<std::size_t>(r)];
+            const Eigen::Matrix2Xd moved = start + model.unit.of(start) * Eigen::Map<const Eigen::Matrix2Xd>(update.data(), 2, morph::kNumIbugLandmarks);
+            nme += landmark_nme(moved, faces[static_cast<std::size_t>(r) / augment].truth);
+        }
+    }
+    return nme / static_cast<double>(rows);
+}
+
+// --out-of-fold: the stored stage is the one trained on every row, while the training rows move by the
+// stage solved without their fold, in the dual form (fewer rows than features) and the primal one;
+// those residuals are larger than the in-sample ones.
+TEST(Sdm, OutOfFoldUpdatesMoveEachFoldByTheStageTrainedWithoutIt) {
+    const auto faces = cartoon_training_faces(5, 30);
+    for (const int augment : {2, 40}) {  // 60 rows < 51 · 16 = 816 features (dual); 1200 rows (primal)
+        SdmTrainOptions options;
+        options.augment = augment;
+        options.hog.cells = 1;
+        options.stages = 1;
+        options.validation_share = 0;
+        options.lambda_factors = {1.0};
+        options.ranks = {136};
+        options.threads = 2;
+        SdmStageReport in_sample, out_of_fold;
+        options.on_stage = [&](const SdmStageReport& r) { in_sample = r; };
+        const SdmModel plain = train_sdm(faces, BoxStatistics{}, options);
+        options.out_of_fold = 3;
+        options.on_stage = [&](const SdmStageReport& r) { out_of_fold = r; };
+        const SdmModel model = train_sdm(faces, BoxStatistics{}, options);
+        EXPECT_LT((model.stages[0].weights - plain.stages[0].weights).norm(), 1e-4 * plain.stages[0].weights.norm()) << "augment " << augment;
+        EXPECT_LT((model.stages[0].bias - plain.stages[0].bias).norm(), 1e-4 * plain.stages[0].bias.norm() + 1e-6) << "augment " << augment;
+        const double direct = direct_out_of_fold_nme(model, faces, options);
+        EXPECT_NEAR(out_of_fold.nme_after, direct, 1e-3 * direct) << "augment " << augment;
+        EXPECT_GT(out_of_fold.nme_after, 1.2 * in_sample.nme_after) << "augment " << augment;
+        EXPECT_LT(out_of_fold.nme_after, out_of_fold.nme_before) << "augment " << augment;
+    }
+}
+
+TEST(Sdm, OutOfFoldTrainingIsThreadIndependentAndChecksItsOptions) {
+    auto faces = cartoon_training_faces(3, 40);
+    SdmTrainOptions options;
+    options.augment = 32;  // the primal form
+    options.hog.cells = 1;
+    options.stages = 2;
+    options.lambda_factors = {0.3, 3.0};
+    options.out_of_fold = 4;
+    options.threads = 1;
+    const SdmModel one = train_sdm(faces, BoxStatistics{}, options);
+    options.threads = 2;
+    const SdmModel two = train_sdm(faces, BoxStatistics{}, options);
+    for (std::size_t k = 0; k < one.stages.size(); ++k) {
+        EXPECT_TRUE(one.stages[k].weights == two.stages[k].weights) << "stage " << k;
+        EXPECT_TRUE(one.stages[k].bias == two.stages[k].bias) << "stage " << k;
+    }
+    options.out_of_fold = 1;
+    EXPECT_NE(testkit::error_message_of([&] { (void)train_sdm(faces, BoxStatistics{}, options); }).find("--out-of-fold"), std::string::npos);
+    options.out_of_fold = 4;
+    options.feature_components = 24;
+    EXPECT_NE(testkit::error_message_of([&] { (void)train_sdm(faces, BoxStatistics{}, options); }).find("--feature-pca"), std::string::npos);
+    options.feature_components = 0;
+    for (auto& face : faces) face.source = 7;  // one image listed 40 times: one fold, nothing to train it on
+    EXPECT_NE(testkit::error_message_of([&] { (void)train_sdm(faces, BoxStatistics{}, options); }).find("one fold"), std::string::npos);
+}
+
 TEST(Sdm, RejectsTooFewFaces) {
     const auto train = cartoon_training_faces(1, 1);
     EXPECT_THROW((void)train_sdm(train, BoxStatistics{}, SdmTrainOptions{}), core::Error);
