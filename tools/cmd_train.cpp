@@ -60,7 +60,6 @@ struct TrainArgs {
     std::string shape_unit = "eyes";
     int feature_pca = SdmTrainOptions{}.feature_components;
     bool mirror = false;
-    int out_of_fold = SdmTrainOptions{}.out_of_fold;
     int realign_stages = SdmTrainOptions{}.realign_stages;
     double realign_spread = SdmTrainOptions{}.realign_spread;
     std::filesystem::path base;
@@ -101,9 +100,6 @@ void run_train(const TrainArgs& args) {
         throw CLI::ValidationError("--view-overlap", "only applies to view-specific cascades");
     if (args.feature_pca > 0 && args.method != "sdm") throw CLI::ValidationError("--feature-pca", "only applies to --method sdm");
     if (args.mirror && args.method != "sdm") throw CLI::ValidationError("--mirror", "only applies to --method sdm");
-    if (args.out_of_fold == 1) throw CLI::ValidationError("--out-of-fold", "1 fold would leave nothing to train on: 0 (off) or 2-100");
-    if (args.out_of_fold > 0 && args.method != "sdm") throw CLI::ValidationError("--out-of-fold", "only applies to --method sdm");
-    if (args.out_of_fold > 0 && args.feature_pca > 0) throw CLI::ValidationError("--out-of-fold", "does not combine with --feature-pca");
     if (args.realign_stages > 0 && args.method != "sdm") throw CLI::ValidationError("--realign-stages", "only applies to --method sdm");
     if (args.realign_stages > args.stages && args.base.empty())
         throw CLI::ValidationError("--realign-stages", "is more than --stages " + std::to_string(args.stages));
@@ -140,7 +136,6 @@ void run_train(const TrainArgs& args) {
     sdm.unit = args.shape_unit == "box" ? ShapeUnitKind::kFixed : ShapeUnitKind::kInterEyeCentres;
     sdm.feature_components = args.feature_pca;
     sdm.mirror = args.mirror;
-    sdm.out_of_fold = args.out_of_fold;
     sdm.realign_stages = args.realign_stages;
     sdm.realign_spread = args.realign_spread;
     request.base = args.base;
@@ -503,12 +498,6 @@ void register_train_commands(CLI::App& app) {
                         "SDM: regress each stage on this many leading principal components of its features (folded "
                         "into the stored weights; at most 68 * hog-cells^2 * (3 * hog-orientations + 4)); 0 = off")
             ->check(CLI::NonNegativeNumber)
-            ->capture_default_str();
-        cmd->add_option("--out-of-fold", args->out_of_fold,
-                        "SDM: after each stage move the training rows by that stage as trained without their fold "
-                        "(K folds of the training faces by source image), so that the next stage learns from residuals "
-                        "the size of new faces'; the stored stages still train on every row; 0 = off")
-            ->check(CLI::Range(0, 100))
             ->capture_default_str();
         cmd->add_flag("--mirror", args->mirror,
                       "SDM: every training face also trains as its mirror image (the frontal cascade's faces with view "

@@ -33,7 +33,6 @@ constexpr std::uint64_t kInitStreamBase = 0x5344'4d00;  // "SDM"
 constexpr std::size_t kChunkRows = 1024;
 // Added to the seed for the realigned cascade's training starts.
 constexpr std::uint64_t kRealignSeedOffset = 0x7265'616c;  // "real"
-constexpr int kMaxOutOfFold = 100;
 
 using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
@@ -107,6 +106,23 @@ SimilarityMap similarity_map(const Eigen::Matrix2Xd& from, const Eigen::Matrix2X
     return map;
 }
 
+// A training start: the cascade's start for the face's view moved by a similarity drawn from the box
+// statistics' spreads; depends only on (seed, face, augmentation index).
+Eigen::Matrix2Xd perturbed_start(const SdmModel& model, const TrainingFace& face, std::uint64_t seed, std::size_t face_index,
+                                 std::size_t augmentation) {
+    const BoxStatistics& boxes = model.boxes;
+    core::Rng rng(seed, face_index, kInitStreamBase + augmentation);
+    Similarity s;
+    s.scale = 1 + boxes.init_scale_std * rng.normal();
+    s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
+    // One draw per statement, y before x: the order GCC chose when they were one expression (the
+    // order of draws within one expression is the compiler's), so GCC builds keep their models.
+    const double dy = rng.normal();
+    const double dx = rng.normal();
+    s.translation = Eigen::Vector2d(dx, dy) * boxes.init_translation_std * kCanonicalBoxWidth;
+    return s.apply_about_centroid(model.initial_shape(face.view));
+}
+
 double standard_deviation(const std::vector<double>& values) {
     if (values.size() < 2) return 0;
     double mean = 0;
@@ -141,21 +157,6 @@ Eigen::MatrixXd ridge_solution(const Eigen::MatrixXd& scatter, const std::option
 }
 
 }  // namespace
-
-Eigen::Matrix2Xd perturbed_start(const SdmModel& model, const TrainingFace& face, std::uint64_t seed, std::size_t face_index,
-                                 std::size_t augmentation) {
-    const BoxStatistics& boxes = model.boxes;
-    core::Rng rng(seed, face_index, kInitStreamBase + augmentation);
-    Similarity s;
-    s.scale = 1 + boxes.init_scale_std * rng.normal();
-    s.rotation = boxes.init_rotation_std_deg * rng.normal() * std::numbers::pi / 180.0;
-    // One draw per statement, y before x: the order GCC chose when they were one expression (the
-    // order of draws within one expression is the compiler's), so GCC builds keep their models.
-    const double dy = rng.normal();
-    const double dx = rng.normal();
-    s.translation = Eigen::Vector2d(dx, dy) * boxes.init_translation_std * kCanonicalBoxWidth;
-    return s.apply_about_centroid(model.initial_shape(face.view));
-}
 
 std::vector<SdmStageSettings> default_stage_settings(int stages, int jaw_features_from, std::span<const double> patch_sides) {
     static constexpr double kRelative[] = {1.0, 0.7, 0.4, 0.25, 0.2, 0.15, 0.12, 0.1};
@@ -329,11 +330,6 @@ void validate_options(const SdmTrainOptions& options) {
             throw core::Error("SDM training: ranks must be between 1 and " + std::to_string(2 * morph::kNumIbugLandmarks));
     if (options.validation_share < 0 || options.validation_share >= 1)
         throw core::Error("SDM training: the validation share must be in [0, 1)");
-    if (options.out_of_fold == 1 || options.out_of_fold < 0 || options.out_of_fold > kMaxOutOfFold)
-        throw core::Error("SDM training: --out-of-fold must be 0 (off) or 2-" + std::to_string(kMaxOutOfFold) + " folds, got " +
-                          std::to_string(options.out_of_fold));
-    if (options.out_of_fold > 0 && options.feature_components > 0)
-        throw core::Error("SDM training: --out-of-fold does not combine with --feature-pca");
 }
 
 struct FaceSplit {
@@ -443,18 +439,6 @@ const Candidate& choose_candidate(std::span<const Candidate> candidates, double 
     return *chosen;
 }
 
-// The stage of rank `basis.cols()` from a full-rank solution: b_r = ȳ − P Pᵀ (ȳ − b), so that
-// b_r + W_r x = ȳ + P Pᵀ (W x + b − ȳ).
-SdmStage reduced_rank_stage(const SdmStageSettings& settings, const Eigen::MatrixXf& basis, const Eigen::MatrixXf& weights,
-                            const Eigen::VectorXf& bias, const Eigen::RowVectorXf& target_mean) {
-    SdmStage stage;
-    stage.settings = settings;
-    stage.basis = basis;
-    stage.weights = basis.transpose() * weights;
-    stage.bias = target_mean.transpose() - basis * (basis.transpose() * (target_mean.transpose() - bias));
-    return stage;
-}
-
 // The cascade's training rows (`augment` perturbed starts per face, training faces first, then
 // validation faces) and the stages learned on them, one after the other.
 class CascadeTrainer {
@@ -473,7 +457,6 @@ public:
         shapes_.resize(rows);
         for (std::size_t r = 0; r < rows; ++r)
             shapes_[r] = perturbed_start(model, faces[row_face_[r]], options.seed, row_face_[r], r % augment);
-        if (options.out_of_fold > 0) assign_folds();
         for (const auto& stage : settings)
             total_feature_rows_ +=
                 train_rows_ * (train_rows_ < static_cast<std::size_t>(model.feature_dims(stage)) ? 1 : 2) + validation_rows_;
@@ -489,17 +472,6 @@ private:
         Eigen::VectorXf bias;
     };
 
-    // What one fold's training rows add to a primal problem (their features shifted as the problem's),
-    // or which rows they are in a dual one: enough to solve the problem without them.
-    struct FoldPart {
-        double rows = 0;
-        Eigen::MatrixXf gram;  // primal: A_fᵀ A_f, lower triangle
-        Eigen::VectorXd sum_x;
-        Eigen::MatrixXd cross;  // primal: A_fᵀ Y_f
-        Eigen::RowVectorXd sum_y;
-        std::vector<Eigen::Index> members;  // dual: the fold's rows
-    };
-
     // One stage's ridge regression from the training rows' features to their targets, reduced to what
     // solving it for a λ factor needs: in dual form (fewer rows than features) or primal form.
     struct RidgeProblem {
@@ -513,11 +485,8 @@ private:
         Eigen::RowVectorXd target_mean;
         Eigen::MatrixXd target_scatter;     // centred Yᵀ Y of the training rows, 2L x 2L
         std::optional<LeadingEigenpairs> feature_pca;
-        std::vector<FoldPart> folds;        // out-of-fold training only
 
         [[nodiscard]] FullSolution solve(double factor, double& lambda) const;
-        // The same regression on the training rows outside fold `f` (no feature PCA).
-        [[nodiscard]] FullSolution solve_without(std::size_t f, double factor) const;
     };
 
     // The chosen stage (λ factor and rank by held-out NME when there is a choice) and its report fields.
@@ -531,15 +500,8 @@ private:
     [[nodiscard]] RidgeProblem primal_problem(const SdmStageSettings& settings, std::uint64_t pca_seed);
     [[nodiscard]] ChosenStage choose_stage(std::size_t k, const RidgeProblem& problem, const RowMatrixXf& validation_features,
                                            const SdmStageSettings& settings) const;
-    // Moves every row's shape by the stage (the training rows' features recomputed chunk by chunk in
-    // primal form); with out-of-fold training, each training row by the stage solved without its fold.
-    void apply_stage(const ChosenStage& chosen, RidgeProblem& problem, const RowMatrixXf& validation_features,
-                     const SdmStageSettings& settings);
-    // Each training row's fold from its face's source image; every fold's complement must be trainable.
-    void assign_folds();
-    // Adds the chunk of training rows from `first` (shifted features `a`, targets `y`) to their folds' parts.
-    void add_to_folds(std::size_t first, const RowMatrixXf& a, const Eigen::MatrixXd& y, std::vector<FoldPart>& folds) const;
-    [[nodiscard]] std::vector<SdmStage> fold_stages(const ChosenStage& chosen, const RidgeProblem& problem) const;
+    // Moves every row's shape by the stage (the training rows' features recomputed chunk by chunk in primal form).
+    void apply_stage(const SdmStage& stage, RidgeProblem& problem, const RowMatrixXf& validation_features, const SdmStageSettings& settings);
 
     [[nodiscard]] const TrainingFace& face_of(std::size_t row) const { return faces_[row_face_[row]]; }
 
@@ -576,16 +538,6 @@ private:
         for (Eigen::Index i = 0; i < delta.rows(); ++i) apply_update(shapes_[first + static_cast<std::size_t>(i)], delta.row(i).data(), model_.unit);
     }
 
-    // Applies to each training row in [first, first + features.rows()) its fold's stage.
-    void update_rows_by_fold(std::size_t first, const RowMatrixXf& features, std::span<const SdmStage> stages) {
-        parallel_for(0, static_cast<std::size_t>(features.rows()), options_.threads, [&](std::size_t i) {
-            const SdmStage& stage = stages[static_cast<std::size_t>(row_fold_[first + i])];
-            const Eigen::VectorXf delta =
-                stage.basis * (stage.weights * features.row(static_cast<Eigen::Index>(i)).transpose()) + stage.bias;
-            apply_update(shapes_[first + i], delta.data(), model_.unit);
-        });
-    }
-
     // Held-out NME after applying the (centred, projected) predictions to the validation starts.
     [[nodiscard]] double validation_nme(const RowMatrixXf& delta) const {
         double sum = 0;
@@ -604,7 +556,6 @@ private:
     SdmModel& model_;
     std::vector<std::size_t> row_face_;
     std::vector<Eigen::Matrix2Xd> shapes_;  // every row's current shape
-    std::vector<int> row_fold_;             // out-of-fold training: each training row's fold
     std::size_t train_rows_ = 0, validation_rows_ = 0;
     int dims_ = 0;  // of the current stage's features
     std::size_t total_feature_rows_ = 0, feature_rows_done_ = 0;
@@ -621,53 +572,6 @@ CascadeTrainer::FullSolution CascadeTrainer::RidgeProblem::solve(double factor, 
         full.weights = w.transpose().cast<float>();
         full.bias = (target_mean.transpose() - w.transpose() * (feature_mean + feature_offset.transpose().cast<double>())).cast<float>();
     }
-    return full;
-}
-
-CascadeTrainer::FullSolution CascadeTrainer::RidgeProblem::solve_without(std::size_t f, double factor) const {
-    const FoldPart& fold = folds[f];
-    const double kept = rows - fold.rows;
-    double lambda = 0;
-    FullSolution full;
-    if (dual) {
-        // The kept rows' Gram matrix, centred on their own mean (double centring), and their targets.
-        std::vector<Eigen::Index> kept_rows;
-        std::vector<bool> in_fold(static_cast<std::size_t>(features.rows()), false);
-        for (Eigen::Index r : fold.members) in_fold[static_cast<std::size_t>(r)] = true;
-        for (Eigen::Index r = 0; r < features.rows(); ++r)
-            if (!in_fold[static_cast<std::size_t>(r)]) kept_rows.push_back(r);
-        Eigen::MatrixXd gram = scatter(kept_rows, kept_rows);
-        const Eigen::VectorXd row_mean = gram.rowwise().mean();
-        const double mean = row_mean.mean();
-        gram.colwise() -= row_mean;
-        gram.rowwise() -= row_mean.transpose();
-        gram.array() += mean;
-        const Eigen::MatrixXd y = right_side(kept_rows, Eigen::all);
-        const Eigen::RowVectorXd y_mean = y.colwise().mean();
-        const Eigen::MatrixXd alpha = ridge_solution(gram, std::nullopt, y.rowwise() - y_mean, factor, kept, lambda);
-        const RowMatrixXf a = features(kept_rows, Eigen::all);
-        const Eigen::RowVectorXf a_mean = a.colwise().mean();
-        const Eigen::MatrixXf alpha_f = alpha.cast<float>();
-        full.weights = alpha_f.transpose() * a - alpha_f.colwise().sum().transpose() * a_mean;
-        full.bias = (target_mean + y_mean).transpose().cast<float>() - full.weights * (feature_offset + a_mean).transpose();
-        return full;
-    }
-    // Primal: S and A_cᵀY_c of all training rows, uncentred, less the fold's, centred on the kept rows' mean.
-    const Eigen::VectorXd kept_mean = (rows * feature_mean - fold.sum_x) / kept;
-    const Eigen::RowVectorXd kept_target_mean = (rows * target_mean - fold.sum_y) / kept;
-    Eigen::MatrixXd s = scatter;
-    s.noalias() += rows * feature_mean * feature_mean.transpose();
-    s.noalias() -= kept * kept_mean * kept_mean.transpose();
-    for (Eigen::Index j = 0; j < s.cols(); ++j)
-        for (Eigen::Index i = j; i < s.rows(); ++i) {
-            s(i, j) -= static_cast<double>(fold.gram(i, j));
-            s(j, i) = s(i, j);
-        }
-    Eigen::MatrixXd rhs = right_side + rows * feature_mean * target_mean - fold.cross;
-    rhs.noalias() -= kept * kept_mean * kept_target_mean;
-    const Eigen::MatrixXd w = ridge_solution(s, std::nullopt, rhs, factor, kept, lambda);
-    full.weights = w.transpose().cast<float>();
-    full.bias = (kept_target_mean.transpose() - w.transpose() * (kept_mean + feature_offset.transpose().cast<double>())).cast<float>();
     return full;
 }
 
@@ -691,14 +595,6 @@ CascadeTrainer::RidgeProblem CascadeTrainer::dual_problem(const SdmStageSettings
     // from the rows, with the same eigenvalues (docs/train.md, "Feature PCA").
     if (options_.feature_components > 0)
         p.feature_pca = leading_eigenpairs(p.scatter, std::min<int>(options_.feature_components, static_cast<int>(train_rows_)), pca_seed);
-    if (!row_fold_.empty()) {
-        p.folds.resize(static_cast<std::size_t>(options_.out_of_fold));
-        for (std::size_t r = 0; r < train_rows_; ++r) {
-            FoldPart& fold = p.folds[static_cast<std::size_t>(row_fold_[r])];
-            fold.members.push_back(static_cast<Eigen::Index>(r));
-            fold.rows += 1;
-        }
-    }
     return p;
 }
 
@@ -720,17 +616,12 @@ CascadeTrainer::RidgeProblem CascadeTrainer::primal_problem(const SdmStageSettin
         if (first == 0) p.feature_offset = a.colwise().mean();
         a.rowwise() -= p.feature_offset;
         const Eigen::MatrixXd y = targets(first, count);
-        if (row_fold_.empty())
-            add_lower_gram(gram, dims_, options_.threads, [&](Eigen::Index begin, Eigen::Index n) { return a.middleCols(begin, n).transpose(); });
-        else
-            add_to_folds(first, a, y, p.folds);
+        add_lower_gram(gram, dims_, options_.threads, [&](Eigen::Index begin, Eigen::Index n) { return a.middleCols(begin, n).transpose(); });
         sum_x += a.colwise().sum().transpose().cast<double>();
         p.right_side.noalias() += a.transpose().cast<double>() * y;
         sum_y += y.colwise().sum();
         p.target_scatter.noalias() += y.transpose() * y;
     }
-    for (const FoldPart& fold : p.folds)
-        if (fold.rows > 0) gram += fold.gram;
     p.feature_mean = sum_x / n;
     p.target_mean = sum_y / n;
     p.target_scatter.noalias() -= n * p.target_mean.transpose() * p.target_mean;
@@ -776,87 +667,31 @@ CascadeTrainer::ChosenStage CascadeTrainer::choose_stage(std::size_t k, const Ri
     const Candidate& chosen = choose_candidate(candidates, options_.rank_tolerance);
     const FullSolution& full = solutions[chosen.factor_index];
     ChosenStage out;
-    out.stage = reduced_rank_stage(settings, principal.leftCols(chosen.rank), full.weights, full.bias, target_mean);
+    out.stage.settings = settings;
+    out.stage.basis = principal.leftCols(chosen.rank);
+    out.stage.weights = out.stage.basis.transpose() * full.weights;
+    // b_r = ȳ − P Pᵀ (ȳ − b), so that b_r + W_r x = ȳ + P Pᵀ (W x + b − ȳ).
+    out.stage.bias = target_mean.transpose() - out.stage.basis * (out.stage.basis.transpose() * (target_mean.transpose() - full.bias));
     out.lambda_factor = options_.lambda_factors[chosen.factor_index];
     out.lambda = lambdas[chosen.factor_index];
     out.rank = chosen.rank;
     return out;
 }
 
-void CascadeTrainer::assign_folds() {
-    const auto folds = static_cast<std::size_t>(options_.out_of_fold);
-    row_fold_.resize(train_rows_);
-    std::vector<std::size_t> rows_in(folds, 0);
-    for (std::size_t r = 0; r < train_rows_; ++r) {
-        row_fold_[r] = static_cast<int>(face_of(r).source % folds);
-        ++rows_in[static_cast<std::size_t>(row_fold_[r])];
-    }
-    for (std::size_t f = 0; f < folds; ++f)
-        if (rows_in[f] > 0 && train_rows_ - rows_in[f] < 2)
-            throw core::Error("SDM training: --out-of-fold " + std::to_string(folds) + " put every training face in one fold (folds follow the source " +
-                              "images; faces from one image share a fold): it needs faces from more images");
-}
-
-void CascadeTrainer::add_to_folds(std::size_t first, const RowMatrixXf& a, const Eigen::MatrixXd& y, std::vector<FoldPart>& folds) const {
-    if (folds.empty()) folds.resize(static_cast<std::size_t>(options_.out_of_fold));
-    for (std::size_t f = 0; f < folds.size(); ++f) {
-        std::vector<Eigen::Index> members;
-        for (Eigen::Index i = 0; i < a.rows(); ++i)
-            if (row_fold_[first + static_cast<std::size_t>(i)] == static_cast<int>(f)) members.push_back(i);
-        if (members.empty()) continue;
-        FoldPart& fold = folds[f];
-        if (fold.gram.size() == 0) {
-            fold.gram = Eigen::MatrixXf::Zero(dims_, dims_);
-            fold.sum_x = Eigen::VectorXd::Zero(dims_);
-            fold.cross = Eigen::MatrixXd::Zero(dims_, kOutputs);
-            fold.sum_y = Eigen::RowVectorXd::Zero(kOutputs);
-        }
-        const RowMatrixXf part = a(members, Eigen::all);
-        const Eigen::MatrixXd part_y = y(members, Eigen::all);
-        add_lower_gram(fold.gram, dims_, options_.threads,
-                       [&](Eigen::Index begin, Eigen::Index n) { return part.middleCols(begin, n).transpose(); });
-        fold.sum_x += part.colwise().sum().transpose().cast<double>();
-        fold.cross.noalias() += part.transpose().cast<double>() * part_y;
-        fold.sum_y += part_y.colwise().sum();
-        fold.rows += static_cast<double>(members.size());
-    }
-}
-
-std::vector<SdmStage> CascadeTrainer::fold_stages(const ChosenStage& chosen, const RidgeProblem& problem) const {
-    std::vector<SdmStage> stages(problem.folds.size());
-    const Eigen::RowVectorXf target_mean = problem.target_mean.cast<float>();
-    // One D×D solve per fold, each thread with its own copy of the system (as the λ candidates').
-    parallel_for(0, stages.size(), options_.threads, [&](std::size_t f) {
-        if (problem.folds[f].rows == 0) return;
-        const FullSolution full = problem.solve_without(f, chosen.lambda_factor);
-        if (!full.weights.allFinite() || !full.bias.allFinite())
-            throw core::Error("SDM training: the out-of-fold solve without fold " + std::to_string(f + 1) + " produced non-finite weights");
-        stages[f] = reduced_rank_stage(chosen.stage.settings, chosen.stage.basis, full.weights, full.bias, target_mean);
-    });
-    return stages;
-}
-
-void CascadeTrainer::apply_stage(const ChosenStage& chosen, RidgeProblem& problem, const RowMatrixXf& validation_features,
+void CascadeTrainer::apply_stage(const SdmStage& stage, RidgeProblem& problem, const RowMatrixXf& validation_features,
                                  const SdmStageSettings& settings) {
-    const std::vector<SdmStage> by_fold = row_fold_.empty() ? std::vector<SdmStage>{} : fold_stages(chosen, problem);
-    const auto update = [&](std::size_t first, const RowMatrixXf& features) {
-        if (by_fold.empty())
-            update_rows(first, features, chosen.stage);
-        else
-            update_rows_by_fold(first, features, by_fold);
-    };
     if (problem.dual) {
         problem.features.rowwise() += problem.feature_offset;  // the features themselves again
-        update(0, problem.features);
+        update_rows(0, problem.features, stage);
     } else {
         RowMatrixXf a;
         for (std::size_t first = 0; first < train_rows_; first += kChunkRows) {
             const std::size_t count = std::min(kChunkRows, train_rows_ - first);
             extract_rows(first, count, settings, a);
-            update(first, a);
+            update_rows(first, a, stage);
         }
     }
-    if (validation_rows_) update_rows(train_rows_, validation_features, chosen.stage);
+    if (validation_rows_) update_rows(train_rows_, validation_features, stage);
 }
 
 void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings) {
@@ -876,7 +711,7 @@ void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings
     report.lambda = chosen.lambda;
     report.rank = chosen.rank;
     report.feature_components = problem.feature_pca ? static_cast<int>(problem.feature_pca->values.size()) : 0;
-    apply_stage(chosen, problem, validation_features, settings);
+    apply_stage(chosen.stage, problem, validation_features, settings);
 
     report.nme_after = mean_nme(0, train_rows_);
     report.validation_nme_after = mean_nme(train_rows_, validation_rows_);

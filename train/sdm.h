@@ -160,9 +160,6 @@ struct TrainingFace {
     bool box_from_detector = false;
     FaceView view = FaceView::kFrontal;  // the view that found it (for synthesised boxes: the view assigned)
     std::optional<double> yaw_deg;       // ground truth where the data has it (synth meta)
-    // The image it came from (prepare_training_faces: the FNV-1a hash of its key): a folder listed twice
-    // and a mirror image share it, so that out-of-fold training keeps them in one fold (source mod K).
-    std::uint64_t source = 0;
 };
 
 // The iBUG mirror of a shape in canonical crop coordinates: x -> side - 1 - x (the pixel centres of a
@@ -172,12 +169,6 @@ struct TrainingFace {
 [[nodiscard]] Eigen::Matrix2Xd mirror_canonical_shape(const Eigen::Matrix2Xd& shape);
 // The flipped crop with the mirrored shape; nose-left and nose-right views swap, the yaw changes sign.
 [[nodiscard]] TrainingFace mirror_training_face(const TrainingFace& face);
-
-// A training start: the model's start for the face's view moved by a similarity drawn from the model's
-// box statistics' spreads; depends only on (seed, face index, augmentation index). Training row r of a
-// cascade is face split[r / augment]'s start number r % augment.
-[[nodiscard]] Eigen::Matrix2Xd perturbed_start(const SdmModel& model, const TrainingFace& face, std::uint64_t seed,
-                                               std::size_t face_index, std::size_t augmentation);
 
 struct SdmStageReport {
     int stage = 0;           // 1-based
@@ -216,11 +207,6 @@ struct SdmTrainOptions {
     // training features (capped at the stage's feature dimension D and, in the dual form, at the
     // training rows) and folds the projection into its weights; 0: off (plain ridge on all D features).
     int feature_components = 0;
-    // Out-of-fold updates (0: off; K >= 2): after each stage the training rows move by that stage as
-    // trained without their fold (the training faces in K folds by `source`), not by the stage itself, so
-    // that the next stage learns from residuals the size held-out faces have; the model's stages are
-    // still trained on every training row. Fold of a face: its source mod K. Not with feature PCA.
-    int out_of_fold = 0;
     int jaw_features_from = 3;  // first stage (1-based) whose features include the jaw points
     ShapeUnitKind unit = ShapeUnitKind::kInterEyeCentres;
     // kFixed: the unit's length in canonical crop pixels; 0: the inter-eye-centre distance of the

@@ -63,7 +63,6 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     };
     report["feature_pca"] = options.feature_components;
     report["mirror"] = options.mirror;
-    report["out_of_fold"] = options.out_of_fold;
     report["augment"] = options.augment;
     report["stages"] = options.stages;
     report["hog_cells"] = options.hog.cells;

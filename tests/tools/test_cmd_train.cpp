@@ -282,10 +282,6 @@ TEST(CmdTrain, BadRegressorFileAndUsageErrors) {
     EXPECT_NE(out.find("--hog-orientations"), std::string::npos) << out;
     EXPECT_EQ(run_command(train_here + " --hog-cells 2 --hog-orientations 9 --feature-pca 8433", &out), 2) << out;  // 68 * 4 * 31 = 8432
     EXPECT_NE(out.find("--feature-pca"), std::string::npos) << out;
-    for (const char* bad : {" --out-of-fold 1", " --out-of-fold 101", " --out-of-fold 5 --method ert", " --out-of-fold 5 --feature-pca 8"}) {
-        EXPECT_EQ(run_command(train_here + bad, &out), 2) << bad << ": " << out;
-        EXPECT_NE(out.find("--out-of-fold"), std::string::npos) << bad << ": " << out;
-    }
     EXPECT_FALSE(fs::exists(dir / "m.sdm"));
     EXPECT_EQ(run_command(cli_path().string() + " eval landmarks --regressor sdm@x:" + (dir / "bad.sdm").string() +
                               " --data " + dir.string(),

@@ -140,7 +140,6 @@ std::vector<train::TrainingFace> cartoon_training_faces(std::uint64_t seed, int 
         face.crop = canonical_crop(cartoon.gray, frame);
         face.truth = frame.to_canonical(cartoon.landmarks);
         face.box_from_detector = true;
-        face.source = (seed << 32) | static_cast<std::uint64_t>(i);
         if (yaw_deg != 0) {
             face.yaw_deg = yaw;
             face.view = std::abs(yaw) < 20 ? FaceView::kFrontal : yaw < 0 ? FaceView::kNoseLeft : FaceView::kNoseRight;
