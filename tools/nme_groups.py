@@ -6,6 +6,7 @@
     tools/nme_groups.py GT DET --write-offsets OFFSETS.json   # label adaptation: train --label-offsets
     tools/nme_groups.py GT DET [DET2 ...] --points 1-3,15-17      # also the mean error over these points
     tools/nme_groups.py GT DET [DET2 ...] --turn-trend            # offsets that grow with the head's turn
+    tools/nme_groups.py GT DET [DET2 ...] --points 18-68 --nme-csv inner.csv   # per face, for tools/nme_bootstrap.py
 
 For every GT/NAME.pts with a detection DET/NAME_<k>.pts (the detection nearest the annotation when there
 are several), on the faces every DET folder found: the mean point error per group (jaw 1-17, brows 18-27,
@@ -14,6 +15,9 @@ mean offset (prediction - annotation, face frame: x along the eye line, y down) 
 --write-offsets writes, for one DET folder, the mean (annotation - prediction) per landmark in the keys
 `train --label-offsets` reads (mean_x_NN, mean_y_NN, as `eval conventions --json`): the training labels
 then move by the detector's mean bias on these annotations (docs/results.md, "Label adaptation").
+--nme-csv writes, per face found in every folder, the mean point error (inter-ocular) over --points (all
+68 without it) of each folder, in the layout of `facesynth eval landmarks --nme-csv` (key = the .pts name,
+yaw_deg and view empty, regressorK = the K-th folder), so that tools/nme_bootstrap.py can pair them.
 --turn-trend also prints, per folder, the landmarks whose x offset changes with the head's turn: the
 least-squares slope of the offset along the eye line on the annotation's eye-width asymmetry
 (wl - wr) / (wl + wr) (outer to inner corner, each eye; about 0.05 per 10 degrees of yaw, a measure that
@@ -97,6 +101,7 @@ def main():
     parser.add_argument("--write-offsets", metavar="FILE", help="with one DET folder: its mean (annotation - prediction) as label offsets")
     parser.add_argument("--points", metavar="LIST", help="also print the mean error over these 1-based points, e.g. 1-3,15-17")
     parser.add_argument("--turn-trend", action="store_true", help="also print the landmarks whose x offset changes with the head's turn")
+    parser.add_argument("--nme-csv", metavar="FILE", help="per face, each folder's mean error over --points (or all 68), for tools/nme_bootstrap.py")
     args = parser.parse_args()
     points = parse_points(args.points) if args.points else None
     if args.write_offsets and len(args.detections) != 1:
@@ -104,7 +109,7 @@ def main():
     truth = {os.path.basename(p)[:-4]: read_pts(p) for p in sorted(glob.glob(os.path.join(args.gt, "*.pts")))}
     if not truth:
         sys.exit(f"{args.gt}: no .pts files")
-    found = {}
+    found = []  # (folder, its best detection per face), in argument order (a folder may be given twice)
     for folder in args.detections:
         best = {}
         for name, gt in truth.items():
@@ -113,12 +118,14 @@ def main():
                 error = sum(math.dist(a, b) for a, b in zip(p, gt)) / 68
                 if name not in best or error < best[name][0]:
                     best[name] = (error, p)
-        found[folder] = best
-    common = sorted(set.intersection(*(set(b) for b in found.values())))
+        found.append((folder, best))
+    common = sorted(set.intersection(*(set(b) for _, b in found)))
     print(f"{len(common)} of {len(truth)} faces found in every folder")
     if not common:
         sys.exit("no face was found in every folder (do they hold `facesynth detect` output for these images?)")
-    for folder, best in found.items():
+    per_face = {name: [] for name in common}  # --nme-csv: each folder's mean error over the chosen points
+    chosen = points or list(range(68))
+    for folder, best in found:
         errors = [0.0] * 68
         turns, x_offsets, y_offsets = [], [], []  # per face: eye asymmetry, per landmark x and y offsets
         for name in common:
@@ -136,6 +143,7 @@ def main():
                 x_offsets[-1][i] = (d[0] * ex[0] + d[1] * ex[1]) / iod
                 y_offsets[-1][i] = (d[0] * ey[0] + d[1] * ey[1]) / iod
             turns.append(eye_asymmetry(gt))
+            per_face[name].append(sum(math.dist(p[i], gt[i]) for i in chosen) / (len(chosen) * iod))
         n = len(common)
         offsets = [(sum(row[i] for row in x_offsets) / n, sum(row[i] for row in y_offsets) / n) for i in range(68)]
         groups = "  ".join(f"{g} {sum(errors[i] for i in r) / (n * len(r)):.4f}" for g, r in GROUPS.items())
@@ -158,6 +166,11 @@ def main():
             with open(args.write_offsets, "w") as f:
                 json.dump(written, f, indent=1)
                 f.write("\n")
+    if args.nme_csv:
+        with open(args.nme_csv, "w") as f:
+            f.write("key,yaw_deg,detected,view," + ",".join(f"regressor{k + 1}" for k in range(len(args.detections))) + "\n")
+            for name in common:
+                f.write(f"{name},,1," + "," + ",".join(f"{e:.6g}" for e in per_face[name]) + "\n")
 
 
 if __name__ == "__main__":

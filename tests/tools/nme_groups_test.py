@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""tools/nme_groups.py on made-up faces: errors per group, offsets and the turn trend (ctest runs it)."""
+"""tools/nme_groups.py on made-up faces: errors per group, offsets, the turn trend and --nme-csv (ctest runs it)."""
 import math
 import os
 import subprocess
@@ -59,10 +59,20 @@ def main():
             sys.exit(f"expected point 9's trend of +0.030 per 0.1 and no other:\n{out}")
         if "its turn trend too 0.0000" not in out:
             sys.exit(f"with the mean offsets and the trend taken off, nothing is left:\n{out}")
+        csv = os.path.join(tmp, "point31.csv")
+        run(gt, det, det, "--points", "31", "--nme-csv", csv)
+        with open(csv) as f:
+            lines = f.read().splitlines()
+        if lines[0] != "key,yaw_deg,detected,view,regressor1,regressor2" or len(lines) != 6:
+            sys.exit(f"expected eval landmarks' header for two folders and five faces:\n{lines}")
+        for k, line in enumerate(lines[1:]):
+            key, yaw, detected, view, first, second = line.split(",")
+            if key != f"face{k}" or yaw or detected != "1" or view or abs(float(first) - 0.05) > 1e-6 or first != second:
+                sys.exit(f"expected face{k} with point 31's error of 0.05 in both columns: {line}")
         without = run(gt, det)
         if "eye asymmetry" in without:
             sys.exit(f"the trend is printed only with --turn-trend:\n{without}")
-    print("nme_groups.py: groups, offsets and turn trend as made")
+    print("nme_groups.py: groups, offsets, turn trend and per-face errors as made")
 
 
 if __name__ == "__main__":
