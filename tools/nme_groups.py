@@ -137,13 +137,15 @@ def main():
             ey = (-ex[1], ex[0])
             x_offsets.append([0.0] * 68)
             y_offsets.append([0.0] * 68)
+            face_errors = [0.0] * 68
             for i in range(68):
                 d = (p[i][0] - gt[i][0], p[i][1] - gt[i][1])
-                errors[i] += math.hypot(*d) / iod
+                face_errors[i] = math.hypot(*d) / iod
+                errors[i] += face_errors[i]
                 x_offsets[-1][i] = (d[0] * ex[0] + d[1] * ex[1]) / iod
                 y_offsets[-1][i] = (d[0] * ey[0] + d[1] * ey[1]) / iod
             turns.append(eye_asymmetry(gt))
-            per_face[name].append(sum(math.dist(p[i], gt[i]) for i in chosen) / (len(chosen) * iod))
+            per_face[name].append(sum(face_errors[i] for i in chosen) / len(chosen))
         n = len(common)
         offsets = [(sum(row[i] for row in x_offsets) / n, sum(row[i] for row in y_offsets) / n) for i in range(68)]
         groups = "  ".join(f"{g} {sum(errors[i] for i in r) / (n * len(r)):.4f}" for g, r in GROUPS.items())
