@@ -7,6 +7,7 @@
     tools/nme_groups.py GT DET [DET2 ...] --points 1-3,15-17      # also the mean error over these points
     tools/nme_groups.py GT DET [DET2 ...] --turn-trend            # offsets that grow with the head's turn
     tools/nme_groups.py GT DET [DET2 ...] --points 18-68 --nme-csv inner.csv   # per face, for tools/nme_bootstrap.py
+    tools/nme_groups.py GT DET [DET2 ...] --jaw-directions    # the jaw's error along its outline and across it
 
 For every GT/NAME.pts with a detection DET/NAME_<k>.pts (the detection nearest the annotation when there
 are several), on the faces every DET folder found: the mean point error per group (jaw 1-17, brows 18-27,
@@ -26,6 +27,10 @@ exceeds 0.01 inter-ocular distances. A positive slope is a point that moves with
 the annotation does, as a point in front of the annotators' would (or one the detector turns too far). It
 also prints the mean error left once each landmark's mean offset, and then its trend too, are taken off
 (fitted on the same faces: a bound on what label conventions can be worth to that detector there).
+--jaw-directions also prints, per folder, the mean size of the 17 jaw points' offsets along the annotated
+jaw outline (the direction from the point's annotated neighbour before it to the one after it; at the ends,
+to or from its one neighbour) and across it: a jaw point can slide along the outline, where the image
+says least about it.
 """
 import argparse
 import glob
@@ -57,6 +62,19 @@ def eye_asymmetry(points):
     """(wl - wr) / (wl + wr) of the two eyes' corner-to-corner widths: grows with the head's turn."""
     left, right = math.dist(points[36], points[39]), math.dist(points[42], points[45])
     return (left - right) / (left + right)
+
+
+def jaw_directions(gt, p):
+    """Summed |offset| of the 17 jaw points along the annotated outline and across it, in pixels."""
+    along = across = 0.0
+    for i in range(17):
+        before, after = gt[max(i - 1, 0)], gt[min(i + 1, 16)]
+        length = math.dist(before, after)
+        t = ((after[0] - before[0]) / length, (after[1] - before[1]) / length) if length > 0 else (1.0, 0.0)
+        d = (p[i][0] - gt[i][0], p[i][1] - gt[i][1])
+        along += abs(d[0] * t[0] + d[1] * t[1])
+        across += abs(d[1] * t[0] - d[0] * t[1])
+    return along, across
 
 
 def slope(xs, ys):
@@ -101,6 +119,7 @@ def main():
     parser.add_argument("--write-offsets", metavar="FILE", help="with one DET folder: its mean (annotation - prediction) as label offsets")
     parser.add_argument("--points", metavar="LIST", help="also print the mean error over these 1-based points, e.g. 1-3,15-17")
     parser.add_argument("--turn-trend", action="store_true", help="also print the landmarks whose x offset changes with the head's turn")
+    parser.add_argument("--jaw-directions", action="store_true", help="also print the jaw's mean error along its annotated outline and across it")
     parser.add_argument("--nme-csv", metavar="FILE", help="per face, each folder's mean error over --points (or all 68), for tools/nme_bootstrap.py")
     args = parser.parse_args()
     points = parse_points(args.points) if args.points else None
@@ -128,6 +147,7 @@ def main():
     for folder, best in found:
         errors = [0.0] * 68
         turns, x_offsets, y_offsets = [], [], []  # per face: eye asymmetry, per landmark x and y offsets
+        jaw_along = jaw_across = 0.0  # summed over faces and the 17 jaw points, inter-ocular
         for name in common:
             gt, p = truth[name], best[name][1]
             iod = math.dist(gt[36], gt[45])
@@ -145,6 +165,9 @@ def main():
                 x_offsets[-1][i] = (d[0] * ex[0] + d[1] * ex[1]) / iod
                 y_offsets[-1][i] = (d[0] * ey[0] + d[1] * ey[1]) / iod
             turns.append(eye_asymmetry(gt))
+            along, across = jaw_directions(gt, p)
+            jaw_along += along / iod
+            jaw_across += across / iod
             per_face[name].append(sum(face_errors[i] for i in chosen) / len(chosen))
         n = len(common)
         offsets = [(sum(row[i] for row in x_offsets) / n, sum(row[i] for row in y_offsets) / n) for i in range(68)]
@@ -160,6 +183,8 @@ def main():
             print("  x offset per 0.1 eye asymmetry, over 0.01:", " ".join(trending) or "none")
             print(f"  mean error with each landmark's mean offset taken off {bias_free_error(turns, x_offsets, y_offsets, False):.4f}, "
                   f"its turn trend too {bias_free_error(turns, x_offsets, y_offsets, True):.4f} (fitted on these faces: a bound)")
+        if args.jaw_directions:
+            print(f"  jaw along its outline {jaw_along / (17 * n):.4f}, across it {jaw_across / (17 * n):.4f}")
         if args.write_offsets:
             written = {"faces": n}
             for i, o in enumerate(offsets):

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""tools/nme_groups.py on made-up faces: errors per group, offsets, the turn trend and --nme-csv (ctest runs it)."""
+"""tools/nme_groups.py on made-up faces: errors per group, offsets, the turn trend, the jaw's directions and
+--nme-csv (ctest runs it)."""
 import math
 import os
 import subprocess
@@ -69,10 +70,30 @@ def main():
             key, yaw, detected, view, first, second = line.split(",")
             if key != f"face{k}" or yaw or detected != "1" or view or abs(float(first) - 0.05) > 1e-6 or first != second:
                 sys.exit(f"expected face{k} with point 31's error of 0.05 in both columns: {line}")
+        # The jaw: a second folder whose point 5 slides 0.17 inter-ocular distances along the annotated
+        # outline (from point 4 toward point 6) and point 12 0.34 across it, on every face.
+        jaw = os.path.join(tmp, "jaw")
+        os.makedirs(jaw)
+        for k in range(5):
+            truth = face([-0.1, -0.05, 0.0, 0.05, 0.1][k])
+            eye_width = math.dist(truth[36], truth[45])
+            moved = list(truth)
+            for i, size, across in ((4, 0.17, False), (11, 0.34, True)):
+                a, b = truth[i - 1], truth[i + 1]
+                length = math.dist(a, b)
+                tx, ty = (b[0] - a[0]) / length, (b[1] - a[1]) / length
+                dx, dy = (-ty, tx) if across else (tx, ty)
+                moved[i] = (truth[i][0] + size * eye_width * dx, truth[i][1] + size * eye_width * dy)
+            write_pts(os.path.join(jaw, f"face{k}_0.pts"), moved)
+        directions = run(gt, jaw, "--jaw-directions")
+        if "jaw along its outline 0.0100, across it 0.0200" not in directions:
+            sys.exit(f"expected 0.17 / 17 along the jaw and 0.34 / 17 across it:\n{directions}")
         without = run(gt, det)
+        if "jaw along" in without:
+            sys.exit(f"the jaw's directions are printed only with --jaw-directions:\n{without}")
         if "eye asymmetry" in without:
             sys.exit(f"the trend is printed only with --turn-trend:\n{without}")
-    print("nme_groups.py: groups, offsets, turn trend and per-face errors as made")
+    print("nme_groups.py: groups, offsets, turn trend, the jaw's directions and per-face errors as made")
 
 
 if __name__ == "__main__":
