@@ -165,9 +165,10 @@ def main():
                 x_offsets[-1][i] = (d[0] * ex[0] + d[1] * ex[1]) / iod
                 y_offsets[-1][i] = (d[0] * ey[0] + d[1] * ey[1]) / iod
             turns.append(eye_asymmetry(gt))
-            along, across = jaw_directions(gt, p)
-            jaw_along += along / iod
-            jaw_across += across / iod
+            if args.jaw_directions:
+                along, across = jaw_directions(gt, p)
+                jaw_along += along / iod
+                jaw_across += across / iod
             per_face[name].append(sum(face_errors[i] for i in chosen) / len(chosen))
         n = len(common)
         offsets = [(sum(row[i] for row in x_offsets) / n, sum(row[i] for row in y_offsets) / n) for i in range(68)]
