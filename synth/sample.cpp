@@ -4,8 +4,8 @@
 #include "morph/landmarks.h"
 #include "core/random.h"
 #include "core/srgb.h"
+#include "degrade/degrade.h"
 #include "render/landmarks.h"
-#include "synth/degrade.h"
 #include "synth/exposure.h"
 #include "synth/texture_mix.h"
 #include "synth/neck.h"
@@ -447,7 +447,8 @@ Sample SampleGenerator::generate(std::int64_t index, StageTimes* times) {
     draw_occluders(s.spec.occluders, backgrounds_, frame_.labels, s.image, occluder_coverage);
     if (!occluder_coverage.empty()) s.mask.setTo(0, occluder_coverage);  // an empty mask would clear it all
     labels.occluded = occluded_by(chosen_landmarks(labels, config_.landmarks.mode), occluder_coverage);
-    degrade(s.image, s.spec.degradation, s.spec.seed, index);
+    core::Rng noise = core::make_rng(s.spec.seed, static_cast<std::uint64_t>(index), core::RandomStream::kNoise);
+    degrade::apply(s.image, s.spec.degradation, noise);
     if (config_.output.depth) s.depth = frame_.depth.clone();
     if (config_.output.normals) s.normals = frame_.normals.clone();
     if (config_.output.labels) {

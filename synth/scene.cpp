@@ -182,10 +182,10 @@ BackgroundSpec sample_background(const SynthConfig& config, std::int64_t index) 
     return b;
 }
 
-DegradationSpec sample_degradation(const SynthConfig& config, std::int64_t index) {
+degrade::DegradationSpec sample_degradation(const SynthConfig& config, std::int64_t index) {
     const auto& c = config.degrade;
     core::Rng rng = core::make_rng(config.seed, static_cast<std::uint64_t>(index), core::RandomStream::kDegradation);
-    DegradationSpec d;
+    degrade::DegradationSpec d;
     // Every draw happens whatever the probabilities, so changing one probability never moves another value.
     const double blur = rng.uniform(0.3, c.blur_sigma_max);
     const double noise = rng.uniform(1.0, c.noise_sigma_max);

@@ -1,6 +1,7 @@
 #pragma once
 // The per-sample scene: everything random about sample i, drawn from Rng(seed, i, stream) with one
 // RandomStream per quantity, so sample i depends only on (config, model, seed, i).
+#include "degrade/degrade.h"
 #include "morph/camera.h"
 #include "morph/model.h"
 #include "morph/pose.h"
@@ -41,20 +42,6 @@ struct BackgroundSpec {
     Eigen::Vector3d colour2 = Eigen::Vector3d::Zero();  // second gradient colour (procedural)
     double gradient_angle = 0;                          // degrees (procedural)
     std::uint64_t pattern_seed = 0;                     // procedural shapes / image choice and crop
-};
-
-// One value per degradation; the neutral value means "not applied".
-struct DegradationSpec {
-    double blur_sigma = 0;          // px, 0 = none
-    double noise_sigma = 0;         // 8-bit levels, 0 = none
-    int jpeg_quality = 0;           // 0 = none
-    double gamma = 1;               // 1 = none
-    Eigen::Vector3d gains = Eigen::Vector3d::Ones();  // per-channel RGB gains, 1 = none
-    double downscale = 1;           // 1 = none
-    double sharpen_amount = 0;      // unsharp mask: image + amount (image - blurred), 0 = none
-    // The whole image in grey, as the photograph the sample's texture came from was (a texture bank's
-    // greyscale photographs: ImageLibrary::greyscale); set by the sample generator, not drawn.
-    bool greyscale = false;
 };
 
 struct OccluderSpec {
@@ -108,7 +95,7 @@ struct SampleSpec {
     double fov = 0;  // vertical, degrees
     LightingSpec lighting;
     BackgroundSpec background;
-    DegradationSpec degradation;
+    degrade::DegradationSpec degradation;
     std::vector<OccluderSpec> occluders;
     std::optional<HeadPartsSpec> head_parts;  // with head.body
     std::optional<SequencePosition> sequence;  // with sequence.frames

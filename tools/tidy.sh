@@ -33,7 +33,7 @@ if [[ $# -gt 0 ]]; then
 elif git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
     mapfile -t files < <(git ls-files --cached --others --exclude-standard '*.cpp' ':!:tests/**')
 else
-    mapfile -t files < <(find core morph render synth fit frontal recognition train profile report track tools examples bench fuzz -name '*.cpp' 2>/dev/null | sort)
+    mapfile -t files < <(find core degrade morph render synth fit frontal recognition train profile report track tools examples bench fuzz -name '*.cpp' 2>/dev/null | sort)
 fi
 jobs=${FACESYNTH_TIDY_JOBS:-2}
 

@@ -18,6 +18,7 @@ namespace {
 
 void collect(const std::filesystem::path& image_dir, const std::filesystem::path& pts_dir, const std::string& prefix,
              std::vector<LabelledImage>& out) {
+    const bool photographs = image_dir == pts_dir;
     std::vector<std::filesystem::path> images;
     for (const auto& entry : std::filesystem::directory_iterator(image_dir))
         if (entry.is_regular_file() && core::is_image_file(entry.path())) images.push_back(entry.path());
@@ -25,7 +26,7 @@ void collect(const std::filesystem::path& image_dir, const std::filesystem::path
     for (const auto& image : images) {
         auto pts = pts_dir / image.filename();
         pts.replace_extension(".pts");
-        if (std::filesystem::exists(pts)) out.push_back({prefix + "/" + image.stem().string(), image, pts});
+        if (std::filesystem::exists(pts)) out.push_back({prefix + "/" + image.stem().string(), image, pts, photographs});
     }
 }
 

@@ -15,6 +15,9 @@ struct LabelledImage {
     std::string key;                 // "<folder name>/<file stem>"
     std::filesystem::path image;
     std::filesystem::path pts;
+    // Side by side with its .pts (a folder of photographs), not in a dataset's images/ + landmarks/
+    // layout (renders from `facesynth synth` or `facesynth profile`).
+    bool photograph = true;
 };
 
 // Every image (.png .jpg .jpeg .ppm .pgm .bmp .tif .tiff) with a same-stem .pts, sorted by path within

@@ -5,6 +5,7 @@
 #include "core/random.h"
 #include "train/feature_pca.h"
 #include "train/hog.h"
+#include "train/image_copies.h"
 #include "train/parallel.h"
 
 #include <opencv2/core.hpp>
@@ -20,6 +21,7 @@
 #include <limits>
 #include <cmath>
 #include <functional>
+#include <iterator>
 #include <numbers>
 #include <optional>
 #include <utility>
@@ -297,6 +299,7 @@ TrainingFace mirror_training_face(const TrainingFace& face) {
     cv::flip(face.crop, mirrored.crop, 1);
     mirrored.truth = mirror_canonical_shape(face.truth);
     mirrored.box_from_detector = face.box_from_detector;
+    mirrored.photograph = face.photograph;
     mirrored.view = face.view == FaceView::kNoseLeft    ? FaceView::kNoseRight
                     : face.view == FaceView::kNoseRight ? FaceView::kNoseLeft
                                                         : FaceView::kFrontal;
@@ -312,6 +315,9 @@ namespace {
 
 void validate_options(const SdmTrainOptions& options) {
     if (options.augment < 1) throw core::Error("SDM training: --augment must be at least 1");
+    if (options.image_copies < 0 || options.image_copies > kMaxImageCopies)
+        throw core::Error("SDM training: --image-copies must be between 0 and " + std::to_string(kMaxImageCopies) + ", got " +
+                          std::to_string(options.image_copies));
     if (options.lambda_factors.empty()) throw core::Error("SDM training: no λ factor given");
     if (options.hog.cells < 1 || options.hog.cells > kMaxHogCells || options.hog.orientations < 1 ||
         options.hog.orientations > kMaxHogOrientations)
@@ -332,13 +338,9 @@ void validate_options(const SdmTrainOptions& options) {
         throw core::Error("SDM training: the validation share must be in [0, 1)");
 }
 
-struct FaceSplit {
-    std::vector<std::size_t> train, validation;
-};
-
 // Held-out validation faces: every k-th one.
-FaceSplit split_faces(std::size_t count, const SdmTrainOptions& options) {
-    FaceSplit split;
+TrainingRows split_faces(std::size_t count, const SdmTrainOptions& options) {
+    TrainingRows split;
     const std::size_t stride =
         options.validation_share > 0 ? static_cast<std::size_t>(std::max(2.0, std::round(1 / options.validation_share))) : 0;
     for (std::size_t f = 0; f < count; ++f) (stride && f % stride == stride - 1 ? split.validation : split.train).push_back(f);
@@ -350,30 +352,6 @@ FaceSplit split_faces(std::size_t count, const SdmTrainOptions& options) {
                     std::to_string(options.ranks.size()) +
                     " ranks needs validation faces (more faces or a larger validation share)");
     return split;
-}
-
-// The rows a cascade trains on: the faces, split, and (options.mirror) the training faces' mirror images
-// appended as further training faces.
-struct TrainingRows {
-    FaceSplit split;
-    std::vector<TrainingFace> with_mirrors;  // options.mirror: the faces, then the mirror images
-
-    [[nodiscard]] std::span<const TrainingFace> faces(std::span<const TrainingFace> originals) const {
-        return with_mirrors.empty() ? originals : std::span<const TrainingFace>(with_mirrors);
-    }
-};
-
-TrainingRows training_rows(std::span<const TrainingFace> faces, const SdmTrainOptions& options) {
-    TrainingRows rows;
-    rows.split = split_faces(faces.size(), options);
-    if (!options.mirror) return rows;
-    rows.with_mirrors.assign(faces.begin(), faces.end());
-    const std::size_t originals = rows.split.train.size();
-    for (std::size_t i = 0; i < originals; ++i) {
-        rows.with_mirrors.push_back(mirror_training_face(faces[rows.split.train[i]]));
-        rows.split.train.push_back(rows.with_mirrors.size() - 1);
-    }
-    return rows;
 }
 
 // The mean shape in the box frame is the learned box-to-shape alignment: averaged over the training
@@ -443,7 +421,7 @@ const Candidate& choose_candidate(std::span<const Candidate> candidates, double 
 // validation faces) and the stages learned on them, one after the other.
 class CascadeTrainer {
 public:
-    CascadeTrainer(std::span<const TrainingFace> faces, const FaceSplit& split, const SdmTrainOptions& options, SdmModel& model,
+    CascadeTrainer(std::span<const TrainingFace> faces, const TrainingRows& split, const SdmTrainOptions& options, SdmModel& model,
                    std::span<const SdmStageSettings> settings)
         : faces_(faces), options_(options), model_(model) {
         // A start depends only on (seed, face index, augmentation index).
@@ -722,6 +700,30 @@ void CascadeTrainer::train_stage(std::size_t k, const SdmStageSettings& settings
 
 }  // namespace
 
+TrainingRows training_rows(std::span<const TrainingFace> faces, const SdmTrainOptions& options) {
+    validate_options(options);
+    TrainingRows rows = split_faces(faces.size(), options);
+    if (!options.mirror && options.image_copies == 0) return rows;
+    rows.extended.assign(faces.begin(), faces.end());
+    const std::vector<std::size_t> originals = rows.train;
+    const auto add = [&rows](TrainingFace face) {
+        rows.extended.push_back(std::move(face));
+        rows.train.push_back(rows.extended.size() - 1);
+    };
+    if (options.mirror)
+        for (const std::size_t f : originals) add(mirror_training_face(faces[f]));
+    std::vector<std::size_t> photographs;
+    std::copy_if(originals.begin(), originals.end(), std::back_inserter(photographs), [&](std::size_t f) { return faces[f].photograph; });
+    const auto copies_per_face = static_cast<std::size_t>(options.image_copies);
+    std::vector<TrainingFace> copies(photographs.size() * copies_per_face);
+    parallel_for(0, copies.size(), options.threads, [&](std::size_t i) {
+        const std::size_t f = photographs[i % photographs.size()];
+        copies[i] = moved_and_degraded_copy(faces[f], options.seed, f, static_cast<int>(i / photographs.size()));
+    });
+    for (TrainingFace& copy : copies) add(std::move(copy));
+    return rows;
+}
+
 SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& boxes, const SdmTrainOptions& options) {
     for (const auto& f : faces)
         if (f.truth.cols() != morph::kNumIbugLandmarks) throw core::Error("SDM training needs 68-point landmarks");
@@ -729,7 +731,7 @@ SdmModel train_sdm(std::span<const TrainingFace> faces, const BoxStatistics& box
     const auto settings = options.stage_settings.empty() ? default_stage_settings(options.stages, options.jaw_features_from)
                                                          : options.stage_settings;
     const TrainingRows training = training_rows(faces, options);
-    const FaceSplit& split = training.split;
+    const TrainingRows& split = training;
     const std::span<const TrainingFace> rows = training.faces(faces);
 
     SdmModel model;
@@ -758,7 +760,7 @@ RealignResidual train_realigned_cascade(std::span<const TrainingFace> faces, con
     const std::span<const TrainingFace> rows = training.faces(faces);
 
     // The main cascade's residual as a similarity in the realigned frame, from the starts it trained on.
-    const std::vector<std::size_t>& measured = training.split.validation.empty() ? training.split.train : training.split.validation;
+    const std::vector<std::size_t>& measured = training.validation.empty() ? training.train : training.validation;
     const auto augment = static_cast<std::size_t>(options.augment);
     std::vector<double> dx(measured.size() * augment), dy(dx.size()), scales(dx.size()), rotations(dx.size());
     parallel_for(0, dx.size(), options.threads, [&](std::size_t i) {
@@ -796,7 +798,7 @@ RealignResidual train_realigned_cascade(std::span<const TrainingFace> faces, con
     second_options.seed = options.seed + kRealignSeedOffset;  // starts drawn apart from the main cascade's
     std::vector<SdmStageSettings> settings(static_cast<std::size_t>(options.realign_stages));
     for (std::size_t k = 0; k < settings.size(); ++k) settings[k] = model.stages[k].settings;
-    CascadeTrainer trainer(upright, training.split, second_options, second, settings);
+    CascadeTrainer trainer(upright, training, second_options, second, settings);
     for (std::size_t k = 0; k < settings.size(); ++k) trainer.train_stage(k, settings[k]);
     model.realigned_stages = std::move(second.stages);
     return spread;

@@ -160,6 +160,8 @@ struct TrainingFace {
     bool box_from_detector = false;
     FaceView view = FaceView::kFrontal;  // the view that found it (for synthesised boxes: the view assigned)
     std::optional<double> yaw_deg;       // ground truth where the data has it (synth meta)
+    // From a folder of photographs (LabelledImage::photograph): the faces SdmTrainOptions::image_copies copies.
+    bool photograph = true;
 };
 
 // The iBUG mirror of a shape in canonical crop coordinates: x -> side - 1 - x (the pixel centres of a
@@ -189,6 +191,9 @@ struct SdmTrainOptions {
     // Each training face also trains as its mirror image (mirror_training_face; validation faces are
     // not mirrored, so λ and the rank are still chosen on faces no row has seen).
     bool mirror = false;
+    // Each training photograph (TrainingFace::photograph; validation faces and renders not) also trains as
+    // this many moved and degraded copies (train/image_copies.h), each with `augment` starts.
+    int image_copies = 0;
     int threads = 1;
     std::uint64_t seed = 1;
     HogLayout hog;
@@ -220,6 +225,21 @@ struct SdmTrainOptions {
     std::function<void(const SdmStageReport&)> on_stage;
     std::function<void(std::size_t rows_done, std::size_t rows_total)> on_progress;  // feature extraction
 };
+
+// The faces a cascade trains and validates on. Every round(1 / validation_share)-th face (indices k-1,
+// 2k-1, ...) is held out for validation; after the faces given come, as further training faces, the
+// training faces' mirror images (options.mirror) and then the training photographs' copies
+// (options.image_copies, copy-major: train/image_copies.h). Validation faces are never mirrored or copied.
+// Throws core::Error for fewer than 2 training faces, or several λ or rank candidates without validation.
+struct TrainingRows {
+    std::vector<std::size_t> train, validation;  // indices into faces(originals)
+    std::vector<TrainingFace> extended;          // with mirrors or copies: the faces given, then the added ones
+
+    [[nodiscard]] std::span<const TrainingFace> faces(std::span<const TrainingFace> originals) const {
+        return extended.empty() ? originals : std::span<const TrainingFace>(extended);
+    }
+};
+[[nodiscard]] TrainingRows training_rows(std::span<const TrainingFace> faces, const SdmTrainOptions& options);
 
 // Trains the cascade. `boxes` carries the detector statistics measured while preparing the faces;
 // the perturbation spreads are measured here from the faces whose box came from the detector.

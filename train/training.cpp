@@ -63,6 +63,7 @@ void train_sdm_models(const PreparedFaces& prepared, const TrainingRequest& requ
     };
     report["feature_pca"] = options.feature_components;
     report["mirror"] = options.mirror;
+    report["image_copies"] = options.image_copies;
     report["augment"] = options.augment;
     report["stages"] = options.stages;
     report["hog_cells"] = options.hog.cells;

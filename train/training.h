@@ -33,8 +33,8 @@ struct TrainingRequest {
     std::filesystem::path out;
     // kSdm with sdm.realign_stages: keep this model's main cascades (and starts, and its choice of view
     // cascades) instead of training them, and train only the realigned ones. It must have been trained on
-    // the same faces (its training checksum) with the same seed, augment, validation share, mirroring and
-    // view split.
+    // the same faces (its training checksum) with the same seed, augment, validation share, mirroring, image
+    // copies and view split.
     std::filesystem::path base;
 };
 

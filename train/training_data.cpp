@@ -180,6 +180,7 @@ PreparedFaces prepare_training_faces(const std::vector<LabelledImage>& images, c
         face.box_from_detector = item.detected.has_value();
         face.view = box.view;
         face.yaw_deg = read_meta_yaw(images[i]);
+        face.photograph = images[i].photograph;
         item.gray.release();
         item.crop.release();
         fnv1a(checksum, images[i].key.data(), images[i].key.size());

@@ -239,8 +239,8 @@ TEST(SynthScene, SharpenProbabilityOnlyAddsTheSharpenAmount) {
     on.degrade.sharpen_probability = 1.0;
     on.degrade.sharpen_amount_max = 3.0;
     for (int i = 0; i < 40; ++i) {
-        const DegradationSpec a = sample_scene(off, model, i).degradation;
-        const DegradationSpec b = sample_scene(on, model, i).degradation;
+        const degrade::DegradationSpec a = sample_scene(off, model, i).degradation;
+        const degrade::DegradationSpec b = sample_scene(on, model, i).degradation;
         EXPECT_EQ(a.sharpen_amount, 0.0) << i;
         EXPECT_GE(b.sharpen_amount, 0.25) << i;
         EXPECT_LE(b.sharpen_amount, 3.0) << i;

@@ -50,6 +50,7 @@ TEST(CmdTrain, TrainDetectEvalEndToEnd) {
         EXPECT_TRUE(train_report.contains(key)) << key;
     EXPECT_EQ(train_report["detector"], "dlib");  // the default
     EXPECT_EQ(train_report["mirror"], false);
+    EXPECT_EQ(train_report["image_copies"], 0);
     EXPECT_EQ(train_report["augment"], 3);
     EXPECT_EQ(train_report["stages"], 3);
     EXPECT_EQ(train_report["hog_cells"], 2);
@@ -275,6 +276,10 @@ TEST(CmdTrain, BadRegressorFileAndUsageErrors) {
     EXPECT_NE(out.find("--feature-pca"), std::string::npos) << out;
     EXPECT_EQ(run_command(train_here + " --method ert --mirror", &out), 2) << out;  // the SDM's option
     EXPECT_NE(out.find("--mirror"), std::string::npos) << out;
+    EXPECT_EQ(run_command(train_here + " --method lbf --image-copies 2", &out), 2) << out;  // the SDM's option
+    EXPECT_NE(out.find("--image-copies"), std::string::npos) << out;
+    EXPECT_EQ(run_command(train_here + " --image-copies 33", &out), 2) << out;
+    EXPECT_NE(out.find("--image-copies"), std::string::npos) << out;
     EXPECT_EQ(run_command(train_here + " --hog-orientations 0", &out), 2) << out;
     EXPECT_NE(out.find("--hog-orientations"), std::string::npos) << out;
     EXPECT_EQ(run_command(train_here + " --hog-orientations 17", &out), 2) << out;

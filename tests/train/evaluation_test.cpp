@@ -75,10 +75,15 @@ TEST(Dataset, FindsSideBySideAndSynthLayouts) {
     EXPECT_EQ(found[0].key, "synth/000001");
     EXPECT_EQ(found[1].key, "flat/a");
     EXPECT_EQ(found[2].key, "flat/b");
+    // A dataset's images are renders; an image beside its .pts is a photograph (which --image-copies copies).
+    EXPECT_FALSE(found[0].photograph);
+    EXPECT_TRUE(found[1].photograph);
 
     // The unreadable image is skipped with a warning naming it; the others become training faces.
     const PreparedFaces prepared = prepare_training_faces(found, PrepareOptions{});
-    EXPECT_EQ(prepared.faces.size(), 2u);
+    ASSERT_EQ(prepared.faces.size(), 2u);
+    EXPECT_FALSE(prepared.faces[0].photograph);
+    EXPECT_TRUE(prepared.faces[1].photograph);
     ASSERT_EQ(prepared.warnings.size(), 1u);
     EXPECT_NE(prepared.warnings[0].find("b.png"), std::string::npos) << prepared.warnings[0];
     EXPECT_EQ(prepared.boxes.detector_matched + prepared.boxes.detector_missed, 2);

@@ -1,4 +1,6 @@
-#include "synth/degrade.h"
+#include "degrade/degrade.h"
+
+#include "core/error.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -6,9 +8,10 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <string>
 #include <vector>
 
-namespace facesynth::synth {
+namespace facesynth::degrade {
 
 // The unsharp mask's radius: a camera's sharpening acts on edges a pixel or two wide.
 constexpr double kSharpenSigma = 1.0;
@@ -43,7 +46,13 @@ void add_sensor_noise(cv::Mat& image, double sigma, core::Rng& rng) {
     }
 }
 
-void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::int64_t index) {
+void apply(cv::Mat& image, const DegradationSpec& d, core::Rng& noise) {
+    if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
+        throw core::Error("degrade: expected an 8-bit grey or RGB image, got " + std::to_string(image.channels()) + " channels of depth " +
+                          std::to_string(image.depth()));
+    const bool grey = image.channels() == 1;
+    if (grey && (d.gains[1] != d.gains[0] || d.gains[2] != d.gains[0]))
+        throw core::Error("degrade: a grey image takes one gain, got three different ones");
     if (d.downscale < 1) {
         cv::Mat small;
         const cv::Size size(std::max(1, static_cast<int>(image.cols * d.downscale)), std::max(1, static_cast<int>(image.rows * d.downscale)));
@@ -57,29 +66,31 @@ void degrade(cv::Mat& image, const DegradationSpec& d, std::uint64_t seed, std::
         cv::addWeighted(image, 1 + d.sharpen_amount, blurred, -d.sharpen_amount, 0, image);  // saturating
     }
     if (d.gamma != 1 || d.gains != Eigen::Vector3d::Ones()) {
-        cv::Mat lut(1, 256, CV_8UC3);
+        cv::Mat lut(1, 256, CV_8UC(image.channels()));
         for (int v = 0; v < 256; ++v) {
             const double curved = 255.0 * std::pow(v / 255.0, d.gamma);
-            for (int c = 0; c < 3; ++c) lut.at<cv::Vec3b>(v)[c] = cv::saturate_cast<uchar>(curved * d.gains[c]);
+            for (int c = 0; c < image.channels(); ++c) lut.ptr<uchar>(0)[v * image.channels() + c] = cv::saturate_cast<uchar>(curved * d.gains[c]);
         }
         cv::LUT(image, lut, image);
     }
-    if (d.noise_sigma > 0) {
-        core::Rng rng = core::make_rng(seed, static_cast<std::uint64_t>(index), core::RandomStream::kNoise);
-        add_sensor_noise(image, d.noise_sigma, rng);
-    }
-    if (d.greyscale) {
-        cv::Mat grey;
-        cv::cvtColor(image, grey, cv::COLOR_RGB2GRAY);
-        cv::cvtColor(grey, image, cv::COLOR_GRAY2RGB);
+    if (d.noise_sigma > 0) add_sensor_noise(image, d.noise_sigma, noise);
+    if (d.greyscale && !grey) {
+        cv::Mat luminance;
+        cv::cvtColor(image, luminance, cv::COLOR_RGB2GRAY);
+        cv::cvtColor(luminance, image, cv::COLOR_GRAY2RGB);
     }
     if (d.jpeg_quality > 0) {
         std::vector<uchar> bytes;
-        cv::Mat bgr;
-        cv::cvtColor(image, bgr, cv::COLOR_RGB2BGR);
-        cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, d.jpeg_quality});
-        cv::cvtColor(cv::imdecode(bytes, cv::IMREAD_COLOR), image, cv::COLOR_BGR2RGB);
+        if (grey) {
+            cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, d.jpeg_quality});
+            cv::imdecode(bytes, cv::IMREAD_GRAYSCALE).copyTo(image);
+        } else {
+            cv::Mat bgr;
+            cv::cvtColor(image, bgr, cv::COLOR_RGB2BGR);
+            cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, d.jpeg_quality});
+            cv::cvtColor(cv::imdecode(bytes, cv::IMREAD_COLOR), image, cv::COLOR_BGR2RGB);
+        }
     }
 }
 
-}  // namespace facesynth::synth
+}  // namespace facesynth::degrade
