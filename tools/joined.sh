@@ -6,7 +6,8 @@
 #                    seed 101) with a texture bank from the photographs
 #   2. profiled      facesynth profile: 8 views per photograph turned up to 60° toward profile, pitch jitter 5°
 #   3. members       facesynth train, each with a 4-stage realigned cascade and 6 stages:
-#                    photographs.sdm     the photographs alone (20 starts per photograph)
+#                    photographs.sdm     the photographs alone, each with 3 moved and degraded copies
+#                                        (--image-copies 3), 10 starts per image
 #                    mix.sdm             the renders + the photographs listed 5 times (4 starts per face)
 #                    mix_profiled.sdm    the renders + the profiled views + the photographs 5 times (4 starts)
 #   4. facesynth train merge   the three into OUT
@@ -51,7 +52,7 @@ renders=$work/sim2real/seed-101/train
     --threads "$threads" "${quiet[@]}"
 train=(--hog-cells "$hog_cells" --stages 6 --threads "$threads" --lambda-factors 3,10,30,100 --realign-stages 4 "${quiet[@]}")
 p=$photos
-"$facesynth" train --data "$p" --out "$work/photographs.sdm" --augment 20 "${train[@]}" --json "$work/photographs.json"
+"$facesynth" train --data "$p" --out "$work/photographs.sdm" --augment 10 --image-copies 3 "${train[@]}" --json "$work/photographs.json"
 "$facesynth" train --data "$renders,$p,$p,$p,$p,$p" --out "$work/mix.sdm" --augment 4 "${train[@]}" --json "$work/mix.json"
 "$facesynth" train --data "$renders,$work/profiled,$p,$p,$p,$p,$p" --out "$work/mix_profiled.sdm" --augment 4 "${train[@]}" \
     --json "$work/mix_profiled.json"

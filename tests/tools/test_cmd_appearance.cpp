@@ -332,7 +332,9 @@ TEST_F(CmdAppearance, JoinedRecipeTrainsThreeMembersOnDifferentDataAndJoinsThem)
     const auto photographs = read_json(work / "photographs.json");
     const auto mix = read_json(work / "mix.json");
     const auto mix_profiled = read_json(work / "mix_profiled.json");
-    EXPECT_EQ(photographs["augment"], 20);
+    EXPECT_EQ(photographs["augment"], 10);
+    EXPECT_EQ(photographs["image_copies"], 3);  // each photograph also as three moved and degraded copies
+    EXPECT_EQ(mix["image_copies"], 0);
     EXPECT_EQ(mix["augment"], 4);
     for (const auto* j : {&photographs, &mix, &mix_profiled}) {
         EXPECT_EQ((*j)["hog_cells"], 2);
