@@ -11,8 +11,8 @@
 #                    mix.sdm             the renders + the photographs listed 5 times (4 starts per face)
 #                    mix_profiled.sdm    the renders + the profiled views + the photographs 5 times (4 starts)
 #   4. facesynth train merge   the three into OUT
-# With helen_train (870 photographs) and the defaults on 2 cores: 1 h 45 min of CPU time, 74 min wall with
-# another training beside it, 6.4 GB at most (docs/history/results-runs.md, forty-fourth run).
+# With helen_train (870 photographs) and the defaults on 2 cores: 2 h 41 min of CPU time, 85 min wall with
+# nothing beside it, 6.4 GB at most (docs/history/results-runs.md, forty-seventh run).
 # usage: tools/joined.sh --photos DIR --out MODEL.sdm [--work DIR] [--count N] [--threads T]
 #                        [--hog-cells C]  (HOG cells per patch side of every member, default 3)
 set -euo pipefail
